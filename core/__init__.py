@@ -1,0 +1,27 @@
+"""GenCoords core: generalized barycentric coordinates in convex simplicial polytopes.
+
+Ju, Liepa and Warren's general construction (CAGD 2007) in pure numpy: one N-D routine
+parameterised by ridge scalars d (a generating surface) gives Wachspress, mean value,
+discrete harmonic and Voronoi coordinates, Floater's construction, and, by completeness,
+every other set of coordinates. Conventions: ``../shared/MATH.md``; array shapes are in
+every docstring (k points, n vertices, m facets, r ridges, dimension N).
+"""
+
+from .boundary import BOUNDARY, INSIDE, OUTSIDE
+from .construction import weights_from_ridge_scalars
+from .barycentric import OUTSIDE_MODES, coordinates, needs_convex, point_locations, ridge_scalars, weights
+from .deformation import coordinate_summary, deform, field_colors
+from .errors import CageError, OutsideCageError
+from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalars, floater_weights,
+                      ridge_scalars_from_floater)
+from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS
+from .topology import ridges
+from .validation import DEFAULT_TOLERANCE, validate_cage
+
+__all__ = [
+    "coordinates", "weights", "ridges", "ridge_scalars", "weights_from_ridge_scalars",
+    "floater_weights", "floater_matrix", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
+    "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
+    "field_colors", "coordinate_summary", "CageError", "OutsideCageError", "KINDS",
+    "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
+]

@@ -1,0 +1,233 @@
+"""Public entry points: coordinates, weights and ridge scalars of named kinds.
+
+Points are processed in chunks sized so that the temporary arrays of one chunk stay
+small (cache friendly, and bounded memory whatever the number of points); chunks run
+on a thread pool because numpy releases the GIL inside its kernels.
+"""
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from .boundary import BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances
+from .construction import construct_weights, facet_determinants, point_frame, prepare_cage
+from .errors import CageError, OutsideCageError
+from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS, named_ridge_scalars
+from .validation import DEFAULT_TOLERANCE, convexity_violation, validate_cage
+
+__all__ = ["coordinates", "weights", "ridge_scalars", "point_locations", "needs_convex",
+           "OUTSIDE_MODES"]
+
+OUTSIDE_MODES = ("raise", "extrapolate", "project")
+# Bytes of temporaries per chunk: small enough to stay in cache, and with two workers
+# far below the 256 MB budget whatever the number of points.
+_CHUNK_BYTES = 24 << 20
+_WORKERS = max(1, min(os.cpu_count() or 1, 8))
+
+
+def needs_convex(kind):
+    """Whether coordinates of ``kind`` require a convex cage (all but mean value)."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown kind {kind!r}; expected one of {', '.join(KINDS)}")
+    return kind in CONVEX_ONLY_KINDS
+
+
+def _chunk_size(cage):
+    dim = cage.dimension
+    ridges, facets = len(cage.topology.ridges), len(cage.topology.faces)
+    per_point = 8 * (ridges * (dim * dim + 2 * dim) + facets * (3 * dim * dim + 4 * dim + 4)
+                     + len(cage.vertices) * (cage.topology.vertex_slots.shape[1] + 2))
+    return max(1, _CHUNK_BYTES // per_point)
+
+
+def _map_chunks(function, count, chunk):
+    """Run ``function(slice)`` over consecutive slices of ``range(count)``, in parallel."""
+    slices = [slice(start, min(start + chunk, count)) for start in range(0, count, chunk)]
+    if len(slices) <= 1 or _WORKERS == 1:
+        for piece in slices:
+            function(piece)
+        return
+    with ThreadPoolExecutor(max_workers=_WORKERS) as pool:
+        for _ in pool.map(function, slices):
+            pass  # re-raises the first worker exception
+
+
+def _as_points(points, dim):
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim == 1:
+        points = points[None, :]
+    if points.ndim != 2 or points.shape[1] != dim:
+        raise ValueError(f"points must have shape (k, {dim}) for a {dim}D cage, got {points.shape}")
+    bad = ~np.isfinite(points).all(axis=1)
+    if bad.any():
+        raise ValueError(f"{np.count_nonzero(bad)} points have non-finite coordinates "
+                         f"(first: {int(np.flatnonzero(bad)[0])})")
+    return points
+
+
+def _prepare(points, vertices, faces, kind, tolerance):
+    convex_required = needs_convex(kind)
+    cage = validate_cage(vertices, faces, convex=convex_required, tolerance=tolerance)
+    convex = convex_required or convexity_violation(cage, tolerance) is None
+    if not convex and cage.dimension > 3:
+        raise CageError("non_convex", "mean value coordinates on non-convex cages are implemented "
+                                      "for 2D and 3D cages only")
+    return _as_points(points, cage.dimension), cage, convex
+
+
+def _evaluate(points, cage, kind, convex, tolerance, outside, normalise):
+    """Shared driver of :func:`coordinates` and :func:`weights` (see there)."""
+    absolute = tolerance * cage.size
+    count = len(points)
+    result = np.empty((count, len(cage.vertices)))
+    location = np.empty(count, dtype=np.int8)
+    mean_value = kind == "mean_value"
+
+    @np.errstate(divide="ignore", invalid="ignore")  # per thread: boundary rows are replaced
+    def run(rows):
+        x = points[rows]
+        frame = point_frame(cage, x)
+        distance = plane_distances(cage, frame.facet_det.T)  # (k, m)
+        where, limit = locate(cage, x, distance, absolute, convex)
+        location[rows] = where
+        if outside == "raise" and (where == OUTSIDE).any():
+            return  # reported below, before any other work matters
+        # Mean value terms of facets whose hyperplane passes through x (off the facet)
+        # tend to zero; their formula is 0/0.
+        skip = (np.abs(distance.T) <= absolute) if mean_value else None
+        values = construct_weights(cage, frame, named_ridge_scalars(kind, frame), skip).T
+        total = values.sum(axis=1, keepdims=True)
+        if normalise:
+            values = values / total
+        boundary = where == BOUNDARY
+        values[boundary] = limit[boundary]
+        project = where == OUTSIDE
+        if outside == "extrapolate":
+            # Poles (a facet hyperplane through x) or a vanishing sum: no formula value.
+            undefined = ~np.isfinite(values).all(axis=1) | (np.abs(total[:, 0]) <= 1e-300)
+            project &= undefined
+        if project.any():
+            values[project] = nearest_boundary_coordinates(cage, x[project])[0]
+        result[rows] = values
+
+    _map_chunks(run, count, _chunk_size(cage))
+    if outside == "raise" and (location == OUTSIDE).any():
+        raise OutsideCageError(np.flatnonzero(location == OUTSIDE), count)
+    return result, location
+
+
+def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
+                tolerance=DEFAULT_TOLERANCE):
+    """Generalized barycentric coordinates of points with respect to a cage.
+
+    Parameters
+    ----------
+    points : (k, N) float
+        Query points (a single (N,) point is accepted).
+    vertices : (n, N) float
+        Cage vertices.
+    faces : (m, N) int
+        Simplicial facets, outward oriented (2D: counter-clockwise polygon edges;
+        3D: triangles counter-clockwise seen from outside).
+    kind : str
+        ``"wachspress"``, ``"mean_value"``, ``"discrete_harmonic"`` or ``"voronoi"``.
+        Mean value coordinates accept any closed, consistently oriented 2D/3D cage;
+        the others need a convex one.
+    outside : str
+        What to do with points outside the cage: ``"raise"`` (OutsideCageError naming
+        them), ``"extrapolate"`` (the formula; smooth for mean value; where it is
+        undefined, on a facet's hyperplane, the projected value) or ``"project"`` (the
+        coordinates of the nearest boundary point).
+    tolerance : float
+        Relative to the cage's bounding-box diagonal. Points this close to the boundary
+        count as on it and get the exact limit: linear coordinates of the facet, edge or
+        vertex they touch.
+
+    Returns
+    -------
+    coordinates : (k, n) float
+        Rows sum to 1 and reproduce the points: ``coordinates @ vertices == points``
+        (for inside and boundary points).
+
+    Raises
+    ------
+    CageError
+        The cage is unusable (open, non-manifold, inverted, non-convex for the kind...).
+    OutsideCageError
+        ``outside="raise"`` and some points are outside.
+    """
+    if outside not in OUTSIDE_MODES:
+        raise ValueError(f"outside must be one of {', '.join(OUTSIDE_MODES)}, got {outside!r}")
+    points, cage, convex = _prepare(points, vertices, faces, kind, tolerance)
+    return _evaluate(points, cage, kind, convex, tolerance, outside, normalise=True)[0]
+
+
+def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERANCE):
+    """Homogeneous weights of a named kind: ``sum_i w_i (v_i - x) = 0``.
+
+    Parameters and cage requirements as :func:`coordinates`. Inside the cage these are
+    the unnormalised weights of the construction (coordinates are ``w / w.sum()``); at
+    boundary points, where the formula has a pole, the limit coordinates (themselves
+    homogeneous weights) are returned; outside points get the formula's value (for a
+    convex-only kind, ``inf`` on a facet's hyperplane).
+
+    Returns
+    -------
+    weights : (k, n) float
+    """
+    points, cage, convex = _prepare(points, vertices, faces, kind, tolerance)
+    return _evaluate(points, cage, kind, convex, tolerance, "extrapolate", normalise=False)[0]
+
+
+def ridge_scalars(points, vertices, faces, kind):
+    """Ridge scalars d of a named generating surface.
+
+    Parameters
+    ----------
+    points : (k, N) float
+    vertices : (n, N) float
+    faces : (m, N) int
+    kind : str
+        One of ``"wachspress"``, ``"mean_value"``, ``"discrete_harmonic"``, ``"voronoi"``.
+
+    Returns
+    -------
+    d : (k, r) float
+        Columns follow :func:`core.ridges` (2D: vertices, 3D: edges).
+    """
+    cage = prepare_cage(vertices, faces)
+    points = _as_points(points, cage.dimension)
+    return named_ridge_scalars(kind, point_frame(cage, points)).T
+
+
+def point_locations(points, vertices, faces, tolerance=DEFAULT_TOLERANCE):
+    """Where each point is: 1 inside, 0 on the boundary (within tolerance), -1 outside.
+
+    Parameters
+    ----------
+    points : (k, N) float
+    vertices : (n, N) float
+    faces : (m, N) int
+        A closed, consistently oriented cage (convex or, in 2D and 3D, not).
+    tolerance : float
+        Relative to the cage's bounding-box diagonal.
+
+    Returns
+    -------
+    locations : (k,) int8
+    """
+    cage = validate_cage(vertices, faces, convex=False, tolerance=tolerance)
+    points = _as_points(points, cage.dimension)
+    convex = convexity_violation(cage, tolerance) is None
+    absolute = tolerance * cage.size
+    result = np.empty(len(points), dtype=np.int8)
+
+    def run(rows):
+        x = points[rows]
+        distance = plane_distances(cage, facet_determinants(cage, x))
+        result[rows] = locate(cage, x, distance, absolute, convex)[0]
+
+    _map_chunks(run, len(points), _chunk_size(cage))
+    return result
+

@@ -1,0 +1,157 @@
+"""Where points are with respect to the cage, and coordinates on its boundary.
+
+On the boundary the coordinates' limit is the linear (barycentric) interpolation in the
+facet, edge or vertex the point lies on; the same holds for the nearest boundary point
+of an outside point (``outside="project"``).
+"""
+
+import numpy as np
+
+from .simplex import closest_points_on_simplices
+
+__all__ = ["INSIDE", "BOUNDARY", "OUTSIDE", "plane_distances", "locate",
+           "winding_numbers", "nearest_boundary_coordinates"]
+
+INSIDE, BOUNDARY, OUTSIDE = 1, 0, -1
+_PAIR_CHUNK = 1 << 16  # (point, facet) pairs per closest-point batch: bounded memory
+
+
+def plane_distances(cage, facet_det):
+    """Signed distance of each point to each facet's hyperplane, positive inside.
+
+    Parameters
+    ----------
+    cage : Cage
+    facet_det : (k, m) float
+        From :func:`core.construction.facet_determinants`.
+
+    Returns
+    -------
+    distances : (k, m) float
+    """
+    return facet_det / np.linalg.norm(cage.facet_normals, axis=1)[None, :]
+
+
+def winding_numbers(cage, points):
+    """Generalized winding number of a closed 2D or 3D cage around each point.
+
+    1 inside, 0 outside (for nested or self-overlapping cages, the signed count).
+
+    Parameters
+    ----------
+    cage : Cage
+    points : (k, N) float
+
+    Returns
+    -------
+    winding : (k,) float
+    """
+    dim = cage.dimension
+    x = np.asarray(points, dtype=np.float64) - cage.origin
+    corners = cage.vertices[cage.topology.faces][None] - x[:, None, None, :]  # (k, m, N, N)
+    det = np.linalg.det(corners) if dim > 3 else (
+        np.einsum("kmN,kmN->km", corners[..., 0, :], np.cross(corners[..., 1, :], corners[..., 2, :]))
+        if dim == 3 else corners[..., 0, 0] * corners[..., 1, 1] - corners[..., 0, 1] * corners[..., 1, 0])
+    if dim == 2:  # signed angle subtended by each edge
+        angle = np.arctan2(det, np.einsum("kmN,kmN->km", corners[..., 0, :], corners[..., 1, :]))
+        return angle.sum(axis=1) / (2.0 * np.pi)
+    if dim == 3:  # signed solid angle of each triangle (Van Oosterom and Strackee)
+        a, b, c = corners[..., 0, :], corners[..., 1, :], corners[..., 2, :]
+        la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
+        dot = lambda u, v: np.einsum("kmN,kmN->km", u, v)  # noqa: E731
+        denominator = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la
+        return (2.0 * np.arctan2(det, denominator)).sum(axis=1) / (4.0 * np.pi)
+    raise NotImplementedError("winding numbers are implemented for 2D and 3D cages")
+
+
+def _nearest_of_pairs(cage, points, point_index, facet_index):
+    """Nearest candidate facet point for each point, from (point, facet) pairs.
+
+    Returns
+    -------
+    which : (u,) int
+        Points that had candidates (indices into ``points``), ascending.
+    facet : (u,) int
+    barycentric : (u, N) float
+    distance : (u,) float
+    """
+    corners = cage.facet_corners()
+    x = np.asarray(points, dtype=np.float64) - cage.origin
+    barycentric = np.empty((len(point_index), cage.dimension))
+    distance = np.empty(len(point_index))
+    for start in range(0, len(point_index), _PAIR_CHUNK):
+        batch = slice(start, start + _PAIR_CHUNK)
+        _, barycentric[batch], distance[batch] = closest_points_on_simplices(
+            x[point_index[batch]], corners[facet_index[batch]])
+    order = np.lexsort((distance, point_index))
+    first = order[np.r_[True, point_index[order][1:] != point_index[order][:-1]]] if len(order) else order
+    return point_index[first], facet_index[first], barycentric[first], distance[first]
+
+
+def _scatter_barycentric(cage, facet, barycentric):
+    rows = np.zeros((len(facet), len(cage.vertices)))
+    rows[np.arange(len(facet))[:, None], cage.topology.faces[facet]] = barycentric
+    return rows
+
+
+def locate(cage, points, plane_distance, tolerance, convex):
+    """Classify points as inside, on the boundary (within tolerance) or outside.
+
+    Parameters
+    ----------
+    cage : Cage
+    points : (k, N) float
+    plane_distance : (k, m) float
+        From :func:`plane_distances`.
+    tolerance : float
+        Absolute distance (already scaled by the cage size).
+    convex : bool
+        Convex cages need only the plane distances; others use winding numbers.
+
+    Returns
+    -------
+    location : (k,) int8
+        :data:`INSIDE`, :data:`BOUNDARY` or :data:`OUTSIDE`.
+    limit : (k, n) float
+        Rows of boundary points hold their limit coordinates; other rows are zero.
+    """
+    count = len(points)
+    location = np.full(count, INSIDE, dtype=np.int8)
+    limit = np.zeros((count, len(cage.vertices)))
+    # Only facets whose hyperplane passes within tolerance can be touched.
+    point_index, facet_index = np.nonzero(np.abs(plane_distance) <= tolerance)
+    if convex:
+        # Slightly outside near a sharp vertex can be within tolerance of every plane
+        # yet farther from the cage: the facet distance below decides "boundary".
+        depth = plane_distance.min(axis=1)
+        location[depth < 0.0] = OUTSIDE
+        keep = depth[point_index] >= -tolerance
+        point_index, facet_index = point_index[keep], facet_index[keep]
+    else:
+        location[winding_numbers(cage, points) < 0.5] = OUTSIDE
+    which, facet, barycentric, distance = _nearest_of_pairs(cage, points, point_index, facet_index)
+    touching = distance <= tolerance
+    which, facet, barycentric = which[touching], facet[touching], barycentric[touching]
+    location[which] = BOUNDARY
+    limit[which] = _scatter_barycentric(cage, facet, barycentric)
+    return location, limit
+
+
+def nearest_boundary_coordinates(cage, points):
+    """Coordinates of the nearest boundary point of each point (linear in its facet).
+
+    Parameters
+    ----------
+    cage : Cage
+    points : (k, N) float
+
+    Returns
+    -------
+    coordinates : (k, n) float
+    distance : (k,) float
+    """
+    count, facets = len(points), len(cage.topology.faces)
+    point_index = np.repeat(np.arange(count), facets)
+    facet_index = np.tile(np.arange(facets), count)
+    _, facet, barycentric, distance = _nearest_of_pairs(cage, points, point_index, facet_index)
+    return _scatter_barycentric(cage, facet, barycentric), distance

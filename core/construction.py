@@ -1,0 +1,260 @@
+"""The general construction (paper eq. 5, 6, 8, 17, 18), in any dimension N >= 2.
+
+For a query point x, a facet T and its vertex i (MATH.md):
+
+    m_i   = cofactor vector of E_T, e_i . m_i = det E_T        (generalized cross product)
+    r^T   = sum_i d(ridge opposite i) m_i / |m_i|              (Stokes on the wedge)
+    u_i^T = (r^T . m_i) / det E_T                              (reciprocal basis, eq. 8)
+    w_i   = sum over facets T containing i of u_i^T            (eq. 6)
+
+``m_i`` is, up to an orientation sign fixed by the topology, the generalized cross
+product of the vectors ``e_k = v_k - x`` of the ridge opposite i. So everything is
+computed once per (point, ridge) and gathered per (point, facet); ``det E_T`` is affine
+in x and comes from one matrix product.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .simplex import generalized_cross
+from .topology import CageTopology, cage_topology
+
+__all__ = ["Cage", "PointFrame", "prepare_cage", "point_frame", "facet_determinants",
+           "construct_weights", "weights_from_ridge_scalars"]
+
+
+@dataclass(frozen=True)
+class Cage:
+    """A cage with everything that depends only on it, precomputed.
+
+    Attributes
+    ----------
+    vertices : (n, N) float
+        Vertex positions, relative to ``origin`` (centering keeps the affine formulas
+        below free of cancellation far from the world origin).
+    origin : (N,) float
+        Centre of the bounding box.
+    size : float
+        Diagonal of the bounding box: the length that tolerances are relative to.
+    topology : CageTopology
+    facet_normals : (m, N) float
+        Outward normal of each facet scaled to (N-1)! times its (N-1)-volume.
+    facet_offsets : (m,) float
+        ``v_t0 . facet_normal``: ``det E_T(x) = facet_offset - x . facet_normal``.
+    """
+
+    vertices: np.ndarray
+    origin: np.ndarray
+    size: float
+    topology: CageTopology
+    facet_normals: np.ndarray
+    facet_offsets: np.ndarray
+
+    @property
+    def dimension(self):
+        return self.vertices.shape[1]
+
+    def facet_corners(self):
+        """Vertex positions of each facet (relative to ``origin``): (m, N, N) float."""
+        return self.vertices[self.topology.faces]
+
+
+def prepare_cage(vertices, faces):
+    """Precompute a :class:`Cage` (no validation; see :func:`core.validate_cage`).
+
+    Parameters
+    ----------
+    vertices : (n, N) float
+    faces : (m, N) int
+        Outward-oriented facets.
+
+    Returns
+    -------
+    Cage
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    if vertices.ndim != 2 or faces.ndim != 2 or faces.shape[1] != vertices.shape[1]:
+        raise ValueError(
+            f"vertices must be (n, N) and faces (m, N); got {vertices.shape} and {faces.shape}")
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    origin = 0.5 * (low + high)
+    centred = vertices - origin
+    corners = centred[faces]
+    # det[v_0 - x, ..., v_{N-1} - x] = det[v_0 - x, v_1 - v_0, ...] = (v_0 - x) . normal
+    edges = corners[:, 1:, :] - corners[:, :1, :]  # (m, N-1, N)
+    normals = generalized_cross(np.moveaxis(edges, 0, -1)).T
+    return Cage(
+        vertices=centred,
+        origin=origin,
+        size=float(np.linalg.norm(high - low)),
+        topology=cage_topology(faces, len(vertices)),
+        facet_normals=normals,
+        facet_offsets=np.einsum("mn,mn->m", corners[:, 0, :], normals),
+    )
+
+
+@dataclass(frozen=True)
+class PointFrame:
+    """Per (ridge, point) and per (facet, point) quantities for a chunk of k points.
+
+    Points run along the last axis and components along the first, so that every
+    operation works on long contiguous rows and gathering a ridge's data for a facet
+    copies whole rows.
+
+    Attributes
+    ----------
+    ridge_gram : (p, p, r, k) float
+        ``e_a . e_b`` for the p = N-1 vertices a, b of each ridge (ascending order).
+    ridge_cross : (N, r, k) float
+        Generalized cross product of the ridge's vectors ``e`` in ascending order.
+    ridge_measure : (r, k) float
+        Its norm: (N-1)! times the (N-1)-volume of the simplex {x} + ridge.
+    facet_det : (m, k) float
+        ``det E_T``: N! times the signed volume of {x} + facet (positive inside).
+    """
+
+    ridge_gram: np.ndarray
+    ridge_cross: np.ndarray
+    ridge_measure: np.ndarray
+    facet_det: np.ndarray
+
+    @property
+    def ridge_lengths_squared(self):
+        """``|e|^2`` of each ridge vertex: (p, r, k) float."""
+        return np.stack([self.ridge_gram[a, a] for a in range(self.ridge_gram.shape[0])])
+
+
+def point_frame(cage, points):
+    """Compute the :class:`PointFrame` of a chunk of points.
+
+    Parameters
+    ----------
+    cage : Cage
+    points : (k, N) float
+        In the caller's coordinates (``cage.origin`` is subtracted here).
+
+    Returns
+    -------
+    PointFrame
+    """
+    x = np.asarray(points, dtype=np.float64) - cage.origin
+    dim = cage.dimension
+    corner = cage.vertices[cage.topology.ridges]  # (r, p, N)
+    size = corner.shape[1]
+    # e_k = v_k - x at the ridge vertices, (p, N, r, k), computed directly from the
+    # coordinates (not from |v|^2 - 2 v.x + |x|^2) to avoid cancellation near the cage.
+    vectors = corner.transpose(1, 2, 0)[..., None] - x.T[None, :, None, :]
+    gram = np.empty((size, size) + vectors.shape[2:])
+    for a in range(size):
+        for b in range(a, size):
+            gram[a, b] = vectors[a, 0] * vectors[b, 0]
+            for c in range(1, dim):
+                gram[a, b] += vectors[a, c] * vectors[b, c]
+            gram[b, a] = gram[a, b]
+    cross = generalized_cross(vectors)
+    measure = cross[0] * cross[0]
+    for c in range(1, dim):
+        measure += cross[c] * cross[c]
+    np.sqrt(measure, out=measure)
+    return PointFrame(ridge_gram=gram, ridge_cross=cross, ridge_measure=measure,
+                      facet_det=cage.facet_offsets[:, None] - cage.facet_normals @ x.T)
+
+
+def facet_determinants(cage, points):
+    """``det E_T`` for every point and facet: N! times the signed volume of {x} + T.
+
+    Affine in x, so one matrix product; positive inside a convex cage.
+
+    Parameters
+    ----------
+    cage : Cage
+    points : (k, N) float
+
+    Returns
+    -------
+    det : (k, m) float
+    """
+    x = np.asarray(points, dtype=np.float64) - cage.origin
+    return cage.facet_offsets[None, :] - x @ cage.facet_normals.T
+
+
+def construct_weights(cage, frame, ridge_scalars, skip_facets=None):
+    """Homogeneous weights of the general construction for given ridge scalars.
+
+    Parameters
+    ----------
+    cage : Cage
+    frame : PointFrame
+        Of k points.
+    ridge_scalars : (r, k) float
+        d per (ridge, point): the signed (N-1)-volume enclosed by x and the projected
+        ridge on the generating surface.
+    skip_facets : (m, k) bool, optional
+        Facets whose contribution is taken as zero (mean value coordinates, for points
+        in a facet's supporting hyperplane but off the facet, where the term's limit is
+        zero and its formula is 0/0).
+
+    Returns
+    -------
+    weights : (n, k) float
+        ``w_i = sum_T u_i^T``; homogeneous: ``sum_i w_i (v_i - x) = 0``.
+    """
+    topology = cage.topology
+    dim = cage.dimension
+    measure = frame.ridge_measure
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # d n_R = d cross / |cross|; a ridge through x (measure 0) encloses nothing.
+        scale = np.where(measure > 0.0, ridge_scalars / measure, 0.0)
+        inverse_det = 1.0 / frame.facet_det
+    if skip_facets is not None:
+        inverse_det[skip_facets] = 0.0
+    # Per ridge, rows 0..N-1: the cross product; rows N..2N-1: d n_R, its Stokes term.
+    ridge_terms = np.empty((len(measure), 2 * dim, measure.shape[1]))
+    for c in range(dim):
+        ridge_terms[:, c] = frame.ridge_cross[c]
+        np.multiply(frame.ridge_cross[c], scale, out=ridge_terms[:, dim + c])
+    signs = topology.facet_ridge_signs[:, :, None]  # (m, N, 1): m_i = sign * ridge cross
+    per_slot = [ridge_terms[topology.facet_ridges[:, i]] for i in range(dim)]  # (m, 2N, k)
+    stokes = per_slot[0][:, dim:] * signs[:, 0:1]  # r^T: (m, N, k)
+    for i in range(1, dim):
+        stokes += per_slot[i][:, dim:] * signs[:, i:i + 1]
+    # u_i^T = r^T . m_i / det, one flat row per facet slot (slot-major) plus a zero row.
+    coefficients = np.zeros((dim * len(inverse_det) + 1, measure.shape[1]))
+    for i in range(dim):
+        rows = coefficients[i * len(inverse_det):(i + 1) * len(inverse_det)]
+        for c in range(dim):
+            rows += per_slot[i][:, c] * stokes[:, c]
+        rows *= inverse_det
+        rows *= signs[:, i]
+    # w_i = sum over the facet slots of vertex i (padding rows read the zero row).
+    return coefficients[topology.vertex_slots].sum(axis=1)
+
+
+def weights_from_ridge_scalars(points, vertices, faces, d):
+    """The general construction for arbitrary ridge scalars (any generating surface).
+
+    Parameters
+    ----------
+    points : (k, N) float
+        Query points strictly inside the convex cage (elsewhere the formula is evaluated
+        as is: poles on facet hyperplanes give inf or NaN).
+    vertices : (n, N) float
+    faces : (m, N) int
+        Outward-oriented simplicial facets.
+    d : (k, r) float
+        One scalar per (point, ridge), ridges ordered as :func:`core.ridges`.
+
+    Returns
+    -------
+    weights : (k, n) float
+        Homogeneous weights: ``sum_i w_i (v_i - x) = 0`` for every point.
+    """
+    cage = prepare_cage(vertices, faces)
+    points = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    d = np.atleast_2d(np.asarray(d, dtype=np.float64))
+    if d.shape != (len(points), len(cage.topology.ridges)):
+        raise ValueError(f"d must be (k, r) = ({len(points)}, {len(cage.topology.ridges)}), "
+                         f"got {d.shape}")
+    return construct_weights(cage, point_frame(cage, points), d.T).T

@@ -1,0 +1,137 @@
+"""Ridge scalars d of the named generating surfaces (MATH.md table).
+
+Each function takes a :class:`~core.construction.PointFrame` and returns d, shape
+(r, k) (ridges by points, the frame's layout): the signed (N-1)-volume enclosed by x and the ridge projected onto the surface.
+Ridges have p = N-1 vertices; all quantities come from the ridge's Gram matrix of
+``e = v - x`` and the norm of its generalized cross product.
+"""
+
+from itertools import combinations, permutations
+from math import factorial
+
+import numpy as np
+
+__all__ = ["KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "mean_value",
+           "discrete_harmonic", "wachspress", "voronoi", "power_dual"]
+
+
+def mean_value(frame):
+    """Unit sphere: d = measure of the spherical (N-2)-simplex of the ridge / (N-1).
+
+    2D: 1; 3D: a/2 with a the angle between the edge's two vectors; 4D: the solid angle
+    (Van Oosterom and Strackee) / 3. Higher dimensions have no elementary closed form.
+    """
+    gram, measure = frame.ridge_gram, frame.ridge_measure
+    size = gram.shape[0]
+    if size == 1:
+        return np.ones_like(measure)
+    if size == 2:
+        return 0.5 * np.arctan2(measure, gram[0, 1])
+    if size == 3:
+        lengths = np.sqrt(frame.ridge_lengths_squared)
+        denominator = (lengths[0] * lengths[1] * lengths[2]
+                       + gram[0, 1] * lengths[2] + gram[0, 2] * lengths[1] + gram[1, 2] * lengths[0])
+        return 2.0 * np.arctan2(measure, denominator) / 3.0
+    raise NotImplementedError(
+        f"mean value ridge scalars need a spherical simplex measure, which has no closed "
+        f"form in dimension {size + 1}; pass your own d to weights_from_ridge_scalars")
+
+
+def discrete_harmonic(frame):
+    """The polytope itself: d = (N-1)-volume of the simplex {x} + ridge."""
+    return frame.ridge_measure / factorial(frame.ridge_gram.shape[0])
+
+
+def wachspress(frame):
+    """Polar dual: the power dual with heights 1."""
+    return power_dual(frame, np.ones_like(frame.ridge_lengths_squared))
+
+
+def voronoi(frame):
+    """Voronoi dual (circumcentres of {x} + facet): the power dual with heights |e|^2 / 2."""
+    return power_dual(frame, 0.5 * frame.ridge_lengths_squared)
+
+
+def power_dual(frame, heights):
+    """d of a "power dual": the region cut by the hyperplanes p . e_k = h_k.
+
+    For each subset S of the ridge's vertices, ``p_S`` is the point of span{e_k : k in S}
+    with ``p_S . e_k = h_k`` (k in S). The enclosed region is a combinatorial cube; d sums
+    the signed simplex volumes (x, p_{k1}, p_{k1 k2}, ..., p_ridge) over orderings.
+    Heights 1 give Wachspress, |e|^2/2 Voronoi (|e|^(gamma+1) in general).
+
+    Parameters
+    ----------
+    frame : PointFrame
+    heights : (N-1, r, k) float
+
+    Returns
+    -------
+    d : (r, k) float
+    """
+    gram, measure = frame.ridge_gram, frame.ridge_measure
+    size = gram.shape[0]
+    if size == 1:  # a segment of length h / |e|
+        return heights[0] / measure
+    if size == 2:  # the quadrilateral of the 3D table, in closed form
+        h_a, h_b = heights
+        l_a, l_b = gram[0, 0], gram[1, 1]
+        dot = gram[0, 1]
+        area = h_a * (l_a * h_b - dot * h_a) / l_a + h_b * (l_b * h_a - dot * h_b) / l_b
+        return area / (2.0 * measure)
+    return power_dual_by_subsets(np.moveaxis(gram, (0, 1), (-2, -1)), measure, np.moveaxis(heights, 0, -1))
+
+
+def power_dual_by_subsets(gram, measure, heights):
+    """:func:`power_dual` for any ridge size, by explicit subsets and orderings.
+
+    Points ``p_S`` are expressed in the ridge basis (coefficients ``a_S``, zero off S,
+    ``gram[S, S] a_S = h_S``); the simplex volume in that basis is scaled by the basis
+    volume (``measure``). Used for N >= 4 and as an independent check in 2D and 3D.
+
+    Parameters
+    ----------
+    gram : (..., p, p) float
+    measure : (...) float
+    heights : (..., p) float
+
+    Returns
+    -------
+    d : (...) float
+    """
+    size = gram.shape[-1]
+    points = {}
+    for count in range(1, size + 1):
+        for subset in combinations(range(size), count):
+            index = list(subset)
+            local = np.linalg.solve(gram[..., index, :][..., :, index], heights[..., index, None])
+            full = np.zeros(gram.shape[:-1])
+            full[..., index] = local[..., 0]
+            points[frozenset(subset)] = full
+    total = np.zeros(measure.shape)
+    for order in permutations(range(size)):
+        chain = [points[frozenset(order[:j + 1])] for j in range(size)]
+        inversions = sum(order[a] > order[b] for a in range(size) for b in range(a + 1, size))
+        total += (-1.0) ** inversions * np.linalg.det(np.stack(chain, axis=-1))
+    return total * measure / factorial(size)
+
+
+_NAMED = {
+    "wachspress": wachspress,
+    "mean_value": mean_value,
+    "discrete_harmonic": discrete_harmonic,
+    "voronoi": voronoi,
+}
+KINDS = tuple(_NAMED)
+# Mean value coordinates stay well defined on non-convex closed cages (Ju et al. 2005).
+CONVEX_ONLY_KINDS = ("wachspress", "discrete_harmonic", "voronoi")
+
+
+def named_ridge_scalars(kind, frame):
+    """d of the named generating surface ``kind`` (one of :data:`KINDS`)."""
+    try:
+        function = _NAMED[kind]
+    except KeyError:
+        raise ValueError(f"unknown kind {kind!r}; expected one of {', '.join(KINDS)}") from None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return function(frame)

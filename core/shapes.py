@@ -1,0 +1,65 @@
+"""Example cages: regular polygons, octahedra and icospheres (outward oriented)."""
+
+import numpy as np
+
+__all__ = ["regular_polygon", "octahedron", "icosphere"]
+
+
+def regular_polygon(sides, radius=1.0):
+    """Counter-clockwise regular polygon.
+
+    Returns
+    -------
+    vertices : (sides, 2) float
+    edges : (sides, 2) int
+    """
+    angle = 2.0 * np.pi * np.arange(sides) / sides
+    vertices = radius * np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    edges = np.stack([np.arange(sides), (np.arange(sides) + 1) % sides], axis=1)
+    return vertices, edges
+
+
+def octahedron(radii=(1.0, 1.0, 1.0)):
+    """Octahedron with vertices at +-radii on the axes (regular when radii are equal).
+
+    Returns
+    -------
+    vertices : (6, 3) float
+        Order: +x, -x, +y, -y, +z, -z.
+    faces : (8, 3) int
+    """
+    x, y, z = radii
+    vertices = np.array([[x, 0, 0], [-x, 0, 0], [0, y, 0], [0, -y, 0], [0, 0, z], [0, 0, -z]], float)
+    faces = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4],
+                      [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
+    return vertices, faces
+
+
+def icosphere(subdivisions=1, radius=1.0):
+    """Geodesic sphere: 10 * 4^s + 2 vertices (12, 42, 162, 642, ...), all on the sphere.
+
+    Returns
+    -------
+    vertices : (n, 3) float
+    faces : (m, 3) int
+    """
+    t = (1.0 + 5.0 ** 0.5) / 2.0
+    vertices = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0],
+                         [0, -1, t], [0, 1, t], [0, -1, -t], [0, 1, -t],
+                         [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], float)
+    faces = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11],
+                      [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
+                      [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
+                      [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]])
+    for _ in range(subdivisions):
+        # One new vertex per edge, shared by both faces: key edges by sorted endpoints.
+        edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+        unique, inverse = np.unique(edges, axis=0, return_inverse=True)
+        midpoints = len(vertices) + inverse.reshape(3, -1).T  # (m, 3): mid of 01, 12, 20
+        vertices = np.concatenate([vertices, 0.5 * vertices[unique].sum(axis=1)])
+        a, b, c = faces.T
+        ab, bc, ca = midpoints.T
+        faces = np.concatenate([np.stack(f, axis=1) for f in
+                                ([a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca])])
+    vertices = radius * vertices / np.linalg.norm(vertices, axis=1, keepdims=True)
+    return vertices, faces

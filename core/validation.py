@@ -1,0 +1,173 @@
+"""Cage validation: each check names what is wrong and where (face or vertex index)."""
+
+import numpy as np
+
+from .construction import prepare_cage
+from .errors import CageError
+
+__all__ = ["validate_cage", "convexity_violation", "DEFAULT_TOLERANCE"]
+
+DEFAULT_TOLERANCE = 1e-9
+_CHUNK_ENTRIES = 1 << 22  # bounded memory for the all-vertices x all-facets tests
+
+
+def _first(mask):
+    return int(np.flatnonzero(mask)[0])
+
+
+def _check_arrays(vertices, faces):
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces)
+    if vertices.ndim != 2 or vertices.shape[1] < 2:
+        raise CageError("bad_faces", f"vertices must have shape (n, N) with N >= 2, got {vertices.shape}")
+    dim = vertices.shape[1]
+    if faces.ndim != 2 or faces.shape[1] != dim or not np.issubdtype(faces.dtype, np.integer):
+        raise CageError("bad_faces", f"faces must be integer (m, {dim}) for a {dim}D cage, got "
+                                     f"{faces.dtype} {faces.shape}")
+    bad = ~np.isfinite(vertices).all(axis=1)
+    if bad.any():
+        raise CageError("non_finite", f"cage vertex {_first(bad)} has a non-finite coordinate "
+                                      f"({np.count_nonzero(bad)} such vertices)",
+                        vertices=np.flatnonzero(bad)[:10])
+    if len(vertices) < dim + 1:
+        raise CageError("too_few_vertices", f"a {dim}D cage needs at least {dim + 1} vertices, "
+                                            f"got {len(vertices)}")
+    out_of_range = ((faces < 0) | (faces >= len(vertices))).any(axis=1)
+    if out_of_range.any():
+        raise CageError("bad_faces", f"face {_first(out_of_range)} refers to a vertex index outside "
+                                     f"0..{len(vertices) - 1}", faces=[_first(out_of_range)])
+    ordered = np.sort(faces, axis=1)
+    repeated = (ordered[:, 1:] == ordered[:, :-1]).any(axis=1)
+    if repeated.any():
+        raise CageError("bad_faces", f"face {_first(repeated)} uses the same vertex twice",
+                        faces=[_first(repeated)])
+    unused = np.setdiff1d(np.arange(len(vertices)), faces)
+    if len(unused):
+        raise CageError("bad_faces", f"cage vertex {int(unused[0])} belongs to no face "
+                                     f"({len(unused)} such vertices); remove loose vertices",
+                        vertices=unused[:10])
+    return vertices, faces.astype(np.int64)
+
+
+def _check_duplicates(vertices, tolerance):
+    # Sort along a generic direction; coincident points are neighbours in that order
+    # unless several points share a narrow slab, which the window below covers.
+    direction = np.linspace(1.0, 1.7, vertices.shape[1])
+    order = np.argsort(vertices @ direction)
+    ordered = vertices[order]
+    for shift in range(1, min(8, len(vertices))):
+        gap = np.linalg.norm(ordered[shift:] - ordered[:-shift], axis=1)
+        close = gap <= tolerance
+        if close.any():
+            i = _first(close)
+            a, b = sorted((int(order[i]), int(order[i + shift])))
+            raise CageError("duplicate_vertices", f"cage vertices {a} and {b} coincide; merge them "
+                                                  "(Merge by Distance)", vertices=[a, b])
+
+
+def _check_manifold(cage):
+    topology = cage.topology
+    uses = topology.ridge_use_count
+    name = "vertex" if cage.dimension == 2 else "edge" if cage.dimension == 3 else "ridge"
+    faces_of = lambda ridge: np.flatnonzero((topology.facet_ridges == ridge).any(axis=1))  # noqa: E731
+    if (uses > 2).any():
+        ridge = _first(uses > 2)
+        raise CageError("non_manifold", f"the cage is non-manifold: {name} "
+                                        f"{tuple(topology.ridges[ridge].tolist())} is shared by "
+                                        f"{uses[ridge]} faces", faces=faces_of(ridge),
+                        vertices=topology.ridges[ridge])
+    if (uses == 1).any():
+        ridge = _first(uses == 1)
+        raise CageError("open", f"the cage is open: {name} {tuple(topology.ridges[ridge].tolist())} "
+                                f"belongs to only one face ({np.count_nonzero(uses == 1)} boundary "
+                                f"{name}s); close the hole", faces=faces_of(ridge),
+                        vertices=topology.ridges[ridge])
+    flipped = topology.ridge_signs_sum != 0
+    if flipped.any():
+        ridge = _first(flipped)
+        faces = faces_of(ridge)
+        raise CageError("inconsistent_orientation", f"faces {faces[0]} and {faces[1]} have opposite "
+                                                    f"orientations across {name} "
+                                                    f"{tuple(topology.ridges[ridge].tolist())}; "
+                                                    "recalculate normals", faces=faces,
+                        vertices=topology.ridges[ridge])
+
+
+def _check_facets(cage, tolerance):
+    corners = cage.facet_corners()
+    longest = np.linalg.norm(corners[:, :, None, :] - corners[:, None, :, :], axis=-1).max(axis=(1, 2))
+    measure = np.linalg.norm(cage.facet_normals, axis=1)
+    # (N-1)! volume against the longest edge to that power: a scale-free flatness
+    degenerate = measure <= tolerance * np.maximum(longest, tolerance) ** (cage.dimension - 1)
+    if degenerate.any():
+        raise CageError("degenerate_facet", f"face {_first(degenerate)} has (nearly) zero area; "
+                                            "dissolve or merge it", faces=[_first(degenerate)])
+    volume = np.sum(cage.facet_offsets)  # N! * signed volume, origin-independent
+    if volume < 0.0:
+        raise CageError("inward", "the cage's faces point inward; flip its normals")
+
+
+def convexity_violation(cage, tolerance=DEFAULT_TOLERANCE):
+    """The worst vertex beyond a facet's plane, if any.
+
+    Parameters
+    ----------
+    cage : Cage
+    tolerance : float
+        Relative to the cage size; heights up to it count as coplanar (flat regions of
+        triangulated quads are convex).
+
+    Returns
+    -------
+    violation : (vertex, face, height) or None
+    """
+    absolute = tolerance * cage.size
+    unit_normals = cage.facet_normals / np.linalg.norm(cage.facet_normals, axis=1, keepdims=True)
+    unit_offsets = cage.facet_offsets / np.linalg.norm(cage.facet_normals, axis=1)
+    step = max(1, _CHUNK_ENTRIES // max(len(unit_offsets), 1))
+    for start in range(0, len(cage.vertices), step):
+        # Signed height of every vertex above every facet's plane (outward positive).
+        height = cage.vertices[start:start + step] @ unit_normals.T - unit_offsets[None, :]
+        if (height > absolute).any():
+            vertex, face = np.unravel_index(np.argmax(height), height.shape)
+            return int(start + vertex), int(face), float(height[vertex, face])
+    return None
+
+
+def _check_convex(cage, tolerance):
+    violation = convexity_violation(cage, tolerance)
+    if violation is not None:
+        vertex, face, height = violation
+        raise CageError("non_convex", f"the cage is not convex: vertex {vertex} lies {height:.3g} "
+                                      f"outside the plane of face {face}", faces=[face], vertices=[vertex])
+
+
+def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):
+    """Check that a cage can be used, raising :class:`CageError` naming the problem.
+
+    Parameters
+    ----------
+    vertices : (n, N) float
+    faces : (m, N) int
+        Simplicial facets, outward oriented (2D: counter-clockwise polygon edges; 3D:
+        triangles counter-clockwise seen from outside).
+    convex : bool
+        Also require convexity (every kind but mean value).
+    tolerance : float
+        Relative to the cage's bounding-box diagonal: coincident vertices, flat facets
+        and convexity are judged to this precision.
+
+    Returns
+    -------
+    cage : Cage
+        The prepared cage, for reuse.
+    """
+    vertices, faces = _check_arrays(vertices, faces)
+    cage = prepare_cage(vertices, faces)
+    absolute = tolerance * cage.size
+    _check_duplicates(cage.vertices, absolute)
+    _check_manifold(cage)
+    _check_facets(cage, tolerance)
+    if convex:
+        _check_convex(cage, tolerance)
+    return cage

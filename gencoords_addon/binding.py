@@ -1,0 +1,113 @@
+"""Binding: the core's coordinates of every mesh vertex with respect to the cage."""
+
+import time
+
+import numpy as np
+
+from .. import core
+from . import mesh_io, messages, storage
+from .properties import KIND_ITEMS, core_name, enum_label
+
+CHUNK_ENTRIES = 250_000  # coordinates per core call: shows progress, stays cache friendly
+
+
+class BindError(Exception):
+    """Binding is impossible; the message says why in Blender's terms."""
+
+
+def rest_positions(obj):
+    """The shape to bind: the stored rest shape when rebinding, else the mesh as it is.
+
+    A rebind must not bake the current deformation into the rest shape; after a topology
+    change the stored rest no longer fits and the edited mesh becomes the new rest.
+    """
+    bind = storage.load(obj)
+    if bind is not None and bind.mesh_vertex_count == len(obj.data.vertices):
+        return bind.rest_positions
+    return mesh_io.read_positions(obj.data)
+
+
+def check_inputs(obj):
+    """Raise BindError unless ``obj`` is a mesh with a usable cage chosen."""
+    if obj is None or obj.type != 'MESH':
+        raise BindError("Select a mesh object to bind")
+    cage = obj.gencoords.cage
+    if cage is None:
+        raise BindError(f"Choose a cage for '{obj.name}' first (GenCoords panel > Cage)")
+    if cage == obj:
+        raise BindError(f"'{obj.name}' cannot be its own cage: choose another mesh object")
+    if cage.type != 'MESH':
+        raise BindError(f"The cage '{cage.name}' must be a mesh object")
+    if len(obj.data.vertices) == 0:
+        raise BindError(f"'{obj.name}' has no vertices to bind")
+
+
+def bind(obj, depsgraph, report_progress=lambda fraction: None):
+    """Compute and return the ``storage.BindData`` of ``obj`` (nothing is written).
+
+    Mesh vertices are mapped into the cage's local space, where the evaluated cage
+    (modifiers applied) is taken as the rest cage. Raises BindError on any problem.
+    """
+    started = time.perf_counter()
+    check_inputs(obj)
+    settings = obj.gencoords
+    cage = settings.cage
+    kind = core_name(settings.kind)
+    outside = core_name(settings.outside)
+    kind_label = enum_label(KIND_ITEMS, settings.kind)
+
+    rest = rest_positions(obj)
+    geometry = mesh_io.read_evaluated_cage(cage, depsgraph)
+    try:
+        mesh_to_cage = mesh_io.cage_to_mesh_matrix(obj, cage, depsgraph).inverted()
+    except ValueError:
+        raise BindError(f"'{obj.name}' or its cage '{cage.name}' has zero scale: "
+                        "fix the transform") from None
+    points = mesh_io.transform_points(mesh_to_cage, rest)
+    vertices = geometry.positions.astype(np.float64)
+    triangles = geometry.triangles
+
+    try:
+        core.validate_cage(vertices, triangles, convex=core.needs_convex(kind))
+        locations = core.point_locations(points, vertices, triangles)
+        points_outside = int(np.count_nonzero(locations == core.OUTSIDE))
+        if outside == "raise" and points_outside:
+            raise BindError(messages.outside_error(cage.name, points_outside, len(points)))
+        coordinates = _chunked_coordinates(points, vertices, triangles, kind, outside,
+                                           report_progress)
+    except ValueError as error:  # every core error is a ValueError
+        raise BindError(messages.core_error(cage.name, error, kind_label, len(points))) from None
+    if not np.isfinite(coordinates).all():
+        raise BindError(f"Binding to '{cage.name}' gave undefined coordinates: "
+                        "check the cage for tiny or overlapping faces")
+
+    summary = core.coordinate_summary(coordinates)
+    return storage.BindData(
+        coordinates=coordinates,
+        rest_positions=np.array(rest, dtype=np.float32),
+        cage_vertex_count=len(vertices),
+        cage_triangle_count=len(triangles),
+        cage_triangles_hash=storage.triangles_hash(triangles),
+        cage_non_triangles=geometry.non_triangles,
+        kind=kind,
+        outside=outside,
+        bind_seconds=time.perf_counter() - started,
+        points_outside=points_outside,
+        points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
+        min_coordinate=summary["min"],
+        negative_points=summary["negative_points"],
+        max_affine_error=summary["max_affine_error"],
+        nbytes=summary["nbytes"],
+    )
+
+
+def _chunked_coordinates(points, vertices, triangles, kind, outside, report_progress):
+    """Coordinates as float32 (k, n), computed in slices to report progress."""
+    coordinates = np.empty((len(points), len(vertices)), dtype=np.float32)
+    step = max(1, CHUNK_ENTRIES // len(vertices))
+    for start in range(0, len(points), step):
+        stop = min(start + step, len(points))
+        coordinates[start:stop] = core.coordinates(points[start:stop], vertices, triangles,
+                                                   kind=kind, outside=outside)
+        report_progress(stop / len(points))
+    return coordinates

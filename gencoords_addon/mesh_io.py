@@ -1,0 +1,87 @@
+"""Fast transfers between Blender meshes and numpy arrays.
+
+``foreach_get``/``foreach_set`` on flat, C-contiguous float32 buffers avoid a Python object
+per vertex; the ``position`` attribute is the fastest path to vertex coordinates.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+POSITION = "position"
+
+
+def read_positions(mesh):
+    """Vertex positions of ``mesh`` (its own local space) as a (k, 3) float32 array."""
+    flat = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.attributes[POSITION].data.foreach_get("vector", flat)
+    return flat.reshape(-1, 3)
+
+
+def write_positions(mesh, positions):
+    """Replace every vertex position of ``mesh``; ``positions`` must be (k, 3), finite.
+
+    The caller checks the vertex count and finiteness first: a mismatched ``foreach_set``
+    would leave the mesh half written.
+    """
+    flat = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1)
+    mesh.attributes[POSITION].data.foreach_set("vector", flat)
+    mesh.update()  # recomputes normals and tags the mesh so the evaluated copy follows
+
+
+def read_triangles(mesh):
+    """Triangulation of ``mesh``'s faces as a (m, 3) int32 array of vertex indices.
+
+    Uses ``loop_triangles``, Blender's own triangulation of quads and n-gons, whose
+    winding follows the face normal (outward for a correctly oriented cage).
+    """
+    triangles = mesh.loop_triangles
+    flat = np.empty(len(triangles) * 3, dtype=np.int32)
+    triangles.foreach_get("vertices", flat)
+    return flat.reshape(-1, 3)
+
+
+def count_non_triangles(mesh):
+    """Number of faces of ``mesh`` with more than three corners (quads and n-gons)."""
+    sizes = np.empty(len(mesh.polygons), dtype=np.int32)
+    mesh.polygons.foreach_get("loop_total", sizes)
+    return int(np.count_nonzero(sizes != 3))
+
+
+def transform_points(matrix, points):
+    """Apply a 4x4 affine ``mathutils.Matrix`` to (k, 3) points; float64 result."""
+    affine = np.array(matrix, dtype=np.float64)
+    return np.asarray(points, dtype=np.float64) @ affine[:3, :3].T + affine[:3, 3]
+
+
+@dataclass
+class CageGeometry:
+    """The evaluated cage as the core needs it, in the cage object's local space."""
+
+    positions: np.ndarray  # (n, 3) float32
+    triangles: np.ndarray  # (m, 3) int32
+    non_triangles: int  # quads and n-gons that were triangulated
+
+
+def read_evaluated_cage(cage, depsgraph):
+    """Geometry of ``cage`` with its modifiers, shape keys and edit-mode changes applied.
+
+    ``to_mesh`` (rather than ``evaluated.data``) also gives real vertex arrays while the
+    cage is in edit mode.
+    """
+    evaluated = cage.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        return CageGeometry(read_positions(mesh), read_triangles(mesh), count_non_triangles(mesh))
+    finally:
+        evaluated.to_mesh_clear()
+
+
+def cage_to_mesh_matrix(obj, cage, depsgraph):
+    """4x4 matrix taking the cage's local space to the mesh object's local space.
+
+    Uses the evaluated (animated, constrained) transforms of both objects. Raises
+    ValueError when the mesh object's transform cannot be inverted (zero scale).
+    """
+    mesh_world = obj.evaluated_get(depsgraph).matrix_world
+    return mesh_world.inverted() @ cage.evaluated_get(depsgraph).matrix_world

@@ -1,0 +1,51 @@
+"""The core's errors phrased in Blender's terms, with the way out."""
+
+from ..core import CageError, OutsideCageError
+
+RECALCULATE_NORMALS = "in Edit Mode use Mesh > Normals > Recalculate Outside"
+CAGE_PROBLEMS = {
+    "non_finite": "has vertices at infinite or undefined (NaN) positions",
+    "too_few_vertices": "needs at least 4 vertices enclosing a volume",
+    "bad_faces": "has faces with invalid vertex indices",
+    "duplicate_vertices": "has vertices at the same position: use Mesh > Clean Up > "
+                          "Merge by Distance",
+    "degenerate_facet": "has faces of zero area: use Mesh > Clean Up > Degenerate Dissolve",
+    "open": "is not closed (it has holes): fill them so the cage encloses a volume",
+    "non_manifold": "is non-manifold (edges not shared by exactly two faces): see Select > "
+                    "Select All by Trait > Non Manifold",
+    "inconsistent_orientation": "has faces pointing different ways: " + RECALCULATE_NORMALS,
+    "inward": "is inside out (normals point inward): " + RECALCULATE_NORMALS,
+    "non_convex": "is not convex, which {kind} coordinates need: choose Mean Value "
+                  "(works on any closed cage) or make the cage convex",
+}
+
+
+def cage_error(cage_name, error, kind_label):
+    """Message for a ``core.CageError`` raised on the cage called ``cage_name``."""
+    problem = CAGE_PROBLEMS.get(error.problem, str(error)).format(kind=kind_label)
+    where = ""
+    if error.faces:
+        where = f" (faces {_first_indices(error.faces)})"
+    elif error.vertices:
+        where = f" (vertices {_first_indices(error.vertices)})"
+    return f"Cage '{cage_name}' {problem}{where}"
+
+
+def outside_error(cage_name, outside_count, total):
+    """Message for mesh vertices outside the cage when Outside is Report Error."""
+    return (f"{outside_count} of {total} mesh vertices lie outside the cage '{cage_name}': "
+            "enlarge the cage, or set Outside to Project or Extrapolate")
+
+
+def core_error(cage_name, error, kind_label, total):
+    """Message for any error the core raised while binding."""
+    if isinstance(error, CageError):
+        return cage_error(cage_name, error, kind_label)
+    if isinstance(error, OutsideCageError):
+        return outside_error(cage_name, len(error.indices), total)
+    return f"Cannot bind to cage '{cage_name}': {error}"
+
+
+def _first_indices(indices, shown=5):
+    text = ", ".join(str(i) for i in indices[:shown])
+    return text + ", ..." if len(indices) > shown else text

@@ -1,0 +1,62 @@
+"""The GenCoords panel, drawn identically in Object properties and the 3D view sidebar."""
+
+import bpy
+
+from .status import status_lines
+from .visualise import FIELD_ATTRIBUTE
+
+
+def draw_settings(layout, obj):
+    """Everything the panel shows for the mesh object ``obj``."""
+    settings = obj.gencoords
+    bound = settings.bind_data is not None
+    column = layout.column()
+    column.prop(settings, "cage")
+    column.prop(settings, "kind")
+    column.prop(settings, "outside")
+
+    row = layout.row(align=True)
+    row.operator("object.gencoords_bind", text="Rebind" if bound else "Bind", icon='LINKED')
+    unbind = row.row(align=True)
+    unbind.enabled = bound
+    unbind.operator("object.gencoords_unbind", icon='UNLINKED')
+    layout.prop(settings, "live")
+
+    box = layout.box()
+    for text, icon in status_lines(obj):
+        box.label(text=text, icon=icon)
+
+    if bound:
+        field = layout.column(heading="Show Coordinate")
+        row = field.row(align=True)
+        row.prop(settings, "field_vertex")
+        row.operator("object.gencoords_show_field", text="", icon='HIDE_OFF')
+        if FIELD_ATTRIBUTE in obj.data.color_attributes:
+            row.operator("object.gencoords_clear_field", text="", icon='X')
+
+
+class GenCoordsPanel:
+    bl_label = "GenCoords"
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and context.object.type == 'MESH'
+
+    def draw(self, context):
+        self.layout.use_property_split = True
+        draw_settings(self.layout, context.object)
+
+
+class OBJECT_PT_gencoords(GenCoordsPanel, bpy.types.Panel):
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "object"
+
+
+class VIEW3D_PT_gencoords(GenCoordsPanel, bpy.types.Panel):
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "GenCoords"
+
+
+CLASSES = (OBJECT_PT_gencoords, VIEW3D_PT_gencoords)

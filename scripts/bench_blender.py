@@ -1,0 +1,299 @@
+"""GenCoords against Blender's Mesh Deform modifier, in one Blender process (``make bench``).
+
+Scenes: Suzanne subdivided 2, 3, 4 times (7958 / 31658 / 126218 vertices) inside
+icosphere cages of 42, 162, 642 vertices (radius 2: convex and containing the mesh).
+Methods: Mesh Deform at precision 5 and 6 (7 and more exhaust memory at these sizes) and
+GenCoords with each coordinate type, each bound in a freshly built scene.
+
+Metrics, measured the same way for every method:
+  bind       wall time of the bind operator (``meshdeform_bind`` / ``gencoords_bind``).
+  update     one live update: move one cage vertex, then time ``view_layer.update()``
+             (repeated until the evaluated mesh changes) plus reading the evaluated
+             positions with ``foreach_get``; median of 7 moves.
+  peak MB    peak resident memory of the process during the bind minus resident memory
+             just before it, sampled every millisecond from /proc by a separate process
+             (operators hold the GIL, so a thread could not sample during a bind).
+  kept MB    resident memory after the bind minus before it: what the binding retains.
+  .blend MB  size of an uncompressed .blend holding just that bound scene.
+  affine     max distance, relative to the cage's bounding-box diagonal, between the
+             deformed mesh and the exact image of the rest mesh under an affine map
+             applied to every cage vertex (exact coordinates reproduce it exactly).
+  vs MD5     max / mean distance, relative to the cage diagonal, between this method's
+             mesh and Mesh Deform precision 5's after the same non-affine cage edit
+             (the demo's pull-and-twist): how different the deformations look.
+
+Usage: bench_blender.py [--quick | --full] [--kinds mean_value ...] [--precisions 5 6]
+"""
+
+import argparse
+import datetime
+import os
+import platform
+import select
+import shlex
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _blender_scene as scn  # noqa: E402  (imports bpy after setting its user folder)
+import bpy  # noqa: E402
+
+UPDATE_REPEATS = 7
+MOVED_CAGE_VERTEX = 0  # the top vertex of every icosphere: moves many mesh vertices
+
+# A tiny watcher run in its own process: samples our resident memory every millisecond
+# until told to stop on stdin, then prints the peak in bytes.
+_WATCHER = r"""
+import os, select, sys
+page = os.sysconf("SC_PAGE_SIZE")
+statm = "/proc/%s/statm" % sys.argv[1]
+def rss():
+    with open(statm) as f:
+        return int(f.read().split()[1]) * page
+peak = rss()
+print("ready", flush=True)
+while not select.select([sys.stdin], [], [], 0.001)[0]:
+    peak = max(peak, rss())
+print(max(peak, rss()), flush=True)
+"""
+
+
+def resident_bytes():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+class PeakMemory:
+    """Context manager: ``peak`` and ``kept`` resident-memory growth (bytes) over a block."""
+
+    def __enter__(self):
+        self._watcher = subprocess.Popen(
+            [sys.executable, "-c", _WATCHER, str(os.getpid())],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        self._watcher.stdout.readline()  # wait until it samples
+        self.before = resident_bytes()
+        return self
+
+    def __exit__(self, *exc):
+        after = resident_bytes()
+        out, _ = self._watcher.communicate("stop\n", timeout=30)
+        self.peak = max(int(out), after) - self.before
+        self.kept = after - self.before
+        return False
+
+
+# ------------------------------------------------------------------------------ methods
+
+
+def bind_mesh_deform(mesh, cage, precision):
+    """Mesh Deform modifier bound at ``precision``; returns the bind wall time."""
+    modifier = mesh.modifiers.new("MeshDeform", "MESH_DEFORM")
+    modifier.object = cage
+    modifier.precision = precision
+    scn.make_active(mesh)
+    start = time.perf_counter()
+    bpy.ops.object.meshdeform_bind(modifier=modifier.name)
+    seconds = time.perf_counter() - start
+    if not modifier.is_bound:
+        raise RuntimeError(f"Mesh Deform precision {precision} did not bind")
+    return seconds
+
+
+def bind_gencoords(mesh, cage, kind):
+    """GenCoords bound with ``kind``; returns the bind wall time."""
+    mesh.gencoords.cage = cage
+    mesh.gencoords.kind = kind.upper()
+    scn.make_active(mesh)
+    start = time.perf_counter()
+    result = bpy.ops.object.gencoords_bind()
+    seconds = time.perf_counter() - start
+    if "FINISHED" not in result or mesh.gencoords.bind_data is None:
+        raise RuntimeError(f"gencoords_bind ({kind}) returned {result}")
+    return seconds
+
+
+# ---------------------------------------------------------------------------- measuring
+
+
+def settle(mesh, expected_change=True, max_passes=4):
+    """Update the view layer until the evaluated mesh differs from its last state.
+
+    Returns ``(positions, passes)``. GenCoords writes the deformed shape from a
+    depsgraph handler, so the evaluated mesh shows it one update later; Mesh Deform
+    shows it after the first. Timing "until it shows" is fair to both.
+    """
+    layer = bpy.context.view_layer
+    before = scn.evaluated_positions(mesh).copy()
+    for passes in range(1, max_passes + 1):
+        layer.update()
+        now = scn.evaluated_positions(mesh)
+        if not expected_change or not np.array_equal(now, before):
+            return now, passes
+    return now, max_passes
+
+
+def set_cage(cage, points):
+    scn.set_positions(cage, points)
+
+
+def time_updates(mesh, cage, rest_cage):
+    """Median seconds of one live update after moving one cage vertex, and passes used."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    buffer = np.empty(len(mesh.data.vertices) * 3, dtype=np.float32)
+    previous = scn.evaluated_positions(mesh, depsgraph, buffer).copy()
+    times, passes_used = [], []
+    for repeat in range(UPDATE_REPEATS):
+        vertex = cage.data.vertices[MOVED_CAGE_VERTEX]
+        offset = 0.05 * (repeat + 1) * (1 if repeat % 2 else -1)
+        vertex.co = rest_cage[MOVED_CAGE_VERTEX] + np.array([0.0, 0.0, offset])
+        cage.data.update()  # tags the cage; evaluation happens inside the timed part
+        start = time.perf_counter()
+        for passes in range(1, 5):
+            bpy.context.view_layer.update()
+            now = scn.evaluated_positions(mesh, depsgraph, buffer)
+            if not np.array_equal(now, previous):
+                break
+        times.append(time.perf_counter() - start)
+        passes_used.append(passes)
+        previous = now.copy()
+    set_cage(cage, rest_cage)
+    settle(mesh)
+    return float(np.median(times)), max(passes_used)
+
+
+def blend_size(tag):
+    """Bytes of an uncompressed .blend of the current scene (written, measured, deleted)."""
+    with tempfile.TemporaryDirectory(prefix="gencoords-bench-") as folder:
+        path = Path(folder) / f"{tag}.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True, compress=False)
+        return path.stat().st_size
+
+
+def run_method(level, subdivisions, method):
+    """Build the scene, bind with ``method`` and measure everything for one table row.
+
+    ``method`` is ``("md", precision)`` or ``("gencoords", kind)``.
+    """
+    scn.reset_scene()
+    mesh = scn.add_suzanne(level)
+    cage = scn.add_icosphere_cage(subdivisions)
+    rest_mesh, rest_cage = scn.positions(mesh), scn.positions(cage)
+    size = scn.cage_size(rest_cage)
+    bpy.context.view_layer.update()
+
+    with PeakMemory() as memory:
+        if method[0] == "md":
+            seconds = bind_mesh_deform(mesh, cage, method[1])
+        else:
+            seconds = bind_gencoords(mesh, cage, method[1])
+    row = {"bind": seconds, "peak": memory.peak, "kept": memory.kept}
+
+    bound, _ = settle(mesh, expected_change=False)
+    row["rest_error"] = float(np.abs(bound - rest_mesh).max()) / size
+    row["blend"] = blend_size(f"{method[0]}-{method[1]}")
+    row["update"], row["passes"] = time_updates(mesh, cage, rest_cage)
+
+    set_cage(cage, scn.affine_map(rest_cage))
+    moved, _ = settle(mesh)
+    row["affine"] = float(np.linalg.norm(moved - scn.affine_map(rest_mesh), axis=1).max()) / size
+    set_cage(cage, scn.nonaffine_edit(rest_cage))
+    row["edited"], _ = settle(mesh)
+    row["edited"] = row["edited"].copy()
+    row["size"] = size
+    return row
+
+
+# ------------------------------------------------------------------------------ report
+
+
+def fmt_time(seconds):
+    return f"{seconds:.2f} s" if seconds >= 0.1 else f"{seconds * 1000:.0f} ms"
+
+
+def table(results, kinds, precisions):
+    """The Markdown table: one row per (scene, method), ratios against Mesh Deform p5."""
+    lines = [
+        "| mesh | cage | method | bind | MD5 bind / bind | update | update / MD5 update "
+        "| peak MB | kept MB | .blend MB | affine err | vs MD5 max / mean |",
+        "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+    ]
+    for (verts, cage_verts), rows in results.items():
+        reference = rows.get(("md", 5))
+        for method, row in rows.items():
+            name = (f"Mesh Deform p{method[1]}" if method[0] == "md"
+                    else f"GenCoords {scn.KIND_LABELS[method[1]]}")
+            if reference is not None and method != ("md", 5):
+                speedup = f"{reference['bind'] / row['bind']:.1f}x"
+                slowdown = f"{row['update'] / reference['update']:.2f}"
+                gap = np.linalg.norm(row["edited"] - reference["edited"], axis=1) / row["size"]
+                versus = f"{gap.max():.2e} / {gap.mean():.2e}"
+            else:
+                speedup = slowdown = versus = "-"
+            lines.append(
+                f"| {verts} | {cage_verts} | {name} | {fmt_time(row['bind'])} | {speedup} "
+                f"| {row['update'] * 1000:.1f} ms | {slowdown} "
+                f"| {row['peak'] / 2**20:.0f} | {row['kept'] / 2**20:.0f} "
+                f"| {row['blend'] / 2**20:.1f} | {row['affine']:.1e} | {versus} |")
+    return "\n".join(lines)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sweep = parser.add_mutually_exclusive_group()
+    sweep.add_argument("--quick", action="store_true",
+                       help="default: 8k and 32k vertex meshes, 42 and 162 vertex cages")
+    sweep.add_argument("--full", action="store_true",
+                       help="8k/32k/126k meshes x 42/162/642 cages (tens of minutes)")
+    parser.add_argument("--kinds", nargs="+", choices=scn.KINDS, default=list(scn.KINDS))
+    parser.add_argument("--precisions", nargs="+", type=int, default=[5, 6],
+                        help="Mesh Deform precisions (5 is the reference for ratios)")
+    parser.add_argument("--output", type=Path, default=scn.OUT / "bench_blender.md")
+    args = parser.parse_args()
+    levels, cages = ((2, 3, 4), (2, 3, 4)) if args.full else ((2, 3), (2, 3))
+
+    header = [
+        "# GenCoords vs Mesh Deform (Blender)",
+        "",
+        f"Command: `{shlex.join([Path(sys.executable).name] + sys.argv)}`  ",
+        f"Date: {datetime.datetime.now().isoformat(timespec='seconds')}; "
+        f"Blender {bpy.app.version_string}, numpy {np.__version__}, "
+        f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.machine()}",
+    ]
+    print("\n".join(header), flush=True)
+    zip_path = scn.install_extension()
+    print(f"extension: {zip_path.relative_to(scn.REPO)}\n", flush=True)
+
+    methods = [("md", p) for p in sorted(set(args.precisions), key=lambda p: p != 5)]
+    methods += [("gencoords", kind) for kind in args.kinds]
+    results = {}
+    started = time.perf_counter()
+    for level in levels:
+        for subdivisions in cages:
+            key = (scn.SUZANNE_VERTICES[level], scn.ICOSPHERE_VERTICES[subdivisions])
+            rows = results.setdefault(key, {})
+            for method in methods:
+                row = run_method(level, subdivisions, method)
+                rows[method] = row
+                print(f"  {key[0]:>6} / {key[1]:>3} {method[0]:9s} {str(method[1]):17s} "
+                      f"bind {row['bind']:7.3f} s  update {row['update'] * 1000:6.1f} ms "
+                      f"({row['passes']} passes)  peak {row['peak'] / 2**20:6.0f} MB  "
+                      f"affine {row['affine']:.1e}  rest {row['rest_error']:.1e}",
+                      flush=True)
+    body = table(results, args.kinds, args.precisions)
+    notes = (__doc__.split("Metrics, measured the same way for every method:")[1]
+             .split("Usage:")[0].rstrip())
+    report = "\n".join(header) + "\n\n" + body + "\n\nMetrics:" + notes + (
+        f"\n\nTotal benchmark time {time.perf_counter() - started:.0f} s.\n")
+    print("\n" + body + f"\n\nTotal {time.perf_counter() - started:.0f} s", flush=True)
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    args.output.write_text(report)
+    print(f"written to {args.output.relative_to(scn.REPO)}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,57 @@
+"""Build dist/gencoords-<version>.zip and validate it, both with Blender's own tools.
+
+Blender's extension command line (``blender_ext.py``) ships inside the ``bpy`` wheel and
+runs as a plain script, so it is located from ``bpy``'s package folder without importing
+``bpy`` (which would start Blender). Exits non-zero when building or validating fails.
+
+Usage: python scripts/build_extension.py [--output-dir DIR]
+"""
+
+import argparse
+import importlib.util
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+BLENDER_EXT_RELATIVE = Path("scripts", "addons_core", "bl_pkg", "cli", "blender_ext.py")
+
+
+def find_blender_ext():
+    """Path of ``blender_ext.py`` inside the installed ``bpy`` package (``bpy/<x.y>/...``)."""
+    spec = importlib.util.find_spec("bpy")
+    if spec is None or not spec.submodule_search_locations:
+        sys.exit("bpy is not installed in this Python; run `make setup` first")
+    for package_dir in spec.submodule_search_locations:
+        for candidate in sorted(Path(package_dir).glob("*/" + str(BLENDER_EXT_RELATIVE))):
+            return candidate
+    sys.exit("blender_ext.py not found inside the bpy package")
+
+
+def run_blender_ext(blender_ext, *arguments):
+    """Run one ``blender_ext.py`` sub-command; exit with its code when it fails."""
+    completed = subprocess.run([sys.executable, str(blender_ext), *arguments], check=False)
+    if completed.returncode != 0:
+        sys.exit(f"blender_ext.py {arguments[0]} failed with exit code {completed.returncode}")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--output-dir", type=Path, default=REPO / "dist")
+    output_dir = parser.parse_args().output_dir.resolve()
+
+    manifest = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))
+    package = output_dir / f"{manifest['id']}-{manifest['version']}.zip"
+    output_dir.mkdir(parents=True, exist_ok=True)
+    package.unlink(missing_ok=True)  # never validate a stale zip
+
+    blender_ext = find_blender_ext()
+    run_blender_ext(blender_ext, "build", "--source-dir", str(REPO),
+                    "--output-filepath", str(package))
+    run_blender_ext(blender_ext, "validate", str(package))
+    print(f"built and validated {package}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,49 @@
+"""Subprocess: save a .blend with a mesh bound to a cage animated by a shape key.
+
+Frame 1 is the rest cage, frame 2 stretches it along x. The file is saved at frame 2 and
+the mesh's positions there go to an .npy file. Usage: blender_make_bound_file.py BLEND NPY
+"""
+
+import sys
+
+import bpy
+import numpy as np
+
+from scene_helpers import add_icosphere_cage, add_sphere, bind, load_user_preferences, positions
+
+blend_path, positions_path = sys.argv[1:3]
+load_user_preferences()
+assert "bl_ext.user_default.gencoords" in bpy.context.preferences.addons
+bpy.ops.wm.read_homefile(use_empty=True)
+scene = bpy.context.scene
+scene.frame_start, scene.frame_end = 1, 2
+
+cage = add_icosphere_cage()
+cage.visible_camera = False  # hide_render would stop Blender evaluating it in renders
+cage.shape_key_add(name="Basis")
+stretch = cage.shape_key_add(name="Stretch")
+stretch.data.foreach_set("co", (positions(cage.data) * (1.6, 1.0, 1.0) + (0.8, 0, 0)).reshape(-1))
+for frame, value in ((1, 0.0), (2, 1.0)):
+    stretch.value = value
+    stretch.keyframe_insert("value", frame=frame)
+
+obj = add_sphere()
+scene.frame_set(1)
+assert bind(obj, cage) == {'FINISHED'}
+scene.frame_set(2)
+np.save(positions_path, positions(obj.data))
+
+camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+scene.collection.objects.link(camera)
+camera.location = (0, -8, 0)
+camera.rotation_euler = (np.pi / 2, 0, 0)
+scene.camera = camera
+scene.render.engine = 'CYCLES'
+scene.cycles.device = 'CPU'
+scene.cycles.samples = 1
+scene.cycles.use_denoising = False
+scene.world = bpy.data.worlds.new("White")
+scene.world.color = (1.0, 1.0, 1.0)  # lights the mesh and contrasts with it
+scene.render.resolution_x = scene.render.resolution_y = 48
+scene.render.image_settings.file_format = 'PNG'
+bpy.ops.wm.save_as_mainfile(filepath=blend_path)

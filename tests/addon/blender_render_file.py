@@ -1,0 +1,45 @@
+"""Subprocess: render a saved animation like a farm worker, print per-frame results as JSON.
+
+Records the bound mesh's x extent each rendered frame (from a frame handler added after
+the extension's) and the mean grey of each rendered image.
+Usage: blender_render_file.py BLEND OUTPUT_DIR
+"""
+
+import json
+import sys
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from scene_helpers import load_user_preferences, positions
+
+blend_path, output_dir = sys.argv[1:3]
+load_user_preferences()
+bpy.ops.wm.open_mainfile(filepath=blend_path)
+scene = bpy.context.scene
+widths = {}
+
+
+def record_width(scene, depsgraph):
+    if depsgraph.mode != 'RENDER':  # the viewport re-evaluates once rendering ends
+        return
+    x = positions(bpy.data.objects["Mesh"].data)[:, 0]
+    widths[scene.frame_current] = float(x.max() - x.min())
+
+
+bpy.app.handlers.frame_change_post.append(record_width)
+scene.render.filepath = str(Path(output_dir) / "frame_")
+bpy.ops.render.render(animation=True)
+images = {}
+for frame in (1, 2):
+    image = bpy.data.images.load(str(Path(output_dir) / f"frame_{frame:04d}.png"))
+    pixels = np.empty(len(image.pixels), dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    images[frame] = pixels.reshape(-1, 4)[:, :3].mean(axis=1)
+print("REPORT " + json.dumps({
+    "lock_interface": scene.render.use_lock_interface,
+    "widths": widths,
+    "covered_pixels": {frame: int(np.count_nonzero(np.abs(grey - grey[0]) > 0.05))
+                       for frame, grey in images.items()},
+}))

@@ -1,0 +1,232 @@
+"""Binding and live deformation, driven through the operators as a script would."""
+
+import time
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Matrix
+
+from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere, bind,
+                           evaluated_cage_positions, positions, set_positions, update)
+
+KINDS = ("WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI")
+
+
+def random_affine(seed):
+    rng = np.random.default_rng(seed)
+    return np.eye(3) + 0.3 * rng.standard_normal((3, 3)), rng.standard_normal(3)
+
+
+def apply_matrix(matrix, points):
+    affine = np.array(matrix)
+    return points @ affine[:3, :3].T + affine[:3, 3]
+
+
+def to_world(obj, points):
+    return apply_matrix(obj.matrix_world, points)
+
+
+def test_bind_keeps_rest_and_deformation_is_coordinates_times_cage(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    rest = positions(obj.data).copy()
+    assert bind(obj, cage) == {'FINISHED'}
+    data = gc.storage.load(obj)
+    assert data.coordinates.shape == (len(rest), len(cage.data.vertices))
+    np.testing.assert_array_equal(data.rest_positions, rest)
+    np.testing.assert_allclose(data.coordinates.sum(axis=1), 1.0, atol=1e-5)
+    np.testing.assert_allclose(positions(obj.data), rest, atol=1e-5)  # cage at rest
+
+    noise = np.random.default_rng(0).normal(0, 0.2, (len(cage.data.vertices), 3))
+    set_positions(cage.data, positions(cage.data) + noise)
+    update()
+    deformed = positions(obj.data)
+    assert np.isfinite(deformed).all()
+    np.testing.assert_array_equal(deformed, data.coordinates @ evaluated_cage_positions(cage))
+    assert np.abs(deformed - rest).max() > 0.05
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_affine_cage_motion_moves_the_mesh_affinely(gc, kind):
+    cage = add_icosphere_cage()
+    obj = add_sphere(radius=0.8)
+    rest = positions(obj.data).astype(np.float64)
+    assert bind(obj, cage, kind=kind) == {'FINISHED'}
+    linear, shift = random_affine(1)
+    set_positions(cage.data, positions(cage.data) @ linear.T + shift)
+    update()
+    np.testing.assert_allclose(positions(obj.data), rest @ linear.T + shift, atol=1e-5)
+
+
+def test_coordinates_match_the_core_in_the_cage_space(gc):
+    """Object transforms: mesh world positions are bound in the cage's local space."""
+    cage = add_cube_cage(size=2.0)
+    cage.matrix_world = Matrix.LocRotScale((0.5, -1.0, 2.0), Matrix.Rotation(0.4, 3, 'Z'),
+                                           (2.0, 3.0, 1.5))
+    obj = add_sphere(radius=0.5, location=(0.6, -0.9, 2.1))
+    obj.scale = (1.2, 0.8, 1.0)
+    update()
+    rest = positions(obj.data).copy()
+    assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}
+    data = gc.storage.load(obj)
+    world = to_world(obj, rest)
+    in_cage = apply_matrix(cage.matrix_world.inverted(), world)
+    triangles = np.array([t.vertices[:] for t in cage.data.loop_triangles])
+    expected = gc.core.coordinates(in_cage, positions(cage.data).astype(np.float64), triangles,
+                                   kind="wachspress")
+    np.testing.assert_allclose(data.coordinates, expected, atol=1e-6)
+    np.testing.assert_allclose(positions(obj.data), rest, atol=1e-5)
+    status = [text for text, _ in gc.status.status_lines(obj)]
+    assert "Cage triangulated (6 quads/n-gons)" in status
+
+    # Moving the cage object carries the mesh along, in world space.
+    cage.location.x += 1.0
+    update()
+    moved = to_world(obj, positions(obj.data))
+    np.testing.assert_allclose(moved - world, np.tile([1.0, 0.0, 0.0], (len(world), 1)), atol=1e-5)
+
+
+def test_unbind_restores_rest_bitwise_and_removes_bind_data(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    rest = positions(obj.data).copy()
+    bind(obj, cage)
+    text_name = obj.gencoords.bind_data.name
+    set_positions(cage.data, positions(cage.data) * 1.3)
+    update()
+    assert not np.array_equal(positions(obj.data), rest)
+    assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+    np.testing.assert_array_equal(positions(obj.data), rest)
+    assert obj.gencoords.bind_data is None and text_name not in bpy.data.texts
+    set_positions(cage.data, positions(cage.data) * 0.5)
+    update()
+    np.testing.assert_array_equal(positions(obj.data), rest)  # no longer follows
+
+
+def test_rebind_keeps_the_original_rest_shape(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    rest = positions(obj.data).copy()
+    bind(obj, cage)
+    set_positions(cage.data, positions(cage.data) * 1.2)
+    update()
+    bind(obj, cage, kind="WACHSPRESS")  # the deformed shape is not baked in
+    np.testing.assert_array_equal(gc.storage.load(obj).rest_positions, rest)
+    assert len([t for t in bpy.data.texts if t.name.startswith(".GenCoords")]) == 1
+
+
+def test_live_toggle_shows_rest_then_deformation(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    rest = positions(obj.data).copy()
+    bind(obj, cage)
+    set_positions(cage.data, positions(cage.data) * 1.5)
+    update()
+    deformed = positions(obj.data).copy()
+    obj.gencoords.live = False
+    np.testing.assert_array_equal(positions(obj.data), rest)
+    set_positions(cage.data, positions(cage.data) * 1.1)
+    update()
+    np.testing.assert_array_equal(positions(obj.data), rest)
+    obj.gencoords.live = True
+    assert np.abs(positions(obj.data) - deformed * 1.1).max() < 1e-5
+
+
+def test_modifiers_and_keyframed_shape_keys_on_the_cage_drive_the_mesh(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    coordinates = gc.storage.load(obj).coordinates
+
+    displace = cage.modifiers.new("Displace", 'DISPLACE')
+    displace.strength = 0.3
+    update()
+    expected = coordinates @ evaluated_cage_positions(cage)
+    np.testing.assert_array_equal(positions(obj.data), expected)
+    cage.modifiers.remove(displace)
+
+    cage.shape_key_add(name="Basis")
+    key = cage.shape_key_add(name="Stretch")
+    stretched = positions(cage.data) * (1.5, 1.0, 1.0)
+    key.data.foreach_set("co", stretched.reshape(-1))
+    key.value = 0.0
+    key.keyframe_insert("value", frame=1)
+    key.value = 1.0
+    key.keyframe_insert("value", frame=10)
+    bpy.context.scene.frame_set(10)  # runs frame_change_post only
+    np.testing.assert_allclose(positions(obj.data), coordinates @ stretched, atol=1e-6)
+    bpy.context.scene.frame_set(1)
+    np.testing.assert_allclose(positions(obj.data), gc.storage.load(obj).rest_positions, atol=1e-5)
+
+
+def test_cage_edit_mode_changes_are_followed(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    activate(cage)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_all(action='SELECT')
+    bpy.ops.transform.resize(value=(1.4, 1.4, 1.4))
+    update()
+    expected = gc.storage.load(obj).rest_positions * 1.4
+    np.testing.assert_allclose(positions(obj.data), expected, atol=1e-5)
+    bpy.ops.object.mode_set(mode='OBJECT')
+
+
+def test_show_coordinate_paints_the_core_field(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage, kind="DISCRETE_HARMONIC")
+    obj.gencoords.field_vertex = 3
+    assert bpy.ops.object.gencoords_show_field() == {'FINISHED'}
+    attribute = obj.data.color_attributes["GenCoords Field"]
+    assert (attribute.domain, attribute.data_type) == ('POINT', 'FLOAT_COLOR')
+    assert obj.data.color_attributes.active_color_name == "GenCoords Field"
+    colors = np.empty(len(obj.data.vertices) * 4, dtype=np.float32)
+    attribute.data.foreach_get("color", colors)
+    expected = gc.core.field_colors(gc.storage.load(obj).coordinates[:, 3])
+    np.testing.assert_array_equal(colors.reshape(-1, 4), expected)
+    obj.gencoords.field_vertex = 5  # repaints while shown
+    attribute.data.foreach_get("color", colors)
+    expected = gc.core.field_colors(gc.storage.load(obj).coordinates[:, 5])
+    np.testing.assert_array_equal(colors.reshape(-1, 4), expected)
+
+    obj.gencoords.field_vertex = 99
+    with pytest.raises(RuntimeError, match="Cage Vertex must be below 12"):
+        bpy.ops.object.gencoords_show_field()
+    assert bpy.ops.object.gencoords_clear_field() == {'FINISHED'}
+    assert "GenCoords Field" not in obj.data.color_attributes
+
+
+def test_status_reports_the_core_summary(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage, kind="VORONOI")
+    data = gc.storage.load(obj)
+    summary = gc.core.coordinate_summary(data.coordinates)
+    assert data.min_coordinate == summary["min"] and data.nbytes == summary["nbytes"]
+    text = "\n".join(line for line, _ in gc.status.status_lines(obj))
+    assert "Bound to 'Cage' (Voronoi)" in text
+    assert f"Cage 12 vertices, mesh {len(obj.data.vertices)} vertices" in text
+    assert f"Smallest coordinate {summary['min']:.4g}" in text
+    assert "MB" in text and "Bind time" in text
+
+
+def test_live_update_is_interactive_on_a_dense_mesh(gc):
+    cage = add_icosphere_cage(subdivisions=3, radius=2.5)  # 642 vertices
+    obj = add_sphere()
+    modifier = obj.modifiers.new("Subdivision", 'SUBSURF')
+    modifier.levels = 3
+    activate(obj)
+    bpy.ops.object.modifier_apply(modifier=modifier.name)
+    bind(obj, cage)
+    update()
+    started = time.perf_counter()
+    for step in range(10):
+        set_positions(cage.data, positions(cage.data) * 1.01)
+        update()
+    per_update = (time.perf_counter() - started) / 10
+    assert per_update < 0.05, f"{per_update * 1000:.1f} ms per cage edit"
+    expected = gc.storage.load(obj).coordinates @ evaluated_cage_positions(cage)
+    np.testing.assert_array_equal(positions(obj.data), expected)

@@ -1,0 +1,74 @@
+"""The built zip: Blender's builder and validator accept it; it ships add-on and core only."""
+
+import importlib
+import tomllib
+import zipfile
+
+import bpy
+
+
+def test_zip_holds_only_the_addon_and_core(package):
+    names = zipfile.ZipFile(package).namelist()
+    assert "__init__.py" in names and "blender_manifest.toml" in names
+    assert any(name.startswith("gencoords_addon/") for name in names)
+    assert "core/__init__.py" in names
+    allowed_tops = {"__init__.py", "blender_manifest.toml", "LICENSE", "gencoords_addon", "core"}
+    assert {name.split("/")[0] for name in names} <= allowed_tops
+    assert not [name for name in names if "__pycache__" in name or name.endswith(".pyc")]
+    manifest = tomllib.loads(zipfile.ZipFile(package).read("blender_manifest.toml").decode())
+    assert package.name == f"{manifest['id']}-{manifest['version']}.zip"
+
+
+def test_installed_extension_is_enabled_with_its_api(gc):
+    assert "bl_ext.user_default.gencoords" in bpy.context.preferences.addons
+    for operator in ("gencoords_bind", "gencoords_unbind", "gencoords_show_field",
+                     "gencoords_clear_field"):
+        assert hasattr(bpy.ops.object, operator)
+    properties = bpy.types.Object.bl_rna.properties["gencoords"].fixed_type.properties
+    for name in ("cage", "kind", "outside", "live", "field_vertex", "bind_data"):
+        assert properties[name].description, name
+    assert properties["kind"].default == 'MEAN_VALUE'
+    assert {item.identifier for item in properties["kind"].enum_items} == {
+        'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI'}
+
+
+class RecordingLayout:
+    """Stands in for bpy.types.UILayout (unavailable headless), recording what is drawn."""
+
+    def __init__(self, drawn):
+        self.drawn = drawn
+        self.enabled = True
+
+    def _nested(self, *args, **kwargs):
+        return RecordingLayout(self.drawn)
+
+    column = row = box = _nested
+
+    def prop(self, data, name, **kwargs):
+        assert name in data.bl_rna.properties, name
+        self.drawn.append(("prop", name))
+
+    def operator(self, idname, **kwargs):
+        category, name = idname.split(".")
+        assert hasattr(getattr(bpy.ops, category), name), idname
+        self.drawn.append(("operator", idname))
+
+    def label(self, text, icon='NONE'):
+        self.drawn.append(("label", text))
+
+
+def test_panel_draws_settings_status_and_operators(gc):
+    from scene_helpers import add_icosphere_cage, add_sphere, bind
+
+    panel = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.panel")
+    assert hasattr(bpy.types, "OBJECT_PT_gencoords") and hasattr(bpy.types, "VIEW3D_PT_gencoords")
+    obj = add_sphere()
+    bind(obj, add_icosphere_cage())
+    drawn = []
+    panel.draw_settings(RecordingLayout(drawn), obj)
+    for item in (("prop", "cage"), ("prop", "kind"), ("prop", "outside"), ("prop", "live"),
+                 ("prop", "field_vertex"), ("operator", "object.gencoords_bind"),
+                 ("operator", "object.gencoords_unbind"),
+                 ("operator", "object.gencoords_show_field"),
+                 ("label", "Bound to 'Cage' (Mean Value)")):
+        assert item in drawn

@@ -1,0 +1,148 @@
+"""Independent formulas for named coordinates, written straight from the literature.
+
+None of these shares code with ``core``: they are the oracles the general construction
+is checked against. Plain loops are fine here (few points, small cages).
+"""
+
+import numpy as np
+
+
+def normalise(weights):
+    weights = np.asarray(weights, dtype=float)
+    return weights / weights.sum(axis=-1, keepdims=True)
+
+
+def _cot(u, v):
+    """Cotangent of the angle between 2D or 3D vectors u and v."""
+    cross = np.cross(u, v)
+    return np.dot(u, v) / np.linalg.norm(np.atleast_1d(cross))
+
+
+def mean_value_2d_trigonometric(x, polygon):
+    """Floater's mean value weights, paper eq. (4): (tan(a_{i-1}/2) + tan(a_i/2)) / |v_i - x|."""
+    e = polygon - x
+    lengths = np.linalg.norm(e, axis=1)
+    following = np.roll(e, -1, axis=0)
+    angle = np.arctan2(e[:, 0] * following[:, 1] - e[:, 1] * following[:, 0],
+                       np.einsum("ij,ij->i", e, following))  # a_i between e_i and e_{i+1}
+    tangent = np.tan(angle / 2.0)
+    return (np.roll(tangent, 1) + tangent) / lengths
+
+
+def discrete_harmonic_2d_cotangent(x, polygon):
+    """Cotangent form (13): cotangents of the angles opposite the spoke x-v_i.
+
+    w_i = cot(angle at v_{i-1} in triangle x v_{i-1} v_i) + cot(angle at v_{i+1} in x v_i v_{i+1}).
+    """
+    count = len(polygon)
+    weights = np.empty(count)
+    for i in range(count):
+        previous, current, following = polygon[i - 1], polygon[i], polygon[(i + 1) % count]
+        weights[i] = (_cot(x - previous, current - previous) + _cot(x - following, current - following))
+    return weights
+
+
+def floater_2d(x, polygon, c):
+    """Floater, Hormann and Kos's construction: w_i = c_{i+1}/A_i + c_{i-1}/A_{i-1} - c_i B_i/(A_{i-1} A_i).
+
+    A_i = area(x, v_i, v_{i+1}), B_i = area(x, v_{i-1}, v_{i+1}); c may depend on x.
+    """
+    def area(a, b):
+        return 0.5 * ((a[0] - x[0]) * (b[1] - x[1]) - (a[1] - x[1]) * (b[0] - x[0]))
+
+    count = len(polygon)
+    weights = np.empty(count)
+    for i in range(count):
+        previous, current, following = polygon[i - 1], polygon[i], polygon[(i + 1) % count]
+        a_prev, a_here = area(previous, current), area(current, following)
+        b_here = area(previous, following)
+        weights[i] = (c[(i + 1) % count] / a_here + c[i - 1] / a_prev
+                      - c[i] * b_here / (a_prev * a_here))
+    return weights
+
+
+def mean_value_3d_ju(x, vertices, faces):
+    """Ju, Schaefer and Warren 2005, "Mean value coordinates for closed triangular meshes".
+
+    The robust pseudo-code of that paper (valid inside and outside, convex or not), for a
+    point not on the mesh.
+    """
+    weights = np.zeros(len(vertices))
+    e = vertices - x
+    distance = np.linalg.norm(e, axis=1)
+    unit = e / distance[:, None]
+    for face in faces:
+        u = unit[face]
+        chord = np.array([np.linalg.norm(u[(i + 1) % 3] - u[(i + 2) % 3]) for i in range(3)])
+        theta = 2.0 * np.arcsin(np.clip(chord / 2.0, -1.0, 1.0))
+        half = theta.sum() / 2.0
+        sin_theta = np.sin(theta)
+        c = np.array([2.0 * np.sin(half) * np.sin(half - theta[i])
+                      / (sin_theta[(i + 1) % 3] * sin_theta[(i + 2) % 3]) - 1.0 for i in range(3)])
+        sign = np.sign(np.linalg.det(u))
+        s = sign * np.sqrt(np.clip(1.0 - c * c, 0.0, None))
+        if np.any(np.abs(s) <= 1e-12):
+            continue  # x in the face's plane, off the face: no contribution
+        for i in range(3):
+            j, k = (i + 1) % 3, (i + 2) % 3
+            weights[face[i]] += ((theta[i] - c[j] * theta[k] - c[k] * theta[j])
+                                 / (distance[face[i]] * sin_theta[j] * s[k]))
+    return weights
+
+
+def _faces_around(vertex, faces):
+    """Faces containing a vertex, in order around it (each shares an edge with the next)."""
+    ring = [f for f in faces if vertex in f]
+    # In face (vertex, a, b) (rotated), the next face around contains (vertex, b).
+    rotated = []
+    for face in ring:
+        i = list(face).index(vertex)
+        rotated.append((face[(i + 1) % 3], face[(i + 2) % 3]))
+    ordered = [0]
+    while len(ordered) < len(ring):
+        _, last_b = rotated[ordered[-1]]
+        ordered.append(next(j for j, (a, _) in enumerate(rotated) if a == last_b))
+    return [ring[j] for j in ordered]
+
+
+def wachspress_3d_polar_dual(x, vertices, faces):
+    """Wachspress weights as polar-dual face areas (Ju, Schaefer, Warren, Desbrun 2005).
+
+    The polar dual of the cage about x has one vertex n_f / h_f per face f (unit outward
+    normal over distance to x); the dual face of vertex i is the polygon of its faces'
+    dual vertices, lying in the plane p . (v_i - x) = 1. Weight: its area / |v_i - x|.
+    """
+    weights = np.empty(len(vertices))
+    for i in range(len(vertices)):
+        polygon = []
+        for face in _faces_around(i, faces):
+            a, b, c = vertices[face]
+            normal = np.cross(b - a, c - a)
+            normal /= np.linalg.norm(normal)
+            polygon.append(normal / np.dot(a - x, normal))
+        polygon = np.array(polygon)
+        area_vector = 0.5 * sum(np.cross(polygon[j], polygon[(j + 1) % len(polygon)])
+                                for j in range(len(polygon)))
+        weights[i] = np.linalg.norm(area_vector) / np.linalg.norm(vertices[i] - x)
+    return weights
+
+
+def discrete_harmonic_3d_cotangent(x, vertices, faces):
+    """Cotangent form (20): w_i = sum over faces T of i of cot(theta_i^T) h_i^T / 2.
+
+    theta_i^T: dihedral angle of the tetrahedron {x} + T at the edge opposite i, between
+    T and the triangle {x, v_j, v_k}; h_i^T = |v_j - v_k|.
+    """
+    weights = np.zeros(len(vertices))
+    for face in faces:
+        for slot in range(3):
+            i, j, k = face[slot], face[(slot + 1) % 3], face[(slot + 2) % 3]
+            edge = vertices[k] - vertices[j]
+            direction = edge / np.linalg.norm(edge)
+
+            def across(point):  # component orthogonal to the edge
+                offset = point - vertices[j]
+                return offset - np.dot(offset, direction) * direction
+
+            weights[i] += _cot(across(vertices[i]), across(x)) * np.linalg.norm(edge) / 2.0
+    return weights

@@ -1,0 +1,134 @@
+"""Boundary limits, point locations and the three outside behaviours."""
+
+import numpy as np
+import pytest
+
+import core
+import core.barycentric
+from polytopes import icosphere, octahedron, random_convex_polytope, random_interior_points, regular_polygon
+from reference_formulas import mean_value_3d_ju, normalise
+
+TETRA_LIKE = octahedron((1.0, 1.3, 0.8))
+
+
+def facet_point(vertices, face, barycentric):
+    return np.asarray(barycentric) @ vertices[face]
+
+
+@pytest.mark.parametrize("kind", core.KINDS)
+@pytest.mark.parametrize("offset", [0.0, 1e-11, -1e-11])
+def test_points_on_or_near_facets_edges_vertices_get_the_linear_limit(kind, offset):
+    vertices, faces = TETRA_LIKE
+    face = faces[0]
+    normal = np.cross(vertices[face[1]] - vertices[face[0]], vertices[face[2]] - vertices[face[0]])
+    normal /= np.linalg.norm(normal)
+    cases = [(0.2, 0.3, 0.5), (0.5, 0.5, 0.0), (1.0, 0.0, 0.0), (0.0, 0.25, 0.75)]
+    points = np.array([facet_point(vertices, face, b) for b in cases]) - offset * normal
+    coordinates = core.coordinates(points, vertices, faces, kind=kind)
+    expected = np.zeros((len(cases), len(vertices)))
+    expected[:, face] = cases
+    assert np.isfinite(coordinates).all()
+    np.testing.assert_allclose(coordinates, expected, atol=1e-9)
+    np.testing.assert_array_equal(core.point_locations(points, vertices, faces), 0)
+
+
+@pytest.mark.parametrize("kind", core.KINDS)
+def test_coordinates_approach_the_facet_limit_continuously(kind):
+    vertices, faces = TETRA_LIKE
+    face = faces[3]
+    on_facet = facet_point(vertices, face, (0.3, 0.3, 0.4))
+    inward = -on_facet / np.linalg.norm(on_facet)
+    limit = core.coordinates(on_facet, vertices, faces, kind=kind)
+    previous = np.inf
+    for depth in [1e-2, 1e-4, 1e-6, 1e-8]:
+        gap = np.abs(core.coordinates(on_facet + depth * inward, vertices, faces, kind=kind) - limit).max()
+        assert gap < 50 * depth and gap <= previous
+        previous = gap
+
+
+def test_vertex_gets_exactly_one():
+    vertices, faces = icosphere(1)
+    coordinates = core.coordinates(vertices, vertices, faces, kind="wachspress")
+    np.testing.assert_array_equal(coordinates, np.eye(len(vertices)))
+
+
+def test_outside_raise_counts_and_names_the_points():
+    vertices, faces = octahedron()
+    points = np.array([[0, 0, 0], [2, 0, 0], [0.1, 0.1, 0.1], [0, 0, -3]])
+    with pytest.raises(core.OutsideCageError) as error:
+        core.coordinates(points, vertices, faces, kind="wachspress")
+    assert list(error.value.indices) == [1, 3]
+    assert "2 of 4 points" in str(error.value) and "1, 3" in str(error.value)
+
+
+@pytest.mark.parametrize("kind", core.KINDS)
+def test_outside_project_gives_the_nearest_boundary_points_coordinates(kind):
+    vertices, faces = octahedron()
+    points = np.array([[2.0, 0.0, 0.0], [1.0, 1.0, 1.0], [0.0, -0.8, -0.9]])
+    coordinates = core.coordinates(points, vertices, faces, kind=kind, outside="project")
+    nearest = coordinates @ vertices
+    np.testing.assert_allclose(nearest[0], [1, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(nearest[1], [1 / 3, 1 / 3, 1 / 3], atol=1e-12)
+    np.testing.assert_allclose(np.abs(nearest).sum(axis=1), 1.0, atol=1e-12)  # on the boundary
+    assert coordinates.min() >= 0.0
+
+
+def test_outside_extrapolate_mean_value_is_the_smooth_extension():
+    """Outside a convex cage, mean value extrapolation equals Ju et al.'s formula there."""
+    vertices, faces = icosphere(1)
+    points = np.array([[1.5, 0.2, 0.1], [0.0, -2.0, 3.0], [1.2, 1.2, 0.0]])
+    ours = core.coordinates(points, vertices, faces, kind="mean_value", outside="extrapolate")
+    theirs = np.array([normalise(mean_value_3d_ju(x, vertices, faces)) for x in points])
+    np.testing.assert_allclose(ours, theirs, atol=1e-12)
+    np.testing.assert_allclose(ours @ vertices, points, atol=1e-12)
+
+
+def test_outside_extrapolate_mean_value_is_continuous_across_a_facet_plane():
+    vertices, faces = octahedron()
+    # (1.5, -0.5, 0): in the plane z=0? No: on the supporting plane of face (0, 2, 4),
+    # x + y + z = 1, beyond the face.
+    on_plane = np.array([1.5, 0.2, -0.7])
+    assert abs(on_plane.sum() - 1.0) < 1e-15
+    normal = np.ones(3) / np.sqrt(3)
+    values = [core.coordinates(on_plane + s * normal, vertices, faces, kind="mean_value",
+                               outside="extrapolate") for s in (-1e-7, 0.0, 1e-7)]
+    assert np.isfinite(values[1]).all()
+    assert np.abs(values[0] - values[1]).max() < 1e-5 and np.abs(values[2] - values[1]).max() < 1e-5
+
+
+@pytest.mark.parametrize("kind", ["wachspress", "discrete_harmonic", "voronoi"])
+def test_outside_extrapolate_is_finite_and_affine_even_at_poles(kind):
+    vertices, faces = octahedron()
+    points = np.array([[1.5, 0.2, -0.7], [1.2, 0.3, 0.2], [0.0, 0.0, 1.0 + 1e-3]])
+    coordinates = core.coordinates(points, vertices, faces, kind=kind, outside="extrapolate")
+    assert np.isfinite(coordinates).all()
+    np.testing.assert_allclose(coordinates.sum(axis=1), 1.0, atol=1e-12)
+    regular = np.abs(coordinates).max(axis=1) < 1e6  # away from the pole: the formula itself
+    np.testing.assert_allclose(coordinates[regular][1:] @ vertices, points[regular][1:], atol=1e-9)
+
+
+def test_point_locations():
+    vertices, edges = regular_polygon(6)
+    points = np.array([[0.0, 0.0], [1.0, 0.0], [0.75, np.sqrt(3) / 4], [3.0, 0.0], [0.9, 0.5]])
+    np.testing.assert_array_equal(core.point_locations(points, vertices, edges), [1, 0, 0, -1, -1])
+
+
+def test_chunking_and_threads_do_not_change_results(monkeypatch):
+    rng = np.random.default_rng(5)
+    vertices, faces = random_convex_polytope(rng, 3, 14)
+    points = np.concatenate([random_interior_points(rng, vertices, 300), vertices[:3],
+                             vertices.mean(axis=0) + 10.0 * np.ones((2, 3))])
+    reference = core.coordinates(points, vertices, faces, kind="voronoi", outside="project")
+    monkeypatch.setattr(core.barycentric, "_CHUNK_BYTES", 1)  # one point per chunk
+    chunked = core.coordinates(points, vertices, faces, kind="voronoi", outside="project")
+    np.testing.assert_allclose(chunked, reference, rtol=0, atol=1e-15)  # BLAS rounding only
+
+
+def test_weights_are_homogeneous_and_finite_on_the_boundary():
+    vertices, faces = octahedron()
+    points = np.array([[0.2, 0.1, 0.0], [1.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.1, 0.2, 0.3]])
+    for kind in core.KINDS:
+        weights = core.weights(points, vertices, faces, kind=kind)
+        assert np.isfinite(weights).all()
+        np.testing.assert_allclose(np.einsum("kn,knN->kN", weights, vertices[None] - points[:, None]),
+                                   0.0, atol=1e-12)

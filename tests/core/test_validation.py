@@ -1,0 +1,131 @@
+"""Every cage error names what is wrong and where; mean value handles non-convex cages."""
+
+import numpy as np
+import pytest
+
+import core
+from polytopes import dented_icosphere, icosphere, l_shape, octahedron, random_interior_points
+from reference_formulas import mean_value_3d_ju, normalise
+
+
+def cage_error(vertices, faces, kind="wachspress"):
+    with pytest.raises(core.CageError) as error:
+        core.coordinates(np.zeros((1, np.shape(vertices)[1])), vertices, faces, kind=kind)
+    return error.value
+
+
+def test_too_few_vertices():
+    error = cage_error(np.eye(3), [[0, 1, 2], [0, 2, 1]])
+    assert error.problem == "too_few_vertices" and "at least 4" in str(error)
+
+
+def test_open_cage_names_a_boundary_edge_and_its_face():
+    vertices, faces = octahedron()
+    error = cage_error(vertices, faces[:-1])
+    assert error.problem == "open" and error.faces and len(error.vertices) == 2
+    assert "open" in str(error) and "edge" in str(error)
+
+
+def test_non_manifold_edge():
+    # Two closed tetrahedra sharing the edge (0, 1): four faces meet there.
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, -1, 0], [0, 0, -1]], float)
+    tetra = lambda a, b: [[0, 1, b], [0, a, 1], [0, b, a], [1, a, b]]  # noqa: E731
+    faces = np.array(tetra(2, 3) + [[0, 1, 5], [0, 4, 1], [0, 5, 4], [1, 4, 5]])
+    error = cage_error(vertices, faces)
+    assert error.problem == "non_manifold" and "4 faces" in str(error) and error.vertices == (0, 1)
+
+
+def test_face_repeating_a_vertex_or_out_of_range():
+    vertices, faces = octahedron()
+    assert cage_error(vertices, np.concatenate([faces, [[0, 0, 1]]])).problem == "bad_faces"
+    assert cage_error(vertices, np.concatenate([faces, [[0, 1, 9]]])).problem == "bad_faces"
+
+
+def test_degenerate_facet_in_a_closed_cage():
+    # A tetrahedron whose apex lies in the plane of... a triangle with collinear vertices.
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [1, 1, 0], [1, 0.3, 1]], float)
+    faces = np.array([[0, 2, 1], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [0, 3, 2]])
+    error = cage_error(vertices, faces)
+    assert error.problem == "degenerate_facet" and error.faces == (0,)
+
+
+def test_non_convex_names_the_vertex_and_face_and_suggests_nothing_silently():
+    vertices, faces = dented_icosphere()
+    for kind in ("wachspress", "discrete_harmonic", "voronoi"):
+        error = cage_error(vertices, faces, kind)
+        assert error.problem == "non_convex" and len(error.vertices) == 1 and len(error.faces) == 1
+        (vertex,), (face,) = error.vertices, error.faces
+        assert f"vertex {vertex}" in str(error) and f"face {face}" in str(error)
+        # The named vertex really is beyond the named face's plane.
+        a, b, c = vertices[faces[face]]
+        assert np.dot(vertices[vertex] - a, np.cross(b - a, c - a)) > 0
+
+
+def test_duplicated_vertices():
+    vertices, faces = octahedron()
+    doubled = np.concatenate([vertices, vertices[:1]])
+    faces = faces.copy()
+    faces[0, 0] = 6
+    error = cage_error(doubled, faces)
+    assert error.problem == "duplicate_vertices" and set(error.vertices) == {0, 6}
+
+
+def test_non_finite_vertex_and_points():
+    vertices, faces = octahedron()
+    broken = vertices.copy()
+    broken[3, 1] = np.nan
+    error = cage_error(broken, faces)
+    assert error.problem == "non_finite" and error.vertices == (3,)
+    with pytest.raises(ValueError, match="non-finite"):
+        core.coordinates([[np.nan, 0, 0]], vertices, faces)
+
+
+def test_unknown_kind_and_outside_mode():
+    vertices, faces = octahedron()
+    with pytest.raises(ValueError, match="kind"):
+        core.coordinates([[0, 0, 0]], vertices, faces, kind="harmonic")
+    with pytest.raises(ValueError, match="outside"):
+        core.coordinates([[0, 0, 0]], vertices, faces, outside="clamp")
+
+
+def test_flat_regions_of_triangulated_quads_count_as_convex():
+    cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+    triangles = np.array([[q[0], q[1], q[2]] for q in quads] + [[q[0], q[2], q[3]] for q in quads])
+    points = np.random.default_rng(0).uniform(0.05, 0.95, size=(50, 3))
+    for kind in core.KINDS:
+        coordinates = core.coordinates(points, cube, triangles, kind=kind)
+        np.testing.assert_allclose(coordinates @ cube, points, atol=1e-13)
+
+
+def test_mean_value_on_a_non_convex_cage_inside_and_outside():
+    vertices, faces = dented_icosphere()
+    rng = np.random.default_rng(2)
+    inside = 0.3 * random_interior_points(rng, vertices, 40)
+    inside = inside[core.point_locations(inside, vertices, faces) == 1]
+    dent = 0.7 * vertices[0] / np.linalg.norm(vertices[0])  # beyond the pushed-in vertex
+    outside = np.array([dent, [1.4, 0.3, 0.2], [0.0, 2.0, -1.0]])
+    assert list(core.point_locations(outside, vertices, faces)) == [-1, -1, -1]
+    ours = core.coordinates(np.concatenate([inside, outside]), vertices, faces,
+                            kind="mean_value", outside="extrapolate")
+    np.testing.assert_allclose(ours @ vertices, np.concatenate([inside, outside]), atol=1e-12)
+    theirs = np.array([normalise(mean_value_3d_ju(x, vertices, faces))
+                       for x in np.concatenate([inside, outside])])
+    np.testing.assert_allclose(ours, theirs, atol=1e-11)
+
+
+def test_mean_value_on_a_non_convex_polygon():
+    vertices, edges = l_shape()
+    points = np.array([[0.5, 0.5], [1.5, 0.5], [0.5, 1.5], [0.9, 0.9]])
+    coordinates = core.coordinates(points, vertices, edges, kind="mean_value")
+    np.testing.assert_allclose(coordinates @ vertices, points, atol=1e-13)
+    with pytest.raises(core.OutsideCageError):
+        core.coordinates([[1.5, 1.5]], vertices, edges, kind="mean_value")
+    with pytest.raises(core.CageError, match="not convex"):
+        core.coordinates(points, vertices, edges, kind="wachspress")
+
+
+def test_validate_cage_accepts_a_good_cage_and_returns_it():
+    vertices, faces = icosphere(2)
+    cage = core.validate_cage(vertices, faces)
+    assert cage.size > 0 and len(cage.topology.ridges) == 3 * len(faces) // 2
