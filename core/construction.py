@@ -42,6 +42,9 @@ class Cage:
         Outward normal of each facet scaled to (N-1)! times its (N-1)-volume.
     facet_offsets : (m,) float
         ``v_t0 . facet_normal``: ``det E_T(x) = facet_offset - x . facet_normal``.
+    ridge_corners : (p, N, r, 1) float
+        Vertex positions of each ridge, components first (C-contiguous, so that the
+        per-point arrays derived from it are contiguous too).
     """
 
     vertices: np.ndarray
@@ -50,6 +53,7 @@ class Cage:
     topology: CageTopology
     facet_normals: np.ndarray
     facet_offsets: np.ndarray
+    ridge_corners: np.ndarray
 
     @property
     def dimension(self):
@@ -85,13 +89,15 @@ def prepare_cage(vertices, faces):
     # det[v_0 - x, ..., v_{N-1} - x] = det[v_0 - x, v_1 - v_0, ...] = (v_0 - x) . normal
     edges = corners[:, 1:, :] - corners[:, :1, :]  # (m, N-1, N)
     normals = generalized_cross(np.moveaxis(edges, 0, -1)).T
+    topology = cage_topology(faces, len(vertices))
     return Cage(
         vertices=centred,
         origin=origin,
         size=float(np.linalg.norm(high - low)),
-        topology=cage_topology(faces, len(vertices)),
+        topology=topology,
         facet_normals=normals,
         facet_offsets=np.einsum("mn,mn->m", corners[:, 0, :], normals),
+        ridge_corners=np.ascontiguousarray(centred[topology.ridges].transpose(1, 2, 0))[..., None],
     )
 
 
@@ -141,25 +147,28 @@ def point_frame(cage, points):
     """
     x = np.asarray(points, dtype=np.float64) - cage.origin
     dim = cage.dimension
-    corner = cage.vertices[cage.topology.ridges]  # (r, p, N)
-    size = corner.shape[1]
+    size = cage.ridge_corners.shape[0]
     # e_k = v_k - x at the ridge vertices, (p, N, r, k), computed directly from the
     # coordinates (not from |v|^2 - 2 v.x + |x|^2) to avoid cancellation near the cage.
-    vectors = corner.transpose(1, 2, 0)[..., None] - x.T[None, :, None, :]
+    vectors = cage.ridge_corners - x.T[None, :, None, :]
     gram = np.empty((size, size) + vectors.shape[2:])
     for a in range(size):
         for b in range(a, size):
-            gram[a, b] = vectors[a, 0] * vectors[b, 0]
-            for c in range(1, dim):
-                gram[a, b] += vectors[a, c] * vectors[b, c]
+            gram[a, b] = _sum_of_products(vectors[a], vectors[b])
             gram[b, a] = gram[a, b]
     cross = generalized_cross(vectors)
-    measure = cross[0] * cross[0]
-    for c in range(1, dim):
-        measure += cross[c] * cross[c]
+    measure = _sum_of_products(cross, cross)
     np.sqrt(measure, out=measure)
     return PointFrame(ridge_gram=gram, ridge_cross=cross, ridge_measure=measure,
                       facet_det=cage.facet_offsets[:, None] - cage.facet_normals @ x.T)
+
+
+def _sum_of_products(a, b):
+    """Dot products over the first (component) axis: (N, ...) x (N, ...) -> (...)."""
+    total = a[0] * b[0]
+    for c in range(1, len(a)):
+        total += a[c] * b[c]
+    return total
 
 
 def facet_determinants(cage, points):
@@ -183,6 +192,16 @@ def facet_determinants(cage, points):
 def construct_weights(cage, frame, ridge_scalars, skip_facets=None):
     """Homogeneous weights of the general construction for given ridge scalars.
 
+    With ``r^T = sum_j d_j m_j / |m_j|`` the coefficients ``u_i^T = r^T . m_i / det E``
+    expand into
+
+        u_i^T = (d_i |m_i| + sum_{j != i} (m_i . m_j) d_j / |m_j|) / det E,
+
+    d_i being the scalar of the ridge opposite slot i. Each ``m_i`` is a ridge's cross
+    product up to its orientation sign, so per facet this gathers N ridge vectors and
+    two scalars per ridge; the dot products of cross products keep full precision even
+    where the ridge vectors are long and the cross products short (fine cages).
+
     Parameters
     ----------
     cage : Cage
@@ -203,33 +222,41 @@ def construct_weights(cage, frame, ridge_scalars, skip_facets=None):
     """
     topology = cage.topology
     dim = cage.dimension
+    facets = len(topology.faces)
     measure = frame.ridge_measure
+    # Per ridge, rows 0..N-1: the cross product; N: d / |m|; N+1: d |m| (= |m|^2 d / |m|).
+    ridge_terms = np.empty((len(measure), dim + 2, measure.shape[1]))
+    for c in range(dim):
+        ridge_terms[:, c] = frame.ridge_cross[c]
     with np.errstate(divide="ignore", invalid="ignore"):
-        # d n_R = d cross / |cross|; a ridge through x (measure 0) encloses nothing.
-        scale = np.where(measure > 0.0, ridge_scalars / measure, 0.0)
+        # A ridge through x (|m| = 0) encloses nothing.
+        ridge_terms[:, dim] = np.where(measure > 0.0, ridge_scalars / measure, 0.0)
+        np.multiply(ridge_scalars, measure, out=ridge_terms[:, dim + 1])
         inverse_det = 1.0 / frame.facet_det
     if skip_facets is not None:
         inverse_det[skip_facets] = 0.0
-    # Per ridge, rows 0..N-1: the cross product; rows N..2N-1: d n_R, its Stokes term.
-    ridge_terms = np.empty((len(measure), 2 * dim, measure.shape[1]))
-    for c in range(dim):
-        ridge_terms[:, c] = frame.ridge_cross[c]
-        np.multiply(frame.ridge_cross[c], scale, out=ridge_terms[:, dim + c])
-    signs = topology.facet_ridge_signs[:, :, None]  # (m, N, 1): m_i = sign * ridge cross
-    per_slot = [ridge_terms[topology.facet_ridges[:, i]] for i in range(dim)]  # (m, 2N, k)
-    stokes = per_slot[0][:, dim:] * signs[:, 0:1]  # r^T: (m, N, k)
-    for i in range(1, dim):
-        stokes += per_slot[i][:, dim:] * signs[:, i:i + 1]
-    # u_i^T = r^T . m_i / det, one flat row per facet slot (slot-major) plus a zero row.
-    coefficients = np.zeros((dim * len(inverse_det) + 1, measure.shape[1]))
+    per_slot = [np.take(ridge_terms, topology.facet_ridges[:, i], axis=0) for i in range(dim)]  # (m, N+2, k)
+    signs = topology.facet_ridge_signs
+    # u_i^T for every facet slot (slot-major rows) plus a zero row for the padding.
+    coefficients = np.zeros((dim * facets + 1, measure.shape[1]))
+    slot_rows = [coefficients[i * facets:(i + 1) * facets] for i in range(dim)]
     for i in range(dim):
-        rows = coefficients[i * len(inverse_det):(i + 1) * len(inverse_det)]
-        for c in range(dim):
-            rows += per_slot[i][:, c] * stokes[:, c]
+        slot_rows[i] += per_slot[i][:, dim + 1]
+        for j in range(i + 1, dim):
+            # m_i . m_j, shared by the terms of slots i and j
+            cofactor_dot = _sum_of_products(per_slot[i][:, :dim].swapaxes(0, 1),
+                                            per_slot[j][:, :dim].swapaxes(0, 1))
+            cofactor_dot *= (signs[:, i] * signs[:, j])[:, None]
+            slot_rows[i] += cofactor_dot * per_slot[j][:, dim]
+            slot_rows[j] += cofactor_dot * per_slot[i][:, dim]
+    for rows in slot_rows:
         rows *= inverse_det
-        rows *= signs[:, i]
-    # w_i = sum over the facet slots of vertex i (padding rows read the zero row).
-    return coefficients[topology.vertex_slots].sum(axis=1)
+    # w_i = sum over the facet slots of vertex i (padding reads the zero row).
+    slots = topology.vertex_slots
+    weights = np.take(coefficients, slots[:, 0], axis=0)
+    for column in range(1, slots.shape[1]):
+        weights += np.take(coefficients, slots[:, column], axis=0)
+    return weights
 
 
 def weights_from_ridge_scalars(points, vertices, faces, d):

@@ -10,6 +10,7 @@ configuration (Blender reads ``BLENDER_USER_RESOURCES`` once, when ``bpy`` is im
 """
 
 import atexit
+import contextlib
 import importlib
 import math
 import os
@@ -93,8 +94,9 @@ def install_extension():
     broken package fails here with a clear message rather than later in a bind.
     """
     zip_path = extension_zip()
-    result = bpy.ops.extensions.package_install_files(
-        filepath=str(zip_path), repo="user_default", enable_on_install=True)
+    with quiet():
+        result = bpy.ops.extensions.package_install_files(
+            filepath=str(zip_path), repo="user_default", enable_on_install=True)
     if "FINISHED" not in result or not hasattr(bpy.types.Object, "gencoords"):
         raise RuntimeError(f"installing {zip_path} did not register Object.gencoords ({result})")
     return zip_path
@@ -361,12 +363,32 @@ def set_color_attribute(obj, colors, name="Color"):
     return attribute
 
 
+@contextlib.contextmanager
+def quiet():
+    """Silence Blender's own console lines (render progress, headless EGL warnings,
+    operator reports) for the block; failures still raise in Python with their message."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = os.dup(1), os.dup(2)
+    with open(os.devnull, "w") as null:
+        os.dup2(null.fileno(), 1)
+        os.dup2(null.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
+
+
 def render(path):
     """Render the scene's camera view to ``path`` (PNG)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     bpy.context.scene.render.filepath = str(path)
-    bpy.ops.render.render(write_still=True)
+    with quiet():
+        bpy.ops.render.render(write_still=True)
     return path
 
 

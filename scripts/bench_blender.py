@@ -2,8 +2,9 @@
 
 Scenes: Suzanne subdivided 2, 3, 4 times (7958 / 31658 / 126218 vertices) inside
 icosphere cages of 42, 162, 642 vertices (radius 2: convex and containing the mesh).
-Methods: Mesh Deform at precision 5 and 6 (7 and more exhaust memory at these sizes) and
-GenCoords with each coordinate type, each bound in a freshly built scene.
+Methods: Mesh Deform at precision 5 and 6 (6 takes minutes and gigabytes per scene, so by
+default only on the smallest scene; 7 and more exhaust memory) and GenCoords with each
+coordinate type, each bound in a freshly built scene.
 
 Metrics, measured the same way for every method:
   bind       wall time of the bind operator (``meshdeform_bind`` / ``gencoords_bind``).
@@ -12,7 +13,8 @@ Metrics, measured the same way for every method:
              positions with ``foreach_get``; median of 7 moves.
   peak MB    peak resident memory of the process during the bind minus resident memory
              just before it, sampled every millisecond from /proc by a separate process
-             (operators hold the GIL, so a thread could not sample during a bind).
+             (operators hold the GIL, so a thread could not sample during a bind); freed
+             heap memory is handed back first (malloc_trim) so earlier runs hide nothing.
   kept MB    resident memory after the bind minus before it: what the binding retains.
   .blend MB  size of an uncompressed .blend holding just that bound scene.
   affine     max distance, relative to the cage's bounding-box diagonal, between the
@@ -26,10 +28,10 @@ Usage: bench_blender.py [--quick | --full] [--kinds mean_value ...] [--precision
 """
 
 import argparse
+import ctypes
 import datetime
 import os
 import platform
-import select
 import shlex
 import subprocess
 import sys
@@ -63,6 +65,12 @@ print(max(peak, rss()), flush=True)
 """
 
 
+try:  # glibc keeps freed memory for reuse; trimming makes RSS deltas mean something
+    _malloc_trim = ctypes.CDLL("libc.so.6").malloc_trim
+except (OSError, AttributeError):  # not glibc: deltas may under-report after big runs
+    _malloc_trim = None
+
+
 def resident_bytes():
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
@@ -72,6 +80,8 @@ class PeakMemory:
     """Context manager: ``peak`` and ``kept`` resident-memory growth (bytes) over a block."""
 
     def __enter__(self):
+        if _malloc_trim is not None:
+            _malloc_trim(0)
         self._watcher = subprocess.Popen(
             [sys.executable, "-c", _WATCHER, str(os.getpid())],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
@@ -97,7 +107,8 @@ def bind_mesh_deform(mesh, cage, precision):
     modifier.precision = precision
     scn.make_active(mesh)
     start = time.perf_counter()
-    bpy.ops.object.meshdeform_bind(modifier=modifier.name)
+    with scn.quiet():
+        bpy.ops.object.meshdeform_bind(modifier=modifier.name)
     seconds = time.perf_counter() - start
     if not modifier.is_bound:
         raise RuntimeError(f"Mesh Deform precision {precision} did not bind")
@@ -110,7 +121,8 @@ def bind_gencoords(mesh, cage, kind):
     mesh.gencoords.kind = kind.upper()
     scn.make_active(mesh)
     start = time.perf_counter()
-    result = bpy.ops.object.gencoords_bind()
+    with scn.quiet():  # its "Info: Bound ..." report
+        result = bpy.ops.object.gencoords_bind()
     seconds = time.perf_counter() - start
     if "FINISHED" not in result or mesh.gencoords.bind_data is None:
         raise RuntimeError(f"gencoords_bind ({kind}) returned {result}")
@@ -120,48 +132,43 @@ def bind_gencoords(mesh, cage, kind):
 # ---------------------------------------------------------------------------- measuring
 
 
-def settle(mesh, expected_change=True, max_passes=4):
-    """Update the view layer until the evaluated mesh differs from its last state.
+def update_until_changed(mesh, previous, buffer=None, max_passes=4):
+    """``view_layer.update()`` until the evaluated mesh differs from ``previous``.
 
     Returns ``(positions, passes)``. GenCoords writes the deformed shape from a
-    depsgraph handler, so the evaluated mesh shows it one update later; Mesh Deform
-    shows it after the first. Timing "until it shows" is fair to both.
+    depsgraph handler; Blender evaluates such writes within the same update, so one
+    pass normally suffices for both methods, and the loop is what makes the timing
+    "until the evaluated mesh shows the move" whatever a method needs.
     """
-    layer = bpy.context.view_layer
-    before = scn.evaluated_positions(mesh).copy()
     for passes in range(1, max_passes + 1):
-        layer.update()
-        now = scn.evaluated_positions(mesh)
-        if not expected_change or not np.array_equal(now, before):
-            return now, passes
-    return now, max_passes
+        bpy.context.view_layer.update()
+        now = scn.evaluated_positions(mesh, out=buffer)
+        if not np.array_equal(now, previous):
+            break
+    return now, passes
 
 
-def set_cage(cage, points):
-    scn.set_positions(cage, points)
+def settle(mesh):
+    """The evaluated mesh after a cage change (made outside any timing)."""
+    return update_until_changed(mesh, scn.evaluated_positions(mesh).copy())[0].copy()
 
 
 def time_updates(mesh, cage, rest_cage):
     """Median seconds of one live update after moving one cage vertex, and passes used."""
-    depsgraph = bpy.context.evaluated_depsgraph_get()
     buffer = np.empty(len(mesh.data.vertices) * 3, dtype=np.float32)
-    previous = scn.evaluated_positions(mesh, depsgraph, buffer).copy()
+    previous = scn.evaluated_positions(mesh).copy()
     times, passes_used = [], []
     for repeat in range(UPDATE_REPEATS):
-        vertex = cage.data.vertices[MOVED_CAGE_VERTEX]
         offset = 0.05 * (repeat + 1) * (1 if repeat % 2 else -1)
-        vertex.co = rest_cage[MOVED_CAGE_VERTEX] + np.array([0.0, 0.0, offset])
-        cage.data.update()  # tags the cage; evaluation happens inside the timed part
+        cage.data.vertices[MOVED_CAGE_VERTEX].co = (
+            rest_cage[MOVED_CAGE_VERTEX] + np.array([0.0, 0.0, offset]))
+        cage.data.update()  # only tags the cage: evaluation happens inside the timing
         start = time.perf_counter()
-        for passes in range(1, 5):
-            bpy.context.view_layer.update()
-            now = scn.evaluated_positions(mesh, depsgraph, buffer)
-            if not np.array_equal(now, previous):
-                break
+        now, passes = update_until_changed(mesh, previous, buffer)
         times.append(time.perf_counter() - start)
         passes_used.append(passes)
         previous = now.copy()
-    set_cage(cage, rest_cage)
+    scn.set_positions(cage, rest_cage)
     settle(mesh)
     return float(np.median(times)), max(passes_used)
 
@@ -170,7 +177,8 @@ def blend_size(tag):
     """Bytes of an uncompressed .blend of the current scene (written, measured, deleted)."""
     with tempfile.TemporaryDirectory(prefix="gencoords-bench-") as folder:
         path = Path(folder) / f"{tag}.blend"
-        bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True, compress=False)
+        with scn.quiet():
+            bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True, compress=False)
         return path.stat().st_size
 
 
@@ -193,17 +201,17 @@ def run_method(level, subdivisions, method):
             seconds = bind_gencoords(mesh, cage, method[1])
     row = {"bind": seconds, "peak": memory.peak, "kept": memory.kept}
 
-    bound, _ = settle(mesh, expected_change=False)
+    bpy.context.view_layer.update()
+    bound = scn.evaluated_positions(mesh)
     row["rest_error"] = float(np.abs(bound - rest_mesh).max()) / size
     row["blend"] = blend_size(f"{method[0]}-{method[1]}")
     row["update"], row["passes"] = time_updates(mesh, cage, rest_cage)
 
-    set_cage(cage, scn.affine_map(rest_cage))
-    moved, _ = settle(mesh)
+    scn.set_positions(cage, scn.affine_map(rest_cage))
+    moved = settle(mesh)
     row["affine"] = float(np.linalg.norm(moved - scn.affine_map(rest_mesh), axis=1).max()) / size
-    set_cage(cage, scn.nonaffine_edit(rest_cage))
-    row["edited"], _ = settle(mesh)
-    row["edited"] = row["edited"].copy()
+    scn.set_positions(cage, scn.nonaffine_edit(rest_cage))
+    row["edited"] = settle(mesh)
     row["size"] = size
     return row
 
@@ -215,7 +223,7 @@ def fmt_time(seconds):
     return f"{seconds:.2f} s" if seconds >= 0.1 else f"{seconds * 1000:.0f} ms"
 
 
-def table(results, kinds, precisions):
+def table(results):
     """The Markdown table: one row per (scene, method), ratios against Mesh Deform p5."""
     lines = [
         "| mesh | cage | method | bind | MD5 bind / bind | update | update / MD5 update "
@@ -248,13 +256,20 @@ def main():
     sweep.add_argument("--quick", action="store_true",
                        help="default: 8k and 32k vertex meshes, 42 and 162 vertex cages")
     sweep.add_argument("--full", action="store_true",
-                       help="8k/32k/126k meshes x 42/162/642 cages (tens of minutes)")
+                       help="8k/32k/126k meshes x 42/162/642 cages (about an hour: "
+                            "Mesh Deform precision 6 takes minutes per scene)")
     parser.add_argument("--kinds", nargs="+", choices=scn.KINDS, default=list(scn.KINDS))
-    parser.add_argument("--precisions", nargs="+", type=int, default=[5, 6],
-                        help="Mesh Deform precisions (5 is the reference for ratios)")
+    parser.add_argument("--precisions", nargs="+", type=int, default=None,
+                        help="Mesh Deform precisions on every scene (5 is the reference "
+                             "for ratios). Default: 5 everywhere, 6 on the smallest scene "
+                             "only (about 5 minutes); --full: 5 and 6 everywhere")
     parser.add_argument("--output", type=Path, default=scn.OUT / "bench_blender.md")
     args = parser.parse_args()
     levels, cages = ((2, 3, 4), (2, 3, 4)) if args.full else ((2, 3), (2, 3))
+    if args.precisions:
+        everywhere, smallest_only = sorted(set(args.precisions), key=lambda p: p != 5), []
+    else:
+        everywhere, smallest_only = ([5, 6], []) if args.full else ([5], [6])
 
     header = [
         "# GenCoords vs Mesh Deform (Blender)",
@@ -268,15 +283,16 @@ def main():
     zip_path = scn.install_extension()
     print(f"extension: {zip_path.relative_to(scn.REPO)}\n", flush=True)
 
-    methods = [("md", p) for p in sorted(set(args.precisions), key=lambda p: p != 5)]
-    methods += [("gencoords", kind) for kind in args.kinds]
+    kinds = [("gencoords", kind) for kind in args.kinds]
     results = {}
     started = time.perf_counter()
     for level in levels:
         for subdivisions in cages:
             key = (scn.SUZANNE_VERTICES[level], scn.ICOSPHERE_VERTICES[subdivisions])
             rows = results.setdefault(key, {})
-            for method in methods:
+            smallest = (level, subdivisions) == (levels[0], cages[0])
+            precisions = everywhere + (smallest_only if smallest else [])
+            for method in [("md", p) for p in precisions] + kinds:
                 row = run_method(level, subdivisions, method)
                 rows[method] = row
                 print(f"  {key[0]:>6} / {key[1]:>3} {method[0]:9s} {str(method[1]):17s} "
@@ -284,7 +300,7 @@ def main():
                       f"({row['passes']} passes)  peak {row['peak'] / 2**20:6.0f} MB  "
                       f"affine {row['affine']:.1e}  rest {row['rest_error']:.1e}",
                       flush=True)
-    body = table(results, args.kinds, args.precisions)
+    body = table(results)
     notes = (__doc__.split("Metrics, measured the same way for every method:")[1]
              .split("Usage:")[0].rstrip())
     report = "\n".join(header) + "\n\n" + body + "\n\nMetrics:" + notes + (

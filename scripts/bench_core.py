@@ -58,6 +58,7 @@ def main():
     workers = core.barycentric._WORKERS
     for kind in core.KINDS:
         timings = {}
+        core.coordinates(points[:200], vertices, faces, kind=kind)  # warm up
         for threads in (1, workers):
             core.barycentric._WORKERS = threads
             timings[threads] = best_time(lambda: core.coordinates(points, vertices, faces, kind=kind),
