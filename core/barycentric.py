@@ -20,8 +20,11 @@ __all__ = ["coordinates", "weights", "ridge_scalars", "point_locations", "needs_
            "OUTSIDE_MODES"]
 
 OUTSIDE_MODES = ("raise", "extrapolate", "project")
-# Bytes of temporaries per chunk: small enough to stay in cache, and with two workers
-# far below the 256 MB budget whatever the number of points.
+# (point, facet) pairs per chunk: each (m, k) temporary then stays within the L2 cache
+# (measured optimum on 162- and 642-vertex cages: 11k to 22k pairs).
+_CHUNK_PAIRS = 16 << 10
+# Upper bound on a chunk's temporaries, for huge cages: with two workers far below the
+# 256 MB budget whatever the number of points.
 _CHUNK_BYTES = 24 << 20
 _WORKERS = max(1, min(os.cpu_count() or 1, 8))
 
@@ -38,7 +41,7 @@ def _chunk_size(cage):
     ridges, facets = len(cage.topology.ridges), len(cage.topology.faces)
     per_point = 8 * (ridges * (dim * dim + 2 * dim) + facets * (3 * dim * dim + 4 * dim + 4)
                      + len(cage.vertices) * (cage.topology.vertex_slots.shape[1] + 2))
-    return max(1, _CHUNK_BYTES // per_point)
+    return max(1, min(_CHUNK_PAIRS // facets, _CHUNK_BYTES // per_point))
 
 
 def _keep_freed_memory_for_reuse():
@@ -53,17 +56,22 @@ def _keep_freed_memory_for_reuse():
     np.empty(3 << 20)  # 24 MB: below the 32 MB cap of the adjustment
 
 
-def _map_chunks(function, count, chunk):
-    """Run ``function(slice)`` over consecutive slices of ``range(count)``, in parallel."""
+def _map_chunks(function, count, chunk, progress=None):
+    """Run ``function(slice)`` over consecutive slices of ``range(count)``, in parallel.
+
+    ``progress(fraction)`` is called on the calling thread as slices complete.
+    """
     _keep_freed_memory_for_reuse()
     slices = [slice(start, min(start + chunk, count)) for start in range(0, count, chunk)]
+    report = progress or (lambda fraction: None)
     if len(slices) <= 1 or _WORKERS == 1:
         for piece in slices:
             function(piece)
+            report(piece.stop / count)
         return
     with ThreadPoolExecutor(max_workers=_WORKERS) as pool:
-        for _ in pool.map(function, slices):
-            pass  # re-raises the first worker exception
+        for piece, _ in zip(slices, pool.map(function, slices)):  # re-raises worker errors
+            report(piece.stop / count)
 
 
 def _as_points(points, dim):
@@ -89,7 +97,7 @@ def _prepare(points, vertices, faces, kind, tolerance):
     return _as_points(points, cage.dimension), cage, convex
 
 
-def _evaluate(points, cage, kind, convex, tolerance, outside, normalise):
+def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progress=None):
     """Shared driver of :func:`coordinates` and :func:`weights` (see there)."""
     absolute = tolerance * cage.size
     count = len(points)
@@ -124,14 +132,14 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise):
             values[project] = nearest_boundary_coordinates(cage, x[project])[0]
         result[rows] = values
 
-    _map_chunks(run, count, _chunk_size(cage))
+    _map_chunks(run, count, _chunk_size(cage), progress)
     if outside == "raise" and (location == OUTSIDE).any():
         raise OutsideCageError(np.flatnonzero(location == OUTSIDE), count)
     return result, location
 
 
 def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
-                tolerance=DEFAULT_TOLERANCE):
+                tolerance=DEFAULT_TOLERANCE, progress=None):
     """Generalized barycentric coordinates of points with respect to a cage.
 
     Parameters
@@ -156,6 +164,9 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
         Relative to the cage's bounding-box diagonal. Points this close to the boundary
         count as on it and get the exact limit: linear coordinates of the facet, edge or
         vertex they touch.
+    progress : callable, optional
+        ``progress(fraction)`` is called from the calling thread as work completes
+        (fraction in (0, 1]), for progress bars on long computations.
 
     Returns
     -------
@@ -173,7 +184,8 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
     if outside not in OUTSIDE_MODES:
         raise ValueError(f"outside must be one of {', '.join(OUTSIDE_MODES)}, got {outside!r}")
     points, cage, convex = _prepare(points, vertices, faces, kind, tolerance)
-    return _evaluate(points, cage, kind, convex, tolerance, outside, normalise=True)[0]
+    return _evaluate(points, cage, kind, convex, tolerance, outside, normalise=True,
+                     progress=progress)[0]
 
 
 def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERANCE):

@@ -42,9 +42,13 @@ class Cage:
         Outward normal of each facet scaled to (N-1)! times its (N-1)-volume.
     facet_offsets : (m,) float
         ``v_t0 . facet_normal``: ``det E_T(x) = facet_offset - x . facet_normal``.
-    ridge_corners : (p, N, r, 1) float
-        Vertex positions of each ridge, components first (C-contiguous, so that the
-        per-point arrays derived from it are contiguous too).
+    ridge_dot_constant, ridge_dot_linear : (p, p, r, 1), (p, p, r, N) float
+        ``e_a . e_b = v_a . v_b - x . (v_a + v_b) + |x|^2`` for ridge vertices a, b:
+        the constant and the vector multiplying -x.
+    ridge_cross_constant, ridge_cross_linear : (N, r, 1), (N, r, N) float
+        The ridge's generalized cross product of ``e = v - x`` is affine in x (it is
+        alternating multilinear, so terms with x in two slots vanish): constant plus
+        ``ridge_cross_linear @ x``.
     """
 
     vertices: np.ndarray
@@ -53,7 +57,10 @@ class Cage:
     topology: CageTopology
     facet_normals: np.ndarray
     facet_offsets: np.ndarray
-    ridge_corners: np.ndarray
+    ridge_dot_constant: np.ndarray
+    ridge_dot_linear: np.ndarray
+    ridge_cross_constant: np.ndarray
+    ridge_cross_linear: np.ndarray
 
     @property
     def dimension(self):
@@ -97,8 +104,41 @@ def prepare_cage(vertices, faces):
         topology=topology,
         facet_normals=normals,
         facet_offsets=np.einsum("mn,mn->m", corners[:, 0, :], normals),
-        ridge_corners=np.ascontiguousarray(centred[topology.ridges].transpose(1, 2, 0))[..., None],
+        **_ridge_polynomials(centred[topology.ridges]),
     )
+
+
+def _ridge_polynomials(corners):
+    """Coefficients of the per-(point, ridge) quantities as polynomials in x.
+
+    Parameters
+    ----------
+    corners : (r, p, N) float
+        Ridge vertex positions (centred).
+
+    Returns
+    -------
+    dict of the ``ridge_*`` fields of :class:`Cage`.
+    """
+    count, size, dim = corners.shape
+    slots = corners.transpose(1, 2, 0)  # (p, N, r)
+    dot_constant = np.einsum("arN,brN->abr", corners.transpose(1, 0, 2), corners.transpose(1, 0, 2))
+    dot_linear = (corners.transpose(1, 0, 2)[:, None] + corners.transpose(1, 0, 2)[None, :])  # (p, p, r, N)
+    cross_linear = np.zeros((dim, count, dim))
+    for slot in range(size):
+        for axis in range(dim):
+            # d/dx_axis of gcross(v_1 - x, ..., v_p - x): minus the cross product with
+            # the unit vector in this slot (the other slots keep their vertices).
+            replaced = slots.copy()
+            replaced[slot] = 0.0
+            replaced[slot, axis] = 1.0
+            cross_linear[:, :, axis] -= generalized_cross(replaced)
+    return {
+        "ridge_dot_constant": dot_constant[..., None],
+        "ridge_dot_linear": np.ascontiguousarray(dot_linear),
+        "ridge_cross_constant": generalized_cross(slots)[..., None],
+        "ridge_cross_linear": cross_linear,
+    }
 
 
 @dataclass(frozen=True)
@@ -146,17 +186,19 @@ def point_frame(cage, points):
     PointFrame
     """
     x = np.asarray(points, dtype=np.float64) - cage.origin
-    dim = cage.dimension
-    size = cage.ridge_corners.shape[0]
-    # e_k = v_k - x at the ridge vertices, (p, N, r, k), computed directly from the
-    # coordinates (not from |v|^2 - 2 v.x + |x|^2) to avoid cancellation near the cage.
-    vectors = cage.ridge_corners - x.T[None, :, None, :]
-    gram = np.empty((size, size) + vectors.shape[2:])
+    size = cage.ridge_dot_constant.shape[0]
+    # Polynomials in x with precomputed coefficients: a few small matrix products. The
+    # cage is centred, so rounding is of the order of computing e = v - x first.
+    squared_norm = np.einsum("kN,kN->k", x, x)
+    gram = np.empty((size, size, cage.ridge_dot_constant.shape[2], len(x)))
     for a in range(size):
         for b in range(a, size):
-            gram[a, b] = _sum_of_products(vectors[a], vectors[b])
+            np.matmul(cage.ridge_dot_linear[a, b], -x.T, out=gram[a, b])
+            gram[a, b] += cage.ridge_dot_constant[a, b]
+            gram[a, b] += squared_norm
             gram[b, a] = gram[a, b]
-    cross = generalized_cross(vectors)
+    cross = cage.ridge_cross_linear @ x.T
+    cross += cage.ridge_cross_constant
     measure = _sum_of_products(cross, cross)
     np.sqrt(measure, out=measure)
     return PointFrame(ridge_gram=gram, ridge_cross=cross, ridge_measure=measure,

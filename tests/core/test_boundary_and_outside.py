@@ -124,6 +124,15 @@ def test_chunking_and_threads_do_not_change_results(monkeypatch):
     np.testing.assert_allclose(chunked, reference, rtol=0, atol=1e-15)  # BLAS rounding only
 
 
+def test_progress_is_reported_in_order_up_to_one(monkeypatch):
+    vertices, faces = icosphere(1)
+    points = 0.5 * random_interior_points(np.random.default_rng(0), vertices, 500)
+    monkeypatch.setattr(core.barycentric, "_CHUNK_BYTES", 1 << 16)
+    fractions = []
+    core.coordinates(points, vertices, faces, progress=fractions.append)
+    assert len(fractions) > 2 and fractions == sorted(fractions) and fractions[-1] == 1.0
+
+
 def test_weights_are_homogeneous_and_finite_on_the_boundary():
     vertices, faces = octahedron()
     points = np.array([[0.2, 0.1, 0.0], [1.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.1, 0.2, 0.3]])
