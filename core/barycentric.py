@@ -13,6 +13,7 @@ import numpy as np
 from .boundary import BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances
 from .construction import construct_weights, facet_determinants, point_frame, prepare_cage
 from .errors import CageError, OutsideCageError
+from .floater import floater_form_weights, floater_terms
 from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS, named_ridge_scalars
 from .validation import DEFAULT_TOLERANCE, convexity_violation, validate_cage
 
@@ -104,6 +105,7 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progres
     result = np.empty((count, len(cage.vertices)))
     location = np.empty(count, dtype=np.int8)
     mean_value = kind == "mean_value"
+    terms = floater_terms(cage)
 
     @np.errstate(divide="ignore", invalid="ignore")  # per thread: boundary rows are replaced
     def run(rows):
@@ -114,10 +116,16 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progres
         location[rows] = where
         if outside == "raise" and (where == OUTSIDE).any():
             return  # reported below, before any other work matters
+        d = named_ridge_scalars(kind, frame)
         # Mean value terms of facets whose hyperplane passes through x (off the facet)
-        # tend to zero; their formula is 0/0.
+        # tend to zero and their formula is 0/0: only the reciprocal-basis form can drop
+        # single facets. Otherwise Floater's form, the same weights grouped by ridge
+        # (Prop. 9), is cheaper.
         skip = (np.abs(distance.T) <= absolute) if mean_value else None
-        values = construct_weights(cage, frame, named_ridge_scalars(kind, frame), skip).T
+        if skip is not None and skip.any():
+            values = construct_weights(cage, frame, d, skip).T
+        else:
+            values = floater_form_weights(cage, terms, x, frame.facet_det, d * frame.ridge_measure).T
         total = values.sum(axis=1, keepdims=True)
         if normalise:
             values = values / total

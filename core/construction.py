@@ -293,12 +293,27 @@ def construct_weights(cage, frame, ridge_scalars, skip_facets=None):
             slot_rows[j] += cofactor_dot * per_slot[i][:, dim]
     for rows in slot_rows:
         rows *= inverse_det
-    # w_i = sum over the facet slots of vertex i (padding reads the zero row).
-    slots = topology.vertex_slots
-    weights = np.take(coefficients, slots[:, 0], axis=0)
-    for column in range(1, slots.shape[1]):
-        weights += np.take(coefficients, slots[:, column], axis=0)
-    return weights
+    # w_i = sum over the facet slots of vertex i (eq. 6).
+    return sum_rows(coefficients, topology.vertex_slots)
+
+
+def sum_rows(rows, table):
+    """Per-owner sums of rows, by a :func:`core.topology.gather_table`.
+
+    Parameters
+    ----------
+    rows : (L + 1, k) float
+        Per-item values; the last row must be zero (the table's padding reads it).
+    table : (n, w) int
+
+    Returns
+    -------
+    sums : (n, k) float
+    """
+    total = np.take(rows, table[:, 0], axis=0)
+    for column in range(1, table.shape[1]):
+        total += np.take(rows, table[:, column], axis=0)
+    return total
 
 
 def weights_from_ridge_scalars(points, vertices, faces, d):

@@ -11,17 +11,120 @@ so dividing by D_p D_q and weighting by any scalar c_R gives homogeneous weights
     w_p += N! c_R / D_p,   w_q += N! c_R / D_q,   w_k += N! c_R C_k / (D_p D_q).
 
 They equal the general construction's for ``d_R = N! c_R / |m_R|``, where ``|m_R|`` is
-(N-1)! times the (N-1)-volume of {x} + R (2D: d = 2c/l, 3D: d = 6c/|e_j x e_k|).
+(N-1)! times the (N-1)-volume of {x} + R (2D: d = 2c/l, 3D: d = 6c/|e_j x e_k|): the
+general construction's terms grouped by ridge (Proposition 9). Grouped this way a ridge
+needs two facet determinants and N-1 minors C_k, all affine in x, so this form is also
+the fast evaluator of named coordinates inside convex cages.
 """
 
+from dataclasses import dataclass
 from math import factorial
 
 import numpy as np
 
-from .construction import facet_determinants, point_frame, prepare_cage
+from .construction import facet_determinants, point_frame, prepare_cage, sum_rows
+from .simplex import generalized_cross
+from .topology import gather_table
 
-__all__ = ["floater_matrix", "floater_weights", "ridge_scalars_from_floater",
-           "floater_from_ridge_scalars", "floater_scalars"]
+__all__ = ["FloaterTerms", "floater_terms", "floater_term_values", "floater_form_weights", "floater_matrix",
+           "floater_weights", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
+           "floater_scalars"]
+
+
+@dataclass(frozen=True)
+class FloaterTerms:
+    """Per-cage data of Floater's construction, grouped by ridge.
+
+    Attributes
+    ----------
+    facets : (r, 2) int
+        The ridge's facets R+p and R+q (orientation sign +1, then -1).
+    opposite : (r, 2) int
+        p and q.
+    minor_normals : (N-1, r, N) float
+    minor_offsets : (N-1, r, 1) float
+        ``C_k(x) = minor_offset - minor_normal . x`` for the ridge's k-th vertex.
+    vertex_terms : (n, w) int
+        Gather table (:func:`core.topology.gather_table`) of the per-ridge terms
+        (rows ``role * r + ridge``; roles p, q, then the ridge's vertices) by vertex.
+    """
+
+    facets: np.ndarray
+    opposite: np.ndarray
+    minor_normals: np.ndarray
+    minor_offsets: np.ndarray
+    vertex_terms: np.ndarray
+
+
+def floater_terms(cage):
+    """Build the :class:`FloaterTerms` of a closed, consistently oriented cage."""
+    topology = cage.topology
+    facets, opposite = topology.ridge_facets()
+    ridge_vertices = topology.ridges
+    size = ridge_vertices.shape[1]
+    normals, offsets = [], []
+    for slot in range(size):
+        # C_k = -(-1)^slot det[e_p, e_q, e_R without k]  (Cramer's null vector of the
+        # N+1 vectors); det[w_0 - x, ..., w_{N-1} - x] = (w_0 - x) . gcross(w_i - w_0).
+        corners = cage.vertices[np.concatenate([opposite, np.delete(ridge_vertices, slot, axis=1)], axis=1)]
+        normal = generalized_cross(np.moveaxis(corners[:, 1:] - corners[:, :1], 0, -1)).T  # (r, N)
+        sign = -((-1.0) ** slot)
+        normals.append(sign * normal)
+        offsets.append(sign * np.einsum("rN,rN->r", corners[:, 0], normal)[:, None])
+    owners = np.concatenate([opposite[:, 0], opposite[:, 1], ridge_vertices.T.reshape(-1)])
+    return FloaterTerms(
+        facets=facets,
+        opposite=opposite,
+        minor_normals=np.stack(normals),
+        minor_offsets=np.stack(offsets),
+        vertex_terms=gather_table(owners, len(cage.vertices)),
+    )
+
+
+def floater_term_values(cage, terms, points, facet_det, scaled_scalars):
+    """Each ridge's terms of Floater's construction, before summing them per vertex.
+
+    Parameters
+    ----------
+    cage : Cage
+    terms : FloaterTerms
+    points : (k, N) float
+    facet_det : (m, k) float
+        ``det E_T`` of every facet (see :class:`~core.construction.PointFrame`).
+    scaled_scalars : (r, k) float
+        ``N! c_R`` (equivalently ``d_R |m_R|``) per (ridge, point).
+
+    Returns
+    -------
+    values : ((2 + N-1) r + 1, k) float
+        Row ``role * r + ridge`` (roles: p, q, then the ridge's vertices), then a zero
+        row for the gather table's padding.
+    """
+    ridges = len(terms.facets)
+    x = np.asarray(points, dtype=np.float64) - cage.origin
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inverse_det = 1.0 / facet_det
+    inverse_p = np.take(inverse_det, terms.facets[:, 0], axis=0)
+    inverse_q = np.take(inverse_det, terms.facets[:, 1], axis=0)
+    size = len(terms.minor_normals)
+    values = np.empty(((2 + size) * ridges + 1, len(x)))
+    values[-1] = 0.0
+    to_p = np.multiply(scaled_scalars, inverse_p, out=values[:ridges])
+    np.multiply(scaled_scalars, inverse_q, out=values[ridges:2 * ridges])
+    both = to_p * inverse_q
+    for slot in range(size):
+        rows = values[(2 + slot) * ridges:(3 + slot) * ridges]
+        np.matmul(terms.minor_normals[slot], -x.T, out=rows)
+        rows += terms.minor_offsets[slot]
+        rows *= both
+    return values
+
+
+def floater_form_weights(cage, terms, points, facet_det, scaled_scalars):
+    """Homogeneous weights of Floater's construction: :func:`floater_term_values` summed
+    per vertex. Returns (n, k) float."""
+    return sum_rows(floater_term_values(cage, terms, points, facet_det, scaled_scalars),
+                    terms.vertex_terms)
 
 
 def floater_matrix(points, vertices, faces):
@@ -42,26 +145,15 @@ def floater_matrix(points, vertices, faces):
     """
     cage = prepare_cage(vertices, faces)
     x = np.atleast_2d(np.asarray(points, dtype=np.float64))
-    facets, opposite = cage.topology.ridge_facets()
-    det = facet_determinants(cage, x)  # (k, m)
-    det_p, det_q = det[:, facets[:, 0]], det[:, facets[:, 1]]  # (k, r)
-    e = cage.vertices[None] - (x - cage.origin)[:, None, :]  # (k, n, N)
-    ridge_vertices = cage.topology.ridges
-    size = ridge_vertices.shape[1]
-    e_pq = e[:, opposite]  # (k, r, 2, N)
-    scale = factorial(cage.dimension)
-    count, ridge_count = len(x), len(ridge_vertices)
-    matrix = np.zeros((count, len(cage.vertices), ridge_count))
-    points_index = np.arange(count)[:, None]
-    ridges_index = np.arange(ridge_count)[None, :]
-    matrix[points_index, opposite[None, :, 0], ridges_index] += scale / det_p
-    matrix[points_index, opposite[None, :, 1], ridges_index] += scale / det_q
-    for slot in range(size):
-        # C_k = -(-1)^slot det[e_p, e_q, e_R without k] (Cramer's null vector of the N+1 vectors)
-        others = np.delete(ridge_vertices, slot, axis=1)
-        columns = np.concatenate([e_pq, e[:, others]], axis=2)  # (k, r, N, N)
-        c_slot = -((-1.0) ** slot) * np.linalg.det(columns)
-        matrix[points_index, ridge_vertices[None, :, slot], ridges_index] += scale * c_slot / (det_p * det_q)
+    terms = floater_terms(cage)
+    ridges = len(terms.facets)
+    # Column R holds ridge R's terms for c_R = 1, each added at its vertex.
+    unit = np.full((ridges, len(x)), float(factorial(cage.dimension)))
+    values = floater_term_values(cage, terms, x, facet_determinants(cage, x).T, unit)[:-1]
+    owners = np.concatenate([terms.opposite[:, 0], terms.opposite[:, 1], cage.topology.ridges.T.reshape(-1)])
+    roles = len(owners) // ridges
+    matrix = np.zeros((len(x), len(cage.vertices), ridges))
+    np.add.at(matrix, (slice(None), owners, np.tile(np.arange(ridges), roles)), values.T)
     return matrix
 
 
@@ -73,6 +165,7 @@ def floater_weights(points, vertices, faces, c):
     points : (k, N) float
     vertices : (n, N) float
     faces : (m, N) int
+        Closed, outward-oriented simplicial facets.
     c : (k, r) float
         One scalar per (point, ridge).
 
@@ -80,8 +173,11 @@ def floater_weights(points, vertices, faces, c):
     -------
     weights : (k, n) float
     """
+    cage = prepare_cage(vertices, faces)
+    x = np.atleast_2d(np.asarray(points, dtype=np.float64))
     c = np.atleast_2d(np.asarray(c, dtype=np.float64))
-    return np.einsum("knr,kr->kn", floater_matrix(points, vertices, faces), c)
+    scaled = factorial(cage.dimension) * c.T
+    return floater_form_weights(cage, floater_terms(cage), x, facet_determinants(cage, x).T, scaled).T
 
 
 def _ridge_measure(points, vertices, faces):

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CageTopology", "ridges", "cage_topology"]
+__all__ = ["CageTopology", "ridges", "cage_topology", "gather_table"]
 
 
 def _permutation_parity(order):
@@ -141,6 +141,31 @@ class CageTopology:
         return facets, opposite
 
 
+def gather_table(owners, count):
+    """For each owner, the indices of the items it owns: summing per-item values into
+    per-owner totals becomes a few row gathers instead of a scatter loop.
+
+    Parameters
+    ----------
+    owners : (L,) int
+        Owner (in ``range(count)``) of each item.
+    count : int
+
+    Returns
+    -------
+    table : (count, w) int
+        Row o lists the items of owner o, padded with ``L`` (an index past the items,
+        which callers point at a row of zeros); w is the largest number of items owned.
+    """
+    order = np.argsort(owners, kind="stable")
+    owned = np.bincount(owners, minlength=count)
+    starts = np.concatenate([[0], np.cumsum(owned)[:-1]])
+    rank = np.arange(len(order)) - starts[owners[order]]
+    table = np.full((count, max(int(owned.max(initial=0)), 1)), len(owners), dtype=np.int64)
+    table[owners[order], rank] = order
+    return table
+
+
 def cage_topology(faces, vertex_count):
     """Build the :class:`CageTopology` of a cage.
 
@@ -163,16 +188,8 @@ def cage_topology(faces, vertex_count):
     use_count = np.bincount(inverse, minlength=len(unique))
     signs_sum = np.bincount(inverse, weights=signs.reshape(-1), minlength=len(unique)).astype(np.int64)
 
-    # Gather table for summing per-slot values into per-vertex weights without a loop;
-    # slot-major (flat index i * m + t) like the per-slot arrays of the construction.
-    flat_vertices = faces.T.reshape(-1)
-    order = np.argsort(flat_vertices, kind="stable")
-    valence = np.bincount(flat_vertices, minlength=vertex_count)
-    width = max(int(valence.max(initial=0)), 1)
-    starts = np.concatenate([[0], np.cumsum(valence)[:-1]])
-    rank = np.arange(len(order)) - starts[flat_vertices[order]]
-    vertex_slots = np.full((vertex_count, width), count * dim, dtype=np.int64)
-    vertex_slots[flat_vertices[order], rank] = order
+    # Slot-major (flat index i * m + t) like the per-slot arrays of the construction.
+    vertex_slots = gather_table(faces.T.reshape(-1), vertex_count)
 
     return CageTopology(
         faces=faces,
