@@ -129,8 +129,7 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progres
         total = values.sum(axis=1, keepdims=True)
         if normalise:
             values = values / total
-        boundary = where == BOUNDARY
-        values[boundary] = limit[boundary]
+        values[where == BOUNDARY] = limit
         project = where == OUTSIDE
         if outside == "extrapolate":
             # Poles (a facet hyperplane through x) or a vanishing sum: no formula value.

@@ -112,29 +112,26 @@ def locate(cage, points, plane_distance, tolerance, convex):
     -------
     location : (k,) int8
         :data:`INSIDE`, :data:`BOUNDARY` or :data:`OUTSIDE`.
-    limit : (k, n) float
-        Rows of boundary points hold their limit coordinates; other rows are zero.
+    limit : (b, n) float
+        Limit coordinates of the b boundary points, in ascending point order.
     """
-    count = len(points)
-    location = np.full(count, INSIDE, dtype=np.int8)
-    limit = np.zeros((count, len(cage.vertices)))
-    # Only facets whose hyperplane passes within tolerance can be touched.
-    point_index, facet_index = np.nonzero(np.abs(plane_distance) <= tolerance)
+    location = np.full(len(points), INSIDE, dtype=np.int8)
     if convex:
-        # Slightly outside near a sharp vertex can be within tolerance of every plane
-        # yet farther from the cage: the facet distance below decides "boundary".
+        # A point deeper than the tolerance is inside; one beyond a facet's plane by
+        # more is outside. Slightly outside near a sharp vertex can be within tolerance
+        # of every plane yet farther from the cage: the facet distance decides.
         depth = plane_distance.min(axis=1)
         location[depth < 0.0] = OUTSIDE
-        keep = depth[point_index] >= -tolerance
-        point_index, facet_index = point_index[keep], facet_index[keep]
+        candidates = np.flatnonzero(np.abs(depth) <= tolerance)
     else:
         location[winding_numbers(cage, points) < 0.5] = OUTSIDE
-    which, facet, barycentric, distance = _nearest_of_pairs(cage, points, point_index, facet_index)
+        candidates = np.arange(len(points))
+    # Only facets whose hyperplane passes within tolerance can be touched.
+    near_point, facet_index = np.nonzero(np.abs(plane_distance[candidates]) <= tolerance)
+    which, facet, barycentric, distance = _nearest_of_pairs(cage, points, candidates[near_point], facet_index)
     touching = distance <= tolerance
-    which, facet, barycentric = which[touching], facet[touching], barycentric[touching]
-    location[which] = BOUNDARY
-    limit[which] = _scatter_barycentric(cage, facet, barycentric)
-    return location, limit
+    location[which[touching]] = BOUNDARY
+    return location, _scatter_barycentric(cage, facet[touching], barycentric[touching])
 
 
 def nearest_boundary_coordinates(cage, points):
