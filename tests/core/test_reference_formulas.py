@@ -65,31 +65,18 @@ def test_2d_floater_with_c_equal_to_powers_of_the_distance_14(seed, kind, power)
     np.testing.assert_allclose(ours, theirs, atol=1e-12)
 
 
+@pytest.mark.parametrize("kind,reference,tolerance", [
+    ("mean_value", mean_value_3d_ju, 1e-12),  # Ju, Schaefer and Warren 2005
+    ("wachspress", wachspress_3d_polar_dual, 1e-12),  # polar-dual face areas
+    ("discrete_harmonic", discrete_harmonic_3d_cotangent, 1e-11),  # cotangent form (20)
+])
 @given(seed=SEEDS)
 @EXAMPLES
-def test_3d_mean_value_equals_ju_schaefer_warren(seed):
+def test_3d_coordinates_equal_independent_formulas(seed, kind, reference, tolerance):
     vertices, faces, points = random_case(seed, 3, 12)
-    ours = core.coordinates(points, vertices, faces, kind="mean_value")
-    theirs = np.array([normalise(mean_value_3d_ju(x, vertices, faces)) for x in points])
-    np.testing.assert_allclose(ours, theirs, atol=1e-12)
-
-
-@given(seed=SEEDS)
-@EXAMPLES
-def test_3d_wachspress_equals_polar_dual_face_areas(seed):
-    vertices, faces, points = random_case(seed, 3, 12)
-    ours = core.coordinates(points, vertices, faces, kind="wachspress")
-    theirs = np.array([normalise(wachspress_3d_polar_dual(x, vertices, faces)) for x in points])
-    np.testing.assert_allclose(ours, theirs, atol=1e-12)
-
-
-@given(seed=SEEDS)
-@EXAMPLES
-def test_3d_discrete_harmonic_equals_the_cotangent_formula_20(seed):
-    vertices, faces, points = random_case(seed, 3, 12)
-    ours = core.coordinates(points, vertices, faces, kind="discrete_harmonic")
-    theirs = np.array([normalise(discrete_harmonic_3d_cotangent(x, vertices, faces)) for x in points])
-    np.testing.assert_allclose(ours, theirs, atol=1e-11)
+    ours = core.coordinates(points, vertices, faces, kind=kind)
+    theirs = np.array([normalise(reference(x, vertices, faces)) for x in points])
+    np.testing.assert_allclose(ours, theirs, atol=tolerance)
 
 
 @pytest.mark.parametrize("dim,count", [(2, 7), (3, 10)])
