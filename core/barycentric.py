@@ -6,6 +6,7 @@ on a thread pool because numpy releases the GIL inside its kernels.
 """
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -106,16 +107,22 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progres
     location = np.empty(count, dtype=np.int8)
     mean_value = kind == "mean_value"
     terms = floater_terms(cage)
+    # With outside="raise", once any chunk has an outside point the others only locate
+    # theirs (the error counts them all): weights would be thrown away.
+    outside_found = threading.Event()
 
     @np.errstate(divide="ignore", invalid="ignore")  # per thread: boundary rows are replaced
     def run(rows):
         x = points[rows]
-        frame = point_frame(cage, x)
-        distance = plane_distances(cage, frame.facet_det.T)  # (k, m)
+        det = facet_determinants(cage, x)  # (k, m)
+        distance = plane_distances(cage, det)
         where, limit = locate(cage, x, distance, absolute, convex)
         location[rows] = where
         if outside == "raise" and (where == OUTSIDE).any():
-            return  # reported below, before any other work matters
+            outside_found.set()
+        if outside_found.is_set():
+            return
+        frame = point_frame(cage, x, det.T)
         d = named_ridge_scalars(kind, frame)
         # Mean value terms of facets whose hyperplane passes through x (off the facet)
         # tend to zero and their formula is 0/0: only the reciprocal-basis form can drop

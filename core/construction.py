@@ -172,7 +172,7 @@ class PointFrame:
         return np.stack([self.ridge_gram[a, a] for a in range(self.ridge_gram.shape[0])])
 
 
-def point_frame(cage, points):
+def point_frame(cage, points, facet_det=None):
     """Compute the :class:`PointFrame` of a chunk of points.
 
     Parameters
@@ -180,6 +180,8 @@ def point_frame(cage, points):
     cage : Cage
     points : (k, N) float
         In the caller's coordinates (``cage.origin`` is subtracted here).
+    facet_det : (m, k) float, optional
+        Already computed determinants (:func:`facet_determinants`, transposed).
 
     Returns
     -------
@@ -201,8 +203,10 @@ def point_frame(cage, points):
     cross += cage.ridge_cross_constant
     measure = _sum_of_products(cross, cross)
     np.sqrt(measure, out=measure)
+    if facet_det is None:
+        facet_det = facet_determinants(cage, points).T
     return PointFrame(ridge_gram=gram, ridge_cross=cross, ridge_measure=measure,
-                      facet_det=cage.facet_offsets[:, None] - cage.facet_normals @ x.T)
+                      facet_det=np.ascontiguousarray(facet_det))  # rows are gathered per ridge
 
 
 def _sum_of_products(a, b):
@@ -228,7 +232,7 @@ def facet_determinants(cage, points):
     det : (k, m) float
     """
     x = np.asarray(points, dtype=np.float64) - cage.origin
-    return cage.facet_offsets[None, :] - x @ cage.facet_normals.T
+    return cage.facet_offsets - x @ cage.facet_normals.T
 
 
 def construct_weights(cage, frame, ridge_scalars, skip_facets=None):
