@@ -99,11 +99,12 @@ def _prepare(points, vertices, faces, kind, tolerance):
     return _as_points(points, cage.dimension), cage, convex
 
 
-def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progress=None):
+def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progress=None,
+              dtype=np.float64):
     """Shared driver of :func:`coordinates` and :func:`weights` (see there)."""
     absolute = tolerance * cage.size
     count = len(points)
-    result = np.empty((count, len(cage.vertices)))
+    result = np.empty((count, len(cage.vertices)), dtype=dtype)
     location = np.empty(count, dtype=np.int8)
     mean_value = kind == "mean_value"
     terms = floater_terms(cage)
@@ -153,7 +154,7 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progres
 
 
 def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
-                tolerance=DEFAULT_TOLERANCE, progress=None):
+                tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64):
     """Generalized barycentric coordinates of points with respect to a cage.
 
     Parameters
@@ -181,10 +182,13 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
     progress : callable, optional
         ``progress(fraction)`` is called from the calling thread as work completes
         (fraction in (0, 1]), for progress bars on long computations.
+    dtype : numpy dtype
+        Of the result. Computation is always float64; ``np.float32`` halves the
+        result's memory (a large bind) without a float64 copy of it ever existing.
 
     Returns
     -------
-    coordinates : (k, n) float
+    coordinates : (k, n) dtype
         Rows sum to 1 and reproduce the points: ``coordinates @ vertices == points``
         (for inside and boundary points).
 
@@ -199,7 +203,7 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
         raise ValueError(f"outside must be one of {', '.join(OUTSIDE_MODES)}, got {outside!r}")
     points, cage, convex = _prepare(points, vertices, faces, kind, tolerance)
     return _evaluate(points, cage, kind, convex, tolerance, outside, normalise=True,
-                     progress=progress)[0]
+                     progress=progress, dtype=dtype)[0]
 
 
 def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERANCE):

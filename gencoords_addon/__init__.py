@@ -12,8 +12,11 @@ Properties, on every object as ``obj.gencoords``:
     bind_data     Text     read-only: the hidden datablock with the bind data (None if unbound)
 
 Operators, acting on the active mesh object (all undoable):
-    bpy.ops.object.gencoords_bind()        compute coordinates, store the rest shape, follow
+    bpy.ops.object.gencoords_bind()        compute coordinates, store the rest shape, follow;
+                                           adds the pass-through modifier "GenCoords cage
+                                           link" so cages hidden from renders still drive it
     bpy.ops.object.gencoords_unbind()      restore the rest shape bitwise, delete bind data
+                                           and the cage link
     bpy.ops.object.gencoords_show_field()  paint field ``field_vertex`` into the colour
                                            attribute "GenCoords Field" (FLOAT_COLOR, POINT)
     bpy.ops.object.gencoords_clear_field() remove that attribute

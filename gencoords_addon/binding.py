@@ -8,8 +8,6 @@ from .. import core
 from . import mesh_io, messages, storage
 from .properties import KIND_ITEMS, core_name, enum_label
 
-CHUNK_ENTRIES = 250_000  # coordinates per core call: shows progress, stays cache friendly
-
 
 class BindError(Exception):
     """Binding is impossible; the message says why in Blender's terms."""
@@ -73,8 +71,10 @@ def bind(obj, depsgraph, report_progress=lambda fraction: None):
         points_outside = int(np.count_nonzero(locations == core.OUTSIDE))
         if outside == "raise" and points_outside:
             raise BindError(messages.outside_error(cage.name, points_outside, len(points)))
-        coordinates = _chunked_coordinates(points, vertices, triangles, kind, outside,
-                                           report_progress)
+        # Kept as float32: half the memory, and the mesh positions it yields are float32;
+        # the core writes float32 directly, so no float64 matrix exists at peak.
+        coordinates = core.coordinates(points, vertices, triangles, kind=kind, outside=outside,
+                                       progress=report_progress, dtype=np.float32)
     except ValueError as error:  # every core error is a ValueError
         raise BindError(messages.core_error(cage.name, error, kind_label, len(points))) from None
     if not np.isfinite(coordinates).all():
@@ -86,8 +86,7 @@ def bind(obj, depsgraph, report_progress=lambda fraction: None):
         coordinates=coordinates,
         rest_positions=np.array(rest, dtype=np.float32),
         cage_vertex_count=len(vertices),
-        cage_triangle_count=len(triangles),
-        cage_triangles_hash=storage.triangles_hash(triangles),
+        cage_faces_hash=geometry.faces_hash,
         cage_non_triangles=geometry.non_triangles,
         kind=kind,
         outside=outside,
@@ -100,14 +99,3 @@ def bind(obj, depsgraph, report_progress=lambda fraction: None):
         nbytes=summary["nbytes"],
     )
 
-
-def _chunked_coordinates(points, vertices, triangles, kind, outside, report_progress):
-    """Coordinates as float32 (k, n), computed in slices to report progress."""
-    coordinates = np.empty((len(points), len(vertices)), dtype=np.float32)
-    step = max(1, CHUNK_ENTRIES // len(vertices))
-    for start in range(0, len(points), step):
-        stop = min(start + step, len(points))
-        coordinates[start:stop] = core.coordinates(points[start:stop], vertices, triangles,
-                                                   kind=kind, outside=outside)
-        report_progress(stop / len(points))
-    return coordinates

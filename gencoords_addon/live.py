@@ -41,23 +41,25 @@ def check_mesh_topology(obj, bind):
 
 def deformed_positions(obj, bind, depsgraph):
     """The mesh's shape for the current cage, in the mesh's local space ((k, 3) float32)."""
-    cage = obj.gencoords.cage
+    cage = obj.gencoords.bound_cage
     if cage is None:
         raise LiveFault("The cage was deleted or cleared: pick a cage and Bind again, "
                         "or Unbind to restore the rest shape")
     check_mesh_topology(obj, bind)
-    geometry = mesh_io.read_evaluated_cage(cage, depsgraph)
-    if (len(geometry.positions) != bind.cage_vertex_count
-            or len(geometry.triangles) != bind.cage_triangle_count
-            or storage.triangles_hash(geometry.triangles) != bind.cage_triangles_hash):
+    # Only positions and a face fingerprint: triangulating on every update would cost
+    # more than the deformation on small cages.
+    with mesh_io.evaluated_mesh(cage, depsgraph) as cage_mesh:
+        positions = mesh_io.read_positions(cage_mesh)
+        faces_hash = mesh_io.faces_hash(cage_mesh)
+    if len(positions) != bind.cage_vertex_count or faces_hash != bind.cage_faces_hash:
         raise LiveFault(f"The topology of cage '{cage.name}' changed since binding "
-                        f"(now {len(geometry.positions)} vertices, was "
+                        f"(now {len(positions)} vertices, was "
                         f"{bind.cage_vertex_count}): Bind again or Unbind")
     try:
         cage_to_mesh = mesh_io.cage_to_mesh_matrix(obj, cage, depsgraph)
     except ValueError:
         raise LiveFault(f"'{obj.name}' has zero scale: fix its transform") from None
-    cage_positions = mesh_io.transform_points(cage_to_mesh, geometry.positions)
+    cage_positions = mesh_io.transform_points(cage_to_mesh, positions)
     deformed = core.deform(bind.coordinates, cage_positions.astype(np.float32))
     if not np.isfinite(deformed).all():
         raise LiveFault(f"Cage '{cage.name}' has undefined (NaN or infinite) positions: "
@@ -168,7 +170,7 @@ def on_depsgraph_update(scene, depsgraph):
     for obj in bound_objects(scene):
         if not obj.gencoords.live:
             continue
-        cage = obj.gencoords.cage
+        cage = obj.gencoords.bound_cage
         if (cage is None or obj.session_uid in moved or cage.session_uid in updated
                 or cage.data.session_uid in updated):
             deform(obj, depsgraph)

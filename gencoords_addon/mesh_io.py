@@ -4,11 +4,14 @@
 per vertex; the ``position`` attribute is the fastest path to vertex coordinates.
 """
 
+import contextlib
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
 
 POSITION = "position"
+CORNER_VERTEX = ".corner_vert"  # internal attribute (leading dot), in Blender since 4.0
 
 
 def read_positions(mesh):
@@ -48,6 +51,21 @@ def count_non_triangles(mesh):
     return int(np.count_nonzero(sizes != 3))
 
 
+def faces_hash(mesh):
+    """Short fingerprint of which vertices each face of ``mesh`` joins, in order.
+
+    Notices cage topology edits after binding without triangulating: it hashes the faces'
+    corner counts and corner vertex indices, which Blender stores as they are.
+    """
+    sizes = np.empty(len(mesh.polygons), dtype=np.int32)
+    mesh.polygons.foreach_get("loop_total", sizes)
+    corners = np.empty(len(mesh.loops), dtype=np.int32)
+    # Blender's own storage of ``loops[i].vertex_index``: one block copy, where reading
+    # through ``mesh.loops`` costs 8 times as much, more than triangulating.
+    mesh.attributes[CORNER_VERTEX].data.foreach_get("value", corners)
+    return hashlib.sha1(sizes.tobytes() + corners.tobytes()).hexdigest()[:16]
+
+
 def transform_points(matrix, points):
     """Apply a 4x4 affine ``mathutils.Matrix`` to (k, 3) points; float64 result."""
     affine = np.array(matrix, dtype=np.float64)
@@ -61,20 +79,28 @@ class CageGeometry:
     positions: np.ndarray  # (n, 3) float32
     triangles: np.ndarray  # (m, 3) int32
     non_triangles: int  # quads and n-gons that were triangulated
+    faces_hash: str  # ``faces_hash`` of the cage's faces
+
+
+@contextlib.contextmanager
+def evaluated_mesh(obj, depsgraph):
+    """``obj``'s mesh with its modifiers, shape keys and edit-mode changes applied.
+
+    Valid inside the ``with`` block only. ``to_mesh`` (rather than ``evaluated.data``)
+    also gives real vertex arrays while the object is in edit mode.
+    """
+    evaluated = obj.evaluated_get(depsgraph)
+    try:
+        yield evaluated.to_mesh()
+    finally:
+        evaluated.to_mesh_clear()
 
 
 def read_evaluated_cage(cage, depsgraph):
-    """Geometry of ``cage`` with its modifiers, shape keys and edit-mode changes applied.
-
-    ``to_mesh`` (rather than ``evaluated.data``) also gives real vertex arrays while the
-    cage is in edit mode.
-    """
-    evaluated = cage.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
-    try:
-        return CageGeometry(read_positions(mesh), read_triangles(mesh), count_non_triangles(mesh))
-    finally:
-        evaluated.to_mesh_clear()
+    """Everything binding needs of the evaluated ``cage`` (see ``evaluated_mesh``)."""
+    with evaluated_mesh(cage, depsgraph) as mesh:
+        return CageGeometry(read_positions(mesh), read_triangles(mesh),
+                            count_non_triangles(mesh), faces_hash(mesh))
 
 
 def cage_to_mesh_matrix(obj, cage, depsgraph):

@@ -4,7 +4,7 @@ import traceback
 
 import bpy
 
-from . import binding, live, storage, visualise
+from . import binding, cage_link, live, storage, visualise
 
 
 class MeshOperator:
@@ -45,6 +45,10 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         finally:
             progress.progress_end()
         storage.save(obj, bind)
+        # The bind data belong to this cage: picking another one must not silently drive
+        # the mesh with coordinates computed for the first (same vertex count or not).
+        obj.gencoords.bound_cage = obj.gencoords.cage
+        cage_link.link(obj, obj.gencoords.bound_cage)
         # Renders evaluate frame handlers on their own thread; lock the UI meanwhile.
         context.scene.render.use_lock_interface = True
         live.apply_live_setting(obj, context.evaluated_depsgraph_get())
@@ -69,6 +73,8 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
             return {'CANCELLED'}
         restored = live.restore_rest(obj)
         storage.remove(obj)
+        cage_link.unlink(obj)
+        obj.gencoords.bound_cage = None
         live.faults.pop(obj.session_uid, None)
         if not restored:
             self.report({'WARNING'}, f"Unbound '{obj.name}', but its vertex count changed since "

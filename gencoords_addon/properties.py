@@ -65,6 +65,11 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
         name="Cage Vertex", min=0, default=0, update=_field_vertex_changed,
         description="Cage vertex whose coordinate field Show Coordinate paints on the mesh",
     )
+    bound_cage: bpy.props.PointerProperty(
+        name="Bound Cage", type=bpy.types.Object,
+        description="The cage the bind data refers to and the mesh follows (set by Bind; "
+                    "picking another Cage takes effect on the next Bind)",
+    )
     bind_data: bpy.props.PointerProperty(
         name="Bind Data", type=bpy.types.Text,
         description="Hidden text datablock holding the coordinates and rest shape (read-only)",

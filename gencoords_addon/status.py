@@ -17,15 +17,14 @@ def status_lines(obj):
     if bind is None:
         lines.append(("Not bound", 'UNLINKED'))
         return lines
-    cage = obj.gencoords.cage
+    cage = obj.gencoords.bound_cage
     kind_label = enum_label(KIND_ITEMS, bind.kind.upper())
     cage_name = cage.name if cage is not None else "(missing)"
     lines.append((f"Bound to '{cage_name}' ({kind_label})", 'LINKED'))
-    if cage is not None and cage.hide_render:
-        # Blender skips evaluating objects disabled in renders, so animation and modifiers
-        # of such a cage would not reach rendered frames.
-        lines.append(("Cage is disabled in renders, so renders ignore its animation: "
-                      "untick its Object > Visibility > Camera instead", 'ERROR'))
+    picked = obj.gencoords.cage
+    if cage is not None and picked != cage:
+        lines.append((f"Cage is now '{picked.name if picked else 'none'}': Bind again to use it "
+                      f"(following '{cage_name}' until then)", 'INFO'))
     lines.append((f"Cage {bind.cage_vertex_count} vertices, mesh {bind.mesh_vertex_count} "
                   "vertices", 'MESH_DATA'))
     if bind.cage_non_triangles:

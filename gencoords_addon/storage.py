@@ -8,7 +8,6 @@ modified afterwards, so decoded arrays can be cached per datablock ``session_uid
 identity survives undo and redo and is never reused within a session.
 """
 
-import hashlib
 from dataclasses import dataclass
 
 import bpy
@@ -31,8 +30,7 @@ class BindData:
     coordinates: np.ndarray  # (k, n) float32, C-contiguous: one row per mesh vertex
     rest_positions: np.ndarray  # (k, 3) float32, the mesh exactly as it was before binding
     cage_vertex_count: int
-    cage_triangle_count: int
-    cage_triangles_hash: str
+    cage_faces_hash: str  # ``mesh_io.faces_hash`` of the evaluated cage
     cage_non_triangles: int  # quads and n-gons triangulated for the computation
     kind: str  # core coordinate kind, e.g. "mean_value"
     outside: str  # core outside behaviour used, e.g. "raise"
@@ -47,12 +45,6 @@ class BindData:
     @property
     def mesh_vertex_count(self):
         return self.coordinates.shape[0]
-
-
-def triangles_hash(triangles):
-    """Short fingerprint of a cage triangulation, to notice topology edits after binding."""
-    data = np.ascontiguousarray(triangles, dtype=np.int32).tobytes()
-    return hashlib.sha1(data).hexdigest()[:16]
 
 
 def save(obj, bind):

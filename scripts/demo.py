@@ -298,6 +298,7 @@ def save_playable_blend(path):
     settle()
     cage.hide_render = True  # F12 shows Suzanne, not a solid cage
     scn.make_active(mesh)
+    path.unlink(missing_ok=True)  # else Blender keeps the previous run as demo.blend1
     with scn.quiet():
         bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
     return moved

@@ -1,4 +1,5 @@
-"""Subprocess: save a .blend with a mesh bound to a cage animated by a shape key.
+"""Subprocess: save a .blend with a mesh bound to a render-hidden cage animated by a
+shape key.
 
 Frame 1 is the rest cage, frame 2 stretches it along x. The file is saved at frame 2 and
 the mesh's positions there go to an .npy file. Usage: blender_make_bound_file.py BLEND NPY
@@ -19,7 +20,7 @@ scene = bpy.context.scene
 scene.frame_start, scene.frame_end = 1, 2
 
 cage = add_icosphere_cage()
-cage.visible_camera = False  # hide_render would stop Blender evaluating it in renders
+cage.hide_render = True  # as artists do; renders must still follow its animation
 cage.shape_key_add(name="Basis")
 stretch = cage.shape_key_add(name="Stretch")
 stretch.data.foreach_set("co", (positions(cage.data) * (1.6, 1.0, 1.0) + (0.8, 0, 0)).reshape(-1))
@@ -42,8 +43,8 @@ scene.render.engine = 'CYCLES'
 scene.cycles.device = 'CPU'
 scene.cycles.samples = 1
 scene.cycles.use_denoising = False
-scene.world = bpy.data.worlds.new("White")
-scene.world.color = (1.0, 1.0, 1.0)  # lights the mesh and contrasts with it
+scene.render.film_transparent = True  # the mesh's pixels are the opaque ones, lit or not
 scene.render.resolution_x = scene.render.resolution_y = 48
 scene.render.image_settings.file_format = 'PNG'
+scene.render.image_settings.color_mode = 'RGBA'
 bpy.ops.wm.save_as_mainfile(filepath=blend_path)

@@ -1,7 +1,8 @@
 """Subprocess: render a saved animation like a farm worker, print per-frame results as JSON.
 
 Records the bound mesh's x extent each rendered frame (from a frame handler added after
-the extension's) and the mean grey of each rendered image.
+the extension's) and the opaque pixels of each rendered image (the background is
+transparent).
 Usage: blender_render_file.py BLEND OUTPUT_DIR
 """
 
@@ -31,15 +32,14 @@ def record_width(scene, depsgraph):
 bpy.app.handlers.frame_change_post.append(record_width)
 scene.render.filepath = str(Path(output_dir) / "frame_")
 bpy.ops.render.render(animation=True)
-images = {}
+covered_pixels = {}
 for frame in (1, 2):
     image = bpy.data.images.load(str(Path(output_dir) / f"frame_{frame:04d}.png"))
     pixels = np.empty(len(image.pixels), dtype=np.float32)
     image.pixels.foreach_get(pixels)
-    images[frame] = pixels.reshape(-1, 4)[:, :3].mean(axis=1)
+    covered_pixels[frame] = int(np.count_nonzero(pixels.reshape(-1, 4)[:, 3] > 0.5))
 print("REPORT " + json.dumps({
     "lock_interface": scene.render.use_lock_interface,
     "widths": widths,
-    "covered_pixels": {frame: int(np.count_nonzero(np.abs(grey - grey[0]) > 0.05))
-                       for frame, grey in images.items()},
+    "covered_pixels": covered_pixels,
 }))

@@ -41,13 +41,13 @@ def package(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def addon(package):
-    """The installed, enabled extension's modules (``core``, ``storage``, ``status``...)."""
+    """The installed, enabled extension's modules (``core``, ``binding``, ``storage``...)."""
     result = bpy.ops.extensions.package_install_files(
         filepath=str(package), repo="user_default", enable_on_install=True)
     assert result == {'FINISHED'}
     bpy.ops.wm.save_userpref()  # subprocesses using the same folder start with it enabled
     modules = {name: importlib.import_module(f"{PACKAGE}.gencoords_addon.{name}")
-               for name in ("storage", "status", "live", "visualise")}
+               for name in ("binding", "storage", "status", "live", "visualise")}
     yield SimpleNamespace(core=importlib.import_module(f"{PACKAGE}.core"), **modules)
     shutil.rmtree(USER_RESOURCES, ignore_errors=True)
 

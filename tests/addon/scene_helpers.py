@@ -37,6 +37,16 @@ def add_sphere(radius=1.0, name="Mesh", location=(0.0, 0.0, 0.0)):
     return obj
 
 
+def add_subdivided_sphere(levels, name="Mesh"):
+    """``add_sphere`` with ``levels`` of subdivision applied (1922 vertices at 2)."""
+    obj = add_sphere(name=name)
+    modifier = obj.modifiers.new("Subdivision", 'SUBSURF')
+    modifier.levels = levels
+    activate(obj)
+    bpy.ops.object.modifier_apply(modifier=modifier.name)
+    return obj
+
+
 def positions(mesh):
     """Vertex positions of a mesh datablock, (k, 3) float32."""
     flat = np.empty(len(mesh.vertices) * 3, dtype=np.float32)

@@ -7,10 +7,12 @@ import numpy as np
 import pytest
 from mathutils import Matrix
 
-from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere, bind,
-                           evaluated_cage_positions, positions, set_positions, update)
+from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere,
+                           add_subdivided_sphere, bind, evaluated_cage_positions, positions,
+                           set_positions, update)
 
 KINDS = ("WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI")
+CAGE_LINK = "GenCoords cage link"
 
 
 def random_affine(seed):
@@ -99,9 +101,55 @@ def test_unbind_restores_rest_bitwise_and_removes_bind_data(gc):
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     np.testing.assert_array_equal(positions(obj.data), rest)
     assert obj.gencoords.bind_data is None and text_name not in bpy.data.texts
+    assert not obj.modifiers and CAGE_LINK not in bpy.data.node_groups
     set_positions(cage.data, positions(cage.data) * 0.5)
     update()
     np.testing.assert_array_equal(positions(obj.data), rest)  # no longer follows
+
+
+def test_picking_another_cage_takes_effect_only_on_the_next_bind(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    other = cage.copy()  # same topology: a silent switch would go unnoticed
+    other.data = cage.data.copy()
+    bpy.context.scene.collection.objects.link(other)
+    obj.gencoords.cage = other
+    set_positions(other.data, positions(other.data) * 1.5)
+    update()
+    data = gc.storage.load(obj)
+    np.testing.assert_allclose(positions(obj.data), data.coordinates @ positions(cage.data), atol=1e-6)
+    assert any("Bind again" in text for text, _ in gc.status.status_lines(obj))
+    assert bind(obj, other) == {'FINISHED'}
+    link = obj.modifiers[CAGE_LINK]
+    assert obj.gencoords.bound_cage == other
+    assert link[link.node_group.interface.items_tree["Cage"].identifier] == other
+    set_positions(other.data, positions(other.data) * 1.1)
+    update()
+    data = gc.storage.load(obj)
+    np.testing.assert_allclose(positions(obj.data), data.coordinates @ positions(other.data), atol=1e-5)
+
+
+def test_cage_link_makes_a_cage_hidden_from_the_depsgraph_drive_the_mesh(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    bind(obj, cage)  # rebinding replaces the link
+    (link,) = obj.modifiers
+    assert (link.name, link.type, link.node_group.name) == (CAGE_LINK, 'NODES', CAGE_LINK)
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    np.testing.assert_array_equal(positions(evaluated.data), positions(obj.data))
+
+    # Disabled in viewports, the cage is evaluated only because the mesh depends on it.
+    cage.hide_viewport = True
+    cage.shape_key_add(name="Basis")
+    key = cage.shape_key_add(name="Stretch")
+    stretched = positions(cage.data) * (1.5, 1.0, 1.0)
+    key.data.foreach_set("co", stretched.reshape(-1))
+    key.value = 1.0
+    update()
+    coordinates = gc.storage.load(obj).coordinates
+    np.testing.assert_allclose(positions(obj.data), coordinates @ stretched, atol=1e-6)
 
 
 def test_rebind_keeps_the_original_rest_shape(gc):
@@ -213,13 +261,31 @@ def test_status_reports_the_core_summary(gc):
     assert "MB" in text and "Bind time" in text
 
 
+def test_bind_data_is_stored_and_reported_as_float32(gc):
+    cage = add_icosphere_cage(subdivisions=2)
+    obj = add_subdivided_sphere(levels=2)
+    bind(obj, cage)
+    float32_bytes = len(obj.data.vertices) * len(cage.data.vertices) * 4
+    stored = obj.gencoords.bind_data["coordinates"]
+    assert stored.typecode == 'f' and len(stored) * 4 == float32_bytes
+    data = gc.storage.load(obj)
+    assert data.coordinates.dtype == np.float32 and data.nbytes == float32_bytes
+    text = "\n".join(line for line, _ in gc.status.status_lines(obj))
+    assert f"data {float32_bytes / 2**20:.2f} MB" in text
+
+
+def test_bind_reports_progress_as_the_core_computes(gc):
+    cage = add_icosphere_cage()
+    obj = add_subdivided_sphere(levels=2)  # several of the core's chunks
+    obj.gencoords.cage = cage
+    fractions = []
+    gc.binding.bind(obj, bpy.context.evaluated_depsgraph_get(), fractions.append)
+    assert len(fractions) > 1 and fractions == sorted(fractions) and fractions[-1] == 1.0
+
+
 def test_live_update_is_interactive_on_a_dense_mesh(gc):
     cage = add_icosphere_cage(subdivisions=3, radius=2.5)  # 642 vertices
-    obj = add_sphere()
-    modifier = obj.modifiers.new("Subdivision", 'SUBSURF')
-    modifier.levels = 3
-    activate(obj)
-    bpy.ops.object.modifier_apply(modifier=modifier.name)
+    obj = add_subdivided_sphere(levels=3)
     bind(obj, cage)
     update()
     started = time.perf_counter()

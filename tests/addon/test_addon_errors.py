@@ -45,6 +45,12 @@ def subdivide(bm):
     bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=1, use_grid_fill=True)
 
 
+def rotate_an_edge(bm):
+    """Same vertices and face count, other faces: only the connectivity changes."""
+    bm.edges.ensure_lookup_table()
+    bmesh.ops.rotate_edges(bm, edges=[bm.edges[0]], use_ccw=True)
+
+
 def add_triangle_object():
     mesh = bpy.data.meshes.new("Triangle")
     mesh.from_pydata([(-3, -3, -3), (3, -3, -3), (0, 3, 3)], [], [(0, 1, 2)])
@@ -131,12 +137,13 @@ def test_deleting_the_cage_stops_deformation_and_unbind_restores(gc):
     assert fault_text(gc, obj) == ""
 
 
-def test_cage_topology_change_is_reported_until_rebind(gc):
+@pytest.mark.parametrize("change", [subdivide, rotate_an_edge])
+def test_cage_topology_change_is_reported_until_rebind(gc, change):
     cage = add_icosphere_cage()
     obj = add_sphere()
     bind(obj, cage)
     before = positions(obj.data).copy()
-    edit_cage(cage, subdivide)
+    edit_cage(cage, change)
     update()
     assert "The topology of cage 'Cage' changed" in fault_text(gc, obj)
     np.testing.assert_array_equal(positions(obj.data), before)

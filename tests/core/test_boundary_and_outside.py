@@ -133,6 +133,15 @@ def test_progress_is_reported_in_order_up_to_one(monkeypatch):
     assert len(fractions) > 2 and fractions == sorted(fractions) and fractions[-1] == 1.0
 
 
+def test_float32_result_is_the_rounded_float64_result():
+    vertices, faces = icosphere(1)
+    points = 0.5 * random_interior_points(np.random.default_rng(4), vertices, 200)
+    single = core.coordinates(points, vertices, faces, kind="voronoi", dtype=np.float32)
+    assert single.dtype == np.float32
+    np.testing.assert_array_equal(single, core.coordinates(points, vertices, faces, kind="voronoi")
+                                  .astype(np.float32))
+
+
 def test_weights_are_homogeneous_and_finite_on_the_boundary():
     vertices, faces = octahedron()
     points = np.array([[0.2, 0.1, 0.0], [1.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.1, 0.2, 0.3]])
