@@ -16,12 +16,13 @@ from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalar
                       ridge_scalars_from_floater)
 from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS
 from .topology import ridges
+from .triangulation import triangulate_quads
 from .validation import DEFAULT_TOLERANCE, validate_cage
 
 __all__ = [
     "coordinates", "weights", "ridges", "ridge_scalars", "weights_from_ridge_scalars",
     "floater_weights", "floater_matrix", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
     "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
-    "field_colors", "coordinate_summary", "CageError", "OutsideCageError", "KINDS",
+    "field_colors", "coordinate_summary", "triangulate_quads", "CageError", "OutsideCageError", "KINDS",
     "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
 ]

@@ -76,7 +76,8 @@ def bind(obj, depsgraph, report_progress=lambda fraction: None):
         coordinates = core.coordinates(points, vertices, triangles, kind=kind, outside=outside,
                                        progress=report_progress, dtype=np.float32)
     except ValueError as error:  # every core error is a ValueError
-        raise BindError(messages.core_error(cage.name, error, kind_label, len(points))) from None
+        raise BindError(messages.core_error(cage.name, error, kind_label, len(points),
+                                            geometry.triangle_faces)) from None
     if not np.isfinite(coordinates).all():
         raise BindError(f"Binding to '{cage.name}' gave undefined coordinates: "
                         "check the cage for tiny or overlapping faces")

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import core
+
 POSITION = "position"
 CORNER_VERTEX = ".corner_vert"  # internal attribute (leading dot), in Blender since 4.0
 
@@ -32,23 +34,52 @@ def write_positions(mesh, positions):
     mesh.update()  # recomputes normals and tags the mesh so the evaluated copy follows
 
 
-def read_triangles(mesh):
-    """Triangulation of ``mesh``'s faces as a (m, 3) int32 array of vertex indices.
+def read_triangles(mesh, positions):
+    """Triangulation of ``mesh``'s faces, with the face each triangle comes from.
 
-    Uses ``loop_triangles``, Blender's own triangulation of quads and n-gons, whose
-    winding follows the face normal (outward for a correctly oriented cage).
+    Quads are split by the core along the diagonal that keeps a bent quad convex (a
+    dragged corner of a convex quad cage must not make it non-convex); other faces use
+    ``loop_triangles``, Blender's own triangulation. Windings follow the face normals.
+
+    Returns
+    -------
+    triangles : (m, 3) int64
+    faces : (m,) int64
+        Index of the mesh face of each triangle (for messages the artist can act on).
     """
-    triangles = mesh.loop_triangles
-    flat = np.empty(len(triangles) * 3, dtype=np.int32)
-    triangles.foreach_get("vertices", flat)
-    return flat.reshape(-1, 3)
+    sizes = _face_sizes(mesh)
+    starts = np.empty(len(sizes), dtype=np.int64)
+    mesh.polygons.foreach_get("loop_start", starts)
+    corners = _corner_vertices(mesh)
+    loop_triangles = mesh.loop_triangles
+    blender = np.empty(len(loop_triangles) * 3, dtype=np.int64)
+    loop_triangles.foreach_get("vertices", blender)
+    blender_faces = np.empty(len(loop_triangles), dtype=np.int64)
+    loop_triangles.foreach_get("polygon_index", blender_faces)
+    keep = sizes[blender_faces] != 4
+    quads = np.flatnonzero(sizes == 4)
+    quad_corners = corners[starts[quads, None] + np.arange(4)]
+    triangles = np.concatenate([blender.reshape(-1, 3)[keep], core.triangulate_quads(positions, quad_corners)])
+    return triangles, np.concatenate([blender_faces[keep], np.repeat(quads, 2)])
+
+
+def _face_sizes(mesh):
+    sizes = np.empty(len(mesh.polygons), dtype=np.int64)
+    mesh.polygons.foreach_get("loop_total", sizes)
+    return sizes
+
+
+def _corner_vertices(mesh):
+    corners = np.empty(len(mesh.loops), dtype=np.int64)
+    # Blender's own storage of ``loops[i].vertex_index``: one block copy, where reading
+    # through ``mesh.loops`` costs 8 times as much.
+    mesh.attributes[CORNER_VERTEX].data.foreach_get("value", corners)
+    return corners
 
 
 def count_non_triangles(mesh):
     """Number of faces of ``mesh`` with more than three corners (quads and n-gons)."""
-    sizes = np.empty(len(mesh.polygons), dtype=np.int32)
-    mesh.polygons.foreach_get("loop_total", sizes)
-    return int(np.count_nonzero(sizes != 3))
+    return int(np.count_nonzero(_face_sizes(mesh) != 3))
 
 
 def faces_hash(mesh):
@@ -57,13 +88,7 @@ def faces_hash(mesh):
     Notices cage topology edits after binding without triangulating: it hashes the faces'
     corner counts and corner vertex indices, which Blender stores as they are.
     """
-    sizes = np.empty(len(mesh.polygons), dtype=np.int32)
-    mesh.polygons.foreach_get("loop_total", sizes)
-    corners = np.empty(len(mesh.loops), dtype=np.int32)
-    # Blender's own storage of ``loops[i].vertex_index``: one block copy, where reading
-    # through ``mesh.loops`` costs 8 times as much, more than triangulating.
-    mesh.attributes[CORNER_VERTEX].data.foreach_get("value", corners)
-    return hashlib.sha1(sizes.tobytes() + corners.tobytes()).hexdigest()[:16]
+    return hashlib.sha1(_face_sizes(mesh).tobytes() + _corner_vertices(mesh).tobytes()).hexdigest()[:16]
 
 
 def transform_points(matrix, points):
@@ -77,7 +102,8 @@ class CageGeometry:
     """The evaluated cage as the core needs it, in the cage object's local space."""
 
     positions: np.ndarray  # (n, 3) float32
-    triangles: np.ndarray  # (m, 3) int32
+    triangles: np.ndarray  # (m, 3) int64
+    triangle_faces: np.ndarray  # (m,) int64: the mesh face each triangle comes from
     non_triangles: int  # quads and n-gons that were triangulated
     faces_hash: str  # ``faces_hash`` of the cage's faces
 
@@ -99,7 +125,8 @@ def evaluated_mesh(obj, depsgraph):
 def read_evaluated_cage(cage, depsgraph):
     """Everything binding needs of the evaluated ``cage`` (see ``evaluated_mesh``)."""
     with evaluated_mesh(cage, depsgraph) as mesh:
-        return CageGeometry(read_positions(mesh), read_triangles(mesh),
+        positions = read_positions(mesh)
+        return CageGeometry(positions, *read_triangles(mesh, positions),
                             count_non_triangles(mesh), faces_hash(mesh))
 
 

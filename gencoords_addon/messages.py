@@ -20,12 +20,17 @@ CAGE_PROBLEMS = {
 }
 
 
-def cage_error(cage_name, error, kind_label):
-    """Message for a ``core.CageError`` raised on the cage called ``cage_name``."""
+def cage_error(cage_name, error, kind_label, triangle_faces):
+    """Message for a ``core.CageError`` raised on the cage called ``cage_name``.
+
+    The core numbers triangles; ``triangle_faces`` maps them to the cage's own faces,
+    which the artist can select.
+    """
     problem = CAGE_PROBLEMS.get(error.problem, str(error)).format(kind=kind_label)
     where = ""
     if error.faces:
-        where = f" (faces {_first_indices(error.faces)})"
+        faces = list(dict.fromkeys(int(triangle_faces[t]) for t in error.faces))
+        where = f" (faces {_first_indices(faces)})"
     elif error.vertices:
         where = f" (vertices {_first_indices(error.vertices)})"
     return f"Cage '{cage_name}' {problem}{where}"
@@ -37,10 +42,11 @@ def outside_error(cage_name, outside_count, total):
             "enlarge the cage, or set Outside to Project or Extrapolate")
 
 
-def core_error(cage_name, error, kind_label, total):
-    """Message for any error the core raised while binding."""
+def core_error(cage_name, error, kind_label, total, triangle_faces):
+    """Message for any error the core raised while binding (``triangle_faces``: see
+    ``cage_error``)."""
     if isinstance(error, CageError):
-        return cage_error(cage_name, error, kind_label)
+        return cage_error(cage_name, error, kind_label, triangle_faces)
     if isinstance(error, OutsideCageError):
         return outside_error(cage_name, len(error.indices), total)
     return f"Cannot bind to cage '{cage_name}': {error}"

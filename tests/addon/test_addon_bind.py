@@ -107,6 +107,18 @@ def test_unbind_restores_rest_bitwise_and_removes_bind_data(gc):
     np.testing.assert_array_equal(positions(obj.data), rest)  # no longer follows
 
 
+@pytest.mark.parametrize("corner", range(8))
+def test_a_quad_cage_with_a_dragged_corner_stays_convex(gc, corner):
+    """Bent quads are split along their convex diagonal, whatever Blender's own choice."""
+    cage = add_cube_cage()
+    cage.data.vertices[corner].co *= 1.3  # outward: the three quads at it bend
+    cage.data.update()
+    obj = add_sphere()
+    assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}
+    data = gc.storage.load(obj)
+    np.testing.assert_allclose(data.coordinates @ positions(cage.data), positions(obj.data), atol=1e-5)
+
+
 def test_picking_another_cage_takes_effect_only_on_the_next_bind(gc):
     cage = add_icosphere_cage()
     obj = add_sphere()

@@ -1,5 +1,7 @@
 """Bad input and live faults: a clear message, the mesh untouched, and a way back."""
 
+import re
+
 import bmesh
 import bpy
 import numpy as np
@@ -84,6 +86,11 @@ def test_non_convex_cage_suggests_mean_value(gc):
     obj = add_sphere(radius=0.5)
     assert_bind_refused(obj, cage, "not convex, which Wachspress coordinates need: choose "
                                    "Mean Value", kind="WACHSPRESS")
+    # The faces named are the cage's own (quads an artist can select), around the dent.
+    with pytest.raises(RuntimeError) as error:
+        bind(obj, cage, kind="WACHSPRESS")
+    named = [int(index) for index in re.search(r"\(faces ([\d, ]+)", str(error.value)).group(1).split(",")]
+    assert all(0 in cage.data.polygons[face].vertices for face in named)
     assert bind(obj, cage, kind="MEAN_VALUE") == {'FINISHED'}
 
 

@@ -98,6 +98,22 @@ def test_flat_regions_of_triangulated_quads_count_as_convex():
         np.testing.assert_allclose(coordinates @ cube, points, atol=1e-13)
 
 
+@pytest.mark.parametrize("corner", range(8))
+def test_quads_of_a_cube_with_a_dragged_corner_split_into_a_convex_cage(corner):
+    cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+    cube[corner] += 0.3 * (cube[corner] - 0.5)  # outward: the three quads at it bend
+    triangles = core.triangulate_quads(cube, quads)
+    core.validate_cage(cube, triangles)  # convex
+    # Each quad's other diagonal folds the bent quads inward: then it is not convex.
+    pairs = triangles.reshape(-1, 2, 3)
+    kept_first = np.all(pairs[:, 0] == quads[:, [0, 1, 2]], axis=1)[:, None, None]
+    other = np.where(kept_first, np.stack([quads[:, [0, 1, 3]], quads[:, [1, 2, 3]]], axis=1),
+                     np.stack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]], axis=1))
+    with pytest.raises(core.CageError, match="not convex"):
+        core.validate_cage(cube, other.reshape(-1, 3))
+
+
 def test_mean_value_on_a_non_convex_cage_inside_and_outside():
     vertices, faces = dented_icosphere()
     rng = np.random.default_rng(2)
