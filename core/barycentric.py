@@ -28,6 +28,9 @@ _CHUNK_PAIRS = 16 << 10
 # Upper bound on a chunk's temporaries, for huge cages: with two workers far below the
 # 256 MB budget whatever the number of points.
 _CHUNK_BYTES = 24 << 20
+# Locating points in a convex cage needs a few (k, m) arrays: larger chunks, less
+# per-chunk overhead (winding numbers for other cages need the usual chunks).
+_LOCATE_CHUNK_PAIRS = 1 << 20
 _WORKERS = max(1, min(os.cpu_count() or 1, 8))
 
 
@@ -271,6 +274,7 @@ def point_locations(points, vertices, faces, tolerance=DEFAULT_TOLERANCE):
         distance = plane_distances(cage, facet_determinants(cage, x))
         result[rows] = locate(cage, x, distance, absolute, convex)[0]
 
-    _map_chunks(run, len(points), _chunk_size(cage))
+    chunk = max(1, _LOCATE_CHUNK_PAIRS // len(cage.topology.faces)) if convex else _chunk_size(cage)
+    _map_chunks(run, len(points), chunk)
     return result
 
