@@ -63,7 +63,7 @@ KIND_LABELS = {
 
 def _newest_source_time():
     """Latest modification time of anything that goes into the extension zip."""
-    paths = [REPO / "__init__.py", REPO / "blender_manifest.toml"]
+    paths = [REPO / "blender_manifest.toml", REPO / "scripts" / "build_extension.py"]
     for folder in ("core", "gencoords_addon"):
         paths.extend((REPO / folder).rglob("*"))
     return max((p.stat().st_mtime for p in paths if p.is_file()), default=0.0)

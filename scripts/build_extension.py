@@ -4,18 +4,40 @@ Blender's extension command line (``blender_ext.py``) ships inside the ``bpy`` w
 runs as a plain script, so it is located from ``bpy``'s package folder without importing
 ``bpy`` (which would start Blender). Exits non-zero when building or validating fails.
 
+The extension's top-level ``__init__.py`` (Blender imports the package as
+``bl_ext.<repo>.gencoords``) is written into a staging folder next to copies of the
+manifest, ``gencoords_addon/`` and ``core/``: the repository root itself stays a plain
+folder, not a Python package that test runners or other tools would try to import.
+
 Usage: python scripts/build_extension.py [--output-dir DIR]
 """
 
 import argparse
 import importlib.util
+import shutil
 import subprocess
 import sys
+import tempfile
 import tomllib
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 BLENDER_EXT_RELATIVE = Path("scripts", "addons_core", "bl_pkg", "cli", "blender_ext.py")
+PACKAGED = ("blender_manifest.toml", "LICENSE", "gencoords_addon", "core")
+ENTRY_POINT = '''"""GenCoords Blender extension: the add-on is ``gencoords_addon``, the maths ``core``."""
+from .gencoords_addon import register, unregister  # noqa: F401
+'''
+
+
+def stage_sources(staging):
+    """Copy what the extension ships into ``staging`` and write its ``__init__.py``."""
+    for name in PACKAGED:
+        source = REPO / name
+        if source.is_dir():
+            shutil.copytree(source, staging / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        elif source.exists():
+            shutil.copy2(source, staging / name)
+    (staging / "__init__.py").write_text(ENTRY_POINT, encoding="utf-8")
 
 
 def find_blender_ext():
@@ -47,8 +69,9 @@ def main():
     package.unlink(missing_ok=True)  # never validate a stale zip
 
     blender_ext = find_blender_ext()
-    run_blender_ext(blender_ext, "build", "--source-dir", str(REPO),
-                    "--output-filepath", str(package))
+    with tempfile.TemporaryDirectory(prefix="gencoords-build-") as staging:
+        stage_sources(Path(staging))
+        run_blender_ext(blender_ext, "build", "--source-dir", staging, "--output-filepath", str(package))
     run_blender_ext(blender_ext, "validate", str(package))
     print(f"built and validated {package}")
 
