@@ -308,3 +308,43 @@ def test_live_update_is_interactive_on_a_dense_mesh(gc):
     assert per_update < 0.05, f"{per_update * 1000:.1f} ms per cage edit"
     expected = gc.storage.load(obj).coordinates @ evaluated_cage_positions(cage)
     np.testing.assert_array_equal(positions(obj.data), expected)
+
+
+def test_undo_and_redo_of_bind_and_unbind(gc):
+    """Global undo as in the UI: the headless window's context lets ``ed.undo`` run, and
+    the step the UI pushes after an undoable operator is pushed here explicitly (operators
+    called from Python push none)."""
+    preferences = bpy.context.preferences.edit
+    preferences.use_global_undo, preferences.undo_steps = True, 32
+    with bpy.context.temp_override(window=bpy.context.window_manager.windows[0]):
+        cage = add_icosphere_cage()
+        obj = add_sphere()
+        rest = positions(obj.data).copy()
+        bpy.ops.ed.undo_push(message="scene ready")
+        assert bind(obj, cage) == {'FINISHED'}
+        bpy.ops.ed.undo_push(message="Bind")
+
+        assert bpy.ops.ed.undo() == {'FINISHED'}
+        obj, cage = bpy.data.objects["Mesh"], bpy.data.objects["Cage"]  # undo rebuilds IDs
+        assert obj.gencoords.bind_data is None and not obj.modifiers
+        assert not [text for text in bpy.data.texts if text.name.startswith(".GenCoords")]
+        np.testing.assert_array_equal(positions(obj.data), rest)
+
+        assert bpy.ops.ed.redo() == {'FINISHED'}
+        obj, cage = bpy.data.objects["Mesh"], bpy.data.objects["Cage"]
+        assert obj.gencoords.bind_data is not None and obj.gencoords.bound_cage == cage
+        set_positions(cage.data, positions(cage.data) * 1.2)
+        update()
+        np.testing.assert_allclose(positions(obj.data), rest * 1.2, atol=1e-5)  # live again
+
+        activate(obj)
+        assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+        bpy.ops.ed.undo_push(message="Unbind")
+        np.testing.assert_array_equal(positions(obj.data), rest)
+        assert bpy.ops.ed.undo() == {'FINISHED'}
+        obj = bpy.data.objects["Mesh"]
+        assert obj.gencoords.bind_data is not None  # bound again
+        assert bpy.ops.ed.redo() == {'FINISHED'}
+        obj = bpy.data.objects["Mesh"]
+        assert obj.gencoords.bind_data is None
+        np.testing.assert_array_equal(positions(obj.data), rest)
