@@ -1,7 +1,5 @@
 """Binding and live deformation, driven through the operators as a script would."""
 
-import time
-
 import bpy
 import numpy as np
 import pytest
@@ -117,6 +115,43 @@ def test_a_quad_cage_with_a_dragged_corner_stays_convex(gc, corner):
     assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}
     data = gc.storage.load(obj)
     np.testing.assert_allclose(data.coordinates @ positions(cage.data), positions(obj.data), atol=1e-5)
+
+
+def test_a_hook_and_an_armature_on_the_cage_drive_the_mesh(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    coordinates = gc.storage.load(obj).coordinates
+
+    handle = bpy.data.objects.new("Handle", None)
+    bpy.context.scene.collection.objects.link(handle)
+    hook = cage.modifiers.new("Hook", 'HOOK')
+    hook.object = handle
+    hook.vertex_indices_set([0, 1, 2])
+    handle.location = (0.4, -0.2, 0.3)  # moving the empty moves the hooked cage vertices
+    update()
+    moved = evaluated_cage_positions(cage)
+    assert not np.allclose(moved, positions(cage.data))
+    np.testing.assert_array_equal(positions(obj.data), coordinates @ moved)
+    cage.modifiers.remove(hook)
+
+    skeleton = bpy.data.armatures.new("Skeleton")
+    rig = bpy.data.objects.new("Rig", skeleton)
+    bpy.context.scene.collection.objects.link(rig)
+    activate(rig)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bone = skeleton.edit_bones.new("Bone")
+    bone.head, bone.tail = (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    group = cage.vertex_groups.new(name="Bone")
+    group.add(range(len(cage.data.vertices)), 1.0, 'REPLACE')
+    cage.modifiers.new("Armature", 'ARMATURE').object = rig
+    rig.pose.bones["Bone"].rotation_mode = 'XYZ'
+    rig.pose.bones["Bone"].rotation_euler = (0.0, 0.0, 0.5)  # the whole cage turns
+    update()
+    posed = evaluated_cage_positions(cage)
+    assert not np.allclose(posed, positions(cage.data))
+    np.testing.assert_array_equal(positions(obj.data), coordinates @ posed)
 
 
 def test_picking_another_cage_takes_effect_only_on_the_next_bind(gc):
@@ -295,19 +330,16 @@ def test_bind_reports_progress_as_the_core_computes(gc):
     assert len(fractions) > 1 and fractions == sorted(fractions) and fractions[-1] == 1.0
 
 
-def test_live_update_is_interactive_on_a_dense_mesh(gc):
+def test_every_edit_of_a_large_cage_is_followed_on_a_dense_mesh(gc):
+    """Speed is measured by scripts/bench_blender.py, not asserted here."""
     cage = add_icosphere_cage(subdivisions=3, radius=2.5)  # 642 vertices
     obj = add_subdivided_sphere(levels=3)
     bind(obj, cage)
-    update()
-    started = time.perf_counter()
+    coordinates = gc.storage.load(obj).coordinates
     for step in range(10):
         set_positions(cage.data, positions(cage.data) * 1.01)
         update()
-    per_update = (time.perf_counter() - started) / 10
-    assert per_update < 0.05, f"{per_update * 1000:.1f} ms per cage edit"
-    expected = gc.storage.load(obj).coordinates @ evaluated_cage_positions(cage)
-    np.testing.assert_array_equal(positions(obj.data), expected)
+        np.testing.assert_array_equal(positions(obj.data), coordinates @ evaluated_cage_positions(cage))
 
 
 def test_undo_and_redo_of_bind_and_unbind(gc):
