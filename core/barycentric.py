@@ -15,7 +15,7 @@ from .boundary import BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, p
 from .construction import construct_weights, facet_determinants, point_frame, prepare_cage
 from .errors import CageError, OutsideCageError
 from .floater import floater_form_weights, floater_terms
-from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS, named_ridge_scalars
+from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS, named_ridge_scalars, named_scaled_ridge_scalars
 from .validation import DEFAULT_TOLERANCE, convexity_violation, validate_cage
 
 __all__ = ["coordinates", "weights", "ridge_scalars", "point_locations", "needs_convex",
@@ -127,16 +127,16 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progres
         if outside_found.is_set():
             return
         frame = point_frame(cage, x, det.T)
-        d = named_ridge_scalars(kind, frame)
         # Mean value terms of facets whose hyperplane passes through x (off the facet)
         # tend to zero and their formula is 0/0: only the reciprocal-basis form can drop
         # single facets. Otherwise Floater's form, the same weights grouped by ridge
         # (Prop. 9), is cheaper.
         skip = (np.abs(distance.T) <= absolute) if mean_value else None
         if skip is not None and skip.any():
-            values = construct_weights(cage, frame, d, skip).T
+            values = construct_weights(cage, frame, named_ridge_scalars(kind, frame), skip).T
         else:
-            values = floater_form_weights(cage, terms, x, frame.facet_det, d * frame.ridge_measure).T
+            values = floater_form_weights(cage, terms, x, frame.facet_det,
+                                          named_scaled_ridge_scalars(kind, frame)).T
         total = values.sum(axis=1, keepdims=True)
         if normalise:
             values = values / total

@@ -14,6 +14,7 @@ in x and comes from one matrix product.
 """
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -141,13 +142,13 @@ def _ridge_polynomials(corners):
     }
 
 
-@dataclass(frozen=True)
 class PointFrame:
     """Per (ridge, point) and per (facet, point) quantities for a chunk of k points.
 
     Points run along the last axis and components along the first, so that every
     operation works on long contiguous rows and gathering a ridge's data for a facet
-    copies whole rows.
+    copies whole rows. Each quantity is computed on first use: Wachspress and Voronoi
+    scalars, for one, need the Gram matrices but no cross products.
 
     Attributes
     ----------
@@ -155,16 +156,51 @@ class PointFrame:
         ``e_a . e_b`` for the p = N-1 vertices a, b of each ridge (ascending order).
     ridge_cross : (N, r, k) float
         Generalized cross product of the ridge's vectors ``e`` in ascending order.
-    ridge_measure : (r, k) float
-        Its norm: (N-1)! times the (N-1)-volume of the simplex {x} + ridge.
+    ridge_measure_squared, ridge_measure : (r, k) float
+        Its squared norm and norm: (N-1)! times the (N-1)-volume of {x} + ridge.
     facet_det : (m, k) float
         ``det E_T``: N! times the signed volume of {x} + facet (positive inside).
     """
 
-    ridge_gram: np.ndarray
-    ridge_cross: np.ndarray
-    ridge_measure: np.ndarray
-    facet_det: np.ndarray
+    def __init__(self, cage, points, facet_det=None):
+        self._cage = cage
+        # Polynomials in x with precomputed coefficients: a few small matrix products.
+        # The cage is centred, so rounding is of the order of computing e = v - x first.
+        self._x = np.asarray(points, dtype=np.float64) - cage.origin
+        if facet_det is not None:
+            self.facet_det = np.ascontiguousarray(facet_det)  # rows are gathered per ridge
+
+    @cached_property
+    def ridge_gram(self):
+        cage, x = self._cage, self._x
+        size = cage.ridge_dot_constant.shape[0]
+        squared_norm = np.einsum("kN,kN->k", x, x)
+        gram = np.empty((size, size, cage.ridge_dot_constant.shape[2], len(x)))
+        for a in range(size):
+            for b in range(a, size):
+                np.matmul(cage.ridge_dot_linear[a, b], -x.T, out=gram[a, b])
+                gram[a, b] += cage.ridge_dot_constant[a, b]
+                gram[a, b] += squared_norm
+                gram[b, a] = gram[a, b]
+        return gram
+
+    @cached_property
+    def ridge_cross(self):
+        cross = self._cage.ridge_cross_linear @ self._x.T
+        cross += self._cage.ridge_cross_constant
+        return cross
+
+    @cached_property
+    def ridge_measure_squared(self):
+        return _sum_of_products(self.ridge_cross, self.ridge_cross)
+
+    @cached_property
+    def ridge_measure(self):
+        return np.sqrt(self.ridge_measure_squared)
+
+    @cached_property
+    def facet_det(self):
+        return np.ascontiguousarray(facet_determinants(self._cage, self._x + self._cage.origin).T)
 
     @property
     def ridge_lengths_squared(self):
@@ -173,7 +209,7 @@ class PointFrame:
 
 
 def point_frame(cage, points, facet_det=None):
-    """Compute the :class:`PointFrame` of a chunk of points.
+    """The :class:`PointFrame` of a chunk of points.
 
     Parameters
     ----------
@@ -187,26 +223,7 @@ def point_frame(cage, points, facet_det=None):
     -------
     PointFrame
     """
-    x = np.asarray(points, dtype=np.float64) - cage.origin
-    size = cage.ridge_dot_constant.shape[0]
-    # Polynomials in x with precomputed coefficients: a few small matrix products. The
-    # cage is centred, so rounding is of the order of computing e = v - x first.
-    squared_norm = np.einsum("kN,kN->k", x, x)
-    gram = np.empty((size, size, cage.ridge_dot_constant.shape[2], len(x)))
-    for a in range(size):
-        for b in range(a, size):
-            np.matmul(cage.ridge_dot_linear[a, b], -x.T, out=gram[a, b])
-            gram[a, b] += cage.ridge_dot_constant[a, b]
-            gram[a, b] += squared_norm
-            gram[b, a] = gram[a, b]
-    cross = cage.ridge_cross_linear @ x.T
-    cross += cage.ridge_cross_constant
-    measure = _sum_of_products(cross, cross)
-    np.sqrt(measure, out=measure)
-    if facet_det is None:
-        facet_det = facet_determinants(cage, points).T
-    return PointFrame(ridge_gram=gram, ridge_cross=cross, ridge_measure=measure,
-                      facet_det=np.ascontiguousarray(facet_det))  # rows are gathered per ridge
+    return PointFrame(cage, points, facet_det)
 
 
 def _sum_of_products(a, b):

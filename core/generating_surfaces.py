@@ -1,9 +1,14 @@
 """Ridge scalars d of the named generating surfaces (MATH.md table).
 
-Each function takes a :class:`~core.construction.PointFrame` and returns d, shape
-(r, k) (ridges by points, the frame's layout): the signed (N-1)-volume enclosed by x and the ridge projected onto the surface.
-Ridges have p = N-1 vertices; all quantities come from the ridge's Gram matrix of
-``e = v - x`` and the norm of its generalized cross product.
+d, shape (r, k) (ridges by points, the frame's layout), is the signed (N-1)-volume
+enclosed by x and the ridge projected onto the surface. Ridges have p = N-1 vertices;
+everything comes from a :class:`~core.construction.PointFrame`: the ridge's Gram matrix
+of ``e = v - x`` and its generalized cross product, of norm ``|m_R|``.
+
+Floater's form of the construction takes ``d |m_R|`` (N! times Floater's c) instead. Some
+surfaces are simpler in that scaled form (the power duals' areas need neither the cross
+product nor a square root), others in d: each is written in its natural form and
+:func:`named_ridge_scalars` / :func:`named_scaled_ridge_scalars` convert.
 """
 
 from itertools import combinations, permutations
@@ -11,8 +16,9 @@ from math import factorial
 
 import numpy as np
 
-__all__ = ["KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "mean_value",
-           "discrete_harmonic", "wachspress", "voronoi", "power_dual"]
+__all__ = ["KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
+           "mean_value", "discrete_harmonic_scaled", "wachspress_scaled", "voronoi_scaled",
+           "power_dual", "power_dual_scaled", "power_dual_by_subsets"]
 
 
 def mean_value(frame):
@@ -37,19 +43,19 @@ def mean_value(frame):
         f"form in dimension {size + 1}; pass your own d to weights_from_ridge_scalars")
 
 
-def discrete_harmonic(frame):
-    """The polytope itself: d = (N-1)-volume of the simplex {x} + ridge."""
-    return frame.ridge_measure / factorial(frame.ridge_gram.shape[0])
+def discrete_harmonic_scaled(frame):
+    """The polytope itself: d = (N-1)-volume of {x} + ridge = |m_R| / (N-1)!; scaled, |m_R|^2 / (N-1)!."""
+    return frame.ridge_measure_squared / factorial(frame.ridge_gram.shape[0])
 
 
-def wachspress(frame):
-    """Polar dual: the power dual with heights 1."""
-    return power_dual(frame, np.ones_like(frame.ridge_lengths_squared))
+def wachspress_scaled(frame):
+    """Polar dual: the power dual with heights 1 (scaled form)."""
+    return power_dual_scaled(frame, np.ones_like(frame.ridge_lengths_squared))
 
 
-def voronoi(frame):
+def voronoi_scaled(frame):
     """Voronoi dual (circumcentres of {x} + facet): the power dual with heights |e|^2 / 2."""
-    return power_dual(frame, 0.5 * frame.ridge_lengths_squared)
+    return power_dual_scaled(frame, 0.5 * frame.ridge_lengths_squared)
 
 
 def power_dual(frame, heights):
@@ -69,35 +75,40 @@ def power_dual(frame, heights):
     -------
     d : (r, k) float
     """
-    gram, measure = frame.ridge_gram, frame.ridge_measure
+    return power_dual_scaled(frame, heights) / frame.ridge_measure
+
+
+def power_dual_scaled(frame, heights):
+    """``d |m_R|`` of a power dual (see :func:`power_dual`): no square root needed."""
+    gram = frame.ridge_gram
     size = gram.shape[0]
-    if size == 1:  # a segment of length h / |e|
-        return heights[0] / measure
-    if size == 2:  # the quadrilateral of the 3D table, in closed form
+    if size == 1:  # a segment of length h / |e|, times |e|
+        return heights[0].copy()
+    if size == 2:  # the quadrilateral of the 3D table, in closed form, times |e_a x e_b|
         h_a, h_b = heights
         l_a, l_b = gram[0, 0], gram[1, 1]
         dot = gram[0, 1]
-        area = h_a * (l_a * h_b - dot * h_a) / l_a + h_b * (l_b * h_a - dot * h_b) / l_b
-        return area / (2.0 * measure)
-    return power_dual_by_subsets(np.moveaxis(gram, (0, 1), (-2, -1)), measure, np.moveaxis(heights, 0, -1))
+        return 0.5 * (h_a * (l_a * h_b - dot * h_a) / l_a + h_b * (l_b * h_a - dot * h_b) / l_b)
+    basis_volume = power_dual_by_subsets(np.moveaxis(gram, (0, 1), (-2, -1)), np.moveaxis(heights, 0, -1))
+    return basis_volume * frame.ridge_measure_squared
 
 
-def power_dual_by_subsets(gram, measure, heights):
+def power_dual_by_subsets(gram, heights):
     """:func:`power_dual` for any ridge size, by explicit subsets and orderings.
 
     Points ``p_S`` are expressed in the ridge basis (coefficients ``a_S``, zero off S,
-    ``gram[S, S] a_S = h_S``); the simplex volume in that basis is scaled by the basis
-    volume (``measure``). Used for N >= 4 and as an independent check in 2D and 3D.
+    ``gram[S, S] a_S = h_S``). Returns the enclosed volume measured in that basis: d is
+    it times the basis volume ``|m_R|``. Used for N >= 4 and as an independent check in
+    2D and 3D.
 
     Parameters
     ----------
     gram : (..., p, p) float
-    measure : (...) float
     heights : (..., p) float
 
     Returns
     -------
-    d : (...) float
+    volume : (...) float
     """
     size = gram.shape[-1]
     points = {}
@@ -108,30 +119,44 @@ def power_dual_by_subsets(gram, measure, heights):
             full = np.zeros(gram.shape[:-1])
             full[..., index] = local[..., 0]
             points[frozenset(subset)] = full
-    total = np.zeros(measure.shape)
+    total = np.zeros(gram.shape[:-2])
     for order in permutations(range(size)):
         chain = [points[frozenset(order[:j + 1])] for j in range(size)]
         inversions = sum(order[a] > order[b] for a in range(size) for b in range(a + 1, size))
         total += (-1.0) ** inversions * np.linalg.det(np.stack(chain, axis=-1))
-    return total * measure / factorial(size)
+    return total / factorial(size)
 
 
+# Each surface in its natural form: d ("d") or d |m_R| ("scaled").
 _NAMED = {
-    "wachspress": wachspress,
-    "mean_value": mean_value,
-    "discrete_harmonic": discrete_harmonic,
-    "voronoi": voronoi,
+    "wachspress": (wachspress_scaled, "scaled"),
+    "mean_value": (mean_value, "d"),
+    "discrete_harmonic": (discrete_harmonic_scaled, "scaled"),
+    "voronoi": (voronoi_scaled, "scaled"),
 }
 KINDS = tuple(_NAMED)
 # Mean value coordinates stay well defined on non-convex closed cages (Ju et al. 2005).
 CONVEX_ONLY_KINDS = ("wachspress", "discrete_harmonic", "voronoi")
 
 
-def named_ridge_scalars(kind, frame):
-    """d of the named generating surface ``kind`` (one of :data:`KINDS`)."""
+def _named(kind):
     try:
-        function = _NAMED[kind]
+        return _NAMED[kind]
     except KeyError:
         raise ValueError(f"unknown kind {kind!r}; expected one of {', '.join(KINDS)}") from None
+
+
+def named_ridge_scalars(kind, frame):
+    """d of the named generating surface ``kind`` (one of :data:`KINDS`): (r, k) float."""
+    function, form = _named(kind)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return function(frame)
+        values = function(frame)
+        return values if form == "d" else values / frame.ridge_measure
+
+
+def named_scaled_ridge_scalars(kind, frame):
+    """``d |m_R|`` (N! times Floater's c) of the named surface ``kind``: (r, k) float."""
+    function, form = _named(kind)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        values = function(frame)
+        return values * frame.ridge_measure if form == "d" else values

@@ -91,7 +91,7 @@ def test_power_dual_closed_forms_equal_the_subset_construction(seed, dim, count,
          "random": np.random.default_rng(seed).uniform(0.1, 2.0, lengths_squared.shape)}[heights]
     closed = power_dual(frame, h)
     subsets = power_dual_by_subsets(np.moveaxis(frame.ridge_gram, (0, 1), (-2, -1)),
-                                    frame.ridge_measure, np.moveaxis(h, 0, -1))
+                                    np.moveaxis(h, 0, -1)) * frame.ridge_measure
     np.testing.assert_allclose(closed, subsets, rtol=1e-10, atol=1e-12 * np.abs(closed).max())
 
 
