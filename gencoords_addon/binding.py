@@ -65,16 +65,15 @@ def bind(obj, depsgraph, report_progress=lambda fraction: None):
     vertices = geometry.positions.astype(np.float64)
     triangles = geometry.triangles
 
+    locations = np.empty(len(points), dtype=np.int8)
     try:
-        core.validate_cage(vertices, triangles, convex=core.needs_convex(kind))
-        locations = core.point_locations(points, vertices, triangles)
-        points_outside = int(np.count_nonzero(locations == core.OUTSIDE))
-        if outside == "raise" and points_outside:
-            raise BindError(messages.outside_error(cage.name, points_outside, len(points)))
-        # Kept as float32: half the memory, and the mesh positions it yields are float32;
-        # the core writes float32 directly, so no float64 matrix exists at peak.
+        # One pass validates the cage, locates the points (outside ones are an error
+        # unless Outside says otherwise) and computes the coordinates. Kept as float32:
+        # half the memory, and the mesh positions they yield are float32; the core
+        # writes float32 directly, so no float64 matrix exists at peak.
         coordinates = core.coordinates(points, vertices, triangles, kind=kind, outside=outside,
-                                       progress=report_progress, dtype=np.float32)
+                                       progress=report_progress, dtype=np.float32,
+                                       locations=locations)
     except ValueError as error:  # every core error is a ValueError
         raise BindError(messages.core_error(cage.name, error, kind_label, len(points),
                                             geometry.triangle_faces)) from None
@@ -92,7 +91,7 @@ def bind(obj, depsgraph, report_progress=lambda fraction: None):
         kind=kind,
         outside=outside,
         bind_seconds=time.perf_counter() - started,
-        points_outside=points_outside,
+        points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
         points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
         min_coordinate=summary["min"],
         negative_points=summary["negative_points"],

@@ -150,3 +150,12 @@ def test_weights_are_homogeneous_and_finite_on_the_boundary():
         assert np.isfinite(weights).all()
         np.testing.assert_allclose(np.einsum("kn,knN->kN", weights, vertices[None] - points[:, None]),
                                    0.0, atol=1e-12)
+
+
+def test_locations_come_with_the_coordinates():
+    vertices, faces = octahedron()
+    points = np.array([[0.1, 0.1, 0.1], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.5, 0.5, 0.0]])
+    locations = np.full(len(points), 7, dtype=np.int8)
+    core.coordinates(points, vertices, faces, outside="project", locations=locations)
+    np.testing.assert_array_equal(locations, core.point_locations(points, vertices, faces))
+    np.testing.assert_array_equal(locations, [1, 0, -1, 0])
