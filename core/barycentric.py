@@ -222,8 +222,9 @@ def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERA
     Parameters and cage requirements as :func:`coordinates`. Inside the cage these are
     the unnormalised weights of the construction (coordinates are ``w / w.sum()``); at
     boundary points, where the formula has a pole, the limit coordinates (themselves
-    homogeneous weights) are returned; outside points get the formula's value (for a
-    convex-only kind, ``inf`` on a facet's hyperplane).
+    homogeneous weights) are returned; outside points get the formula's value, or the
+    projected coordinates where it is undefined (on a facet's hyperplane, for a
+    convex-only kind).
 
     Returns
     -------

@@ -14,17 +14,18 @@ on the cage, a dependency cycle as soon as the cage is parented to the mesh.
 
 import bpy
 
-LINK_NAME = "GenCoords cage link"  # the modifier and its node group
+LINK_NAME = "GenCoords cage link"  # the modifier, as the artist sees it in the stack
+GROUP_NAME = "." + LINK_NAME  # a leading dot keeps the group out of Add > Group menus
 CAGE_INPUT = "Cage"
 GEOMETRY = "Geometry"
 
 
 def _pass_through_group():
     """The node group shared by every link: geometry in, the same geometry out."""
-    group = bpy.data.node_groups.get(LINK_NAME)
+    group = bpy.data.node_groups.get(GROUP_NAME)
     if group is not None:
         return group
-    group = bpy.data.node_groups.new(LINK_NAME, 'GeometryNodeTree')
+    group = bpy.data.node_groups.new(GROUP_NAME, 'GeometryNodeTree')
     group.description = "GenCoords: makes Blender evaluate the cage (passes the mesh through)"
     interface = group.interface
     interface.new_socket(GEOMETRY, in_out='INPUT', socket_type='NodeSocketGeometry')
@@ -53,6 +54,6 @@ def unlink(obj):
     modifier = obj.modifiers.get(LINK_NAME)
     if modifier is not None:
         obj.modifiers.remove(modifier)
-    group = bpy.data.node_groups.get(LINK_NAME)
+    group = bpy.data.node_groups.get(GROUP_NAME)
     if group is not None and group.users == 0:
         bpy.data.node_groups.remove(group)

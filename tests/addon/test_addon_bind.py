@@ -11,6 +11,7 @@ from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphe
 
 KINDS = ("WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI")
 CAGE_LINK = "GenCoords cage link"
+CAGE_LINK_GROUP = ".GenCoords cage link"  # hidden from the artist's node-group menus
 
 
 def random_affine(seed):
@@ -99,7 +100,7 @@ def test_unbind_restores_rest_bitwise_and_removes_bind_data(gc):
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     np.testing.assert_array_equal(positions(obj.data), rest)
     assert obj.gencoords.bind_data is None and text_name not in bpy.data.texts
-    assert not obj.modifiers and CAGE_LINK not in bpy.data.node_groups
+    assert not obj.modifiers and CAGE_LINK_GROUP not in bpy.data.node_groups
     set_positions(cage.data, positions(cage.data) * 0.5)
     update()
     np.testing.assert_array_equal(positions(obj.data), rest)  # no longer follows
@@ -183,7 +184,7 @@ def test_cage_link_makes_a_cage_hidden_from_the_depsgraph_drive_the_mesh(gc):
     bind(obj, cage)
     bind(obj, cage)  # rebinding replaces the link
     (link,) = obj.modifiers
-    assert (link.name, link.type, link.node_group.name) == (CAGE_LINK, 'NODES', CAGE_LINK)
+    assert (link.name, link.type, link.node_group.name) == (CAGE_LINK, 'NODES', CAGE_LINK_GROUP)
     evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
     np.testing.assert_array_equal(positions(evaluated.data), positions(obj.data))
 
