@@ -32,24 +32,18 @@ def polygon_order(vertices, faces):
     return np.array(order)
 
 
+@pytest.mark.parametrize("kind,reference,tolerance", [
+    ("mean_value", mean_value_2d_trigonometric, 1e-13),  # Floater's formula (4)
+    ("discrete_harmonic", discrete_harmonic_2d_cotangent, 1e-12),  # cotangent form (13)
+])
 @given(seed=SEEDS)
 @EXAMPLES
-def test_2d_mean_value_equals_the_trigonometric_formula_4(seed):
+def test_2d_coordinates_equal_independent_formulas(seed, kind, reference, tolerance):
     vertices, faces, points = random_case(seed, 2, 7)
     order = polygon_order(vertices, faces)
-    ours = core.coordinates(points, vertices, faces, kind="mean_value")[:, order]
-    theirs = np.array([normalise(mean_value_2d_trigonometric(x, vertices[order])) for x in points])
-    np.testing.assert_allclose(ours, theirs, atol=1e-13)
-
-
-@given(seed=SEEDS)
-@EXAMPLES
-def test_2d_discrete_harmonic_equals_the_cotangent_formula_13(seed):
-    vertices, faces, points = random_case(seed, 2, 7)
-    order = polygon_order(vertices, faces)
-    ours = core.coordinates(points, vertices, faces, kind="discrete_harmonic")[:, order]
-    theirs = np.array([normalise(discrete_harmonic_2d_cotangent(x, vertices[order])) for x in points])
-    np.testing.assert_allclose(ours, theirs, atol=1e-12)
+    ours = core.coordinates(points, vertices, faces, kind=kind)[:, order]
+    theirs = np.array([normalise(reference(x, vertices[order])) for x in points])
+    np.testing.assert_allclose(ours, theirs, atol=tolerance)
 
 
 @pytest.mark.parametrize("kind,power", [("wachspress", 0), ("mean_value", 1), ("discrete_harmonic", 2)])
