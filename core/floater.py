@@ -44,15 +44,18 @@ class FloaterTerms:
     minor_normals : (N-1, r, N) float
     minor_offsets : (N-1, r, 1) float
         ``C_k(x) = minor_offset - minor_normal . x`` for the ridge's k-th vertex.
+    term_vertices : ((2 + N-1) r,) int
+        The vertex each per-ridge term belongs to (rows ``role * r + ridge``; roles p,
+        q, then the ridge's vertices).
     vertex_terms : (n, w) int
-        Gather table (:func:`core.topology.gather_table`) of the per-ridge terms
-        (rows ``role * r + ridge``; roles p, q, then the ridge's vertices) by vertex.
+        Their gather table (:func:`core.topology.gather_table`) by vertex.
     """
 
     facets: np.ndarray
     opposite: np.ndarray
     minor_normals: np.ndarray
     minor_offsets: np.ndarray
+    term_vertices: np.ndarray
     vertex_terms: np.ndarray
 
 
@@ -71,13 +74,14 @@ def floater_terms(cage):
         sign = -((-1.0) ** slot)
         normals.append(sign * normal)
         offsets.append(sign * np.einsum("rN,rN->r", corners[:, 0], normal)[:, None])
-    owners = np.concatenate([opposite[:, 0], opposite[:, 1], ridge_vertices.T.reshape(-1)])
+    term_vertices = np.concatenate([opposite[:, 0], opposite[:, 1], ridge_vertices.T.reshape(-1)])
     return FloaterTerms(
         facets=facets,
         opposite=opposite,
         minor_normals=np.stack(normals),
         minor_offsets=np.stack(offsets),
-        vertex_terms=gather_table(owners, len(cage.vertices)),
+        term_vertices=term_vertices,
+        vertex_terms=gather_table(term_vertices, len(cage.vertices)),
     )
 
 
@@ -150,10 +154,9 @@ def floater_matrix(points, vertices, faces):
     # Column R holds ridge R's terms for c_R = 1, each added at its vertex.
     unit = np.full((ridges, len(x)), float(factorial(cage.dimension)))
     values = floater_term_values(cage, terms, x, facet_determinants(cage, x).T, unit)[:-1]
-    owners = np.concatenate([terms.opposite[:, 0], terms.opposite[:, 1], cage.topology.ridges.T.reshape(-1)])
-    roles = len(owners) // ridges
+    roles = len(terms.term_vertices) // ridges
     matrix = np.zeros((len(x), len(cage.vertices), ridges))
-    np.add.at(matrix, (slice(None), owners, np.tile(np.arange(ridges), roles)), values.T)
+    np.add.at(matrix, (slice(None), terms.term_vertices, np.tile(np.arange(ridges), roles)), values.T)
     return matrix
 
 
