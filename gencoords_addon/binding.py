@@ -9,6 +9,13 @@ from . import mesh_io, messages, storage
 from .properties import KIND_ITEMS, core_name, enum_label
 
 
+# Blender stores positions as float32 (about 7 significant digits): a flat cage face
+# after Apply Rotation, or a mesh vertex on the cage surface, is exact only to ~1e-7 of
+# the cage's size. The core's default (1e-9, for float64 input) would call such a face
+# non-convex and such a vertex outside; this is the float32 equivalent, with a margin.
+FLOAT32_TOLERANCE = 1e-6
+
+
 class BindError(Exception):
     """Binding is impossible; the message says why in Blender's terms."""
 
@@ -73,7 +80,7 @@ def bind(obj, depsgraph, report_progress=lambda fraction: None):
         # writes float32 directly, so no float64 matrix exists at peak.
         coordinates = core.coordinates(points, vertices, triangles, kind=kind, outside=outside,
                                        progress=report_progress, dtype=np.float32,
-                                       locations=locations)
+                                       locations=locations, tolerance=FLOAT32_TOLERANCE)
     except ValueError as error:  # every core error is a ValueError
         raise BindError(messages.core_error(cage.name, error, kind_label, len(points),
                                             geometry.triangle_faces)) from None

@@ -2,6 +2,7 @@
 
 import os
 
+import bmesh
 import bpy
 import numpy as np
 
@@ -88,3 +89,13 @@ def load_user_preferences():
     enable installed extensions); bpy as a module starts with factory preferences."""
     if os.path.exists(bpy.utils.user_resource('CONFIG', path="userpref.blend")):
         bpy.ops.wm.read_userpref()
+
+
+def edit_mesh(obj, change):
+    """Apply ``change(bm)`` to the object's mesh through bmesh."""
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    change(bm)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()

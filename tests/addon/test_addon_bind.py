@@ -1,13 +1,14 @@
 """Binding and live deformation, driven through the operators as a script would."""
 
+import bmesh
 import bpy
 import numpy as np
 import pytest
 from mathutils import Matrix
 
 from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere,
-                           add_subdivided_sphere, bind, evaluated_cage_positions, positions,
-                           set_positions, update)
+                           add_subdivided_sphere, bind, edit_mesh, evaluated_cage_positions,
+                           positions, set_positions, update)
 
 KINDS = ("WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI")
 CAGE_LINK = "GenCoords cage link"
@@ -153,6 +154,28 @@ def test_a_hook_and_an_armature_on_the_cage_drive_the_mesh(gc):
     posed = evaluated_cage_positions(cage)
     assert not np.allclose(posed, positions(cage.data))
     np.testing.assert_array_equal(positions(obj.data), coordinates @ posed)
+
+
+def test_float32_cages_bind_a_rotated_subdivided_cube_and_a_mesh_on_the_cage(gc):
+    """Flat faces after Apply Rotation are flat only to float32 precision (~1e-7)."""
+    cage = add_cube_cage()
+    edit_mesh(cage, lambda bm: bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=2,
+                                                         use_grid_fill=True))
+    cage.rotation_euler = (0.3, 0.7, 1.1)
+    activate(cage)
+    bpy.ops.object.transform_apply(rotation=True)
+    obj = add_sphere()
+    assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}
+
+    # A duplicate of the cage: every vertex on its surface (boundary, not outside).
+    skin = cage.copy()
+    skin.data = cage.data.copy()
+    bpy.context.scene.collection.objects.link(skin)
+    assert bind(skin, cage, kind="WACHSPRESS") == {'FINISHED'}
+    assert gc.storage.load(skin).points_on_boundary == len(skin.data.vertices)
+    set_positions(cage.data, positions(cage.data) * (1.2, 0.9, 1.1))
+    update()
+    np.testing.assert_allclose(positions(skin.data), positions(cage.data), atol=1e-5)
 
 
 def test_picking_another_cage_takes_effect_only_on_the_next_bind(gc):

@@ -7,18 +7,8 @@ import bpy
 import numpy as np
 import pytest
 
-from scene_helpers import (add_cube_cage, add_icosphere_cage, add_sphere, bind, positions,
-                           set_positions, update)
-
-
-def edit_cage(cage, change):
-    """Apply ``change(bm)`` to the cage mesh through bmesh."""
-    bm = bmesh.new()
-    bm.from_mesh(cage.data)
-    change(bm)
-    bm.to_mesh(cage.data)
-    bm.free()
-    cage.data.update()
+from scene_helpers import (add_cube_cage, add_icosphere_cage, add_sphere, bind, edit_mesh,
+                           positions, set_positions, update)
 
 
 def open_hole(bm):
@@ -76,13 +66,13 @@ def assert_bind_refused(obj, cage, message, kind="MEAN_VALUE"):
 ])
 def test_broken_cages_are_refused(gc, change, message):
     cage = add_icosphere_cage()
-    edit_cage(cage, change)
+    edit_mesh(cage, change)
     assert_bind_refused(add_sphere(), cage, message)
 
 
 def test_non_convex_cage_suggests_mean_value(gc):
     cage = add_cube_cage()
-    edit_cage(cage, dent)
+    edit_mesh(cage, dent)
     obj = add_sphere(radius=0.5)
     assert_bind_refused(obj, cage, "not convex, which Wachspress coordinates need: choose "
                                    "Mean Value", kind="WACHSPRESS")
@@ -150,7 +140,7 @@ def test_cage_topology_change_is_reported_until_rebind(gc, change):
     obj = add_sphere()
     bind(obj, cage)
     before = positions(obj.data).copy()
-    edit_cage(cage, change)
+    edit_mesh(cage, change)
     update()
     assert "The topology of cage 'Cage' changed" in fault_text(gc, obj)
     np.testing.assert_array_equal(positions(obj.data), before)
@@ -163,7 +153,7 @@ def test_mesh_topology_change_never_writes_mismatched_arrays(gc):
     cage = add_icosphere_cage()
     obj = add_sphere()
     bind(obj, cage)
-    edit_cage(obj, lambda bm: bmesh.ops.delete(bm, geom=[bm.verts[:][0]], context='VERTS'))
+    edit_mesh(obj, lambda bm: bmesh.ops.delete(bm, geom=[bm.verts[:][0]], context='VERTS'))
     update()
     edited = positions(obj.data).copy()
     set_positions(cage.data, positions(cage.data) * 1.3)
