@@ -15,6 +15,7 @@ from .errors import CageError, OutsideCageError
 from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalars, floater_weights,
                       ridge_scalars_from_floater)
 from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS
+from .orientation import orient_facets_outward
 from .topology import ridges
 from .triangulation import triangulate_quads
 from .validation import DEFAULT_TOLERANCE, validate_cage
@@ -23,6 +24,6 @@ __all__ = [
     "coordinates", "weights", "ridges", "ridge_scalars", "weights_from_ridge_scalars",
     "floater_weights", "floater_matrix", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
     "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
-    "field_colors", "coordinate_summary", "triangulate_quads", "CageError", "OutsideCageError", "KINDS",
+    "field_colors", "coordinate_summary", "triangulate_quads", "orient_facets_outward", "CageError", "OutsideCageError", "KINDS",
     "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
 ]

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import core
-from polytopes import dented_icosphere, icosphere, l_shape, octahedron, random_interior_points
+from polytopes import (dented_icosphere, icosphere, l_shape, octahedron, random_convex_polytope,
+                       random_interior_points)
 from reference_formulas import mean_value_3d_ju, normalise
 
 
@@ -139,6 +140,18 @@ def test_mean_value_on_a_non_convex_polygon():
         core.coordinates([[1.5, 1.5]], vertices, edges, kind="mean_value")
     with pytest.raises(core.CageError, match="not convex"):
         core.coordinates(points, vertices, edges, kind="wachspress")
+
+
+@pytest.mark.parametrize("dim,count", [(2, 7), (3, 10), (4, 8)])
+def test_facets_of_a_hull_in_any_order_are_oriented_outward(dim, count):
+    rng = np.random.default_rng(dim)
+    vertices, faces = random_convex_polytope(rng, dim, count)
+    scrambled = np.array([rng.permutation(face) for face in faces])
+    with pytest.raises(core.CageError):
+        core.validate_cage(vertices, scrambled)
+    oriented = core.orient_facets_outward(vertices, scrambled)
+    core.validate_cage(vertices, oriented)
+    np.testing.assert_array_equal(np.sort(oriented, axis=1), np.sort(scrambled, axis=1))
 
 
 def test_validate_cage_accepts_a_good_cage_and_returns_it():
