@@ -50,7 +50,7 @@ def discrete_harmonic_scaled(frame):
 
 def wachspress_scaled(frame):
     """Polar dual: the power dual with heights 1 (scaled form)."""
-    return power_dual_scaled(frame, np.ones_like(frame.ridge_lengths_squared))
+    return power_dual_scaled(frame, 1.0)
 
 
 def voronoi_scaled(frame):
@@ -69,7 +69,7 @@ def power_dual(frame, heights):
     Parameters
     ----------
     frame : PointFrame
-    heights : (N-1, r, k) float
+    heights : (N-1, r, k) float, or a float for equal heights
 
     Returns
     -------
@@ -82,13 +82,14 @@ def power_dual_scaled(frame, heights):
     """``d |m_R|`` of a power dual (see :func:`power_dual`): no square root needed."""
     gram = frame.ridge_gram
     size = gram.shape[0]
+    heights = np.broadcast_to(heights, (size,) + gram.shape[2:])
     if size == 1:  # a segment of length h / |e|, times |e|
         return heights[0].copy()
-    if size == 2:  # the quadrilateral of the 3D table, in closed form, times |e_a x e_b|
+    if size == 2:  # the quadrilateral of the 3D table, in closed form, times |e_a x e_b|:
+        # (h_a (l_a h_b - dot h_a) / l_a + h_b (l_b h_a - dot h_b) / l_b) / 2
         h_a, h_b = heights
-        l_a, l_b = gram[0, 0], gram[1, 1]
         dot = gram[0, 1]
-        return 0.5 * (h_a * (l_a * h_b - dot * h_a) / l_a + h_b * (l_b * h_a - dot * h_b) / l_b)
+        return h_a * h_b - 0.5 * dot * (h_a * h_a / gram[0, 0] + h_b * h_b / gram[1, 1])
     basis_volume = power_dual_by_subsets(np.moveaxis(gram, (0, 1), (-2, -1)), np.moveaxis(heights, 0, -1))
     return basis_volume * frame.ridge_measure_squared
 
