@@ -82,14 +82,14 @@ def power_dual_scaled(frame, heights):
     """``d |m_R|`` of a power dual (see :func:`power_dual`): no square root needed."""
     gram = frame.ridge_gram
     size = gram.shape[0]
+    if size == 2:  # the quadrilateral of the 3D table, in closed form, times |e_a x e_b|:
+        # (h_a (l_a h_b - dot h_a) / l_a + h_b (l_b h_a - dot h_b) / l_b) / 2
+        h_a, h_b = (heights, heights) if np.ndim(heights) == 0 else heights  # scalars stay scalar
+        dot = gram[0, 1]
+        return h_a * h_b - 0.5 * dot * (h_a * h_a / gram[0, 0] + h_b * h_b / gram[1, 1])
     heights = np.broadcast_to(heights, (size,) + gram.shape[2:])
     if size == 1:  # a segment of length h / |e|, times |e|
         return heights[0].copy()
-    if size == 2:  # the quadrilateral of the 3D table, in closed form, times |e_a x e_b|:
-        # (h_a (l_a h_b - dot h_a) / l_a + h_b (l_b h_a - dot h_b) / l_b) / 2
-        h_a, h_b = heights
-        dot = gram[0, 1]
-        return h_a * h_b - 0.5 * dot * (h_a * h_a / gram[0, 0] + h_b * h_b / gram[1, 1])
     basis_volume = power_dual_by_subsets(np.moveaxis(gram, (0, 1), (-2, -1)), np.moveaxis(heights, 0, -1))
     return basis_volume * frame.ridge_measure_squared
 
