@@ -68,6 +68,11 @@ def bind(obj, depsgraph, report_progress=lambda fraction: None):
     except ValueError:
         raise BindError(f"'{obj.name}' or its cage '{cage.name}' has zero scale: "
                         "fix the transform") from None
+    undefined = np.flatnonzero(~np.isfinite(rest).all(axis=1))
+    if len(undefined):
+        raise BindError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or "
+                        f"infinite) positions (first: vertex {undefined[0]}): fix or delete "
+                        "them, then Bind")
     points = mesh_io.transform_points(mesh_to_cage, rest)
     vertices = geometry.positions.astype(np.float64)
     triangles = geometry.triangles

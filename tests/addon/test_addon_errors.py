@@ -84,6 +84,15 @@ def test_non_convex_cage_suggests_mean_value(gc):
     assert bind(obj, cage, kind="MEAN_VALUE") == {'FINISHED'}
 
 
+def test_mesh_with_an_undefined_vertex_is_refused(gc):
+    obj = add_sphere()
+    broken = positions(obj.data).copy()
+    broken[5] = np.nan
+    set_positions(obj.data, broken)
+    assert_bind_refused(obj, add_icosphere_cage(), re.escape(
+        "'Mesh' has 1 vertices at undefined (NaN or infinite) positions (first: vertex 5)"))
+
+
 def test_cage_with_three_vertices_is_refused(gc):
     assert_bind_refused(add_sphere(), add_triangle_object(), "Cage 'Triangle' needs at least 4")
 
