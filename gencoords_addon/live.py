@@ -27,6 +27,10 @@ class LiveFault(Exception):
 
 def bound_objects(scene):
     """Mesh objects of ``scene`` that have bind data."""
+    # Handlers run on every update of every file: without bind data (a few texts to
+    # look at), skip the walk over a scene's objects, which can number thousands.
+    if not storage.any_bind_data():
+        return []
     return [obj for obj in scene.objects
             if obj.type == 'MESH' and obj.gencoords.bind_data is not None]
 

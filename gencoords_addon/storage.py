@@ -102,6 +102,11 @@ def remove(obj):
         bpy.data.texts.remove(text)
 
 
+def any_bind_data():
+    """Whether the open file holds any bind data (cheap: files have few texts)."""
+    return any(text.name.startswith(TEXT_PREFIX) for text in bpy.data.texts)
+
+
 def clear_cache():
     """Drop decoded arrays (after loading a file, when datablocks are all new)."""
     _cache.clear()
