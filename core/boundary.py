@@ -47,21 +47,20 @@ def winding_numbers(cage, points):
     winding : (k,) float
     """
     dim = cage.dimension
+    if dim not in (2, 3):
+        raise NotImplementedError("winding numbers are implemented for 2D and 3D cages")
     x = np.asarray(points, dtype=np.float64) - cage.origin
     corners = cage.vertices[cage.topology.faces][None] - x[:, None, None, :]  # (k, m, N, N)
-    det = np.linalg.det(corners) if dim > 3 else (
-        np.einsum("kmN,kmN->km", corners[..., 0, :], np.cross(corners[..., 1, :], corners[..., 2, :]))
-        if dim == 3 else corners[..., 0, 0] * corners[..., 1, 1] - corners[..., 0, 1] * corners[..., 1, 0])
+    dot = lambda u, v: np.einsum("kmN,kmN->km", u, v)  # noqa: E731
     if dim == 2:  # signed angle subtended by each edge
-        angle = np.arctan2(det, np.einsum("kmN,kmN->km", corners[..., 0, :], corners[..., 1, :]))
+        a, b = corners[..., 0, :], corners[..., 1, :]
+        angle = np.arctan2(a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0], dot(a, b))
         return angle.sum(axis=1) / (2.0 * np.pi)
-    if dim == 3:  # signed solid angle of each triangle (Van Oosterom and Strackee)
-        a, b, c = corners[..., 0, :], corners[..., 1, :], corners[..., 2, :]
-        la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
-        dot = lambda u, v: np.einsum("kmN,kmN->km", u, v)  # noqa: E731
-        denominator = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la
-        return (2.0 * np.arctan2(det, denominator)).sum(axis=1) / (4.0 * np.pi)
-    raise NotImplementedError("winding numbers are implemented for 2D and 3D cages")
+    # Signed solid angle of each triangle (Van Oosterom and Strackee).
+    a, b, c = corners[..., 0, :], corners[..., 1, :], corners[..., 2, :]
+    la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
+    denominator = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la
+    return (2.0 * np.arctan2(dot(a, np.cross(b, c)), denominator)).sum(axis=1) / (4.0 * np.pi)
 
 
 def _nearest_of_pairs(cage, points, point_index, facet_index):
