@@ -146,3 +146,39 @@ def discrete_harmonic_3d_cotangent(x, vertices, faces):
 
             weights[i] += _cot(across(vertices[i]), across(x)) * np.linalg.norm(edge) / 2.0
     return weights
+
+
+def mean_value_by_integration(x, vertices, facets, samples=400_000, seed=0):
+    """Mean value weights from their definition, by Monte Carlo over directions.
+
+    w_i = integral over unit directions u of lambda_i(u) / r(u), where the ray x + r u
+    leaves the convex polytope through a facet at distance r and lambda are the
+    barycentric coordinates of the exit point in that facet (Ju, Schaefer and Warren;
+    Floater, Kos and Reimers). Independent of any closed form, in any dimension; the
+    estimate's relative error is about 1 / sqrt(samples).
+    """
+    rng = np.random.default_rng(seed)
+    dim = vertices.shape[1]
+    directions = rng.normal(size=(samples, dim))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    corners = vertices[facets]  # (m, N, N)
+    # Facet hyperplanes n . y = c with n pointing away from x.
+    normals = np.array([np.linalg.svd(c[1:] - c[0])[2][-1] for c in corners])
+    offsets = np.einsum("mN,mN->m", normals, corners[:, 0])
+    flip = offsets - normals @ x < 0
+    normals[flip], offsets[flip] = -normals[flip], -offsets[flip]
+    with np.errstate(divide="ignore"):
+        distance = (offsets - normals @ x)[None, :] / (directions @ normals.T)
+    distance[distance <= 0] = np.inf
+    hit = np.argmin(distance, axis=1)
+    reach = distance[np.arange(samples), hit]
+    exits = x + reach[:, None] * directions
+    weights = np.zeros(len(vertices))
+    for facet in range(len(facets)):
+        chosen = hit == facet
+        # Barycentric coordinates of the exit points in the facet (least squares in its plane).
+        system = np.vstack([corners[facet].T, np.ones(dim)])
+        rhs = np.vstack([exits[chosen].T, np.ones(np.count_nonzero(chosen))])
+        barycentric = np.linalg.lstsq(system, rhs, rcond=None)[0]  # (N, hits)
+        np.add.at(weights, facets[facet], (barycentric / reach[chosen]).sum(axis=1))
+    return weights

@@ -8,10 +8,10 @@ from hypothesis import strategies as st
 import core
 from core.construction import point_frame, prepare_cage
 from core.generating_surfaces import power_dual, power_dual_by_subsets
-from polytopes import octahedron, random_convex_polytope, random_interior_points
+from polytopes import cross_polytope, octahedron, random_convex_polytope, random_interior_points
 from reference_formulas import (discrete_harmonic_2d_cotangent, discrete_harmonic_3d_cotangent,
-                                floater_2d, mean_value_2d_trigonometric, mean_value_3d_ju, normalise,
-                                wachspress_3d_polar_dual)
+                                floater_2d, mean_value_2d_trigonometric, mean_value_3d_ju,
+                                mean_value_by_integration, normalise, wachspress_3d_polar_dual)
 
 SEEDS = st.integers(0, 2**32 - 1)
 EXAMPLES = settings(max_examples=10, deadline=None)
@@ -113,3 +113,16 @@ def test_3d_table_formulas_of_math_md():
     }
     for kind, expected in table.items():
         np.testing.assert_allclose(core.ridge_scalars(x, vertices, faces, kind)[0], expected, rtol=1e-12)
+
+
+@pytest.mark.parametrize("dim", [3, 4])
+def test_mean_value_equals_its_definition_by_integration(dim):
+    """The N-D mean value scalar (3D: angle / 2; 4D: solid angle / 3, MATH.md's
+    derivation) against Monte Carlo integration of the definition."""
+    vertices, facets = cross_polytope(dim, radii=np.linspace(0.7, 1.4, dim))
+    x = np.linspace(0.05, 0.2, dim)
+    ours = core.coordinates(x, vertices, facets, kind="mean_value")[0]
+    estimate = normalise(mean_value_by_integration(x, vertices, facets))
+    np.testing.assert_allclose(estimate, ours, atol=3e-3)
+    # The check can fail: Wachspress coordinates differ by more than its tolerance.
+    assert np.abs(core.coordinates(x, vertices, facets, kind="wachspress")[0] - estimate).max() > 1e-2
