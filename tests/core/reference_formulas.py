@@ -4,6 +4,8 @@ None of these shares code with ``core``: they are the oracles the general constr
 is checked against. Plain loops are fine here (few points, small cages).
 """
 
+from itertools import combinations
+
 import numpy as np
 
 
@@ -182,3 +184,61 @@ def mean_value_by_integration(x, vertices, facets, samples=400_000, seed=0):
         barycentric = np.linalg.lstsq(system, rhs, rcond=None)[0]  # (N, hits)
         np.add.at(weights, facets[facet], (barycentric / reach[chosen]).sum(axis=1))
     return weights
+
+
+def wachspress_by_polar_dual_volumes(x, vertices, facets):
+    """Wachspress weights in any dimension from the polar dual (Ju et al. 2005).
+
+    The dual of facet f about x is the point n_f / h_f (unit outward normal over the
+    distance from x). The dual facet of vertex i, the hull of the dual points of the
+    facets around it, lies in the hyperplane p . (v_i - x) = 1; the weight is its
+    (N-1)-volume over |v_i - x|. Volumes come from an explicit hull, not from the core.
+    """
+    dim = vertices.shape[1]
+    corners = vertices[facets]
+    normals = np.array([np.linalg.svd(c[1:] - c[0])[2][-1] for c in corners])
+    heights = np.einsum("mN,mN->m", normals, corners[:, 0] - x)
+    normals[heights < 0] *= -1
+    duals = normals / np.abs(heights)[:, None]
+    weights = np.empty(len(vertices))
+    for i, vertex in enumerate(vertices):
+        spoke = vertex - x
+        around = duals[np.any(facets == i, axis=1)]
+        basis = np.linalg.svd(spoke[None, :])[2][1:].T  # (N, N-1): the hyperplane's directions
+        weights[i] = convex_volume(around @ basis) / np.linalg.norm(spoke)
+    return weights
+
+
+def convex_volume(points, tolerance=1e-9):
+    """Volume of the convex hull of a few points in R^d, by brute force.
+
+    Facets are the distinct hyperplanes through d of the points with all points on one
+    side (coplanar points allowed, so non-simplicial hulls work); the volume is the sum
+    of the cones from the centroid over the facets, each facet's volume recursively.
+    """
+    points = np.asarray(points, dtype=float)
+    dim = points.shape[1]
+    if dim == 1:
+        return float(np.ptp(points[:, 0]))
+    centre = points.mean(axis=0)
+    scale = np.abs(points - centre).max()
+    planes, volume = [], 0.0
+    for subset in combinations(range(len(points)), dim):
+        edges = points[list(subset[1:])] - points[subset[0]]
+        singular, right = np.linalg.svd(edges)[1:]
+        if singular[-1] <= tolerance * scale:
+            continue  # the d points span less than a hyperplane
+        normal = right[-1]
+        offset = normal @ points[subset[0]]
+        side = points @ normal - offset
+        if side.max() > tolerance * scale and side.min() < -tolerance * scale:
+            continue  # points on both sides: not a facet
+        if any(abs(abs(normal @ n) - 1) < 1e-9 and abs(abs(offset) - abs(o)) < tolerance * scale
+               for n, o in planes):
+            continue  # a facet already counted
+        planes.append((normal, offset))
+        on_facet = points[np.abs(side) <= tolerance * scale]
+        basis = np.linalg.svd(normal[None, :])[2][1:].T  # the facet's directions
+        height = abs(normal @ centre - offset)
+        volume += convex_volume(on_facet @ basis, tolerance) * height / dim
+    return volume

@@ -11,7 +11,8 @@ from core.generating_surfaces import power_dual, power_dual_by_subsets
 from polytopes import cross_polytope, octahedron, random_convex_polytope, random_interior_points
 from reference_formulas import (discrete_harmonic_2d_cotangent, discrete_harmonic_3d_cotangent,
                                 floater_2d, mean_value_2d_trigonometric, mean_value_3d_ju,
-                                mean_value_by_integration, normalise, wachspress_3d_polar_dual)
+                                mean_value_by_integration, normalise, wachspress_3d_polar_dual,
+                                wachspress_by_polar_dual_volumes)
 
 SEEDS = st.integers(0, 2**32 - 1)
 EXAMPLES = settings(max_examples=10, deadline=None)
@@ -126,3 +127,14 @@ def test_mean_value_equals_its_definition_by_integration(dim):
     np.testing.assert_allclose(estimate, ours, atol=3e-3)
     # The check can fail: Wachspress coordinates differ by more than its tolerance.
     assert np.abs(core.coordinates(x, vertices, facets, kind="wachspress")[0] - estimate).max() > 1e-2
+
+
+@pytest.mark.parametrize("dim,count", [(2, 7), (3, 10), (4, 8)])
+@given(seed=SEEDS)
+@settings(max_examples=3, deadline=None)
+def test_wachspress_equals_polar_dual_volumes_in_any_dimension(seed, dim, count):
+    """MATH.md's N-D power-dual scalars against the polar dual's facet volumes."""
+    vertices, faces, points = random_case(seed, dim, count, points=3)
+    ours = core.coordinates(points, vertices, faces, kind="wachspress")
+    theirs = np.array([normalise(wachspress_by_polar_dual_volumes(x, vertices, faces)) for x in points])
+    np.testing.assert_allclose(ours, theirs, atol=1e-10)
