@@ -242,3 +242,22 @@ def convex_volume(points, tolerance=1e-9):
         height = abs(normal @ centre - offset)
         volume += convex_volume(on_facet @ basis, tolerance) * height / dim
     return volume
+
+
+def discrete_harmonic_by_stiffness(x, vertices, facets):
+    """Discrete harmonic weights in any dimension from their definition (paper eq. 10).
+
+    Minimising the Dirichlet energy of the piecewise linear function on the simplices
+    {x} + facet over its value at x gives f(x) = sum w_i f_i / sum w_i with w_i minus the
+    (x, v_i) entry of the linear finite-element stiffness matrix, assembled here simplex
+    by simplex: vol(S) grad(lambda_x) . grad(lambda_i).
+    """
+    dim = vertices.shape[1]
+    weights = np.zeros(len(vertices))
+    for facet in facets:
+        corners = np.vstack([x, vertices[facet]])  # (N+1, N)
+        affine = np.vstack([np.ones(dim + 1), corners.T])  # barycentric coordinates = inv @ [1, y]
+        gradients = np.linalg.inv(affine)[:, 1:]  # (N+1, N): gradient of each lambda
+        volume = abs(np.linalg.det(affine)) / np.prod(range(1, dim + 1))
+        weights[facet] -= volume * gradients[1:] @ gradients[0]
+    return weights

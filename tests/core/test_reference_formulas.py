@@ -10,6 +10,7 @@ from core.construction import point_frame, prepare_cage
 from core.generating_surfaces import power_dual, power_dual_by_subsets
 from polytopes import cross_polytope, octahedron, random_convex_polytope, random_interior_points
 from reference_formulas import (discrete_harmonic_2d_cotangent, discrete_harmonic_3d_cotangent,
+                                discrete_harmonic_by_stiffness,
                                 floater_2d, mean_value_2d_trigonometric, mean_value_3d_ju,
                                 mean_value_by_integration, normalise, wachspress_3d_polar_dual,
                                 wachspress_by_polar_dual_volumes)
@@ -137,4 +138,15 @@ def test_wachspress_equals_polar_dual_volumes_in_any_dimension(seed, dim, count)
     vertices, faces, points = random_case(seed, dim, count, points=3)
     ours = core.coordinates(points, vertices, faces, kind="wachspress")
     theirs = np.array([normalise(wachspress_by_polar_dual_volumes(x, vertices, faces)) for x in points])
+    np.testing.assert_allclose(ours, theirs, atol=1e-10)
+
+
+@pytest.mark.parametrize("dim,count", [(2, 7), (3, 10), (4, 8)])
+@given(seed=SEEDS)
+@EXAMPLES
+def test_discrete_harmonic_minimises_the_dirichlet_energy_in_any_dimension(seed, dim, count):
+    """MATH.md's N-D scalar (volume of {x} + ridge) against the stiffness matrix of eq. (10)."""
+    vertices, faces, points = random_case(seed, dim, count)
+    ours = core.coordinates(points, vertices, faces, kind="discrete_harmonic")
+    theirs = np.array([normalise(discrete_harmonic_by_stiffness(x, vertices, faces)) for x in points])
     np.testing.assert_allclose(ours, theirs, atol=1e-10)
