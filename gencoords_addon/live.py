@@ -98,7 +98,8 @@ def _run(obj, action):
 def _bind_of(obj):
     bind = storage.load(obj)
     if bind is None:
-        raise LiveFault(f"The bind data of '{obj.name}' is missing: Bind again or Unbind")
+        raise LiveFault(f"The bind data of '{obj.name}' is missing or from another version of "
+                        "GenCoords: Bind again or Unbind")
     return bind
 
 
@@ -110,6 +111,17 @@ def deform(obj, depsgraph):
             raise LiveFault(f"'{obj.name}' is in Edit Mode: deformation paused")
         _write_guarded(obj, deformed_positions(obj, bind, depsgraph))
     return _run(obj, action)
+
+
+def rest_shape_problem(obj):
+    """Why the stored rest shape of ``obj`` cannot be written back, or None if it can."""
+    bind = storage.load(obj)
+    if bind is None:
+        return "its bind data is missing or from another version of GenCoords"
+    if bind.mesh_vertex_count != len(obj.data.vertices):
+        return (f"its vertex count changed since binding ({bind.mesh_vertex_count} then, "
+                f"{len(obj.data.vertices)} now)")
+    return None
 
 
 def restore_rest(obj):

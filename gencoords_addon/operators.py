@@ -71,14 +71,16 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
         if obj.mode == 'EDIT':
             self.report({'ERROR'}, "Leave Edit Mode before unbinding")
             return {'CANCELLED'}
-        restored = live.restore_rest(obj)
+        problem = live.rest_shape_problem(obj)
+        if problem is None:
+            live.restore_rest(obj)
         storage.remove(obj)
         cage_link.unlink(obj)
         obj.gencoords.bound_cage = None
         live.faults.pop(obj.session_uid, None)
-        if not restored:
-            self.report({'WARNING'}, f"Unbound '{obj.name}', but its vertex count changed since "
-                                     "binding, so its rest shape could not be restored")
+        if problem:
+            self.report({'WARNING'}, f"Unbound '{obj.name}' and kept its current shape: "
+                                     f"the rest shape could not be restored, as {problem}")
         return {'FINISHED'}
 
 

@@ -14,6 +14,9 @@ import bpy
 import numpy as np
 
 ARRAY_KEYS = ("coordinates", "rest_positions")
+# Bind data live in users' .blend files: a later layout gets a new number, and data of
+# another number read as missing ("Bind again") instead of being misread.
+FORMAT_KEY, FORMAT = "gencoords_format", 1
 TEXT_PREFIX = ".GenCoords bind data: "  # a leading dot hides it from most ID lists
 TEXT_BODY = (
     "GenCoords bind data for the object '{}' (coordinates, rest shape, cage fingerprint).\n"
@@ -58,6 +61,7 @@ def save(obj, bind):
     for key, value in vars(bind).items():
         if key not in ARRAY_KEYS:
             text[key] = value
+    text[FORMAT_KEY] = FORMAT
     obj.gencoords.bind_data = text
     _cache[text.session_uid] = bind
 
@@ -76,6 +80,8 @@ def load(obj):
 
 
 def _decode(text):
+    if text.get(FORMAT_KEY) != FORMAT:
+        return None
     scalars = {key: text[key] for key in BindData.__dataclass_fields__
                if key not in ARRAY_KEYS and key in text}
     if len(scalars) + len(ARRAY_KEYS) != len(BindData.__dataclass_fields__):

@@ -7,8 +7,8 @@ import bpy
 import numpy as np
 import pytest
 
-from scene_helpers import (add_cube_cage, add_icosphere_cage, add_sphere, bind, edit_mesh,
-                           positions, set_positions, update)
+from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere, bind,
+                           edit_mesh, positions, set_positions, update)
 
 
 def open_hole(bm):
@@ -124,6 +124,23 @@ def test_vertices_outside_are_counted_and_project_or_extrapolate_bind(gc):
 
 def fault_text(gc, obj):
     return "\n".join(text for text, icon in gc.status.status_lines(obj) if icon == 'ERROR')
+
+
+def test_bind_data_of_another_format_is_reported_not_misread(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    shape = positions(obj.data).copy()
+    obj.gencoords.bind_data["gencoords_format"] = 99  # as written by another version
+    gc.storage.clear_cache()
+    set_positions(cage.data, positions(cage.data) * 1.2)
+    update()
+    assert "another version of GenCoords" in fault_text(gc, obj)
+    np.testing.assert_array_equal(positions(obj.data), shape)  # nothing written
+    activate(obj)
+    assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+    assert obj.gencoords.bind_data is None and not obj.modifiers
+    np.testing.assert_array_equal(positions(obj.data), shape)
 
 
 def test_deleting_the_cage_stops_deformation_and_unbind_restores(gc):
