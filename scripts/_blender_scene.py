@@ -38,6 +38,8 @@ else:
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
+
+import core  # noqa: E402
 from mathutils import Euler, Vector  # noqa: E402
 
 # Suzanne's subdivision level -> vertex count (primitive_monkey_add, size 2, applied
@@ -194,17 +196,6 @@ def make_active(obj):
 # --------------------------------------------------------------------------- polyhedra
 
 
-def orient_outward(vertices, faces):
-    """Faces of a convex polyhedron turned counter-clockwise seen from outside."""
-    vertices = np.asarray(vertices, dtype=float)
-    faces = np.array(faces, dtype=np.int64)
-    a, b, c = (vertices[faces[:, i]] for i in range(3))
-    normals = np.cross(b - a, c - a)
-    inward = np.einsum("ij,ij->i", normals, a - vertices.mean(axis=0)) < 0
-    faces[inward] = faces[inward][:, [0, 2, 1]]
-    return faces
-
-
 def octahedron(regular=True):
     """The two octahedra of the paper's figures 9 and 10: ``(vertices, faces)``.
 
@@ -222,7 +213,7 @@ def octahedron(regular=True):
     ring = [0, 1, 2, 3]
     faces = [(ring[i], ring[(i + 1) % 4], apex)
              for apex in (4, 5) for i in range(4)]
-    return vertices, orient_outward(vertices, faces)
+    return vertices, core.orient_facets_outward(vertices, faces)
 
 
 # --------------------------------------------------------------------------- positions
