@@ -3,10 +3,10 @@
 1. Binds a subdivided Suzanne (7958 vertices) to a convex icosphere cage with each of the
    four coordinate types through the installed extension, checks that an affine cage
    motion moves the mesh exactly, and renders the mesh before and after a non-affine
-   cage edit (out/before.png, out/after_<kind>.png, docs/demo.png).
+   cage edit (out/before.png, out/after_<kind>.png, out/demo.png).
 2. Renders the paper's figures 9 and 10: each type's coordinate field for one vertex v of
-   a regular and an irregular octahedron, on three cross-sections (out/fields.png,
-   docs/fields.png).
+   a regular and an irregular octahedron, on three cross-sections (out/fields.png).
+   ``--update-docs`` copies out/demo.png and out/fields.png to docs/ for the README.
 3. Saves out/demo.blend: Suzanne bound to the cage (mean value), the cage animated by a
    keyframed shape key, ready to play in Blender with the extension installed.
 
@@ -308,17 +308,19 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--skip-deform", action="store_true",
                         help="only the coordinate-field figures (no extension needed)")
+    parser.add_argument("--update-docs", action="store_true",
+                        help="also copy the README's pictures into docs/ (the demo itself "
+                             "writes only to out/, leaving a clone's files untouched)")
     args = parser.parse_args()
     started = time.perf_counter()
     scn.OUT.mkdir(exist_ok=True)
-    scn.DOCS.mkdir(exist_ok=True)
 
     if not args.skip_deform:
         zip_path = scn.install_extension()
         print(f"extension {zip_path.relative_to(scn.REPO)} installed")
         rows, size = deform_each_kind(scn.KINDS)
         scn.side_by_side([scn.OUT / "before.png", scn.OUT / "after_mean_value.png"],
-                         scn.DOCS / "demo.png")
+                         scn.OUT / "demo.png")
         scn.side_by_side([scn.OUT / f"after_{kind}.png" for kind in scn.KINDS],
                          scn.OUT / "after_all.png")
         print(f"Suzanne (7958 vertices) in a snug 42-vertex icosphere cage "
@@ -328,10 +330,15 @@ def main():
             print(f"  {kind:17s} {seconds:6.2f}s {smallest:15.3e} {error:13.1e}")
         print("  (affine error: max |deformed - exact image| after an affine cage motion)")
         print("pictures: out/before.png, out/after_<type>.png, out/after_all.png, "
-              "docs/demo.png (before | mean value)")
+              "out/demo.png (before | mean value)")
 
     minima = render_fields(scn.OUT / "fields.png")
-    shutil.copyfile(scn.OUT / "fields.png", scn.DOCS / "fields.png")
+    if args.update_docs:
+        scn.DOCS.mkdir(exist_ok=True)
+        for picture in ("demo.png", "fields.png"):
+            if (scn.OUT / picture).exists():
+                shutil.copyfile(scn.OUT / picture, scn.DOCS / picture)
+        print("README pictures updated in docs/")
     print("coordinate fields (figures 9, 10) -> out/fields.png; min coordinate of v:")
     for (name, kind), value in minima.items():
         print(f"  {name:9s} {kind:17s} {value:+.4f}")
