@@ -15,7 +15,7 @@ class CageError(ValueError):
     ----------
     problem : str
         One of ``"non_finite"``, ``"too_few_vertices"``, ``"bad_faces"``,
-        ``"duplicate_vertices"``, ``"degenerate_facet"``, ``"open"``,
+        ``"loose_vertices"``, ``"duplicate_vertices"``, ``"degenerate_facet"``, ``"open"``,
         ``"non_manifold"``, ``"inconsistent_orientation"``, ``"inward"``,
         ``"non_convex"``.
     faces : tuple of int

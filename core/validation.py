@@ -43,8 +43,8 @@ def _check_arrays(vertices, faces):
                         faces=[_first(repeated)])
     unused = np.setdiff1d(np.arange(len(vertices)), faces)
     if len(unused):
-        raise CageError("bad_faces", f"cage vertex {int(unused[0])} belongs to no face "
-                                     f"({len(unused)} such vertices); remove loose vertices",
+        raise CageError("loose_vertices", f"cage vertex {int(unused[0])} belongs to no face "
+                                          f"({len(unused)} such vertices); remove loose vertices",
                         vertices=unused[:10])
     return vertices, faces.astype(np.int64)
 

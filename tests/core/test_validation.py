@@ -36,6 +36,12 @@ def test_non_manifold_edge():
     assert error.problem == "non_manifold" and "4 faces" in str(error) and error.vertices == (0, 1)
 
 
+def test_loose_vertex():
+    vertices, faces = octahedron()
+    error = cage_error(np.concatenate([vertices, [[0.1, 0.1, 0.1]]]), faces)
+    assert error.problem == "loose_vertices" and error.vertices == (6,) and "no face" in str(error)
+
+
 def test_face_repeating_a_vertex_or_out_of_range():
     vertices, faces = octahedron()
     assert cage_error(vertices, np.concatenate([faces, [[0, 0, 1]]])).problem == "bad_faces"
