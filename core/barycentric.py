@@ -11,7 +11,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .boundary import BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances
+from .boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances,
+                       plane_limit_coordinates)
 from .construction import construct_weights, facet_determinants, point_frame, prepare_cage
 from .errors import CageError, OutsideCageError
 from .floater import floater_form_weights, floater_terms
@@ -82,6 +83,8 @@ def _map_chunks(function, count, chunk, progress=None):
 
 def _as_points(points, dim):
     points = np.asarray(points, dtype=np.float64)
+    if points.size == 0:
+        return points.reshape(0, dim)
     if points.ndim == 1:
         points = points[None, :]
     if points.ndim != 2 or points.shape[1] != dim:
@@ -142,11 +145,16 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progres
         if normalise:
             values = values / total
         values[where == BOUNDARY] = limit
-        project = where == OUTSIDE
-        if outside == "extrapolate":
-            # Poles (a facet hyperplane through x) or a vanishing sum: no formula value.
-            undefined = ~np.isfinite(values).all(axis=1) | (np.abs(total[:, 0]) <= 1e-300)
-            project &= undefined
+        outside_rows = where == OUTSIDE
+        # Where the formula has no value (a pole, a vanishing sum) the coordinates' limit
+        # is taken: extrapolated outside points on a facet's hyperplane take their affine
+        # coordinates in it; anything else (rounding at a tolerance below the data's
+        # precision) the nearest boundary point's.
+        undefined = ~np.isfinite(values).all(axis=1) | (np.abs(total[:, 0]) <= 1e-300)
+        on_plane = outside_rows & undefined if outside == "extrapolate" else np.zeros_like(undefined)
+        if on_plane.any():
+            values[on_plane] = plane_limit_coordinates(cage, x[on_plane], distance[on_plane])
+        project = (undefined | (outside_rows if outside == "project" else False)) & ~on_plane
         if project.any():
             values[project] = nearest_boundary_coordinates(cage, x[project])[0]
         result[rows] = values

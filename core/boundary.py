@@ -10,7 +10,7 @@ import numpy as np
 from .simplex import closest_points_on_simplices
 
 __all__ = ["INSIDE", "BOUNDARY", "OUTSIDE", "plane_distances", "locate",
-           "winding_numbers", "nearest_boundary_coordinates"]
+           "winding_numbers", "plane_limit_coordinates", "nearest_boundary_coordinates"]
 
 INSIDE, BOUNDARY, OUTSIDE = 1, 0, -1
 _PAIR_CHUNK = 1 << 16  # (point, facet) pairs per closest-point batch: bounded memory
@@ -131,6 +131,36 @@ def locate(cage, points, plane_distance, tolerance, convex):
     touching = distance <= tolerance
     location[which[touching]] = BOUNDARY
     return location, _scatter_barycentric(cage, facet[touching], barycentric[touching])
+
+
+def plane_limit_coordinates(cage, points, plane_distance):
+    """Coordinates of outside points lying on a facet's supporting hyperplane.
+
+    Outside a convex cage the convex-only kinds' weights have poles on the facets'
+    hyperplanes, yet the coordinates have a finite limit there: the terms of that facet
+    dominate, so they tend to the affine coordinates of x in the facet's hyperplane
+    (negative where x is beyond the facet's edges; linear precision holds).
+
+    Parameters
+    ----------
+    cage : Cage
+    points : (k, N) float
+    plane_distance : (k, m) float
+        From :func:`plane_distances`; the facet whose hyperplane is nearest is used.
+
+    Returns
+    -------
+    coordinates : (k, n) float
+    """
+    facet = np.argmin(np.abs(plane_distance), axis=1)
+    corners = cage.facet_corners()[facet]  # (k, N, N): rows are the facet's vertices
+    x = np.asarray(points, dtype=np.float64) - cage.origin
+    # Least squares for sum(l) = 1, sum(l_i c_i) = x (exact when x is in the hyperplane).
+    system = np.concatenate([np.swapaxes(corners, 1, 2), np.ones((len(x), 1, corners.shape[1]))], axis=1)
+    target = np.concatenate([x, np.ones((len(x), 1))], axis=1)[..., None]
+    normal = np.swapaxes(system, 1, 2)
+    affine = np.linalg.solve(normal @ system, normal @ target)[..., 0]
+    return _scatter_barycentric(cage, facet, affine)
 
 
 def nearest_boundary_coordinates(cage, points):

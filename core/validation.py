@@ -162,6 +162,10 @@ def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):
     cage : Cage
         The prepared cage, for reuse.
     """
+    if not (np.isfinite(tolerance) and tolerance > 0.0):
+        # Zero would let rounding decide whether a point on a facet is "on" it (a pole).
+        raise ValueError(f"tolerance must be a positive number (relative to the cage's size), "
+                         f"got {tolerance}")
     vertices, faces = _check_arrays(vertices, faces)
     cage = prepare_cage(vertices, faces)
     absolute = tolerance * cage.size

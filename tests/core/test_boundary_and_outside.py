@@ -107,6 +107,35 @@ def test_outside_extrapolate_is_finite_and_affine_even_at_poles(kind):
     np.testing.assert_allclose(coordinates[regular][1:] @ vertices, points[regular][1:], atol=1e-9)
 
 
+@pytest.mark.parametrize("kind", ["wachspress", "discrete_harmonic", "voronoi"])
+def test_extrapolation_on_a_facet_hyperplane_takes_the_limit(kind):
+    """A pole of the weights, not of the coordinates: no snap onto the cage there."""
+    vertices = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])  # the square [-1, 1]^2
+    edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
+    on_line = np.array([[1.0, 1.5], [-1.0, -3.0]])  # on the lines x = 1 and x = -1, outside
+    nearby = on_line + [[1e-9, 0.0], [-1e-9, 0.0]]
+    at, near = (core.coordinates(p, vertices, edges, kind=kind, outside="extrapolate") for p in (on_line, nearby))
+    np.testing.assert_allclose(at @ vertices, on_line, atol=1e-12)
+    np.testing.assert_allclose(at, near, atol=1e-6)
+    weights = core.weights(on_line, vertices, edges, kind=kind)
+    np.testing.assert_allclose(np.einsum("kn,knN->kN", weights, vertices[None] - on_line[:, None]), 0.0,
+                               atol=1e-12)
+
+
+def test_a_tolerance_that_is_not_positive_is_refused():
+    vertices, faces = octahedron()
+    for tolerance in (0.0, -1e-9, np.nan):
+        with pytest.raises(ValueError, match="tolerance"):
+            core.coordinates([[0.1, 0.0, 0.0]], vertices, faces, tolerance=tolerance)
+
+
+def test_empty_inputs_give_empty_results():
+    vertices, faces = octahedron()
+    for empty in ([], np.empty((0, 3))):
+        assert core.coordinates(empty, vertices, faces).shape == (0, 6)
+        assert core.point_locations(empty, vertices, faces).shape == (0,)
+
+
 def test_point_locations():
     vertices, edges = regular_polygon(6)
     points = np.array([[0.0, 0.0], [1.0, 0.0], [0.75, np.sqrt(3) / 4], [3.0, 0.0], [0.9, 0.5]])
