@@ -77,6 +77,22 @@ def test_duplicated_vertices():
     assert error.problem == "duplicate_vertices" and set(error.vertices) == {0, 6}
 
 
+@pytest.mark.parametrize("offset,duplicate", [(1e-12, True), (1e-6, False)])
+def test_duplicates_are_judged_by_distance_in_a_large_cage(offset, duplicate):
+    vertices, faces = icosphere(3)  # 642 vertices
+    extra = np.concatenate([vertices, vertices[[200]] + offset])  # relative to a size of ~3.5
+    faces = faces.copy()
+    row = np.flatnonzero((faces == 200).any(axis=1))[0]
+    faces[row, faces[row] == 200] = 642  # the copy replaces vertex 200 in one face
+    if duplicate:
+        error = cage_error(extra, faces)
+        assert error.problem == "duplicate_vertices" and set(error.vertices) == {200, 642}
+    else:
+        with pytest.raises(core.CageError) as error:  # not a duplicate: the cage is bent there
+            core.validate_cage(extra, faces)
+        assert error.value.problem != "duplicate_vertices"
+
+
 def test_non_finite_vertex_and_points():
     vertices, faces = octahedron()
     broken = vertices.copy()
