@@ -184,9 +184,10 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
         the others need a convex one.
     outside : str
         What to do with points outside the cage: ``"raise"`` (OutsideCageError naming
-        them), ``"extrapolate"`` (the formula; smooth for mean value; where it is
-        undefined, on a facet's hyperplane, the projected value) or ``"project"`` (the
-        coordinates of the nearest boundary point).
+        them), ``"extrapolate"`` (the formula, smooth for mean value; on a facet's
+        hyperplane, where the other kinds' weights have a pole, its limit: the affine
+        coordinates of the point in that hyperplane) or ``"project"`` (the coordinates
+        of the nearest boundary point).
     tolerance : float
         Relative to the cage's bounding-box diagonal. Points this close to the boundary
         count as on it and get the exact limit: linear coordinates of the facet, edge or
@@ -230,9 +231,8 @@ def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERA
     Parameters and cage requirements as :func:`coordinates`. Inside the cage these are
     the unnormalised weights of the construction (coordinates are ``w / w.sum()``); at
     boundary points, where the formula has a pole, the limit coordinates (themselves
-    homogeneous weights) are returned; outside points get the formula's value, or the
-    projected coordinates where it is undefined (on a facet's hyperplane, for a
-    convex-only kind).
+    homogeneous weights) are returned; outside points get the formula's value, or on a
+    facet's hyperplane (a pole, for a convex-only kind) the limit coordinates there.
 
     Returns
     -------
