@@ -9,7 +9,11 @@ Properties, on every object as ``obj.gencoords``:
                            'PROJECT' (nearest cage surface point), 'EXTRAPOLATE'
     live          bool     follow the cage (default True); False shows the rest shape
     field_vertex  int      cage vertex whose coordinate field Show Coordinate paints
-    bind_data     Text     read-only: the hidden datablock with the bind data (None if unbound)
+    bind_data     Text     the hidden datablock with the bind data (None if unbound);
+                           managed by Bind/Unbind; do not set
+    edited_while_bound
+                  bool     the bound mesh was edited (not by the cage): it stops following
+                           until Bind (binds the edited shape) or Unbind; do not set
 
 Operators, acting on the active mesh object (all undoable):
     bpy.ops.object.gencoords_bind()        compute coordinates, store the rest shape, follow;

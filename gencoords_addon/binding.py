@@ -23,13 +23,25 @@ class BindError(Exception):
 def rest_positions(obj):
     """The shape to bind: the stored rest shape when rebinding, else the mesh as it is.
 
-    A rebind must not bake the current deformation into the rest shape; after a topology
-    change the stored rest no longer fits and the edited mesh becomes the new rest.
+    A rebind must not bake the current deformation into the rest shape; after an edit of
+    the bound mesh (or a topology change) the edited mesh becomes the new rest.
     """
     bind = storage.load(obj)
-    if bind is not None and bind.mesh_vertex_count == len(obj.data.vertices):
-        return bind.rest_positions
-    return mesh_io.read_positions(obj.data)
+    if (bind is None or obj.gencoords.edited_while_bound
+            or bind.vertex_count_change(obj) is not None):
+        return mesh_io.read_positions(obj.data)
+    return bind.rest_positions
+
+
+def _drives(obj, cage):
+    """Whether ``cage`` follows ``obj``, directly or through a chain of bound cages."""
+    seen = set()  # a chain already cyclic (from an older version) must not loop forever
+    while cage is not None and cage.session_uid not in seen:
+        if cage == obj:
+            return True
+        seen.add(cage.session_uid)
+        cage = cage.gencoords.bound_cage
+    return False
 
 
 def check_inputs(obj):
@@ -43,8 +55,20 @@ def check_inputs(obj):
         raise BindError(f"'{obj.name}' cannot be its own cage: choose another mesh object")
     if cage.type != 'MESH':
         raise BindError(f"The cage '{cage.name}' must be a mesh object")
+    if _drives(obj, cage.gencoords.bound_cage):
+        raise BindError(f"'{cage.name}' is itself bound to '{obj.name}': a mesh and its cage "
+                        "cannot drive each other")
     if len(obj.data.vertices) == 0:
         raise BindError(f"'{obj.name}' has no vertices to bind")
+    if obj.data.users > 1:
+        # The deformation is written into the mesh, which every user would share.
+        raise BindError(f"'{obj.name}' shares its mesh with other objects (linked duplicates): "
+                        "use Object > Relations > Make Single User, then Bind")
+    if obj.data.shape_keys is not None:
+        # Blender shows the shape-key blocks, not the ``position`` attribute Bind writes.
+        raise BindError(f"'{obj.name}' has shape keys, which would hide the cage's "
+                        "deformation: apply or remove them (Object Data properties > Shape "
+                        "Keys), then Bind")
 
 
 def bind(obj, depsgraph, report_progress=lambda fraction: None):

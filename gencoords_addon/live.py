@@ -18,7 +18,9 @@ from .. import core
 from . import mesh_io, storage
 
 faults = {}  # Object.session_uid -> message shown in the panel until the next success
-_writing = False  # guards against re-entry while this module writes meshes
+# Object.session_uid -> the (k, 3) float32 positions this module last wrote into its mesh:
+# a mesh that no longer holds them was edited by someone else.
+_written = {}
 
 
 class LiveFault(Exception):
@@ -35,12 +37,20 @@ def bound_objects(scene):
             if obj.type == 'MESH' and obj.gencoords.bind_data is not None]
 
 
-def check_mesh_topology(obj, bind):
-    """Raise LiveFault when the mesh's vertex count no longer matches the bind."""
-    count = len(obj.data.vertices)
-    if count != bind.mesh_vertex_count:
-        raise LiveFault(f"'{obj.name}' now has {count} vertices but was bound with "
-                        f"{bind.mesh_vertex_count}: deformation stopped; Unbind or Bind again")
+def check_writable(obj, bind):
+    """Raise LiveFault when writing positions into the mesh of ``obj`` would be wrong."""
+    change = bind.vertex_count_change(obj)
+    if change:
+        raise LiveFault(f"{change}: deformation stopped; Unbind or Bind again")
+    if obj.data.shape_keys is not None:
+        # Blender shows the shape-key blocks, not the ``position`` attribute written here.
+        raise LiveFault(f"'{obj.name}' has shape keys, which hide the cage's deformation: "
+                        "deformation stopped; remove them (Object Data properties > Shape "
+                        "Keys) or Unbind")
+    if obj.gencoords.edited_while_bound:
+        raise LiveFault(f"'{obj.name}' was edited while bound, so it no longer follows the "
+                        "cage: Bind again to bind the edited shape, or Unbind to restore "
+                        "the shape it was bound with")
 
 
 def deformed_positions(obj, bind, depsgraph):
@@ -49,7 +59,7 @@ def deformed_positions(obj, bind, depsgraph):
     if cage is None:
         raise LiveFault("The cage was deleted or cleared: pick a cage and Bind again, "
                         "or Unbind to restore the rest shape")
-    check_mesh_topology(obj, bind)
+    check_writable(obj, bind)
     # Only positions and a face fingerprint: triangulating on every update would cost
     # more than the deformation on small cages.
     with mesh_io.evaluated_mesh(cage, depsgraph) as cage_mesh:
@@ -71,13 +81,11 @@ def deformed_positions(obj, bind, depsgraph):
     return deformed
 
 
-def _write_guarded(obj, positions):
-    global _writing
-    _writing = True
-    try:
-        mesh_io.write_positions(obj.data, positions)
-    finally:
-        _writing = False
+def _write(obj, positions):
+    """Write ``positions`` into the mesh of ``obj`` and remember them (see ``_written``)."""
+    positions = np.asarray(positions, dtype=np.float32)
+    mesh_io.write_positions(obj.data, positions)
+    _written[obj.session_uid] = positions
 
 
 def _run(obj, action):
@@ -109,7 +117,7 @@ def deform(obj, depsgraph):
         bind = _bind_of(obj)
         if obj.mode == 'EDIT':
             raise LiveFault(f"'{obj.name}' is in Edit Mode: deformation paused")
-        _write_guarded(obj, deformed_positions(obj, bind, depsgraph))
+        _write(obj, deformed_positions(obj, bind, depsgraph))
     return _run(obj, action)
 
 
@@ -118,27 +126,38 @@ def rest_shape_problem(obj):
     bind = storage.load(obj)
     if bind is None:
         return "its bind data is missing or from another version of GenCoords"
-    if bind.mesh_vertex_count != len(obj.data.vertices):
-        return (f"its vertex count changed since binding ({bind.mesh_vertex_count} then, "
-                f"{len(obj.data.vertices)} now)")
-    return None
+    return bind.vertex_count_change(obj)
 
 
 def restore_rest(obj):
-    """Write the stored rest shape of ``obj`` (bitwise); False when it no longer fits."""
+    """Write the stored rest shape of ``obj`` (bitwise); False when it must not be written."""
     def action():
         bind = _bind_of(obj)
-        check_mesh_topology(obj, bind)
-        _write_guarded(obj, bind.rest_positions)
+        check_writable(obj, bind)
+        _write(obj, bind.rest_positions)
     return _run(obj, action)
 
 
-def _note_topology_fault(obj):
-    """Report a vertex count change without writing (and without clearing other faults)."""
+def forget(obj):
+    """Drop the fault and written positions remembered for ``obj`` (on Bind and Unbind)."""
+    faults.pop(obj.session_uid, None)
+    _written.pop(obj.session_uid, None)
+
+
+def _note_mesh_update(obj):
+    """After an update of the mesh of ``obj``: flag edits by others, report faults, never
+    write (our own writes land here too: writing would loop forever)."""
     bind = storage.load(obj)
+    if bind is None:
+        return
+    written = _written.get(obj.session_uid)
+    # Edit Mode keeps its edits in a BMesh; leaving it writes them into the mesh.
+    if (obj.mode != 'EDIT' and written is not None
+            and not np.array_equal(mesh_io.read_positions(obj.data), written)):
+        obj.gencoords.edited_while_bound = True
+        del _written[obj.session_uid]  # nothing to compare with until the next write
     try:
-        if bind is not None:
-            check_mesh_topology(obj, bind)
+        check_writable(obj, bind)
     except LiveFault as fault:
         faults[obj.session_uid] = str(fault)
 
@@ -173,9 +192,7 @@ def _never_raise(handler):
 
 @_never_raise
 def on_depsgraph_update(scene, depsgraph):
-    """Follow cage edits (any kind) and moves of the bound object itself."""
-    if _writing:
-        return
+    """Follow cage edits (any kind) and moves of the bound object; notice its mesh edits."""
     updated = set()
     moved = set()
     for update in depsgraph.updates:
@@ -184,40 +201,57 @@ def on_depsgraph_update(scene, depsgraph):
         if update.is_updated_transform:
             moved.add(uid)
     for obj in bound_objects(scene):
+        if obj.data.session_uid in updated:
+            _note_mesh_update(obj)
         if not obj.gencoords.live:
             continue
         cage = obj.gencoords.bound_cage
         if (cage is None or obj.session_uid in moved or cage.session_uid in updated
                 or cage.data.session_uid in updated):
             deform(obj, depsgraph)
-        elif obj.data.session_uid in updated:
-            # Our own writes land here too, so only check; writing would loop forever.
-            _note_topology_fault(obj)
 
 
 @_never_raise
 def on_frame_change(scene, depsgraph):
     """Playback, scrubbing, ``frame_set`` and every rendered frame (also on render threads)."""
-    if not _writing:
-        resync(scene, depsgraph)
+    resync(scene, depsgraph)
+
+
+def _forget_and_resync():
+    """Forget cached state (datablocks may be gone or new) and re-sync with the cages."""
+    faults.clear()
+    _written.clear()  # the meshes now hold what the file or undo step stored
+    storage.clear_cache()  # decoded again on demand
+    context = bpy.context
+    resync(context.scene, context.evaluated_depsgraph_get())
 
 
 @_never_raise
-def on_file_or_undo(*_args):
-    """After loading a file or undo/redo: forget cached state and re-sync with the cages."""
-    faults.clear()
-    storage.clear_cache()  # datablocks may be gone or new; decoded again on demand
-    if not _writing:
-        context = bpy.context
-        resync(context.scene, context.evaluated_depsgraph_get())
+def on_file_load(*_args):
+    """After loading a file: drop bind data of deleted objects, then re-sync."""
+    storage.remove_orphans()
+    _forget_and_resync()
+
+
+@_never_raise
+def on_undo_or_redo(*_args):
+    """After undo/redo: re-sync (no deleting here: the undo history still refers to it)."""
+    _forget_and_resync()
+
+
+@_never_raise
+def on_save(*_args):
+    """Before saving: bind data of deleted objects would otherwise be saved forever."""
+    storage.remove_orphans()
 
 
 HANDLERS = (
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
     (bpy.app.handlers.frame_change_post, on_frame_change),
-    (bpy.app.handlers.load_post, on_file_or_undo),
-    (bpy.app.handlers.undo_post, on_file_or_undo),
-    (bpy.app.handlers.redo_post, on_file_or_undo),
+    (bpy.app.handlers.load_post, on_file_load),
+    (bpy.app.handlers.undo_post, on_undo_or_redo),
+    (bpy.app.handlers.redo_post, on_undo_or_redo),
+    (bpy.app.handlers.save_pre, on_save),
 )
 
 
@@ -232,4 +266,5 @@ def unregister():
         if handler in handlers:
             handlers.remove(handler)
     faults.clear()
+    _written.clear()
     storage.clear_cache()

@@ -7,6 +7,7 @@ CAGE_PROBLEMS = {
     "non_finite": "has vertices at infinite or undefined (NaN) positions",
     "too_few_vertices": "needs at least 4 vertices enclosing a volume",
     "bad_faces": "has faces with invalid vertex indices",
+    "loose_vertices": "has vertices that belong to no face: use Mesh > Clean Up > Delete Loose",
     "duplicate_vertices": "has vertices at the same position: use Mesh > Clean Up > "
                           "Merge by Distance",
     "degenerate_facet": "has faces of zero area: use Mesh > Clean Up > Degenerate Dissolve",

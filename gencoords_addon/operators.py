@@ -4,7 +4,7 @@ import traceback
 
 import bpy
 
-from . import binding, cage_link, live, storage, visualise
+from . import binding, cage_link, live, mesh_io, storage, visualise
 
 
 class MeshOperator:
@@ -45,15 +45,22 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         finally:
             progress.progress_end()
         storage.save(obj, bind)
+        storage.remove_orphans()
         # The bind data belong to this cage: picking another one must not silently drive
         # the mesh with coordinates computed for the first (same vertex count or not).
         obj.gencoords.bound_cage = obj.gencoords.cage
         cage_link.link(obj, obj.gencoords.bound_cage)
+        obj.gencoords.edited_while_bound = False  # the edited shape is the new rest
+        live.forget(obj)
+        message = (f"Bound '{obj.name}' ({bind.mesh_vertex_count} vertices) to "
+                   f"'{obj.gencoords.cage.name}' in {bind.bind_seconds:.2f} s")
         # Renders evaluate frame handlers on their own thread; lock the UI meanwhile.
-        context.scene.render.use_lock_interface = True
+        render = context.scene.render
+        if not render.use_lock_interface:
+            render.use_lock_interface = True
+            message += "; Render > Lock Interface turned on so renders read the cage safely"
         live.apply_live_setting(obj, context.evaluated_depsgraph_get())
-        self.report({'INFO'}, f"Bound '{obj.name}' ({bind.mesh_vertex_count} vertices) to "
-                              f"'{obj.gencoords.cage.name}' in {bind.bind_seconds:.2f} s")
+        self.report({'INFO'}, message)
         return {'FINISHED'}
 
 
@@ -73,11 +80,13 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
             return {'CANCELLED'}
         problem = live.rest_shape_problem(obj)
         if problem is None:
-            live.restore_rest(obj)
+            # Bitwise, also over edits of the bound mesh: the user asked for the rest shape.
+            mesh_io.write_positions(obj.data, storage.load(obj).rest_positions)
         storage.remove(obj)
         cage_link.unlink(obj)
         obj.gencoords.bound_cage = None
-        live.faults.pop(obj.session_uid, None)
+        obj.gencoords.edited_while_bound = False
+        live.forget(obj)
         if problem:
             self.report({'WARNING'}, f"Unbound '{obj.name}' and kept its current shape: "
                                      f"the rest shape could not be restored, as {problem}")

@@ -72,5 +72,11 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
     )
     bind_data: bpy.props.PointerProperty(
         name="Bind Data", type=bpy.types.Text,
-        description="Hidden text datablock holding the coordinates and rest shape (read-only)",
+        description="Hidden text datablock holding the coordinates and rest shape "
+                    "(managed by Bind/Unbind; do not set)",
+    )
+    edited_while_bound: bpy.props.BoolProperty(
+        name="Edited While Bound",
+        description="The bound mesh was edited, not by the cage, and stopped following it "
+                    "until Bind or Unbind (managed by GenCoords; do not set)",
     )

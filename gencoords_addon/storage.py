@@ -4,8 +4,9 @@ The arrays can be tens of megabytes, and ID properties on an object or mesh woul
 copied on every depsgraph evaluation. They are therefore kept as ID properties of a
 hidden Text datablock (Texts are not part of the depsgraph) that the bound object points
 to through ``obj.gencoords.bind_data``. The datablock is written once per bind and never
-modified afterwards, so decoded arrays can be cached per datablock ``session_uid``; that
-identity survives undo and redo and is never reused within a session.
+modified afterwards, so decoded arrays can be cached per datablock ``session_uid``, an
+identity never reused within a session. The cache is dropped after file loads, undo and
+redo (datablocks may be gone or restored) and refilled on demand.
 """
 
 from dataclasses import dataclass
@@ -48,6 +49,13 @@ class BindData:
     @property
     def mesh_vertex_count(self):
         return self.coordinates.shape[0]
+
+    def vertex_count_change(self, obj):
+        """How the vertex count of ``obj`` changed since binding, or None when it fits."""
+        count = len(obj.data.vertices)
+        if count == self.mesh_vertex_count:
+            return None
+        return f"'{obj.name}' now has {count} vertices but was bound with {self.mesh_vertex_count}"
 
 
 def save(obj, bind):
@@ -106,6 +114,22 @@ def remove(obj):
     # Duplicated objects share the datablock; Texts keep a user of their own, so ask.
     if not any(other.gencoords.bind_data == text for other in bpy.data.objects):
         bpy.data.texts.remove(text)
+
+
+def remove_orphans():
+    """Delete bind data that no object points to (left behind by deleted objects).
+
+    Texts keep a user of their own, so orphan purge and saving would keep them forever.
+    """
+    texts = [text for text in bpy.data.texts if text.name.startswith(TEXT_PREFIX)]
+    if not texts:
+        return
+    used = {obj.gencoords.bind_data.session_uid for obj in bpy.data.objects
+            if obj.gencoords.bind_data is not None}
+    for text in texts:
+        if text.session_uid not in used:
+            _cache.pop(text.session_uid, None)
+            bpy.data.texts.remove(text)
 
 
 def any_bind_data():

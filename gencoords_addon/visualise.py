@@ -1,7 +1,7 @@
 """Show coordinate: paint one cage vertex's coordinate field on the mesh as colours."""
 
 from .. import core
-from . import live, storage
+from . import storage
 
 FIELD_ATTRIBUTE = "GenCoords Field"
 
@@ -14,11 +14,7 @@ def field_problem(obj):
     count = bind.cage_vertex_count
     if obj.gencoords.field_vertex >= count:
         return f"Cage Vertex must be below {count}: the cage has {count} vertices"
-    try:
-        live.check_mesh_topology(obj, bind)
-    except live.LiveFault as fault:
-        return str(fault)
-    return None
+    return bind.vertex_count_change(obj)
 
 
 def paint_field(obj):

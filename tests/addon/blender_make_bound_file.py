@@ -1,5 +1,5 @@
 """Subprocess: save a .blend with a mesh bound to a render-hidden cage animated by a
-shape key.
+shape key, after deleting another object bound to that cage.
 
 Frame 1 is the rest cage, frame 2 stretches it along x. The file is saved at frame 2 and
 the mesh's positions there go to an .npy file. Usage: blender_make_bound_file.py BLEND NPY
@@ -31,6 +31,9 @@ for frame, value in ((1, 0.0), (2, 1.0)):
 obj = add_sphere()
 scene.frame_set(1)
 assert bind(obj, cage) == {'FINISHED'}
+deleted = add_sphere(radius=0.5, name="Deleted")
+assert bind(deleted, cage) == {'FINISHED'}
+bpy.data.objects.remove(deleted)  # its bind data must not be saved
 scene.frame_set(2)
 np.save(positions_path, positions(obj.data))
 

@@ -20,6 +20,8 @@ saved = np.load(positions_path)
 report = {
     "enabled": "bl_ext.user_default.gencoords" in bpy.context.preferences.addons,
     "kept_saved_shape": bool(np.array_equal(positions(obj.data), saved)),
+    "bind_data_texts": sorted(text.name for text in bpy.data.texts
+                              if text.name.startswith(".GenCoords bind data")),
 }
 bpy.context.scene.frame_set(1)
 if report["enabled"]:

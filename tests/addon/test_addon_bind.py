@@ -404,3 +404,18 @@ def test_undo_and_redo_of_bind_and_unbind(gc):
         obj = bpy.data.objects["Mesh"]
         assert obj.gencoords.bind_data is None
         np.testing.assert_array_equal(positions(obj.data), rest)
+
+
+def test_bind_says_when_it_turns_on_lock_interface(gc, capfd):
+    """Renders run frame handlers on their own thread; the artist should know why the
+    interface locks during renders."""
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    render = bpy.context.scene.render
+    assert not render.use_lock_interface
+    bind(obj, cage)
+    assert render.use_lock_interface
+    assert ("Render > Lock Interface turned on so renders read the cage safely"
+            in capfd.readouterr().out)
+    bind(obj, cage)
+    assert "Lock Interface" not in capfd.readouterr().out

@@ -204,3 +204,107 @@ def test_non_finite_cage_positions_leave_the_mesh_alone(gc):
     update()
     assert "undefined (NaN or infinite)" in fault_text(gc, obj)
     np.testing.assert_array_equal(positions(obj.data), before)
+
+
+def test_cage_with_a_loose_vertex_is_refused(gc):
+    cage = add_icosphere_cage()
+    edit_mesh(cage, lambda bm: bm.verts.new((0.0, 0.0, 0.1)))
+    assert_bind_refused(add_sphere(), cage, re.escape(
+        "Cage 'Cage' has vertices that belong to no face: use Mesh > Clean Up > Delete Loose "
+        "(vertices 12)"))
+
+
+def test_mesh_with_shape_keys_is_refused(gc):
+    obj = add_sphere()
+    obj.shape_key_add(name="Basis")
+    assert_bind_refused(obj, add_icosphere_cage(), re.escape(
+        "'Mesh' has shape keys, which would hide the cage's deformation: apply or remove them "
+        "(Object Data properties > Shape Keys), then Bind"))
+
+
+def test_shape_keys_added_after_binding_stop_deformation_until_removed(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    obj.shape_key_add(name="Basis")
+    update()
+    assert "'Mesh' has shape keys, which hide the cage's deformation" in fault_text(gc, obj)
+    before = positions(obj.data).copy()
+    set_positions(cage.data, positions(cage.data) * 1.2)
+    update()
+    np.testing.assert_array_equal(positions(obj.data), before)  # nothing written
+    obj.shape_key_clear()
+    set_positions(cage.data, positions(cage.data) * 1.1)
+    update()
+    assert fault_text(gc, obj) == ""
+    np.testing.assert_allclose(positions(obj.data), before * 1.32, atol=1e-5)
+
+
+def test_linked_duplicates_are_refused(gc):
+    obj = add_sphere()
+    duplicate = bpy.data.objects.new("Duplicate", obj.data)  # as Alt+D makes
+    bpy.context.collection.objects.link(duplicate)
+    assert_bind_refused(obj, add_icosphere_cage(), re.escape(
+        "'Mesh' shares its mesh with other objects (linked duplicates): use Object > "
+        "Relations > Make Single User, then Bind"))
+
+
+def test_a_mesh_and_its_cage_cannot_drive_each_other(gc):
+    outer = add_icosphere_cage(name="Outer")
+    inner = add_sphere(name="Inner")
+    assert bind(inner, outer) == {'FINISHED'}
+    assert_bind_refused(outer, inner, re.escape(
+        "'Inner' is itself bound to 'Outer': a mesh and its cage cannot drive each other"))
+
+
+def move_first_vertex(bm):
+    bm.verts.ensure_lookup_table()
+    bm.verts[0].co *= 1.3
+
+
+def bound_and_deformed(gc):
+    """A mesh bound to a cage that has moved since (several writes), with no fault."""
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    rest = positions(obj.data).copy()
+    bind(obj, cage)
+    for _ in range(3):
+        set_positions(cage.data, positions(cage.data) * 1.1)
+        update()
+    assert fault_text(gc, obj) == ""  # our own writes are not edits
+    return obj, cage, rest
+
+
+def test_an_edit_of_the_bound_mesh_is_kept_and_bind_again_binds_it(gc):
+    obj, cage, _ = bound_and_deformed(gc)
+    edit_mesh(obj, move_first_vertex)  # as a script would
+    update()
+    edited = positions(obj.data).copy()
+    assert ("'Mesh' was edited while bound, so it no longer follows the cage: Bind again to "
+            "bind the edited shape, or Unbind to restore the shape it was bound with"
+            in fault_text(gc, obj))
+    set_positions(cage.data, positions(cage.data) * 1.1)
+    update()
+    obj.gencoords.live = False
+    np.testing.assert_array_equal(positions(obj.data), edited)  # nothing overwrote the edit
+    obj.gencoords.live = True
+    assert bind(obj, cage) == {'FINISHED'}
+    np.testing.assert_array_equal(gc.storage.load(obj).rest_positions, edited)
+    assert fault_text(gc, obj) == ""
+    set_positions(cage.data, positions(cage.data) * 1.2)
+    update()
+    np.testing.assert_allclose(positions(obj.data), edited * 1.2, atol=1e-5)
+
+
+def test_unbind_after_an_edit_mode_edit_restores_the_bound_shape(gc):
+    obj, cage, rest = bound_and_deformed(gc)
+    activate(obj)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_all(action='SELECT')
+    bpy.ops.transform.translate(value=(0.1, 0.0, 0.0))
+    bpy.ops.object.mode_set(mode='OBJECT')
+    update()
+    assert "'Mesh' was edited while bound" in fault_text(gc, obj)
+    assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+    np.testing.assert_array_equal(positions(obj.data), rest)
+    assert fault_text(gc, obj) == "" and not obj.gencoords.edited_while_bound

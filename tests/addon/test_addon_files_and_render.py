@@ -1,12 +1,14 @@
-"""Fresh-process behaviour: save and reopen, render farm workers, missing extension."""
+"""Files and fresh processes: save and reopen, render farm workers, missing extension."""
 
 import json
 import tempfile
 
+import bpy
 import numpy as np
 import pytest
 
 from conftest import run_blender_script
+from scene_helpers import add_icosphere_cage, add_sphere, bind, positions
 
 
 def report_of(output):
@@ -26,6 +28,7 @@ def test_reopened_file_is_still_bound_and_live(bound_file):
     report = report_of(run_blender_script("blender_open_file.py", *bound_file))
     assert report["enabled"]
     assert report["kept_saved_shape"]
+    assert report["bind_data_texts"] == [".GenCoords bind data: Mesh"]
     assert "Bound to 'Cage' (Mean Value)" in report["status"]
     assert report["rest_error_at_frame_1"] < 1e-5  # the animation still drives the mesh
     assert report["follows_exactly"]
@@ -52,4 +55,23 @@ def test_file_opens_without_the_extension(bound_file):
     report = report_of(output)
     assert not report["enabled"]
     assert report["kept_saved_shape"] and report["unchanged_after_edits"]
+    # Only saving dropped the deleted object's bind data: nothing ran on opening.
+    assert report["bind_data_texts"] == [".GenCoords bind data: Mesh"]
     assert np.isfinite(np.load(bound_file[1])).all()
+
+
+def test_opening_a_file_drops_bind_data_of_deleted_objects(gc, tmp_path):
+    """Files saved by versions that kept such data, written here without save handlers."""
+    cage = add_icosphere_cage()
+    obj, deleted = add_sphere(), add_sphere(radius=0.5, name="Deleted")
+    rest = positions(obj.data).copy()
+    bind(obj, cage)
+    bind(deleted, cage)
+    orphan = deleted.gencoords.bind_data
+    bpy.data.objects.remove(deleted)
+    path = str(tmp_path / "orphan.blend")
+    bpy.data.libraries.write(path, {bpy.context.scene, orphan})
+    bpy.ops.wm.open_mainfile(filepath=path)
+    assert [text.name for text in bpy.data.texts] == [".GenCoords bind data: Mesh"]
+    obj = bpy.data.objects["Mesh"]
+    np.testing.assert_array_equal(gc.storage.load(obj).rest_positions, rest)
