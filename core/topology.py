@@ -98,7 +98,6 @@ class CageTopology:
     vertex_slots : (n, v) int
         For each vertex, the flat indices ``i * m + t`` of the facet slots it fills
         (slot i of facet t), padded with ``m * N`` (a slot that reads as zero).
-    vertex_count : int
     """
 
     faces: np.ndarray
@@ -108,7 +107,6 @@ class CageTopology:
     ridge_use_count: np.ndarray
     ridge_signs_sum: np.ndarray
     vertex_slots: np.ndarray
-    vertex_count: int
 
     @property
     def dimension(self):
@@ -199,5 +197,4 @@ def cage_topology(faces, vertex_count):
         ridge_use_count=use_count,
         ridge_signs_sum=signs_sum,
         vertex_slots=vertex_slots,
-        vertex_count=int(vertex_count),
     )
