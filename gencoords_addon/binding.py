@@ -1,46 +1,114 @@
-"""Binding: the core's coordinates of every mesh vertex with respect to the cage."""
+"""Binding: compute a mesh's bind data with the core, then commit it in one step.
 
+``BindJob(obj, context)`` reads everything it needs from the scene and checks it;
+``job.steps()`` computes (a generator yielding the fraction done, so the UI can show
+progress and cancel between chunks); ``job.commit()`` then adds the node group, the
+mesh's attributes and the modifier, and removes an earlier binding of the same mesh. Nothing in the file changes before ``commit``, and ``commit`` undoes its own
+partial work if it fails, so a failed or cancelled Bind leaves the mesh, its modifier
+stack and any earlier binding as they were.
+
+A binding is found again from its modifier: a Geometry Nodes modifier whose node group
+carries ``METADATA`` (see ``Binding``).
+"""
+
+import secrets
 import time
+from dataclasses import dataclass
 
+import bpy
 import numpy as np
 
 from .. import core
-from . import mesh_io, messages, storage
+from ..core import compact
+from . import compat, deformer, mesh_io, messages
 from .properties import KIND_ITEMS, core_name, enum_label
-
 
 # Blender stores positions as float32 (about 7 significant digits): a flat cage face
 # after Apply Rotation, or a mesh vertex on the cage surface, is exact only to ~1e-7 of
 # the cage's size. The core's default (1e-9, for float64 input) would call such a face
 # non-convex and such a vertex outside; this is the float32 equivalent, with a margin.
 FLOAT32_TOLERANCE = 1e-6
+METADATA = "gencoords"  # ID property of the binding's node group
+FORMAT = 2  # bind data layout; data of another number read as "Bind again"
+MODIFIER_NAME = "GenCoords"
+# Exact storage while its per-evaluation cost and node group stay moderate: k x n
+# multiply-adds (about 1.5 ns each on two cores) and a node per three cage vertices.
+EXACT_MAX_PRODUCT = 8_000_000
+EXACT_MAX_CAGE_VERTICES = 400
+# Coordinates computed per chunk of points: progress and cancel granularity, and the
+# bound on the dense float64 block a chunk makes (points x cage vertices).
+CHUNK_ENTRIES = 4_000_000
+DEVIATION_SAMPLES = 2000  # mesh vertices the compact form's deviation is measured on
 
 
 class BindError(Exception):
     """Binding is impossible; the message says why in Blender's terms."""
 
 
-def rest_positions(obj):
-    """The shape to bind: the stored rest shape when rebinding, else the mesh as it is.
+@dataclass
+class Binding:
+    """A committed binding, read back from its modifier."""
 
-    A rebind must not bake the current deformation into the rest shape; after an edit of
-    the bound mesh (or a topology change) the edited mesh becomes the new rest.
-    """
-    bind = storage.load(obj)
-    if (bind is None or obj.gencoords.edited_while_bound
-            or bind.vertex_count_change(obj) is not None):
-        return mesh_io.read_positions(obj.data)
-    return bind.rest_positions
+    modifier: bpy.types.Modifier
+    group: bpy.types.NodeTree
+    info: dict  # METADATA, as plain Python values
+
+    @property
+    def key(self):
+        return self.info["key"]
+
+    @property
+    def cage(self):
+        """The cage object the modifier reads (None when it was deleted)."""
+        return compat.get_modifier_input(self.modifier, deformer.CAGE)
+
+    @property
+    def slot_names(self):
+        return deformer.slot_attribute_names(self.key, self.info["slot_count"])
+
+    @property
+    def basis_names(self):
+        if self.info["storage"] != 'COMPACT':
+            return None
+        return deformer.basis_attribute_names(self.key, self.info["slot_count"])
+
+    def coordinate_column(self, mesh, cage_vertex):
+        """Every mesh vertex's coordinate for ``cage_vertex`` ((k,) float32), or None."""
+        slots = deformer.read_triples(mesh, self.slot_names, self.info["slot_count"])
+        if slots is None:
+            return None
+        if self.basis_names is None:
+            return slots[:, cage_vertex]
+        basis = deformer.read_triples(mesh, self.basis_names, self.info["slot_count"])
+        return None if basis is None else slots @ basis[cage_vertex]
+
+
+def bindings(obj):
+    """The bindings of ``obj``, in modifier stack order."""
+    found = []
+    for modifier in getattr(obj, "modifiers", ()):
+        group = getattr(modifier, "node_group", None) if modifier.type == 'NODES' else None
+        info = group.get(METADATA) if group is not None else None
+        if info is not None:
+            found.append(Binding(modifier, group, info.to_dict()))
+    return found
+
+
+def binding(obj):
+    """The (first) binding of ``obj``, or None."""
+    found = bindings(obj)
+    return found[0] if found else None
 
 
 def _drives(obj, cage):
     """Whether ``cage`` follows ``obj``, directly or through a chain of bound cages."""
-    seen = set()  # a chain already cyclic (from an older version) must not loop forever
+    seen = set()
     while cage is not None and cage.session_uid not in seen:
         if cage == obj:
             return True
         seen.add(cage.session_uid)
-        cage = cage.gencoords.bound_cage
+        found = binding(cage)
+        cage = found.cage if found else None
     return False
 
 
@@ -48,6 +116,14 @@ def check_inputs(obj):
     """Raise BindError unless ``obj`` is a mesh with a usable cage chosen."""
     if obj is None or obj.type != 'MESH':
         raise BindError("Select a mesh object to bind")
+    if obj.library is not None or obj.data.library is not None:
+        raise BindError(f"'{obj.name}' is linked from the library "
+                        f"'{(obj.library or obj.data.library).filepath}' and cannot be "
+                        "changed: use Object > Library Override > Make, then Bind")
+    if obj.override_library is not None and obj.data.override_library is None \
+            and obj.data.library is not None:
+        raise BindError(f"The mesh of '{obj.name}' is linked from a library: make it local "
+                        "(Object > Relations > Make Local > Object and Data), then Bind")
     cage = obj.gencoords.cage
     if cage is None:
         raise BindError(f"Choose a cage for '{obj.name}' first (GenCoords panel > Cage)")
@@ -55,83 +131,248 @@ def check_inputs(obj):
         raise BindError(f"'{obj.name}' cannot be its own cage: choose another mesh object")
     if cage.type != 'MESH':
         raise BindError(f"The cage '{cage.name}' must be a mesh object")
-    if _drives(obj, cage.gencoords.bound_cage):
+    existing = binding(cage)
+    if existing is not None and _drives(obj, existing.cage):
         raise BindError(f"'{cage.name}' is itself bound to '{obj.name}': a mesh and its cage "
                         "cannot drive each other")
     if len(obj.data.vertices) == 0:
         raise BindError(f"'{obj.name}' has no vertices to bind")
-    if obj.data.users > 1:
-        # The deformation is written into the mesh, which every user would share.
-        raise BindError(f"'{obj.name}' shares its mesh with other objects (linked duplicates): "
-                        "use Object > Relations > Make Single User, then Bind")
-    if obj.data.shape_keys is not None:
-        # Blender shows the shape-key blocks, not the ``position`` attribute Bind writes.
-        raise BindError(f"'{obj.name}' has shape keys, which would hide the cage's "
-                        "deformation: apply or remove them (Object Data properties > Shape "
-                        "Keys), then Bind")
 
 
-def bind(obj, depsgraph, report_progress=lambda fraction: None):
-    """Compute and return the ``storage.BindData`` of ``obj`` (nothing is written).
+def choose_storage(setting, mesh_vertices, cage_vertices, compact_size):
+    """'EXACT' or 'COMPACT' for the Storage setting ``setting`` ('AUTO' decides by cost).
 
-    Mesh vertices are mapped into the cage's local space, where the evaluated cage
-    (modifiers applied) is taken as the rest cage. Raises BindError on any problem.
+    Compact storage keeps its basis on the mesh's first n points and needs more cage
+    vertices than slots to save anything, so small meshes and cages are always exact.
     """
-    started = time.perf_counter()
-    check_inputs(obj)
-    settings = obj.gencoords
-    cage = settings.cage
-    kind = core_name(settings.kind)
-    outside = core_name(settings.outside)
-    kind_label = enum_label(KIND_ITEMS, settings.kind)
+    if mesh_vertices < cage_vertices or cage_vertices <= compact_size:
+        return 'EXACT'
+    if setting != 'AUTO':
+        return setting
+    small = (mesh_vertices * cage_vertices <= EXACT_MAX_PRODUCT
+             and cage_vertices <= EXACT_MAX_CAGE_VERTICES)
+    return 'EXACT' if small else 'COMPACT'
 
-    rest = rest_positions(obj)
-    geometry = mesh_io.read_evaluated_cage(cage, depsgraph)
+
+CAPTURE_GROUP = ".GenCoords capture"
+
+
+def capture_rest_cage(obj, cage, context):
+    """The evaluated cage in the mesh's local space, exactly as Object Info gives it.
+
+    The deformer subtracts this from what its Object Info node reads at every
+    evaluation; reading it through the same node (a temporary modifier last in the
+    stack) makes the difference exactly zero at rest, so the mesh is unchanged bitwise.
+    """
+    group = bpy.data.node_groups.new(CAPTURE_GROUP, 'GeometryNodeTree')
+    modifier = None
     try:
-        mesh_to_cage = mesh_io.cage_to_mesh_matrix(obj, cage, depsgraph).inverted()
-    except ValueError:
-        raise BindError(f"'{obj.name}' or its cage '{cage.name}' has zero scale: "
-                        "fix the transform") from None
-    undefined = np.flatnonzero(~np.isfinite(rest).all(axis=1))
-    if len(undefined):
-        raise BindError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or "
-                        f"infinite) positions (first: vertex {undefined[0]}): fix or delete "
-                        "them, then Bind")
-    points = mesh_io.transform_points(mesh_to_cage, rest)
-    vertices = geometry.positions.astype(np.float64)
-    triangles = geometry.triangles
+        group.interface.new_socket(deformer.GEOMETRY, in_out='INPUT',
+                                   socket_type='NodeSocketGeometry')
+        group.interface.new_socket(deformer.CAGE, in_out='INPUT', socket_type='NodeSocketObject')
+        group.interface.new_socket(deformer.GEOMETRY, in_out='OUTPUT',
+                                   socket_type='NodeSocketGeometry')
+        group_input = group.nodes.new('NodeGroupInput')
+        info = group.nodes.new('GeometryNodeObjectInfo')
+        info.transform_space = 'RELATIVE'
+        group_output = group.nodes.new('NodeGroupOutput')
+        group.links.new(group_input.outputs[deformer.CAGE], info.inputs["Object"])
+        group.links.new(info.outputs["Geometry"], group_output.inputs[deformer.GEOMETRY])
+        modifier = obj.modifiers.new("GenCoords capture", 'NODES')
+        modifier.node_group = group
+        modifier.show_in_editmode = True
+        compat.set_modifier_input(modifier, deformer.CAGE, cage)
+        with mesh_io.evaluated_mesh(obj, context.evaluated_depsgraph_get()) as captured:
+            return mesh_io.read_positions(captured).copy()
+    finally:
+        if modifier is not None:
+            obj.modifiers.remove(modifier)
+        bpy.data.node_groups.remove(group)
 
-    locations = np.empty(len(points), dtype=np.int8)
-    try:
-        # One pass validates the cage, locates the points (outside ones are an error
-        # unless Outside says otherwise) and computes the coordinates. Kept as float32:
-        # half the memory, and the mesh positions they yield are float32; the core
-        # writes float32 directly, so no float64 matrix exists at peak.
-        coordinates = core.coordinates(points, vertices, triangles, kind=kind, outside=outside,
-                                       progress=report_progress, dtype=np.float32,
-                                       locations=locations, tolerance=FLOAT32_TOLERANCE)
-    except ValueError as error:  # every core error is a ValueError
-        raise BindError(messages.core_error(cage.name, error, kind_label, len(points),
-                                            geometry.triangle_faces)) from None
-    if not np.isfinite(coordinates).all():
-        raise BindError(f"Binding to '{cage.name}' gave undefined coordinates: "
-                        "check the cage for tiny or overlapping faces")
 
-    summary = core.coordinate_summary(coordinates)
-    return storage.BindData(
-        coordinates=coordinates,
-        rest_positions=np.array(rest, dtype=np.float32),
-        cage_vertex_count=len(vertices),
-        cage_faces_hash=geometry.faces_hash,
-        cage_non_triangles=geometry.non_triangles,
-        kind=kind,
-        outside=outside,
-        bind_seconds=time.perf_counter() - started,
-        points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
-        points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
-        min_coordinate=summary["min"],
-        negative_points=summary["negative_points"],
-        max_affine_error=summary["max_affine_error"],
-        nbytes=summary["nbytes"],
-    )
+@dataclass
+class BindResult:
+    """Everything ``commit`` writes: arrays for the mesh and the node group, and figures."""
 
+    storage: str
+    slots: np.ndarray  # (k, s) float32
+    basis: np.ndarray  # (n, s) float64, or None for exact storage
+    rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
+    info: dict  # METADATA
+
+
+class BindJob:
+    """One Bind of ``obj`` to its chosen cage: read and checked on creation (BindError),
+    computed by ``steps()``, written by ``commit()``."""
+
+    def __init__(self, obj, context):
+        started = time.perf_counter()
+        check_inputs(obj)
+        self.obj = obj
+        settings = obj.gencoords
+        self.cage = settings.cage
+        self.kind = core_name(settings.kind)
+        self.outside = core_name(settings.outside)
+        self.kind_label = enum_label(KIND_ITEMS, settings.kind)
+        depsgraph = context.evaluated_depsgraph_get()
+        rest = mesh_io.read_positions(obj.data).astype(np.float64)
+        undefined = np.flatnonzero(~np.isfinite(rest).all(axis=1))
+        if len(undefined):
+            raise BindError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or "
+                            f"infinite) positions (first: vertex {undefined[0]}): fix or "
+                            "delete them, then Bind")
+        geometry = mesh_io.read_evaluated_cage(self.cage, depsgraph)
+        if len(geometry.triangles) == 0:
+            raise BindError(f"The cage '{self.cage.name}' has no faces: it must be a closed "
+                            "surface around the mesh (add faces, e.g. Mesh > Convex Hull)")
+        self.triangle_faces = geometry.triangle_faces
+        self.rest_cage = capture_rest_cage(obj, self.cage, context)
+        if len(self.rest_cage) != len(geometry.positions):
+            raise BindError(f"The cage '{self.cage.name}' changed while binding: try again")
+        # Coordinates are computed where the artist sees the shapes, in world space
+        # (they are affine combinations, so they hold in the mesh's local space too).
+        world = np.array(obj.evaluated_get(depsgraph).matrix_world, dtype=np.float64)
+        self.points = rest @ world[:3, :3].T + world[:3, 3]
+        self.cage_vertices = self.rest_cage.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+        if not np.isfinite(self.cage_vertices).all():
+            raise BindError(f"The cage '{self.cage.name}' has vertices at undefined (NaN or "
+                            "infinite) positions, or an object has zero scale: fix them, "
+                            "then Bind")
+        self.triangles = geometry.triangles
+        count, cage_count = len(self.points), len(self.cage_vertices)
+        self.storage = choose_storage(settings.storage, count, cage_count, settings.compact_size)
+        self.basis = None
+        if self.storage == 'COMPACT':
+            self.basis = compact.motion_basis(self.cage_vertices, self.triangles,
+                                              min(settings.compact_size, cage_count))
+        self.info = {
+            "format": FORMAT, "kind": self.kind, "outside": self.outside,
+            "storage": self.storage, "cage_vertex_count": cage_count,
+            "mesh_vertex_count": count, "cage_faces_hash": geometry.faces_hash,
+            "cage_non_triangles": geometry.non_triangles,
+        }
+        self.started = started
+        self.result = None
+
+    def steps(self):
+        """Compute the bind data chunk by chunk, yielding the fraction done (0 to 1).
+
+        Raises BindError for a bad cage or vertices outside it. Closing the generator
+        early (a cancel) leaves nothing behind.
+        """
+        count, cage_count = len(self.points), len(self.cage_vertices)
+        slot_count = cage_count if self.basis is None else self.basis.shape[1]
+        slots = np.empty((count, slot_count), dtype=np.float32)
+        locations = np.empty(count, dtype=np.int8)
+        stride = max(1, count // DEVIATION_SAMPLES)
+        samples, sample_slots = [], []
+        smallest, negative, affine_error = np.inf, 0, 0.0
+        chunk = max(1, CHUNK_ENTRIES // cage_count)
+        for start in range(0, count, chunk):
+            rows = slice(start, min(start + chunk, count))
+            try:
+                coordinates = core.coordinates(
+                    self.points[rows], self.cage_vertices, self.triangles, kind=self.kind,
+                    outside=self.outside, locations=locations[rows],
+                    tolerance=FLOAT32_TOLERANCE)
+            except core.OutsideCageError:
+                raise BindError(self._outside_message()) from None
+            except ValueError as error:  # every other core error is a ValueError
+                raise BindError(messages.core_error(self.cage.name, error, self.kind_label,
+                                                    count, self.triangle_faces)) from None
+            if not np.isfinite(coordinates).all():
+                raise BindError(f"Binding to '{self.cage.name}' gave undefined coordinates: "
+                                "check the cage for tiny or overlapping faces")
+            summary = core.coordinate_summary(coordinates)
+            smallest = min(smallest, summary["min"])
+            negative += summary["negative_points"]
+            affine_error = max(affine_error, summary["max_affine_error"])
+            slots[rows] = coordinates if self.basis is None else coordinates @ self.basis
+            picked = np.arange(-start % stride, rows.stop - start, stride)
+            samples.append(coordinates[picked])
+            sample_slots.append(slots[rows][picked])
+            yield rows.stop / count
+
+        deviation = {"deviation_smooth": 0.0, "deviation_drag": 0.0}
+        if self.basis is not None:
+            sample, sample_slot = np.concatenate(samples), np.concatenate(sample_slots)
+            for name, moved in (("deviation_smooth", compact.smooth_test_motion(self.cage_vertices)),
+                                ("deviation_drag", compact.vertex_drag_motion(self.cage_vertices))):
+                deviation[name] = compact.deviation(sample, sample_slot, self.basis,
+                                                    self.cage_vertices, moved)
+        # What the mesh stores: three slots per vector attribute (the last one padded),
+        # and compact storage's basis in as many attributes again.
+        stored = count * 3 * -(-slot_count // 3) * 4
+        nbytes = stored * (1 if self.basis is None else 2)
+        self.info.update(
+            slot_count=slot_count, key=secrets.token_hex(3),
+            points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
+            points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
+            min_coordinate=float(smallest), negative_points=int(negative),
+            max_affine_error=float(affine_error), nbytes=int(nbytes),
+            bind_seconds=time.perf_counter() - self.started, **deviation)
+        self.result = BindResult(self.storage, slots, self.basis, self.rest_cage, self.info)
+
+    def _outside_message(self):
+        where = core.point_locations(self.points, self.cage_vertices, self.triangles,
+                                     tolerance=FLOAT32_TOLERANCE)
+        return messages.outside_error(self.cage.name, int(np.count_nonzero(where == core.OUTSIDE)),
+                                      len(self.points))
+
+    def run(self, report=None):
+        """Compute to the end (scripts, background mode); ``report(fraction)`` on the way."""
+        for fraction in self.steps():
+            if report is not None:
+                report(fraction)
+        return self.result
+
+    def commit(self):
+        """Write the computed binding into the file; returns the new ``Binding``.
+
+        An earlier binding of the mesh is replaced (its place in the stack is kept).
+        On any failure everything this call added is removed again and the error raised.
+        """
+        obj, result = self.obj, self.result
+        earlier = binding(obj)
+        key = result.info["key"]
+        names = deformer.slot_attribute_names(key, result.info["slot_count"])
+        basis_names = None
+        if result.basis is not None:
+            basis_names = deformer.basis_attribute_names(key, result.info["slot_count"])
+        group = modifier = None
+        try:
+            group = deformer.build_group(f"GenCoords: {obj.name} in {self.cage.name}", key,
+                                         result.rest_cage, result.info["mesh_vertex_count"],
+                                         result.info["slot_count"], basis_names)
+            deformer.write_triples(obj.data, names, result.slots)
+            if basis_names is not None:
+                deformer.write_triples(obj.data, basis_names, result.basis)
+            modifier = obj.modifiers.new(MODIFIER_NAME, 'NODES')
+            modifier.node_group = group
+            modifier.show_in_editmode = True
+            compat.set_modifier_input(modifier, deformer.CAGE, self.cage)
+            position = 0 if earlier is None else list(obj.modifiers).index(earlier.modifier)
+            compat.move_modifier(obj, modifier, position)
+            group[METADATA] = result.info
+        except Exception:
+            if modifier is not None:
+                obj.modifiers.remove(modifier)
+            if group is not None:
+                bpy.data.node_groups.remove(group)
+            deformer.remove_slots(obj.data, key)
+            raise
+        if earlier is not None:
+            remove(obj, earlier)
+        return binding(obj)
+
+
+def remove(obj, found):
+    """Delete the binding ``found`` of ``obj``: modifier, node group and attributes.
+
+    The mesh data is left exactly as it was before that Bind.
+    """
+    obj.modifiers.remove(found.modifier)
+    if found.group.users == 0:
+        bpy.data.node_groups.remove(found.group)
+    deformer.remove_slots(obj.data, found.key)
+    deformer.remove_unused_helpers()

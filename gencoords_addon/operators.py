@@ -1,10 +1,15 @@
-"""Operators: Bind, Unbind, Show Coordinate and Clear Coordinate (all undoable)."""
+"""Operators: Bind, Unbind, Show Coordinate and Clear Coordinate (all undoable).
 
+Every operator either finishes or leaves the file as it found it: errors become a
+report saying what to do (in scripts, ``bpy.ops`` raises RuntimeError with it).
+"""
+
+import contextlib
 import traceback
 
 import bpy
 
-from . import binding, cage_link, live, mesh_io, storage, visualise
+from . import binding, visualise
 
 
 class MeshOperator:
@@ -21,75 +26,144 @@ class MeshOperator:
         return True
 
 
+@contextlib.contextmanager
+def object_mode(context, obj):
+    """Leave Edit Mode for the block (bind data are written to the mesh, which Edit Mode
+    would overwrite on exit), and return to it afterwards."""
+    editing = obj.mode == 'EDIT'
+    if editing:
+        bpy.ops.object.mode_set(mode='OBJECT')  # also writes the edit into the mesh
+    try:
+        yield
+    finally:
+        if editing and context.view_layer.objects.active == obj:
+            bpy.ops.object.mode_set(mode='EDIT')
+
+
+def _internal_error(operator, error):
+    traceback.print_exc()
+    operator.report({'ERROR'}, f"GenCoords internal error, nothing was changed (details in "
+                               f"the system console): {error}")
+    return {'CANCELLED'}
+
+
 class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
-    """Bind the active mesh to its cage: compute the coordinates of every vertex"""
+    """Bind the active mesh to its cage: compute the coordinates of every vertex and add
+    the GenCoords modifier that moves the mesh with the cage"""
 
     bl_idname = "object.gencoords_bind"
     bl_label = "Bind"
 
-    def execute(self, context):
+    def _start(self, context):
         obj = context.active_object
-        if obj.mode == 'EDIT':
-            obj.update_from_editmode()  # bind what the artist sees
-        progress = context.window_manager
-        progress.progress_begin(0.0, 1.0)
         try:
-            bind = binding.bind(obj, context.evaluated_depsgraph_get(), progress.progress_update)
+            with object_mode(context, obj):
+                self._job = binding.BindJob(obj, context)
+        except binding.BindError as error:
+            self.report({'ERROR'}, str(error))
+            return False
+        return True
+
+    def _finish(self, context):
+        job = self._job
+        with object_mode(context, job.obj):
+            job.commit()
+        info = job.result.info
+        self.report({'INFO'}, f"Bound '{job.obj.name}' ({info['mesh_vertex_count']} vertices) "
+                              f"to '{job.cage.name}' in {info['bind_seconds']:.2f} s "
+                              f"({info['storage'].lower()} storage)")
+        return {'FINISHED'}
+
+    def execute(self, context):
+        """Run to the end: scripts and background mode (progress printed there)."""
+        try:
+            if not self._start(context):
+                return {'CANCELLED'}
+            printed = [0.0]
+
+            def report(fraction):
+                if bpy.app.background and fraction - printed[0] >= 0.1 and fraction < 1.0:
+                    printed[0] = fraction
+                    print(f"GenCoords: binding '{self._job.obj.name}' {fraction:.0%}", flush=True)
+
+            self._job.run(report)
+            return self._finish(context)
         except binding.BindError as error:
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
-        except Exception as error:  # keep the user's scene intact, the trace in the console
-            traceback.print_exc()
-            self.report({'ERROR'}, f"GenCoords internal error (see the console): {error}")
+        except Exception as error:  # the file is unchanged: commit cleans up after itself
+            return _internal_error(self, error)
+
+    def invoke(self, context, event):
+        """In the UI: compute between events, with a progress bar; Esc cancels."""
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        try:
+            if not self._start(context):
+                return {'CANCELLED'}
+        except Exception as error:
+            return _internal_error(self, error)
+        self._steps = self._job.steps()
+        window_manager = context.window_manager
+        self._timer = window_manager.event_timer_add(0.01, window=context.window)
+        window_manager.progress_begin(0.0, 1.0)
+        window_manager.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def _stop(self, context, text=None):
+        window_manager = context.window_manager
+        window_manager.event_timer_remove(self._timer)
+        window_manager.progress_end()
+        context.workspace.status_text_set(text)
+        self._steps.close()
+
+    def modal(self, context, event):
+        if event.type == 'ESC':
+            self._stop(context)
+            self.report({'WARNING'}, "Bind cancelled: nothing was changed")
             return {'CANCELLED'}
-        finally:
-            progress.progress_end()
-        storage.save(obj, bind)
-        storage.remove_orphans()
-        # The bind data belong to this cage: picking another one must not silently drive
-        # the mesh with coordinates computed for the first (same vertex count or not).
-        obj.gencoords.bound_cage = obj.gencoords.cage
-        cage_link.link(obj, obj.gencoords.bound_cage)
-        obj.gencoords.edited_while_bound = False  # the edited shape is the new rest
-        live.forget(obj)
-        message = (f"Bound '{obj.name}' ({bind.mesh_vertex_count} vertices) to "
-                   f"'{obj.gencoords.cage.name}' in {bind.bind_seconds:.2f} s")
-        # Renders evaluate frame handlers on their own thread; lock the UI meanwhile.
-        render = context.scene.render
-        if not render.use_lock_interface:
-            render.use_lock_interface = True
-            message += "; Render > Lock Interface turned on so renders read the cage safely"
-        live.apply_live_setting(obj, context.evaluated_depsgraph_get())
-        self.report({'INFO'}, message)
-        return {'FINISHED'}
+        if event.type != 'TIMER':
+            return {'PASS_THROUGH'}
+        try:
+            fraction = next(self._steps, None)
+            if fraction is None:
+                self._stop(context)
+                return self._finish(context)
+        except binding.BindError as error:
+            self._stop(context)
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+        except Exception as error:
+            self._stop(context)
+            return _internal_error(self, error)
+        context.window_manager.progress_update(fraction)
+        context.workspace.status_text_set(
+            f"GenCoords: binding '{self._job.obj.name}' {fraction:.0%} (Esc to cancel)")
+        return {'RUNNING_MODAL'}
 
 
 class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
-    """Restore the rest shape of the active mesh exactly and remove its bind data"""
+    """Remove the GenCoords modifier, its node group and its bind data: the mesh is
+    exactly as it was before Bind"""
 
     bl_idname = "object.gencoords_unbind"
     bl_label = "Unbind"
 
     def execute(self, context):
         obj = context.active_object
-        if obj.gencoords.bind_data is None:
+        found = binding.binding(obj)
+        if found is None:
             self.report({'ERROR'}, f"'{obj.name}' is not bound")
             return {'CANCELLED'}
-        if obj.mode == 'EDIT':
-            self.report({'ERROR'}, "Leave Edit Mode before unbinding")
+        if obj.library is not None or obj.data.library is not None:
+            self.report({'ERROR'}, f"'{obj.name}' is linked from a library and cannot be "
+                                   "changed")
             return {'CANCELLED'}
-        problem = live.rest_shape_problem(obj)
-        if problem is None:
-            # Bitwise, also over edits of the bound mesh: the user asked for the rest shape.
-            mesh_io.write_positions(obj.data, storage.load(obj).rest_positions)
-        storage.remove(obj)
-        cage_link.unlink(obj)
-        obj.gencoords.bound_cage = None
-        obj.gencoords.edited_while_bound = False
-        live.forget(obj)
-        if problem:
-            self.report({'WARNING'}, f"Unbound '{obj.name}' and kept its current shape: "
-                                     f"the rest shape could not be restored, as {problem}")
+        try:
+            with object_mode(context, obj):
+                binding.remove(obj, found)
+        except Exception as error:
+            return _internal_error(self, error)
         return {'FINISHED'}
 
 
@@ -106,7 +180,11 @@ class OBJECT_OT_gencoords_show_field(MeshOperator, bpy.types.Operator):
         if problem:
             self.report({'ERROR'}, problem)
             return {'CANCELLED'}
-        visualise.paint_field(obj)
+        with object_mode(context, obj):
+            painted = visualise.paint_field(obj)
+        if not painted:
+            self.report({'ERROR'}, f"The bind data of '{obj.name}' is missing: Bind again")
+            return {'CANCELLED'}
         visualise.show_colors_in_viewports(context.screen)
         return {'FINISHED'}
 
@@ -118,7 +196,10 @@ class OBJECT_OT_gencoords_clear_field(MeshOperator, bpy.types.Operator):
     bl_label = "Clear Coordinate"
 
     def execute(self, context):
-        if not visualise.clear_field(context.active_object):
+        obj = context.active_object
+        with object_mode(context, obj):
+            cleared = visualise.clear_field(obj)
+        if not cleared:
             self.report({'WARNING'}, "No coordinate field is shown")
         return {'FINISHED'}
 

@@ -2,6 +2,7 @@
 
 import bpy
 
+from .binding import binding
 from .status import status_lines
 from .visualise import FIELD_ATTRIBUTE
 
@@ -9,18 +10,21 @@ from .visualise import FIELD_ATTRIBUTE
 def draw_settings(layout, obj):
     """Everything the panel shows for the mesh object ``obj``."""
     settings = obj.gencoords
-    bound = settings.bind_data is not None
+    bound = binding(obj) is not None
     column = layout.column()
     column.prop(settings, "cage")
     column.prop(settings, "kind")
     column.prop(settings, "outside")
+    column.prop(settings, "storage")
+    if settings.storage != 'EXACT':
+        column.prop(settings, "compact_size")
+    column.prop(settings, "auto_rebind")
 
     row = layout.row(align=True)
     row.operator("object.gencoords_bind", text="Rebind" if bound else "Bind", icon='LINKED')
     unbind = row.row(align=True)
     unbind.enabled = bound
     unbind.operator("object.gencoords_unbind", icon='UNLINKED')
-    layout.prop(settings, "live")
 
     box = layout.box()
     for text, icon in status_lines(obj):

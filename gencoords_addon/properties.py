@@ -2,7 +2,6 @@
 
 import bpy
 
-from . import live, visualise
 
 # Enum identifiers are the core's names in upper case (see ``core_name``).
 KIND_ITEMS = (
@@ -32,51 +31,56 @@ def enum_label(items, identifier):
     return next(name for key, name, _ in items if key == identifier)
 
 
+STORAGE_ITEMS = (
+    ("AUTO", "Automatic",
+     "Exact while its cost is moderate (mesh vertices x cage vertices up to 8 million, "
+     "cages up to 400 vertices), Compact beyond"),
+    ("EXACT", "Exact",
+     "Every coordinate of every vertex: the deformation is exact to float32 rounding"),
+    ("COMPACT", "Compact",
+     "A few numbers per vertex: exact for affine and smooth cage motions, close for "
+     "others (the panel shows the deviation); for dense meshes and large cages"),
+)
+
+
 def _is_cage_candidate(settings, obj):
     return obj.type == 'MESH' and obj != settings.id_data
 
 
-def _live_changed(settings, context):
-    live.apply_live_setting(settings.id_data, context.evaluated_depsgraph_get())
-
-
 def _field_vertex_changed(settings, context):
+    from . import visualise  # it reads bindings, whose module reads these tables
     visualise.repaint_if_shown(settings.id_data)
 
 
+# Settings read when binding are not animatable: keyframing them would do nothing.
 class GenCoordsSettings(bpy.types.PropertyGroup):
     cage: bpy.props.PointerProperty(
-        name="Cage", type=bpy.types.Object, poll=_is_cage_candidate,
+        name="Cage", type=bpy.types.Object, poll=_is_cage_candidate, options=set(),
         description="Closed mesh around this object whose vertices drive it after binding",
     )
     kind: bpy.props.EnumProperty(
-        name="Coordinates", items=KIND_ITEMS, default="MEAN_VALUE",
+        name="Coordinates", items=KIND_ITEMS, default="MEAN_VALUE", options=set(),
         description="Generalized barycentric coordinates used to bind the mesh to the cage",
     )
     outside: bpy.props.EnumProperty(
-        name="Outside", items=OUTSIDE_ITEMS, default="RAISE",
+        name="Outside", items=OUTSIDE_ITEMS, default="RAISE", options=set(),
         description="What to do with mesh vertices that lie outside the cage when binding",
     )
-    live: bpy.props.BoolProperty(
-        name="Live", default=True, update=_live_changed,
-        description="Follow the cage; when off the mesh shows its rest shape",
+    storage: bpy.props.EnumProperty(
+        name="Storage", items=STORAGE_ITEMS, default="AUTO", options=set(),
+        description="How the bind data is stored on the mesh and evaluated",
+    )
+    compact_size: bpy.props.IntProperty(
+        name="Compact Slots", default=36, min=4, soft_max=96, options=set(),
+        description="Numbers per vertex in Compact storage: more follow sharper cage "
+                    "edits, fewer evaluate faster",
+    )
+    auto_rebind: bpy.props.BoolProperty(
+        name="Auto Rebind", default=False, options=set(),
+        description="Bind again when leaving Edit Mode after the mesh's vertices were "
+                    "added or deleted",
     )
     field_vertex: bpy.props.IntProperty(
-        name="Cage Vertex", min=0, default=0, update=_field_vertex_changed,
+        name="Cage Vertex", min=0, default=0, update=_field_vertex_changed, options=set(),
         description="Cage vertex whose coordinate field Show Coordinate paints on the mesh",
-    )
-    bound_cage: bpy.props.PointerProperty(
-        name="Bound Cage", type=bpy.types.Object,
-        description="The cage the bind data refers to and the mesh follows (set by Bind; "
-                    "picking another Cage takes effect on the next Bind)",
-    )
-    bind_data: bpy.props.PointerProperty(
-        name="Bind Data", type=bpy.types.Text,
-        description="Hidden text datablock holding the coordinates and rest shape "
-                    "(managed by Bind/Unbind; do not set)",
-    )
-    edited_while_bound: bpy.props.BoolProperty(
-        name="Edited While Bound",
-        description="The bound mesh was edited, not by the cage, and stopped following it "
-                    "until Bind or Unbind (managed by GenCoords; do not set)",
     )

@@ -1,50 +1,93 @@
-"""The panel's status block as (text, icon) lines; every figure comes from the bind data,
-which holds what the core computed."""
+"""The panel's status block as (text, icon) lines, and why a bound mesh is not deforming.
 
-from . import live, storage
-from .properties import KIND_ITEMS, enum_label
+Every figure comes from the binding's metadata, which holds what the core computed.
+"""
+
+import bpy
+import numpy as np
+
+from . import binding, mesh_io
+from .properties import KIND_ITEMS, STORAGE_ITEMS, enum_label
 
 OUTSIDE_VERBS = {"project": "projected onto the cage", "extrapolate": "extrapolated"}
 
 
-def status_lines(obj):
-    """Lines describing the bind of ``obj`` and any live fault, for the panel and scripts."""
+def deformation_problem(obj, found, depsgraph=None):
+    """Why the deformer passes the mesh of ``obj`` through unchanged, or None.
+
+    The node group checks the same conditions it can see (vertex counts, finite cage);
+    this says them in words, and also notices cage face changes it cannot see.
+    """
+    info = found.info
+    if info.get("format") != binding.FORMAT:
+        return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
+                "Bind again or Unbind")
+    cage = found.cage
+    if cage is None:
+        return ("The cage was deleted or cleared: the mesh is not deformed; pick a cage "
+                "and Bind again, or Unbind")
+    change = len(obj.data.vertices) - info["mesh_vertex_count"]
+    if change and obj.mode != 'EDIT':
+        verb = "added" if change > 0 else "deleted"
+        return (f"Mesh edited since Bind: {abs(change)} vertices {verb}; it is not deformed "
+                "until you Bind again (or turn on Auto Rebind)")
+    depsgraph = depsgraph or bpy.context.view_layer.depsgraph
+    with mesh_io.evaluated_mesh(cage, depsgraph) as cage_mesh:
+        count = len(cage_mesh.vertices)
+        faces_hash = mesh_io.faces_hash(cage_mesh)
+        finite = bool(np.isfinite(mesh_io.read_positions(cage_mesh)).all())
+    if count != info["cage_vertex_count"]:
+        return (f"The cage '{cage.name}' now has {count} vertices (bound with "
+                f"{info['cage_vertex_count']}): the mesh is not deformed; Bind again or Unbind")
+    if faces_hash != info["cage_faces_hash"]:
+        return (f"The faces of cage '{cage.name}' changed since Bind: the deformation no "
+                "longer matches it; Bind again or Unbind")
+    if not finite:
+        return (f"The cage '{cage.name}' has undefined (NaN or infinite) positions: the "
+                "mesh is not deformed until they are fixed")
+    return None
+
+
+def status_lines(obj, depsgraph=None):
+    """Lines describing the binding of ``obj``, for the panel and scripts."""
+    found = binding.binding(obj)
+    if found is None:
+        return [("Not bound", 'UNLINKED')]
     lines = []
-    fault = live.faults.get(obj.session_uid)
-    if fault:
-        lines.append((fault, 'ERROR'))
-    bind = storage.load(obj)
-    if bind is None:
-        lines.append(("Not bound", 'UNLINKED'))
+    problem = deformation_problem(obj, found, depsgraph)
+    if problem:
+        lines.append((problem, 'ERROR'))
+    info = found.info
+    if info.get("format") != binding.FORMAT:
         return lines
-    cage = obj.gencoords.bound_cage
-    kind_label = enum_label(KIND_ITEMS, bind.kind.upper())
+    cage = found.cage
     cage_name = cage.name if cage is not None else "(missing)"
-    lines.append((f"Bound to '{cage_name}' ({kind_label})", 'LINKED'))
+    lines.append((f"Bound to '{cage_name}'", 'LINKED'))
+    lines.append((f"Coordinates: {enum_label(KIND_ITEMS, info['kind'].upper())}", 'MOD_LATTICE'))
     picked = obj.gencoords.cage
     if cage is not None and picked != cage:
-        lines.append((f"Cage is now '{picked.name if picked else 'none'}': Bind again to use it "
-                      f"(following '{cage_name}' until then)", 'INFO'))
-    lines.append((f"Cage {bind.cage_vertex_count} vertices, mesh {bind.mesh_vertex_count} "
-                  "vertices", 'MESH_DATA'))
-    if bind.cage_non_triangles:
-        lines.append((f"Cage triangulated ({bind.cage_non_triangles} quads/n-gons)",
+        lines.append((f"Cage is now '{picked.name if picked else 'none'}': Bind again to "
+                      f"use it", 'INFO'))
+    lines.append((f"Cage: {info['cage_vertex_count']} vertices", 'MESH_ICOSPHERE'))
+    lines.append((f"Mesh: {info['mesh_vertex_count']} vertices", 'MESH_DATA'))
+    if info["cage_non_triangles"]:
+        lines.append((f"Cage triangulated: {info['cage_non_triangles']} quads/n-gons",
                       'MOD_TRIANGULATE'))
-    lines.append((f"Bind time {bind.bind_seconds:.2f} s, data {_megabytes(bind.nbytes)}", 'TIME'))
-    if bind.negative_points:
-        lines.append((f"Smallest coordinate {bind.min_coordinate:.4g}: negative at "
-                      f"{bind.negative_points} vertices", 'ERROR'))
+    storage = enum_label(STORAGE_ITEMS, info["storage"])
+    lines.append((f"Storage: {storage}, {info['slot_count']} per vertex, "
+                  f"{info['nbytes'] / 2**20:.1f} MB", 'DISK_DRIVE'))
+    if info["storage"] == 'COMPACT':
+        lines.append((f"Deviation: {info['deviation_smooth']:.1e} (smooth), "
+                      f"{info['deviation_drag']:.1e} (vertex drag) of the cage size", 'INFO'))
+    lines.append((f"Bind time: {info['bind_seconds']:.2f} s", 'TIME'))
+    if info["negative_points"]:
+        lines.append((f"Smallest coordinate {info['min_coordinate']:.4g}: negative at "
+                      f"{info['negative_points']} vertices", 'ERROR'))
     else:
-        lines.append((f"Smallest coordinate {bind.min_coordinate:.4g}", 'CHECKMARK'))
-    if bind.points_outside:
-        verb = OUTSIDE_VERBS.get(bind.outside, bind.outside)
-        lines.append((f"{bind.points_outside} vertices outside the cage ({verb})", 'INFO'))
-    if bind.points_on_boundary:
-        lines.append((f"{bind.points_on_boundary} vertices on the cage boundary", 'INFO'))
-    if not obj.gencoords.live:
-        lines.append(("Live off: showing the rest shape", 'PAUSE'))
+        lines.append((f"Smallest coordinate: {info['min_coordinate']:.4g}", 'CHECKMARK'))
+    if info["points_outside"]:
+        verb = OUTSIDE_VERBS.get(info["outside"], info["outside"])
+        lines.append((f"{info['points_outside']} vertices outside the cage ({verb})", 'INFO'))
+    if info["points_on_boundary"]:
+        lines.append((f"{info['points_on_boundary']} vertices on the cage boundary", 'INFO'))
     return lines
-
-
-def _megabytes(nbytes):
-    return f"{nbytes / 2**20:.2f} MB"

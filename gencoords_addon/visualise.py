@@ -1,20 +1,22 @@
 """Show coordinate: paint one cage vertex's coordinate field on the mesh as colours."""
 
 from .. import core
-from . import storage
+from . import binding
 
 FIELD_ATTRIBUTE = "GenCoords Field"
 
 
 def field_problem(obj):
     """Why the field of ``obj.gencoords.field_vertex`` cannot be shown, or None."""
-    bind = storage.load(obj)
-    if bind is None:
+    found = binding.binding(obj)
+    if found is None:
         return f"'{obj.name}' is not bound: Bind it to a cage first"
-    count = bind.cage_vertex_count
+    count = found.info["cage_vertex_count"]
     if obj.gencoords.field_vertex >= count:
         return f"Cage Vertex must be below {count}: the cage has {count} vertices"
-    return bind.vertex_count_change(obj)
+    if len(obj.data.vertices) != found.info["mesh_vertex_count"]:
+        return f"'{obj.name}' was edited since Bind (vertices added or deleted): Bind again"
+    return None
 
 
 def paint_field(obj):
@@ -22,8 +24,10 @@ def paint_field(obj):
 
     Call only when ``field_problem(obj)`` is None.
     """
-    bind = storage.load(obj)
-    colors = core.field_colors(bind.coordinates[:, obj.gencoords.field_vertex])
+    values = binding.binding(obj).coordinate_column(obj.data, obj.gencoords.field_vertex)
+    if values is None:
+        return False
+    colors = core.field_colors(values)
     mesh = obj.data
     attribute = mesh.color_attributes.get(FIELD_ATTRIBUTE)
     kind = ('POINT', 'FLOAT_COLOR')
@@ -35,6 +39,7 @@ def paint_field(obj):
     attribute.data.foreach_set("color", colors.reshape(-1))
     mesh.color_attributes.active_color = attribute
     mesh.update()
+    return True
 
 
 def repaint_if_shown(obj):

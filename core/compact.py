@@ -1,0 +1,147 @@
+"""Compact coordinates: exact for affine and smooth cage motions, k x s numbers for k points.
+
+A point with coordinates ``w`` (a row of ``W``, shape (k, n)) moves by ``w @ D`` when the
+cage's vertices move by ``D`` (n, N). Keeping all of ``W`` costs k x n numbers, and k x n
+multiply-adds each time the cage moves. The compact form keeps an orthonormal basis
+``basis`` (n, s) of cage motions, the affine motions first and then the cage's smoothest
+vibration modes (lowest eigenvectors of its edge-graph Laplacian), and per point the
+projections ``slots = W @ basis`` (k, s). Then
+
+    W @ D  ~  slots @ (basis.T @ D)
+
+exactly when ``D`` lies in the span of the basis: every affine motion (coordinates have
+linear precision, so an affine cage motion moves every point by the same affine map),
+and the broad bends and twists a coarse cage is made for. A sharp drag of one cage
+vertex deviates: :func:`deviation` measures it for any motion. The same form with
+``basis = I`` is the exact one.
+"""
+
+import numpy as np
+
+__all__ = ["motion_basis", "smooth_test_motion", "vertex_drag_motion", "deviation"]
+
+
+def _edges(faces):
+    """Unique undirected edges of simplicial facets, (e, 2) int (every vertex pair)."""
+    faces = np.asarray(faces, dtype=np.int64)
+    first, second = np.triu_indices(faces.shape[1], k=1)
+    pairs = np.sort(np.concatenate([faces[:, [i, j]] for i, j in zip(first, second)]), axis=1)
+    return np.unique(pairs, axis=0)
+
+
+def motion_basis(vertices, faces, size):
+    """Orthonormal cage motions: the affine ones, then the smoothest others.
+
+    Parameters
+    ----------
+    vertices : (n, N) float
+        Cage vertices.
+    faces : (m, N) int
+        Cage facets (only their edges are used).
+    size : int
+        Number of basis vectors s, at least N + 1 (the affine motions) and at most n.
+
+    Returns
+    -------
+    basis : (n, s) float64
+        Orthonormal columns. The first N + 1 span the affine functions of the vertex
+        positions (constant and linear); the others are eigenvectors of the cage's
+        edge-graph Laplacian restricted to the complement, by increasing frequency.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    count, dim = vertices.shape
+    if not dim + 1 <= size <= count:
+        raise ValueError(f"size must be between {dim + 1} (the affine motions) and "
+                         f"{count} (the cage's vertex count), got {size}")
+    centred = (vertices - vertices.mean(axis=0)) / max(np.ptp(vertices, axis=0).max(), 1e-300)
+    affine, _ = np.linalg.qr(np.column_stack([np.ones(count), centred]))
+    edges = _edges(faces)
+    laplacian = np.zeros((count, count))
+    np.add.at(laplacian, (edges[:, 0], edges[:, 1]), -1.0)
+    np.add.at(laplacian, (edges[:, 1], edges[:, 0]), -1.0)
+    laplacian[np.diag_indices(count)] = -laplacian.sum(axis=1)
+    # Restricted to the complement of the affine motions, the Laplacian's eigenvectors of
+    # nonzero eigenvalue are orthogonal to them; the affine ones fall into its null space.
+    complement = np.eye(count) - affine @ affine.T
+    values, vectors = np.linalg.eigh(complement @ laplacian @ complement)
+    outside_affine = np.linalg.norm(affine.T @ vectors, axis=0) < 0.5
+    smooth = vectors[:, outside_affine][:, np.argsort(values[outside_affine])]
+    return np.column_stack([affine, smooth[:, :size - dim - 1]])
+
+
+def smooth_test_motion(vertices):
+    """The standard smooth cage motion compact coordinates are measured with.
+
+    A twist of up to 60 degrees about the cage's longest axis that grows with the height
+    along it, plus a sideways bend of 15 % of that height: what an artist does with a
+    cage, and not affine, so the basis's smooth modes (not only its affine ones) matter.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+
+    Returns
+    -------
+    moved : (n, 3) float64
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    axis = int(np.argmax(high - low))
+    across = [(axis + 1) % 3, (axis + 2) % 3]
+    centre = 0.5 * (low + high)
+    height = (vertices[:, axis] - low[axis]) / max(high[axis] - low[axis], 1e-300)
+    angle = np.radians(60.0) * height
+    u, v = (vertices[:, across] - centre[across]).T
+    moved = vertices.copy()
+    moved[:, across[0]] = centre[across[0]] + np.cos(angle) * u - np.sin(angle) * v
+    moved[:, across[1]] = centre[across[1]] + np.sin(angle) * u + np.cos(angle) * v
+    moved[:, across[0]] += 0.15 * (high[axis] - low[axis]) * height ** 2
+    return moved
+
+
+def vertex_drag_motion(vertices, index=0, fraction=0.1):
+    """One cage vertex dragged outward by ``fraction`` of the cage's diagonal.
+
+    Parameters
+    ----------
+    vertices : (n, N) float
+    index : int
+    fraction : float
+
+    Returns
+    -------
+    moved : (n, N) float64
+    """
+    moved = np.array(vertices, dtype=np.float64)
+    direction = moved[index] - moved.mean(axis=0)
+    diagonal = np.linalg.norm(np.ptp(moved, axis=0))
+    moved[index] += fraction * diagonal * direction / max(np.linalg.norm(direction), 1e-300)
+    return moved
+
+
+def deviation(coordinates, slots, basis, rest, moved):
+    """Largest distance between the exact and the compact deformation, per cage diagonal.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+        Exact coordinates of k sample points.
+    slots : (k, s) float
+        Their compact slots, ``coordinates @ basis`` (possibly rounded to float32).
+    basis : (n, s) float
+    rest, moved : (n, N) float
+        The cage before and after the motion.
+
+    Returns
+    -------
+    deviation : float
+        ``max_i |w_i D - slots_i basis^T D| / |diagonal|``, with ``D = moved - rest``.
+    """
+    rest = np.asarray(rest, dtype=np.float64)
+    displacement = np.asarray(moved, dtype=np.float64) - rest
+    exact = np.asarray(coordinates, dtype=np.float64) @ displacement
+    compact = np.asarray(slots, dtype=np.float64) @ (np.asarray(basis).T @ displacement)
+    if len(exact) == 0:
+        return 0.0
+    diagonal = np.linalg.norm(np.ptp(rest, axis=0))
+    return float(np.linalg.norm(exact - compact, axis=1).max() / diagonal)

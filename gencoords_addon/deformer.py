@@ -1,0 +1,406 @@
+"""The deformer: a Geometry Nodes group that moves a bound mesh with its cage, natively.
+
+For mesh vertex i with slot values ``u_i`` (s numbers, stored on the mesh as point
+attributes) and the cage's vertices now (``C``) and at bind time (``R``), both in the
+mesh's local space, the group outputs
+
+    P_i + sum_l u_il E_l,        E_l = sum_j basis_jl (C_j - R_j)
+
+where ``P`` is the incoming position (shape keys, edits and earlier modifiers pass
+through). Exact storage has ``basis = I`` and ``u = coordinates``; compact storage a
+basis of s cage motions (``core.compact``). At rest ``C == R`` bitwise (``R`` is read
+back from this same Object Info node, see ``binding.capture_rest_cage``), so the mesh
+is unchanged bitwise.
+
+Evaluation cost is in the per-vertex part: Blender's field evaluator streams whole
+arrays through each node, so the slots are packed three to a vector attribute and
+accumulated with one Multiply Add per output axis (``acc_x += u_t * (E_a.x, E_b.x,
+E_c.x)``): one node per slot (Transform Direction would do the same in one node per
+three slots but costs five times as much per vertex). The small per-cage part (the
+``E`` lanes) is single values: for exact storage, lanes gathered once onto a point
+cloud of s/3 points; for compact storage, one Attribute Statistic sum per lane.
+
+When the cage is missing, has another vertex count or non-finite positions, or the mesh
+has another vertex count than at bind time, the group passes the mesh through
+unchanged (the panel says why). It removes its own attributes from its output, so
+Apply gives a clean mesh and later modifiers never see them.
+"""
+
+import bpy
+import numpy as np
+
+from . import compat
+
+GEOMETRY = "Geometry"
+CAGE = "Cage"
+ATTRIBUTE_PREFIX = ".gencoords_"  # a leading dot keeps them out of the attribute lists
+LANE_NAMES = ("gencoords_lane_x", "gencoords_lane_y", "gencoords_lane_z")
+AXES = "XYZ"
+
+
+def attribute_prefix(key):
+    """Prefix of the slot attributes of the binding ``key`` (unique per binding)."""
+    return f"{ATTRIBUTE_PREFIX}{key}_"
+
+
+def slot_attribute_names(key, slot_count):
+    """Names of the vector attributes holding three slots each, in slot order."""
+    return [f"{attribute_prefix(key)}{t}" for t in range(-(-slot_count // 3))]
+
+
+def basis_attribute_names(key, slot_count):
+    """Names of the vector attributes holding compact storage's basis, three columns each."""
+    return [f"{attribute_prefix(key)}basis{t}" for t in range(-(-slot_count // 3))]
+
+
+class _Builder:
+    """Adds nodes in columns (so the group reads left to right) and links them."""
+
+    def __init__(self, group):
+        self.group = group
+        self.rows = {}
+
+    def add(self, node_type, column, **settings):
+        node = self.group.nodes.new(node_type)
+        row = self.rows.get(column, 0)
+        self.rows[column] = row + 1
+        node.location = (220.0 * column, -160.0 * row)
+        for name, value in settings.items():
+            setattr(node, name, value)
+        return node
+
+    def link(self, output, node_input):
+        self.group.links.new(output, node_input, verify_limits=False)
+
+    def math(self, column, operation, a, b=None, c=None, vector=True):
+        node = self.add('ShaderNodeVectorMath' if vector else 'ShaderNodeMath', column,
+                        operation=operation)
+        for socket, value in zip(node.inputs, (a, b, c)):
+            if value is None:
+                continue
+            if isinstance(value, bpy.types.NodeSocket):
+                self.link(value, socket)
+            else:
+                socket.default_value = value
+        return node.outputs[0]
+
+    def scale(self, column, vector, factor):
+        node = self.add('ShaderNodeVectorMath', column, operation='SCALE')
+        self.link(vector, node.inputs[0])
+        self.link(factor, node.inputs["Scale"])
+        return node.outputs[0]
+
+    def named_attribute(self, column, name, data_type='FLOAT_VECTOR'):
+        node = self.add('GeometryNodeInputNamedAttribute', column, data_type=data_type)
+        node.inputs["Name"].default_value = name
+        return node.outputs["Attribute"]
+
+    def sample_index(self, column, geometry, value, index):
+        node = self.add('GeometryNodeSampleIndex', column, data_type='FLOAT_VECTOR',
+                        domain='POINT')
+        self.link(geometry, node.inputs["Geometry"])
+        self.link(value, node.inputs["Value"])
+        if isinstance(index, bpy.types.NodeSocket):
+            self.link(index, node.inputs["Index"])
+        else:
+            node.inputs["Index"].default_value = index
+        return node.outputs[0]
+
+    def index_switch(self, column, index, vectors):
+        """A field that is ``vectors[index]``: per-cage constants kept in the group."""
+        node = self.add('GeometryNodeIndexSwitch', column, data_type='VECTOR')
+        compat.new_index_switch_items(node, len(vectors))
+        self.link(index, node.inputs["Index"])
+        for socket, vector in zip(node.inputs[1:], vectors):
+            socket.default_value = vector
+        return node.outputs[0]
+
+    def statistic_sum(self, column, geometry, value):
+        node = self.add('GeometryNodeAttributeStatistic', column, data_type='FLOAT_VECTOR',
+                        domain='POINT')
+        self.link(geometry, node.inputs["Geometry"])
+        self.link(value, node.inputs["Attribute"])
+        return node.outputs["Sum"]
+
+    def compare(self, column, data_type, a, b):
+        node = self.add('FunctionNodeCompare', column, data_type=data_type, operation='EQUAL')
+        inputs = [s for s in node.inputs if s.enabled and s.name in ("A", "B")][:2]
+        if data_type == 'FLOAT':
+            node.inputs["Epsilon"].default_value = 0.0
+        for socket, value in zip(inputs, (a, b)):
+            if isinstance(value, bpy.types.NodeSocket):
+                self.link(value, socket)
+            else:
+                socket.default_value = value
+        return node.outputs[0]
+
+    def both(self, column, a, b):
+        node = self.add('FunctionNodeBooleanMath', column, operation='AND')
+        self.link(a, node.inputs[0])
+        self.link(b, node.inputs[1])
+        return node.outputs[0]
+
+
+ACCUMULATE_GROUP = ".GenCoords accumulate 1"  # shared helpers; the number is their layout
+CLOUD_LANES_GROUP = ".GenCoords cloud lanes 1"
+HELPER_GROUPS = (ACCUMULATE_GROUP, CLOUD_LANES_GROUP)
+SUMS = ("Sum X", "Sum Y", "Sum Z")
+LANES = ("Lane X", "Lane Y", "Lane Z")
+
+
+def _new_group(name, inputs, outputs, description):
+    group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
+    group.description = description
+    for sockets, in_out in ((inputs, 'INPUT'), (outputs, 'OUTPUT')):
+        for socket_name, socket_type in sockets:
+            group.interface.new_socket(socket_name, in_out=in_out, socket_type=socket_type)
+    build = _Builder(group)
+    return group, build, build.add('NodeGroupInput', 0), build.add('NodeGroupOutput', 3)
+
+
+def _accumulate_group():
+    """Helper group: ``Sum c += slots(Name) * Lane c`` for the three axes c.
+
+    One node per three slots in the binding's group keeps it small: building a node tree
+    from Python costs time quadratic in its node count.
+    """
+    group = bpy.data.node_groups.get(ACCUMULATE_GROUP)
+    if group is not None:
+        return group
+    vector = 'NodeSocketVector'
+    group, build, group_input, group_output = _new_group(
+        ACCUMULATE_GROUP, [("Name", 'NodeSocketString'), *((n, vector) for n in LANES + SUMS)],
+        [(n, vector) for n in SUMS], "GenCoords: adds three slots' share of the displacement")
+    slots = build.add('GeometryNodeInputNamedAttribute', 1, data_type='FLOAT_VECTOR')
+    build.link(group_input.outputs["Name"], slots.inputs["Name"])
+    for lane, total in zip(LANES, SUMS):
+        build.link(build.math(2, 'MULTIPLY_ADD', slots.outputs["Attribute"],
+                              group_input.outputs[lane], group_input.outputs[total]),
+                   group_output.inputs[total])
+    return group
+
+
+def _cloud_lanes_group():
+    """Helper group: the three lane vectors of triple ``Triple`` stored on ``Cloud``."""
+    group = bpy.data.node_groups.get(CLOUD_LANES_GROUP)
+    if group is not None:
+        return group
+    group, build, group_input, group_output = _new_group(
+        CLOUD_LANES_GROUP, [("Cloud", 'NodeSocketGeometry'), ("Triple", 'NodeSocketInt')],
+        [(n, 'NodeSocketVector') for n in LANES], "GenCoords: one triple's cage displacements")
+    for lane, name in zip(LANES, LANE_NAMES):
+        build.link(build.sample_index(2, group_input.outputs["Cloud"],
+                                      build.named_attribute(1, name),
+                                      group_input.outputs["Triple"]),
+                   group_output.inputs[lane])
+    return group
+
+
+def _exact_lanes(build, cage, displacement, slot_count):
+    """Per triple t, its three lanes: (D_3t.c, D_3t+1.c, D_3t+2.c) for axes c."""
+    triples = -(-slot_count // 3)
+    cloud = build.add('GeometryNodePoints', 3)
+    cloud.inputs["Count"].default_value = triples
+    index = build.add('GeometryNodeInputIndex', 2).outputs[0]
+    parts = []
+    for offset in range(3):
+        cage_vertex = build.math(3, 'MULTIPLY_ADD', index, 3.0, float(offset), vector=False)
+        sampled = build.sample_index(4, cage, displacement, cage_vertex)
+        separate = build.add('ShaderNodeSeparateXYZ', 5)
+        build.link(sampled, separate.inputs[0])
+        parts.append(separate.outputs)
+    geometry = cloud.outputs[0]
+    for axis, name in enumerate(LANE_NAMES):
+        combine = build.add('ShaderNodeCombineXYZ', 6)
+        for offset in range(3):
+            build.link(parts[offset][axis], combine.inputs[offset])
+        store = build.add('GeometryNodeStoreNamedAttribute', 7, data_type='FLOAT_VECTOR',
+                          domain='POINT')
+        store.inputs["Name"].default_value = name
+        build.link(geometry, store.inputs["Geometry"])
+        build.link(combine.outputs[0], store.inputs["Value"])
+        geometry = store.outputs[0]
+    helper = _cloud_lanes_group()
+    lanes = []
+    for t in range(triples):
+        node = build.add('GeometryNodeGroup', 8, node_tree=helper)
+        build.link(geometry, node.inputs["Cloud"])
+        node.inputs["Triple"].default_value = t
+        lanes.append([node.outputs[lane] for lane in LANES])
+    return lanes
+
+
+def _compact_lanes(build, mesh, cage, displacement, basis_names):
+    """Per triple t, its three lanes: sum_j basis[j, 3t:3t+3] * D_j.c for axes c.
+
+    The basis is stored like the slots, on the mesh's first n points (compact storage
+    needs a mesh with at least as many vertices as the cage).
+    """
+    index = build.add('GeometryNodeInputIndex', 2).outputs[0]
+    separate = build.add('ShaderNodeSeparateXYZ', 4)
+    build.link(displacement, separate.inputs[0])
+    lanes = []
+    for name in basis_names:
+        weights = build.sample_index(5, mesh, build.named_attribute(4, name), index)
+        lanes.append([build.statistic_sum(7, cage, build.scale(6, weights, separate.outputs[axis]))
+                      for axis in range(3)])
+    return lanes
+
+
+# Accumulation chains of at most this many helper nodes, added up pairwise: Blender
+# gathers the attributes a field depends on at every node, so one chain over all slots
+# costs time quadratic in their number at every evaluation (measured: 100 ms for 642
+# slots on a 2k-vertex mesh, against 4 ms in chains of 16).
+CHAIN = 16
+
+
+def _weighted_sums(build, slot_names, lanes):
+    """The three axes' sums over triples t of ``slots_t * lanes[t][axis]``."""
+    helper = _accumulate_group()
+    partial = []
+    for start in range(0, len(slot_names), CHAIN):
+        sums = None
+        for name, lane in zip(slot_names[start:start + CHAIN], lanes[start:start + CHAIN]):
+            node = build.add('GeometryNodeGroup', 9, node_tree=helper)
+            node.inputs["Name"].default_value = name
+            for socket, value in zip(LANES, lane):
+                build.link(value, node.inputs[socket])
+            if sums is not None:
+                for socket, value in zip(SUMS, sums):
+                    build.link(value, node.inputs[socket])
+            sums = [node.outputs[socket] for socket in SUMS]
+        partial.append(sums)
+    while len(partial) > 1:
+        pairs = [[build.math(10, 'ADD', a, b) for a, b in zip(left, right)]
+                 for left, right in zip(partial[::2], partial[1::2])]
+        partial = pairs + partial[len(pairs) * 2:]
+    return partial[0]
+
+
+def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None):
+    """A new node group deforming a mesh of ``mesh_vertex_count`` vertices.
+
+    Parameters
+    ----------
+    name : str
+        Of the node group.
+    key : str
+        The binding's key: slot attributes are ``slot_attribute_names(key, slot_count)``.
+    rest_cage : (n, 3) float32
+        The cage at bind time in the mesh's local space, exactly as the group's Object
+        Info node gives it.
+    mesh_vertex_count : int
+        The bound mesh's vertex count k (another count passes the mesh through).
+    slot_count : int
+        s: n for exact storage, the basis size for compact storage.
+    basis_names : list of str, optional
+        Compact storage: the attributes holding the basis of cage motions on the first n
+        points (``basis_attribute_names``); None for exact storage.
+    """
+    rest_cage = np.asarray(rest_cage, dtype=np.float32)
+    count = len(rest_cage)
+    group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
+    group.description = ("GenCoords cage deformation: moves the mesh with its cage "
+                         "(bind data in the mesh's point attributes)")
+    interface = group.interface
+    interface.new_socket(GEOMETRY, in_out='INPUT', socket_type='NodeSocketGeometry')
+    cage_socket = interface.new_socket(CAGE, in_out='INPUT', socket_type='NodeSocketObject')
+    cage_socket.description = "The cage the mesh was bound to"
+    interface.new_socket(GEOMETRY, in_out='OUTPUT', socket_type='NodeSocketGeometry')
+    build = _Builder(group)
+    group_input = build.add('NodeGroupInput', 0)
+    mesh = group_input.outputs[GEOMETRY]
+
+    info = build.add('GeometryNodeObjectInfo', 1, transform_space='RELATIVE')
+    build.link(group_input.outputs[CAGE], info.inputs["Object"])
+    cage = info.outputs["Geometry"]
+    cage_index = build.add('GeometryNodeInputIndex', 1).outputs[0]
+    position = build.add('GeometryNodeInputPosition', 1).outputs[0]
+    rest = build.index_switch(2, cage_index, rest_cage.tolist())
+    displacement = build.math(3, 'SUBTRACT', position, rest)
+
+    if basis_names is None:
+        lanes = _exact_lanes(build, cage, displacement, slot_count)
+    else:
+        lanes = _compact_lanes(build, mesh, cage, displacement, basis_names)
+    accumulated = _weighted_sums(build, slot_attribute_names(key, slot_count), lanes)
+    offset = build.add('ShaderNodeCombineXYZ', 11)
+    for axis in range(3):
+        total = build.add('ShaderNodeVectorMath', 11, operation='DOT_PRODUCT')
+        build.link(accumulated[axis], total.inputs[0])
+        total.inputs[1].default_value = (1.0, 1.0, 1.0)
+        build.link(total.outputs["Value"], offset.inputs[axis])
+    moved = build.add('GeometryNodeSetPosition', 12)
+    build.link(mesh, moved.inputs["Geometry"])
+    build.link(offset.outputs[0], moved.inputs["Offset"])
+
+    # Deform only when the result is meaningful; otherwise pass the mesh through.
+    cage_size = build.add('GeometryNodeAttributeDomainSize', 11, component='MESH')
+    build.link(cage, cage_size.inputs[0])
+    mesh_size = build.add('GeometryNodeAttributeDomainSize', 11, component='MESH')
+    build.link(mesh, mesh_size.inputs[0])
+    total = build.statistic_sum(11, cage, displacement)
+    # NaN and infinity are the only values for which x - x is not zero.
+    finite = build.compare(12, 'FLOAT', build.math(12, 'LENGTH',
+                                                   build.math(12, 'SUBTRACT', total, total)), 0.0)
+    usable = build.both(13, build.both(13, build.compare(12, 'INT', cage_size.outputs[0], count),
+                                       build.compare(12, 'INT', mesh_size.outputs[0],
+                                                     mesh_vertex_count)), finite)
+    switch = build.add('GeometryNodeSwitch', 14, input_type='GEOMETRY')
+    build.link(usable, switch.inputs["Switch"])
+    build.link(mesh, switch.inputs["False"])
+    build.link(moved.outputs[0], switch.inputs["True"])
+
+    output = switch.outputs[0]
+    remove = build.add('GeometryNodeRemoveAttribute', 15)
+    build.link(output, remove.inputs["Geometry"])
+    if compat.set_wildcard_removal(remove, attribute_prefix(key) + "*"):
+        output = remove.outputs[0]
+    else:  # no wildcard: one removal per attribute
+        group.nodes.remove(remove)
+        for name_t in slot_attribute_names(key, slot_count) + (basis_names or []):
+            remove = build.add('GeometryNodeRemoveAttribute', 15)
+            remove.inputs["Name"].default_value = name_t
+            build.link(output, remove.inputs["Geometry"])
+            output = remove.outputs[0]
+    group_output = build.add('NodeGroupOutput', 16)
+    build.link(output, group_output.inputs[GEOMETRY])
+    return group
+
+
+def write_triples(mesh, names, values):
+    """Store the columns of ``values`` ((rows, s) float, rows <= the mesh's vertex count)
+    three at a time as the vector point attributes ``names`` (zeros beyond ``rows``)."""
+    packed = np.zeros((len(mesh.vertices), 3 * len(names)), dtype=np.float32)
+    packed[:len(values), :values.shape[1]] = values
+    for t, name in enumerate(names):
+        attribute = mesh.attributes.new(name, 'FLOAT_VECTOR', 'POINT')
+        attribute.data.foreach_set("vector", np.ascontiguousarray(packed[:, 3 * t:3 * t + 3]).ravel())
+
+
+def read_triples(mesh, names, slot_count):
+    """The first ``slot_count`` columns stored by ``write_triples`` (None when missing)."""
+    result = np.empty((len(mesh.vertices), 3 * len(names)), dtype=np.float32)
+    flat = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    for t, name in enumerate(names):
+        attribute = mesh.attributes.get(name)
+        if attribute is None or attribute.data_type != 'FLOAT_VECTOR' or attribute.domain != 'POINT':
+            return None
+        attribute.data.foreach_get("vector", flat)
+        result[:, 3 * t:3 * t + 3] = flat.reshape(-1, 3)
+    return result[:, :slot_count]
+
+
+def remove_slots(mesh, key):
+    """Delete every attribute of the binding ``key`` from ``mesh``."""
+    prefix = attribute_prefix(key)
+    for name in [a.name for a in mesh.attributes if a.name.startswith(prefix)]:
+        mesh.attributes.remove(mesh.attributes[name])
+
+
+def remove_unused_helpers():
+    """Delete the shared helper groups once no binding uses them."""
+    for name in HELPER_GROUPS:
+        group = bpy.data.node_groups.get(name)
+        if group is not None and group.users == 0:
+            bpy.data.node_groups.remove(group)
