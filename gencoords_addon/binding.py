@@ -72,6 +72,16 @@ class Binding:
             return None
         return deformer.basis_attribute_names(self.key, self.info["slot_count"])
 
+    def coordinates(self, mesh):
+        """The (k, n) float32 coordinates the mesh deforms with (compact: as reproduced
+        by its slots and basis), or None when the bind data is missing."""
+        slots = deformer.read_triples(mesh, self.slot_names, self.info["slot_count"])
+        if slots is None or self.basis_names is None:
+            return slots
+        basis = deformer.read_triples(mesh, self.basis_names, self.info["slot_count"])
+        count = self.info["cage_vertex_count"]
+        return None if basis is None else slots @ basis[:count].T
+
     def coordinate_column(self, mesh, cage_vertex):
         """Every mesh vertex's coordinate for ``cage_vertex`` ((k,) float32), or None."""
         slots = deformer.read_triples(mesh, self.slot_names, self.info["slot_count"])

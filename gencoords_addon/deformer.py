@@ -82,6 +82,8 @@ class _Builder:
                 self.link(value, socket)
             else:
                 socket.default_value = value
+        if vector and operation in ('LENGTH', 'DOT_PRODUCT', 'DISTANCE'):
+            return node.outputs["Value"]  # its first output, a vector, stays unused
         return node.outputs[0]
 
     def scale(self, column, vector, factor):
@@ -122,16 +124,19 @@ class _Builder:
         self.link(value, node.inputs["Attribute"])
         return node.outputs["Sum"]
 
+    # The Compare node's A and B inputs per data type (all types' sockets always exist).
+    COMPARE_INPUTS = {'FLOAT': (0, 1), 'INT': (2, 3)}
+
     def compare(self, column, data_type, a, b):
+        """Whether ``a == b`` exactly (single values or fields)."""
         node = self.add('FunctionNodeCompare', column, data_type=data_type, operation='EQUAL')
-        inputs = [s for s in node.inputs if s.enabled and s.name in ("A", "B")][:2]
         if data_type == 'FLOAT':
             node.inputs["Epsilon"].default_value = 0.0
-        for socket, value in zip(inputs, (a, b)):
+        for index, value in zip(self.COMPARE_INPUTS[data_type], (a, b)):
             if isinstance(value, bpy.types.NodeSocket):
-                self.link(value, socket)
+                self.link(value, node.inputs[index])
             else:
-                socket.default_value = value
+                node.inputs[index].default_value = value
         return node.outputs[0]
 
     def both(self, column, a, b):

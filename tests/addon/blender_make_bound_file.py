@@ -1,8 +1,9 @@
 """Subprocess: save a .blend with a mesh bound to a render-hidden cage animated by a
 shape key, after deleting another object bound to that cage.
 
-Frame 1 is the rest cage, frame 2 stretches it along x. The file is saved at frame 2 and
-the mesh's positions there go to an .npy file. Usage: blender_make_bound_file.py BLEND NPY
+Frame 1 is the rest cage, frame 2 stretches it along x. The mesh's rest positions and
+its evaluated positions at frame 2 go to an .npy file, (2, k, 3).
+Usage: blender_make_bound_file.py BLEND NPY
 """
 
 import sys
@@ -10,7 +11,8 @@ import sys
 import bpy
 import numpy as np
 
-from scene_helpers import add_icosphere_cage, add_sphere, bind, load_user_preferences, positions
+from scene_helpers import (add_icosphere_cage, add_sphere, bind, evaluated_positions,
+                           load_user_preferences, positions)
 
 blend_path, positions_path = sys.argv[1:3]
 load_user_preferences()
@@ -35,7 +37,7 @@ deleted = add_sphere(radius=0.5, name="Deleted")
 assert bind(deleted, cage) == {'FINISHED'}
 bpy.data.objects.remove(deleted)  # its bind data must not be saved
 scene.frame_set(2)
-np.save(positions_path, positions(obj.data))
+np.save(positions_path, np.stack([positions(obj.data), evaluated_positions(obj)]))
 
 camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
 scene.collection.objects.link(camera)

@@ -1,8 +1,8 @@
 """Subprocess: render a saved animation like a farm worker, print per-frame results as JSON.
 
-Records the bound mesh's x extent each rendered frame (from a frame handler added after
-the extension's) and the opaque pixels of each rendered image (the background is
-transparent).
+Records the bound mesh's x extent each rendered frame (its evaluated mesh in the render
+depsgraph) and the opaque pixels of each rendered image (the background is transparent).
+Works with and without the extension installed.
 Usage: blender_render_file.py BLEND OUTPUT_DIR
 """
 
@@ -25,7 +25,7 @@ widths = {}
 def record_width(scene, depsgraph):
     if depsgraph.mode != 'RENDER':  # the viewport re-evaluates once rendering ends
         return
-    x = positions(bpy.data.objects["Mesh"].data)[:, 0]
+    x = positions(bpy.data.objects["Mesh"].evaluated_get(depsgraph).data)[:, 0]
     widths[scene.frame_current] = float(x.max() - x.min())
 
 
@@ -39,7 +39,6 @@ for frame in (1, 2):
     image.pixels.foreach_get(pixels)
     covered_pixels[frame] = int(np.count_nonzero(pixels.reshape(-1, 4)[:, 3] > 0.5))
 print("REPORT " + json.dumps({
-    "lock_interface": scene.render.use_lock_interface,
     "widths": widths,
     "covered_pixels": covered_pixels,
 }))

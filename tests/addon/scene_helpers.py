@@ -99,3 +99,15 @@ def edit_mesh(obj, change):
     bm.to_mesh(obj.data)
     bm.free()
     obj.data.update()
+
+
+def evaluated_positions(obj):
+    """Positions of ``obj``'s evaluated mesh (its modifiers applied), (k, 3) float32."""
+    bpy.context.view_layer.update()
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    return positions(evaluated.data)
+
+
+def mesh_state(obj):
+    """Everything Bind must leave and Unbind must restore: positions and attribute names."""
+    return positions(obj.data).copy(), sorted(a.name for a in obj.data.attributes)

@@ -25,8 +25,10 @@ def test_installed_extension_is_enabled_with_its_api(gc):
                      "gencoords_clear_field"):
         assert hasattr(bpy.ops.object, operator)
     properties = bpy.types.Object.bl_rna.properties["gencoords"].fixed_type.properties
-    for name in ("cage", "kind", "outside", "live", "field_vertex", "bind_data"):
+    for name in ("cage", "kind", "outside", "storage", "compact_size", "auto_rebind",
+                 "field_vertex"):
         assert properties[name].description, name
+        assert not properties[name].is_animatable, name  # read at bind time only
     assert properties["kind"].default == 'MEAN_VALUE'
     assert {item.identifier for item in properties["kind"].enum_items} == {
         'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI'}
@@ -66,9 +68,9 @@ def test_panel_draws_settings_status_and_operators(gc):
     bind(obj, add_icosphere_cage())
     drawn = []
     panel.draw_settings(RecordingLayout(drawn), obj)
-    for item in (("prop", "cage"), ("prop", "kind"), ("prop", "outside"), ("prop", "live"),
+    for item in (("prop", "cage"), ("prop", "kind"), ("prop", "outside"), ("prop", "storage"),
                  ("prop", "field_vertex"), ("operator", "object.gencoords_bind"),
                  ("operator", "object.gencoords_unbind"),
                  ("operator", "object.gencoords_show_field"),
-                 ("label", "Bound to 'Cage' (Mean Value)")):
+                 ("label", "Bound to 'Cage'"), ("label", "Coordinates: Mean Value")):
         assert item in drawn
