@@ -35,6 +35,7 @@ GEOMETRY = "Geometry"
 CAGE = "Cage"
 ATTRIBUTE_PREFIX = ".gencoords_"  # a leading dot keeps them out of the attribute lists
 LANE_NAMES = ("gencoords_lane_x", "gencoords_lane_y", "gencoords_lane_z")
+DISPLACEMENT = "gencoords_displacement"  # on the cage's copy inside the group
 AXES = "XYZ"
 
 
@@ -84,6 +85,15 @@ class _Builder:
                 socket.default_value = value
         if vector and operation in ('LENGTH', 'DOT_PRODUCT', 'DISTANCE'):
             return node.outputs["Value"]  # its first output, a vector, stays unused
+        return node.outputs[0]
+
+    def store(self, column, geometry, name, value):
+        """``geometry`` with the vector point attribute ``name`` set to ``value``."""
+        node = self.add('GeometryNodeStoreNamedAttribute', column, data_type='FLOAT_VECTOR',
+                        domain='POINT')
+        node.inputs["Name"].default_value = name
+        self.link(geometry, node.inputs["Geometry"])
+        self.link(value, node.inputs["Value"])
         return node.outputs[0]
 
     def scale(self, column, vector, factor):
@@ -219,12 +229,7 @@ def _exact_lanes(build, cage, displacement, slot_count):
         combine = build.add('ShaderNodeCombineXYZ', 6)
         for offset in range(3):
             build.link(parts[offset][axis], combine.inputs[offset])
-        store = build.add('GeometryNodeStoreNamedAttribute', 7, data_type='FLOAT_VECTOR',
-                          domain='POINT')
-        store.inputs["Name"].default_value = name
-        build.link(geometry, store.inputs["Geometry"])
-        build.link(combine.outputs[0], store.inputs["Value"])
-        geometry = store.outputs[0]
+        geometry = build.store(7, geometry, name, combine.outputs[0])
     helper = _cloud_lanes_group()
     lanes = []
     for t in range(triples):
@@ -242,14 +247,14 @@ def _compact_lanes(build, mesh, cage, displacement, basis_names):
     needs a mesh with at least as many vertices as the cage).
     """
     index = build.add('GeometryNodeInputIndex', 2).outputs[0]
+    for name in basis_names:  # copied onto the cage once, read by three sums each
+        cage = build.store(5, cage, name, build.sample_index(4, mesh, build.named_attribute(4, name),
+                                                             index))
     separate = build.add('ShaderNodeSeparateXYZ', 4)
     build.link(displacement, separate.inputs[0])
-    lanes = []
-    for name in basis_names:
-        weights = build.sample_index(5, mesh, build.named_attribute(4, name), index)
-        lanes.append([build.statistic_sum(7, cage, build.scale(6, weights, separate.outputs[axis]))
-                      for axis in range(3)])
-    return lanes
+    return [[build.statistic_sum(7, cage, build.scale(6, build.named_attribute(5, name),
+                                                      separate.outputs[axis]))
+             for axis in range(3)] for name in basis_names]
 
 
 # Accumulation chains of at most this many helper nodes, added up pairwise: Blender
@@ -322,7 +327,10 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
     cage_index = build.add('GeometryNodeInputIndex', 1).outputs[0]
     position = build.add('GeometryNodeInputPosition', 1).outputs[0]
     rest = build.index_switch(2, cage_index, rest_cage.tolist())
-    displacement = build.math(3, 'SUBTRACT', position, rest)
+    # Stored once: every consumer of a field evaluates it again, and the Index Switch
+    # over n constants costs n^2 per evaluation.
+    cage = build.store(3, cage, DISPLACEMENT, build.math(3, 'SUBTRACT', position, rest))
+    displacement = build.named_attribute(3, DISPLACEMENT)
 
     if basis_names is None:
         lanes = _exact_lanes(build, cage, displacement, slot_count)

@@ -105,7 +105,7 @@ def install_extension():
 
 
 def addon_module(submodule):
-    """A module of the installed add-on, e.g. ``addon_module("storage")``: the figures its
+    """A module of the installed add-on, e.g. ``addon_module("binding")``: the figures its
     panel shows (smallest coordinate, ...) come from there."""
     for name in bpy.context.preferences.addons.keys():
         if name.split(".")[-1] == "gencoords":

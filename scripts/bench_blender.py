@@ -4,7 +4,9 @@ Scenes: Suzanne subdivided 2, 3, 4 times (7958 / 31658 / 126218 vertices) inside
 icosphere cages of 42, 162, 642 vertices (radius 2: convex and containing the mesh).
 Methods: Mesh Deform at precision 5 and 6 (6 takes minutes and gigabytes per scene, so by
 default only on the smallest scene; 7 and more exhaust memory) and GenCoords with each
-coordinate type, each bound in a freshly built scene.
+coordinate type in exact and compact storage, each bound in a freshly built scene.
+``--million``: a 998,002-vertex UV sphere in the 642-vertex cage instead (the native
+deformer's large-mesh target), GenCoords compact against Mesh Deform precision 5.
 
 Metrics, measured the same way for every method:
   bind       wall time of the bind operator (``meshdeform_bind`` / ``gencoords_bind``).
@@ -17,6 +19,8 @@ Metrics, measured the same way for every method:
              heap memory is handed back first (malloc_trim) so earlier runs hide nothing.
   kept MB    resident memory after the bind minus before it: what the binding retains.
   .blend MB  size of an uncompressed .blend holding just that bound scene.
+  deviation  compact storage: its own measured deviation from exact coordinates for the
+             standard smooth cage motion / one dragged cage vertex (of the cage diagonal).
   affine     max distance, relative to the cage's bounding-box diagonal, between the
              deformed mesh and the exact image of the rest mesh under an affine map
              applied to every cage vertex (exact coordinates reproduce it exactly).
@@ -117,16 +121,17 @@ def bind_mesh_deform(mesh, cage, precision):
     return seconds
 
 
-def bind_gencoords(mesh, cage, kind):
-    """GenCoords bound with ``kind``; returns the bind wall time."""
+def bind_gencoords(mesh, cage, kind, storage):
+    """GenCoords bound with ``kind`` and ``storage``; returns the bind wall time."""
     mesh.gencoords.cage = cage
     mesh.gencoords.kind = kind.upper()
+    mesh.gencoords.storage = storage
     scn.make_active(mesh)
     start = time.perf_counter()
     with scn.quiet():  # its "Info: Bound ..." report
         result = bpy.ops.object.gencoords_bind()
     seconds = time.perf_counter() - start
-    if "FINISHED" not in result or mesh.gencoords.bind_data is None:
+    if "FINISHED" not in result or not mesh.modifiers:
         raise RuntimeError(f"gencoords_bind ({kind}) returned {result}")
     return seconds
 
@@ -187,10 +192,15 @@ def blend_size(tag):
 def run_method(level, subdivisions, method):
     """Build the scene, bind with ``method`` and measure everything for one table row.
 
-    ``method`` is ``("md", precision)`` or ``("gencoords", kind)``.
+    ``method`` is ``("md", precision)`` or ``("gencoords", kind, storage)``; ``level``
+    None is the million-vertex sphere.
     """
     scn.reset_scene()
-    mesh = scn.add_suzanne(level)
+    if level is None:
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=1000, ring_count=1000, radius=1.4)
+        mesh = bpy.context.active_object
+    else:
+        mesh = scn.add_suzanne(level)
     cage = scn.add_icosphere_cage(subdivisions)
     rest_mesh, rest_cage = scn.positions(mesh), scn.positions(cage)
     size = scn.cage_size(rest_cage)
@@ -200,8 +210,13 @@ def run_method(level, subdivisions, method):
         if method[0] == "md":
             seconds = bind_mesh_deform(mesh, cage, method[1])
         else:
-            seconds = bind_gencoords(mesh, cage, method[1])
-    row = {"bind": seconds, "peak": memory.peak, "kept": memory.kept}
+            seconds = bind_gencoords(mesh, cage, method[1], method[2])
+    row = {"bind": seconds, "peak": memory.peak, "kept": memory.kept, "deviation": "-"}
+    if method[0] == "gencoords":
+        info = scn.addon_module("binding").binding(mesh).info
+        row["storage"] = f"{info['storage'].lower()} {info['slot_count']}"
+        if info["storage"] == "COMPACT":
+            row["deviation"] = f"{info['deviation_smooth']:.1e} / {info['deviation_drag']:.1e}"
 
     bpy.context.view_layer.update()
     bound = scn.evaluated_positions(mesh)
@@ -229,14 +244,14 @@ def table(results):
     """The Markdown table: one row per (scene, method), ratios against Mesh Deform p5."""
     lines = [
         "| mesh | cage | method | bind | MD5 bind / bind | update | update / MD5 update "
-        "| peak MB | kept MB | .blend MB | affine err | vs MD5 max / mean |",
-        "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+        "| peak MB | kept MB | .blend MB | deviation | affine err | vs MD5 max / mean |",
+        "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---|",
     ]
     for (verts, cage_verts), rows in results.items():
         reference = rows.get(("md", 5))
         for method, row in rows.items():
             name = (f"Mesh Deform p{method[1]}" if method[0] == "md"
-                    else f"GenCoords {scn.KIND_LABELS[method[1]]}")
+                    else f"GenCoords {scn.KIND_LABELS[method[1]]} ({row['storage']})")
             if reference is not None and method != ("md", 5):
                 ratio = reference["bind"] / row["bind"]
                 speedup = f"{ratio:.1f}x" if ratio >= 1 else f"{ratio:.2g}x"
@@ -249,7 +264,8 @@ def table(results):
                 f"| {verts} | {cage_verts} | {name} | {fmt_time(row['bind'])} | {speedup} "
                 f"| {row['update'] * 1000:.1f} ms | {slowdown} "
                 f"| {row['peak'] / 2**20:.0f} | {row['kept'] / 2**20:.0f} "
-                f"| {row['blend'] / 2**20:.1f} | {row['affine']:.1e} | {versus} |")
+                f"| {row['blend'] / 2**20:.1f} | {row['deviation']} | {row['affine']:.1e} "
+                f"| {versus} |")
     return "\n".join(lines)
 
 
@@ -261,7 +277,12 @@ def main():
     sweep.add_argument("--full", action="store_true",
                        help="8k/32k/126k meshes x 42/162/642 cages (about an hour: "
                             "Mesh Deform precision 6 takes minutes per scene)")
+    sweep.add_argument("--million", action="store_true",
+                       help="a 998,002-vertex sphere in the 642-vertex cage: GenCoords "
+                            "compact against Mesh Deform precision 5")
     parser.add_argument("--kinds", nargs="+", choices=scn.KINDS, default=list(scn.KINDS))
+    parser.add_argument("--storages", nargs="+", choices=("EXACT", "COMPACT"),
+                        default=["EXACT", "COMPACT"])
     parser.add_argument("--precisions", nargs="+", type=int, default=None,
                         help="Mesh Deform precisions on every scene (5 is the reference "
                              "for ratios). Default: 5 everywhere, 6 on the smallest scene "
@@ -269,6 +290,9 @@ def main():
     parser.add_argument("--output", type=Path, default=scn.OUT / "bench_blender.md")
     args = parser.parse_args()
     levels, cages = ((2, 3, 4), (2, 3, 4)) if args.full else ((2, 3), (2, 3))
+    if args.million:
+        levels, cages, args.storages = (None,), (4,), ["COMPACT"]
+        args.precisions = args.precisions or [5]
     if args.precisions:
         everywhere, smallest_only = sorted(set(args.precisions), key=lambda p: p != 5), []
     else:
@@ -288,20 +312,22 @@ def main():
 
     # One throw-away bind of a plain Suzanne, so one-time costs (first imports, worker
     # threads) are not charged to the first measured row.
-    run_method(0, 2, ("gencoords", args.kinds[0]))
-    kinds = [("gencoords", kind) for kind in args.kinds]
+    run_method(0, 2, ("gencoords", args.kinds[0], "EXACT"))
+    kinds = [("gencoords", kind, storage) for storage in args.storages for kind in args.kinds]
     results = {}
     started = time.perf_counter()
     for level in levels:
         for subdivisions in cages:
-            key = (scn.SUZANNE_VERTICES[level], scn.ICOSPHERE_VERTICES[subdivisions])
+            key = (998_002 if level is None else scn.SUZANNE_VERTICES[level],
+                   scn.ICOSPHERE_VERTICES[subdivisions])
             rows = results.setdefault(key, {})
             smallest = (level, subdivisions) == (levels[0], cages[0])
             precisions = everywhere + (smallest_only if smallest else [])
             for method in [("md", p) for p in precisions] + kinds:
                 row = run_method(level, subdivisions, method)
                 rows[method] = row
-                print(f"  {key[0]:>6} / {key[1]:>3} {method[0]:9s} {str(method[1]):17s} "
+                print(f"  {key[0]:>6} / {key[1]:>3} {method[0]:9s} "
+                      f"{' '.join(map(str, method[1:])):25s} "
                       f"bind {row['bind']:7.3f} s  update {row['update'] * 1000:6.1f} ms "
                       f"({row['passes']} passes)  peak {row['peak'] / 2**20:6.0f} MB  "
                       f"affine {row['affine']:.1e}  rest {row['rest_error']:.1e}",

@@ -258,11 +258,11 @@ def deform_each_kind(kinds):
     size = scn.cage_size(rest_cage)
     corner_label("rest", scene.camera)
     render_with_cage_wire(cage, scn.OUT / "before.png")
-    storage = scn.addon_module("storage")
+    binding = scn.addon_module("binding")
     rows = []
     for kind in kinds:
         seconds = bind(mesh, cage, kind)
-        smallest = storage.load(mesh).min_coordinate
+        smallest = binding.binding(mesh).info["min_coordinate"]
         # Affine check: exact coordinates move the mesh exactly like the cage.
         scn.set_positions(cage, scn.affine_map(rest_cage))
         settle()
