@@ -1,4 +1,5 @@
-"""The GenCoords panel, drawn identically in Object properties and the 3D view sidebar."""
+"""The GenCoords panel, drawn identically in the Modifiers tab (above the stack, with the
+modifier Bind adds) and in the 3D view sidebar."""
 
 import bpy
 
@@ -31,10 +32,11 @@ def draw_settings(layout, obj):
         box.label(text=text, icon=icon)
 
     if bound:
-        field = layout.column(heading="Show Coordinate")
+        field = layout.column()
+        field.label(text="Show one cage vertex's coordinate as colours:")
         row = field.row(align=True)
         row.prop(settings, "field_vertex")
-        row.operator("object.gencoords_show_field", text="", icon='HIDE_OFF')
+        row.operator("object.gencoords_show_field", text="Show", icon='HIDE_OFF')
         if FIELD_ATTRIBUTE in obj.data.color_attributes:
             row.operator("object.gencoords_clear_field", text="", icon='X')
 
@@ -54,7 +56,7 @@ class GenCoordsPanel:
 class OBJECT_PT_gencoords(GenCoordsPanel, bpy.types.Panel):
     bl_space_type = 'PROPERTIES'
     bl_region_type = 'WINDOW'
-    bl_context = "object"
+    bl_context = "modifier"
 
 
 class VIEW3D_PT_gencoords(GenCoordsPanel, bpy.types.Panel):
