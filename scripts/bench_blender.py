@@ -122,10 +122,14 @@ def bind_mesh_deform(mesh, cage, precision):
 
 
 def bind_gencoords(mesh, cage, kind, storage):
-    """GenCoords bound with ``kind`` and ``storage``; returns the bind wall time."""
+    """GenCoords bound with ``kind`` and ``storage`` ('EXACT', 'COMPACT' or 'COMPACT:<slots>');
+    returns the bind wall time."""
+    storage, _, slots = storage.partition(":")
     mesh.gencoords.cage = cage
     mesh.gencoords.kind = kind.upper()
     mesh.gencoords.storage = storage
+    if slots:
+        mesh.gencoords.compact_size = int(slots)
     scn.make_active(mesh)
     start = time.perf_counter()
     with scn.quiet():  # its "Info: Bound ..." report
@@ -281,8 +285,9 @@ def main():
                        help="a 998,002-vertex sphere in the 642-vertex cage: GenCoords "
                             "compact against Mesh Deform precision 5")
     parser.add_argument("--kinds", nargs="+", choices=scn.KINDS, default=list(scn.KINDS))
-    parser.add_argument("--storages", nargs="+", choices=("EXACT", "COMPACT"),
-                        default=["EXACT", "COMPACT"])
+    parser.add_argument("--storages", nargs="+", default=["EXACT", "COMPACT"],
+                        help="EXACT, COMPACT (36 slots) or COMPACT:<slots>; --million "
+                             "default: COMPACT:12 COMPACT:24 COMPACT:36 (the trade-off)")
     parser.add_argument("--precisions", nargs="+", type=int, default=None,
                         help="Mesh Deform precisions on every scene (5 is the reference "
                              "for ratios). Default: 5 everywhere, 6 on the smallest scene "
@@ -291,7 +296,9 @@ def main():
     args = parser.parse_args()
     levels, cages = ((2, 3, 4), (2, 3, 4)) if args.full else ((2, 3), (2, 3))
     if args.million:
-        levels, cages, args.storages = (None,), (4,), ["COMPACT"]
+        levels, cages = (None,), (4,)
+        if args.storages == ["EXACT", "COMPACT"]:
+            args.storages = ["COMPACT:12", "COMPACT:24", "COMPACT:36"]
         args.precisions = args.precisions or [5]
     if args.precisions:
         everywhere, smallest_only = sorted(set(args.precisions), key=lambda p: p != 5), []
