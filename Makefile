@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-core build bench bench-core clean
+.PHONY: setup demo test test-core build bench bench-core clean distclean
 
 setup: $(STAMP)
 
@@ -18,8 +18,9 @@ $(STAMP): requirements.txt
 demo: $(STAMP)
 	$(PY) scripts/demo.py
 
-## The whole test suite (core, then the built extension installed into Blender).
-test: $(STAMP) build
+## The whole test suite (core, then the built extension installed into Blender; the
+## tests build and validate the zip themselves).
+test: $(STAMP)
 	$(PY) -m pytest
 
 test-core: $(STAMP)
@@ -37,5 +38,9 @@ bench: $(STAMP) build
 bench-core: $(STAMP)
 	$(PY) scripts/bench_core.py
 
+## Build outputs and caches; `make distclean` also removes the virtual environment.
 clean:
-	rm -rf $(VENV) dist build out .pytest_cache .hypothesis
+	rm -rf dist build out .pytest_cache .hypothesis
+
+distclean: clean
+	rm -rf $(VENV)
