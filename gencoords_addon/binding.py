@@ -104,21 +104,23 @@ def bindings(obj):
     return found
 
 
-def binding(obj):
-    """The (first) binding of ``obj``, or None."""
-    found = bindings(obj)
+def binding(obj, cage=None):
+    """The first binding of ``obj`` (to ``cage`` when given), or None."""
+    found = [b for b in bindings(obj) if cage is None or b.cage == cage]
     return found[0] if found else None
 
 
 def _drives(obj, cage):
-    """Whether ``cage`` follows ``obj``, directly or through a chain of bound cages."""
-    seen = set()
-    while cage is not None and cage.session_uid not in seen:
+    """Whether ``cage`` follows ``obj``, directly or through chains of bound cages."""
+    seen, pending = set(), [cage]
+    while pending:
+        cage = pending.pop()
+        if cage is None or cage.session_uid in seen:
+            continue
         if cage == obj:
             return True
         seen.add(cage.session_uid)
-        found = binding(cage)
-        cage = found.cage if found else None
+        pending.extend(found.cage for found in bindings(cage))
     return False
 
 
@@ -141,8 +143,7 @@ def check_inputs(obj):
         raise BindError(f"'{obj.name}' cannot be its own cage: choose another mesh object")
     if cage.type != 'MESH':
         raise BindError(f"The cage '{cage.name}' must be a mesh object")
-    existing = binding(cage)
-    if existing is not None and _drives(obj, existing.cage):
+    if _drives(obj, cage):
         raise BindError(f"'{cage.name}' is itself bound to '{obj.name}': a mesh and its cage "
                         "cannot drive each other")
     if len(obj.data.vertices) == 0:
@@ -339,11 +340,14 @@ class BindJob:
     def commit(self):
         """Write the computed binding into the file; returns the new ``Binding``.
 
-        An earlier binding of the mesh is replaced (its place in the stack is kept).
-        On any failure everything this call added is removed again and the error raised.
+        An earlier binding of the mesh to the same cage is replaced (its place in the
+        stack is kept); a binding to another cage is added after the mesh's other
+        bindings (each changes nothing at rest, so they compose). On any failure
+        everything this call added is removed again and the error raised.
         """
         obj, result = self.obj, self.result
-        earlier = binding(obj)
+        earlier = binding(obj, self.cage)
+        others = bindings(obj)
         key = result.info["key"]
         names = deformer.slot_attribute_names(key, result.info["slot_count"])
         basis_names = None
@@ -361,7 +365,11 @@ class BindJob:
             modifier.node_group = group
             modifier.show_in_editmode = True
             compat.set_modifier_input(modifier, deformer.CAGE, self.cage)
-            position = 0 if earlier is None else list(obj.modifiers).index(earlier.modifier)
+            stack = list(obj.modifiers)
+            if earlier is not None:
+                position = stack.index(earlier.modifier)
+            else:
+                position = stack.index(others[-1].modifier) + 1 if others else 0
             compat.move_modifier(obj, modifier, position)
             group[METADATA] = result.info
         except Exception:
@@ -373,7 +381,7 @@ class BindJob:
             raise
         if earlier is not None:
             remove(obj, earlier)
-        return binding(obj)
+        return binding(obj, self.cage)
 
 
 def remove(obj, found):

@@ -19,6 +19,18 @@ def set_modifier_input(modifier, name, value):
         _modern_input(modifier, socket).value = value
 
 
+def set_modifier_input_attribute(modifier, name, attribute):
+    """Make the field input ``name`` read the attribute (or vertex group) ``attribute``."""
+    socket = modifier.node_group.interface.items_tree[name]
+    try:
+        modifier[socket.identifier + "_use_attribute"] = True
+        modifier[socket.identifier + "_attribute_name"] = attribute
+    except TypeError:
+        item = _modern_input(modifier, socket)
+        item.use_attribute, item.attribute_name = True, attribute
+    modifier.node_group.interface_update(bpy.context)
+
+
 def get_modifier_input(modifier, name):
     """The value of the Geometry Nodes modifier input called ``name``."""
     socket = modifier.node_group.interface.items_tree[name]

@@ -33,6 +33,9 @@ from . import compat
 
 GEOMETRY = "Geometry"
 CAGE = "Cage"
+STRENGTH = "Strength"
+MASK = "Mask"
+INVERT = "Invert Mask"
 ATTRIBUTE_PREFIX = ".gencoords_"  # a leading dot keeps them out of the attribute lists
 LANE_NAMES = ("gencoords_lane_x", "gencoords_lane_y", "gencoords_lane_z")
 DISPLACEMENT = "gencoords_displacement"  # on the cage's copy inside the group
@@ -316,6 +319,15 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
     interface.new_socket(GEOMETRY, in_out='INPUT', socket_type='NodeSocketGeometry')
     cage_socket = interface.new_socket(CAGE, in_out='INPUT', socket_type='NodeSocketObject')
     cage_socket.description = "The cage the mesh was bound to"
+    strength = interface.new_socket(STRENGTH, in_out='INPUT', socket_type='NodeSocketFloat')
+    strength.default_value, strength.min_value, strength.max_value = 1.0, -10.0, 10.0
+    strength.description = "How much of the cage's motion the mesh follows (animatable)"
+    mask = interface.new_socket(MASK, in_out='INPUT', socket_type='NodeSocketFloat')
+    mask.default_value, mask.min_value, mask.max_value = 1.0, 0.0, 1.0
+    mask.description = ("Per-vertex factor: click the attribute toggle and pick a vertex "
+                        "group to limit the deformation to it")
+    invert = interface.new_socket(INVERT, in_out='INPUT', socket_type='NodeSocketBool')
+    invert.description = "Deform where the mask is 0 instead of where it is 1"
     interface.new_socket(GEOMETRY, in_out='OUTPUT', socket_type='NodeSocketGeometry')
     build = _Builder(group)
     group_input = build.add('NodeGroupInput', 0)
@@ -343,9 +355,17 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
         build.link(accumulated[axis], total.inputs[0])
         total.inputs[1].default_value = (1.0, 1.0, 1.0)
         build.link(total.outputs["Value"], offset.inputs[axis])
+    # P + strength * mask * offset, the mask inverted on request (1 - mask).
+    inverted = build.math(11, 'SUBTRACT', 1.0, group_input.outputs[MASK], vector=False)
+    pick = build.add('GeometryNodeSwitch', 11, input_type='FLOAT')
+    build.link(group_input.outputs[INVERT], pick.inputs["Switch"])
+    build.link(group_input.outputs[MASK], pick.inputs["False"])
+    build.link(inverted, pick.inputs["True"])
+    factor = build.math(12, 'MULTIPLY', group_input.outputs[STRENGTH], pick.outputs[0],
+                        vector=False)
     moved = build.add('GeometryNodeSetPosition', 12)
     build.link(mesh, moved.inputs["Geometry"])
-    build.link(offset.outputs[0], moved.inputs["Offset"])
+    build.link(build.scale(12, offset.outputs[0], factor), moved.inputs["Offset"])
 
     # Deform only when the result is meaningful; otherwise pass the mesh through.
     cage_size = build.add('GeometryNodeAttributeDomainSize', 11, component='MESH')

@@ -95,9 +95,16 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             return _internal_error(self, error)
 
     def invoke(self, context, event):
-        """In the UI: compute between events, with a progress bar; Esc cancels."""
+        """In the UI: compute between events, with a progress bar; Esc cancels. Binding a
+        cage the mesh is already bound to asks before replacing that binding."""
         if bpy.app.background or context.window is None:
             return self.execute(context)
+        obj = context.active_object
+        if binding.binding(obj, obj.gencoords.cage) is not None:  # OK runs execute()
+            return context.window_manager.invoke_confirm(
+                self, event, title="Replace Binding",
+                message=f"'{obj.name}' is already bound to '{obj.gencoords.cage.name}': "
+                        "bind again, replacing that binding?")
         try:
             if not self._start(context):
                 return {'CANCELLED'}
@@ -143,17 +150,23 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
 
 
 class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
-    """Remove the GenCoords modifier, its node group and its bind data: the mesh is
-    exactly as it was before Bind"""
+    """Remove GenCoords modifiers, their node groups and their bind data: without other
+    changes the mesh is exactly as it was before Bind"""
 
     bl_idname = "object.gencoords_unbind"
     bl_label = "Unbind"
 
+    modifier: bpy.props.StringProperty(
+        name="Modifier", options={'SKIP_SAVE'},
+        description="The binding's modifier to remove; empty: every binding of the mesh")
+
     def execute(self, context):
         obj = context.active_object
-        found = binding.binding(obj)
-        if found is None:
-            self.report({'ERROR'}, f"'{obj.name}' is not bound")
+        found = [b for b in binding.bindings(obj)
+                 if not self.modifier or b.modifier.name == self.modifier]
+        if not found:
+            what = f"bound with the modifier '{self.modifier}'" if self.modifier else "bound"
+            self.report({'ERROR'}, f"'{obj.name}' is not {what}")
             return {'CANCELLED'}
         if obj.library is not None or obj.data.library is not None:
             self.report({'ERROR'}, f"'{obj.name}' is linked from a library and cannot be "
@@ -161,7 +174,8 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
             return {'CANCELLED'}
         try:
             with object_mode(context, obj):
-                binding.remove(obj, found)
+                for each in found:
+                    binding.remove(obj, each)
         except Exception as error:
             return _internal_error(self, error)
         return {'FINISHED'}

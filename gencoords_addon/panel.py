@@ -3,7 +3,7 @@ modifier Bind adds) and in the 3D view sidebar."""
 
 import bpy
 
-from .binding import binding
+from .binding import binding, bindings
 from .status import status_lines
 from .visualise import FIELD_ATTRIBUTE
 
@@ -22,10 +22,20 @@ def draw_settings(layout, obj):
     column.prop(settings, "auto_rebind")
 
     row = layout.row(align=True)
-    row.operator("object.gencoords_bind", text="Rebind" if bound else "Bind", icon='LINKED')
+    rebind = binding(obj, settings.cage) is not None
+    row.operator("object.gencoords_bind", text="Rebind" if rebind else "Bind", icon='LINKED')
     unbind = row.row(align=True)
     unbind.enabled = bound
-    unbind.operator("object.gencoords_unbind", icon='UNLINKED')
+    unbind.operator("object.gencoords_unbind", text="Unbind All" if len(bindings(obj)) > 1
+                    else "Unbind", icon='UNLINKED')
+    if len(bindings(obj)) > 1:
+        for found in bindings(obj):
+            item = layout.row(align=True)
+            cage = found.cage
+            item.label(text=f"{found.modifier.name}: '{cage.name if cage else '(missing)'}'",
+                       icon='MOD_LATTICE')
+            item.operator("object.gencoords_unbind", text="", icon='X').modifier = \
+                found.modifier.name
 
     box = layout.box()
     for text, icon in status_lines(obj):

@@ -49,10 +49,21 @@ def deformation_problem(obj, found, depsgraph=None):
 
 
 def status_lines(obj, depsgraph=None):
-    """Lines describing the binding of ``obj``, for the panel and scripts."""
-    found = binding.binding(obj)
-    if found is None:
+    """Lines describing the bindings of ``obj``, for the panel and scripts."""
+    found_all = binding.bindings(obj)
+    if not found_all:
         return [("Not bound", 'UNLINKED')]
+    lines = []
+    for found in found_all:
+        lines.extend(binding_lines(obj, found, depsgraph))
+    picked = obj.gencoords.cage
+    if picked is not None and all(found.cage != picked for found in found_all):
+        lines.append((f"Cage is now '{picked.name}': Bind adds a binding to it", 'INFO'))
+    return lines
+
+
+def binding_lines(obj, found, depsgraph=None):
+    """Lines describing one binding of ``obj``."""
     lines = []
     problem = deformation_problem(obj, found, depsgraph)
     if problem:
@@ -62,12 +73,8 @@ def status_lines(obj, depsgraph=None):
         return lines
     cage = found.cage
     cage_name = cage.name if cage is not None else "(missing)"
-    lines.append((f"Bound to '{cage_name}'", 'LINKED'))
+    lines.append((f"Bound to '{cage_name}' (modifier '{found.modifier.name}')", 'LINKED'))
     lines.append((f"Coordinates: {enum_label(KIND_ITEMS, info['kind'].upper())}", 'MOD_LATTICE'))
-    picked = obj.gencoords.cage
-    if cage is not None and picked != cage:
-        lines.append((f"Cage is now '{picked.name if picked else 'none'}': Bind again to "
-                      f"use it", 'INFO'))
     lines.append((f"Cage: {info['cage_vertex_count']} vertices", 'MESH_ICOSPHERE'))
     lines.append((f"Mesh: {info['mesh_vertex_count']} vertices", 'MESH_DATA'))
     if info["cage_non_triangles"]:

@@ -475,3 +475,54 @@ def test_undo_and_redo_of_bind_and_unbind(gc):
         obj = bpy.data.objects["Mesh"]
         assert not obj.modifiers and mesh_state(obj)[1] == before[1]
         np.testing.assert_array_equal(positions(obj.data), before[0])
+
+
+def test_strength_and_a_vertex_group_mask_scale_the_displacement(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    rest = positions(obj.data).astype(np.float64)
+    bind(obj, cage)
+    modifier = gc.binding.binding(obj).modifier
+    set_positions(cage.data, positions(cage.data) + (1.0, 0.0, 0.0))
+    np.testing.assert_allclose(evaluated_positions(obj), rest + (1.0, 0, 0), atol=1e-5)
+    gc.compat.set_modifier_input(modifier, "Strength", 0.25)
+    obj.data.update()
+    np.testing.assert_allclose(evaluated_positions(obj), rest + (0.25, 0, 0), atol=1e-5)
+
+    upper = np.flatnonzero(rest[:, 2] > 0.0)
+    group = obj.vertex_groups.new(name="Upper")
+    group.add(upper.tolist(), 1.0, 'REPLACE')
+    gc.compat.set_modifier_input_attribute(modifier, "Mask", "Upper")
+    obj.data.update()
+    expected = rest.copy()
+    expected[upper] += (0.25, 0, 0)
+    np.testing.assert_allclose(evaluated_positions(obj), expected, atol=1e-5)
+    gc.compat.set_modifier_input(modifier, "Invert Mask", True)
+    obj.data.update()
+    expected = rest + (0.25, 0, 0)
+    expected[upper] = rest[upper]
+    np.testing.assert_allclose(evaluated_positions(obj), expected, atol=1e-5)
+
+
+def test_two_cages_on_one_mesh_compose_and_unbind_one_at_a_time(gc):
+    big = add_icosphere_cage(radius=2.0, name="Big")
+    small = add_icosphere_cage(radius=1.5, name="Small")
+    obj = add_sphere()
+    rest = positions(obj.data).astype(np.float64)
+    assert bind(obj, big) == {'FINISHED'}
+    assert bind(obj, small) == {'FINISHED'}
+    assert bind(obj, small) == {'FINISHED'}  # the same cage again: replaced in place
+    first, second = gc.binding.bindings(obj)
+    assert (first.cage, second.cage) == (big, small)
+    assert [m.name for m in obj.modifiers] == [first.modifier.name, second.modifier.name]
+    set_positions(big.data, positions(big.data) + (1.0, 0.0, 0.0))
+    set_positions(small.data, positions(small.data) + (0.0, 0.5, 0.0))
+    np.testing.assert_allclose(evaluated_positions(obj), rest + (1.0, 0.5, 0), atol=1e-5)
+    text = "\n".join(line for line, _ in gc.status.status_lines(obj))
+    assert "Bound to 'Big'" in text and "Bound to 'Small'" in text
+    activate(obj)
+    assert bpy.ops.object.gencoords_unbind(modifier=first.modifier.name) == {'FINISHED'}
+    assert [b.cage for b in gc.binding.bindings(obj)] == [small]
+    np.testing.assert_allclose(evaluated_positions(obj), rest + (0.0, 0.5, 0), atol=1e-5)
+    assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+    assert not obj.modifiers

@@ -26,7 +26,7 @@ def test_reopened_file_is_still_bound_and_deforms(bound_file):
     assert report["enabled"]
     assert report["mesh_data_is_rest"]  # Bind never wrote positions
     assert report["frame_2_as_saved"] and report["frame_1_is_rest"]
-    assert "Bound to 'Cage'" in report["status"]
+    assert "Bound to 'Cage' (modifier 'GenCoords')" in report["status"]
     assert report["follows_an_edit"] < 1e-5
     # The deleted object's binding was not saved: one group and its shared helpers.
     assert [g for g in report["node_groups"] if not g.startswith(".")] == ["GenCoords: Mesh in Cage"]

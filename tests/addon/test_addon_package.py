@@ -72,5 +72,6 @@ def test_panel_draws_settings_status_and_operators(gc):
                  ("prop", "field_vertex"), ("operator", "object.gencoords_bind"),
                  ("operator", "object.gencoords_unbind"),
                  ("operator", "object.gencoords_show_field"),
-                 ("label", "Bound to 'Cage'"), ("label", "Coordinates: Mean Value")):
+                 ("label", "Bound to 'Cage' (modifier 'GenCoords')"),
+                 ("label", "Coordinates: Mean Value")):
         assert item in drawn
