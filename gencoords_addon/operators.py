@@ -9,7 +9,7 @@ import traceback
 
 import bpy
 
-from . import binding, visualise
+from . import binding, cage_maker, visualise
 
 
 class MeshOperator:
@@ -218,7 +218,37 @@ class OBJECT_OT_gencoords_clear_field(MeshOperator, bpy.types.Operator):
         return {'FINISHED'}
 
 
+class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
+    """Make a closed, convex, triangulated cage around the active mesh and pick it as the
+    mesh's cage"""
+
+    bl_idname = "object.gencoords_make_cage"
+    bl_label = "Make Cage"
+
+    target_vertices: bpy.props.IntProperty(
+        name="Vertices", default=100, min=8, soft_min=20, soft_max=500,
+        description="About how many vertices the cage gets")
+    margin: bpy.props.FloatProperty(
+        name="Margin", default=0.05, min=0.0, soft_max=0.5, subtype='FACTOR',
+        description="Gap between the mesh and the cage, relative to the mesh's size")
+
+    def execute(self, context):
+        obj = context.active_object
+        try:
+            with object_mode(context, obj):
+                cage = cage_maker.make_cage(obj, context, self.target_vertices, self.margin)
+        except cage_maker.CageError as error:
+            self.report({'ERROR'}, f"Cannot make a cage: {error}")
+            return {'CANCELLED'}
+        except Exception as error:
+            return _internal_error(self, error)
+        self.report({'INFO'}, f"Made '{cage.name}' ({len(cage.data.vertices)} vertices) "
+                              f"around '{obj.name}'")
+        return {'FINISHED'}
+
+
 CLASSES = (
+    OBJECT_OT_gencoords_make_cage,
     OBJECT_OT_gencoords_bind,
     OBJECT_OT_gencoords_unbind,
     OBJECT_OT_gencoords_show_field,

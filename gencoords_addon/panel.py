@@ -13,7 +13,9 @@ def draw_settings(layout, obj):
     settings = obj.gencoords
     bound = binding(obj) is not None
     column = layout.column()
-    column.prop(settings, "cage")
+    row = column.row(align=True)
+    row.prop(settings, "cage")
+    row.operator("object.gencoords_make_cage", text="", icon='MESH_ICOSPHERE')
     column.prop(settings, "kind")
     column.prop(settings, "outside")
     column.prop(settings, "storage")

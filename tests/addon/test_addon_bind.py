@@ -526,3 +526,29 @@ def test_two_cages_on_one_mesh_compose_and_unbind_one_at_a_time(gc):
     np.testing.assert_allclose(evaluated_positions(obj), rest + (0.0, 0.5, 0), atol=1e-5)
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     assert not obj.modifiers
+
+
+@pytest.mark.parametrize("shape", ["suzanne", "long thin"])
+def test_make_cage_encloses_the_mesh_with_a_convex_cage(gc, shape):
+    if shape == "suzanne":
+        bpy.ops.mesh.primitive_monkey_add()
+        obj = bpy.context.active_object
+        subdivision = obj.modifiers.new("Subdivision", 'SUBSURF')
+        subdivision.levels = 2
+        activate(obj)
+        bpy.ops.object.modifier_apply(modifier=subdivision.name)
+    else:
+        obj = add_sphere()
+        obj.scale = (6.0, 0.3, 0.2)
+        obj.rotation_euler = (0.3, 0.2, 0.9)
+    activate(obj)
+    assert bpy.ops.object.gencoords_make_cage(target_vertices=60) == {'FINISHED'}
+    cage = obj.gencoords.cage
+    assert cage is not None and 30 <= len(cage.data.vertices) <= 90
+    cage_world = apply_matrix(cage.matrix_world, positions(cage.data).astype(np.float64))
+    triangles = triangles_of(cage)
+    gc.core.validate_cage(cage_world, triangles, convex=True, tolerance=1e-6)
+    mesh_world = apply_matrix(obj.matrix_world, positions(obj.data).astype(np.float64))
+    where = gc.core.point_locations(mesh_world, cage_world, triangles, tolerance=1e-6)
+    assert (where == gc.core.INSIDE).all()
+    assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}

@@ -1,0 +1,107 @@
+"""Convex cages around point sets: the intersection of supporting half-spaces.
+
+A cage made for a mesh must be closed, convex and contain every vertex. Intersecting the
+half-spaces ``n_i . x <= h_i + margin`` over well-spread unit directions ``n_i``, with
+``h_i`` the points' largest extent along ``n_i``, gives such a polytope by construction:
+convex (an intersection of half-spaces) and enclosing (every point satisfies every
+inequality). Its vertices come from the polar dual: the half-space ``i`` maps to the point
+``n_i / (h_i + margin - n_i . c)`` around an interior point ``c``, the dual's convex hull
+facets are the polytope's vertices (where three planes meet), and half-spaces whose dual
+point is inside that hull are redundant. Any convex-hull routine serves for the dual
+(the Blender add-on uses bmesh's); the arithmetic is here.
+"""
+
+import numpy as np
+
+__all__ = ["sphere_directions", "supporting_offsets", "dual_points", "facet_vertices"]
+
+
+def sphere_directions(count):
+    """Nearly uniform unit directions on the sphere (a Fibonacci lattice).
+
+    Parameters
+    ----------
+    count : int
+        At least 4.
+
+    Returns
+    -------
+    directions : (count, 3) float64
+    """
+    if count < 4:
+        raise ValueError(f"at least 4 directions enclose a volume, got {count}")
+    index = np.arange(count) + 0.5
+    height = 1.0 - 2.0 * index / count
+    radius = np.sqrt(1.0 - height ** 2)
+    angle = np.pi * (1.0 + 5.0 ** 0.5) * index
+    return np.column_stack([radius * np.cos(angle), radius * np.sin(angle), height])
+
+
+def supporting_offsets(points, directions, margin=0.0, chunk=1 << 16):
+    """Largest extent of the points along each direction, plus ``margin``.
+
+    Parameters
+    ----------
+    points : (k, N) float
+    directions : (d, N) float
+        Unit directions.
+    margin : float
+        Added to every offset (absolute, in the points' units).
+    chunk : int
+        Points per block (bounded memory for millions of points).
+
+    Returns
+    -------
+    offsets : (d,) float64
+        ``max_p directions @ p + margin``: the half-space ``n . x <= offset`` holds them all.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    directions = np.asarray(directions, dtype=np.float64)
+    offsets = np.full(len(directions), -np.inf)
+    for start in range(0, len(points), chunk):
+        np.maximum(offsets, (points[start:start + chunk] @ directions.T).max(axis=0), out=offsets)
+    return offsets + margin
+
+
+def dual_points(directions, offsets, centre):
+    """Polar dual of the half-spaces ``directions . x <= offsets`` about ``centre``.
+
+    Parameters
+    ----------
+    directions : (d, N) float
+    offsets : (d,) float
+    centre : (N,) float
+        A point strictly inside every half-space.
+
+    Returns
+    -------
+    points : (d, N) float64
+        ``n_i / (offset_i - n_i . centre)``. Their convex hull's facets are the polytope's
+        vertices (:func:`facet_vertices`).
+    """
+    directions = np.asarray(directions, dtype=np.float64)
+    distance = np.asarray(offsets, dtype=np.float64) - directions @ np.asarray(centre, dtype=np.float64)
+    if not (distance > 0).all():
+        raise ValueError("the centre must lie strictly inside every half-space")
+    return directions / distance[:, None]
+
+
+def facet_vertices(directions, offsets, dual_facets):
+    """The polytope's vertex for each facet of the dual hull: where its planes meet.
+
+    Parameters
+    ----------
+    directions : (d, N) float
+    offsets : (d,) float
+    dual_facets : (f, N) int
+        Facets of the convex hull of :func:`dual_points`, by half-space index.
+
+    Returns
+    -------
+    vertices : (f, N) float64
+        Solutions of ``directions[facet] @ x = offsets[facet]`` (coinciding for facets of
+        one dual face: merge them by distance).
+    """
+    directions = np.asarray(directions, dtype=np.float64)
+    facets = np.asarray(dual_facets, dtype=np.int64)
+    return np.linalg.solve(directions[facets], np.asarray(offsets, dtype=np.float64)[facets])

@@ -1,0 +1,109 @@
+"""Make Cage: a closed, convex, triangulated cage around a mesh, built for binding.
+
+The core intersects supporting half-spaces around the mesh (``core.enclosing``), so the
+cage is convex and encloses every vertex by construction; bmesh's convex hull orders the
+polar dual and the final faces. The result is checked with the core's own cage
+validation before it is added to the scene.
+"""
+
+import bmesh
+import bpy
+import numpy as np
+
+from .. import core
+from ..core import enclosing
+from . import mesh_io
+from .binding import FLOAT32_TOLERANCE
+
+
+CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
+
+
+class CageError(Exception):
+    """No usable cage could be made; the message says why."""
+
+
+def _hull(points):
+    """Triangles of the convex hull of ``points`` ((k, 3)), by point index, outward."""
+    bm = bmesh.new()
+    try:
+        verts = [bm.verts.new(p) for p in points]
+        for index, vert in enumerate(verts):
+            vert.index = index
+        result = bmesh.ops.convex_hull(bm, input=verts, use_existing_faces=False)
+        faces = [f for f in result["geom"] if isinstance(f, bmesh.types.BMFace)]
+        bmesh.ops.triangulate(bm, faces=faces)
+        return np.array([[v.index for v in f.verts] for f in bm.faces if len(f.verts) == 3
+                         and all(v.index >= 0 for v in f.verts)], dtype=np.int64)
+    finally:
+        bm.free()
+
+
+def make_cage_geometry(points, target_vertices, margin):
+    """Vertices (c, 3) and outward triangles (m, 3) of a convex cage around ``points``.
+
+    Parameters
+    ----------
+    points : (k, 3) float
+        Mesh vertices in world space.
+    target_vertices : int
+        About how many vertices the cage gets (a polytope of d faces has about 2d - 4).
+    margin : float
+        Gap between the mesh and the cage, relative to the mesh's bounding-box diagonal.
+    """
+    points = np.asarray(points, dtype=np.float64)
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))
+    if size == 0.0:
+        raise CageError("the mesh has no extent: a cage needs a volume to enclose")
+    directions = enclosing.sphere_directions(max(4, target_vertices // 2 + 2))
+    offsets = enclosing.supporting_offsets(points, directions, margin * size)
+    dual = enclosing.dual_points(directions, offsets, points.mean(axis=0))
+    corners = enclosing.facet_vertices(directions, offsets, _hull(dual))
+    # Facets of one dual face meet at one corner, and nearly parallel planes at corners
+    # a hair apart that a float32 hull cannot order: keep one of each cluster (the margin
+    # dwarfs the move).
+    rounded = np.round(corners / (size * CORNER_MERGE)).astype(np.int64)
+    _, keep = np.unique(rounded, axis=0, return_index=True)
+    vertices = corners[np.sort(keep)].astype(np.float32).astype(np.float64)
+    for _ in range(8):
+        triangles = _hull(vertices)
+        used = np.unique(triangles)
+        remap = np.full(len(vertices), -1)
+        remap[used] = np.arange(len(used))
+        vertices, triangles = vertices[used], core.orient_facets_outward(vertices[used],
+                                                                         remap[triangles])
+        try:
+            core.validate_cage(vertices, triangles, convex=True, tolerance=FLOAT32_TOLERANCE)
+            return vertices, triangles
+        except core.CageError as error:
+            if error.problem != "non_convex" or not error.vertices:
+                raise CageError(f"the cage failed the cage check: {error}") from None
+            # A corner the hull left slightly inside a face: dropping it and hulling
+            # again keeps the polytope convex (and, within the margin, enclosing).
+            vertices = np.delete(vertices, list(error.vertices), axis=0)
+    raise CageError("the cage stayed non-convex after hulling again: try another vertex count")
+
+
+def make_cage(obj, context, target_vertices=100, margin=0.05):
+    """Add a cage object around the mesh object ``obj`` and pick it as its cage."""
+    depsgraph = context.evaluated_depsgraph_get()
+    with mesh_io.evaluated_mesh(obj, depsgraph) as evaluated:
+        local = mesh_io.read_positions(evaluated).astype(np.float64)
+    if len(local) < 4:
+        raise CageError(f"'{obj.name}' needs at least 4 vertices to make a cage around")
+    world = np.array(obj.matrix_world, dtype=np.float64)
+    points = local @ world[:3, :3].T + world[:3, 3]
+    stored, triangles = make_cage_geometry(points, target_vertices, margin)
+    outside = core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE)
+    if (outside == core.OUTSIDE).any():
+        raise CageError(f"{int((outside == core.OUTSIDE).sum())} vertices of '{obj.name}' "
+                        "ended outside the cage: raise the margin")
+    mesh = bpy.data.meshes.new(f"{obj.name} cage")
+    mesh.from_pydata(stored.tolist(), [], triangles.tolist())
+    mesh.update()
+    cage = bpy.data.objects.new(f"{obj.name} cage", mesh)
+    cage.display_type = 'WIRE'
+    for collection in obj.users_collection:
+        collection.objects.link(cage)
+    obj.gencoords.cage = cage
+    return cage
