@@ -9,7 +9,7 @@ import traceback
 
 import bpy
 
-from . import binding, cage_maker, visualise
+from . import binding, bones, cage_maker, visualise
 
 
 class MeshOperator:
@@ -247,8 +247,39 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         return {'FINISHED'}
 
 
+class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
+    """Replace the binding by an armature (a bone per cage vertex, following it) and
+    vertex groups holding the coordinates, for game engines and exporters"""
+
+    bl_idname = "object.gencoords_bake_bones"
+    bl_label = "Bake to Bones"
+
+    max_influences: bpy.props.IntProperty(
+        name="Max Influences", default=0, min=0, soft_max=8,
+        description="Weights kept per vertex, renormalised (game engines take 4 or 8); "
+                    "0 keeps all, which is exact")
+
+    def execute(self, context):
+        obj = context.active_object
+        if binding.binding(obj) is None:
+            self.report({'ERROR'}, f"'{obj.name}' is not bound: Bind it first")
+            return {'CANCELLED'}
+        try:
+            with object_mode(context, obj):
+                rig, deviation = bones.bake(obj, context, self.max_influences)
+        except binding.BindError as error:
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+        except Exception as error:
+            return _internal_error(self, error)
+        self.report({'INFO'}, f"Baked '{obj.name}' to '{rig.name}': deviation {deviation:.2e} "
+                              "of the cage size for the standard smooth cage motion")
+        return {'FINISHED'}
+
+
 CLASSES = (
     OBJECT_OT_gencoords_make_cage,
+    OBJECT_OT_gencoords_bake_bones,
     OBJECT_OT_gencoords_bind,
     OBJECT_OT_gencoords_unbind,
     OBJECT_OT_gencoords_show_field,

@@ -47,7 +47,7 @@ def addon(package):
     assert result == {'FINISHED'}
     bpy.ops.wm.save_userpref()  # subprocesses using the same folder start with it enabled
     modules = {name: importlib.import_module(f"{PACKAGE}.gencoords_addon.{name}")
-               for name in ("binding", "compat", "deformer", "status", "visualise")}
+               for name in ("binding", "bones", "compat", "deformer", "status", "visualise")}
     yield SimpleNamespace(core=importlib.import_module(f"{PACKAGE}.core"), **modules)
     shutil.rmtree(USER_RESOURCES, ignore_errors=True)
 

@@ -552,3 +552,27 @@ def test_make_cage_encloses_the_mesh_with_a_convex_cage(gc, shape):
     where = gc.core.point_locations(mesh_world, cage_world, triangles, tolerance=1e-6)
     assert (where == gc.core.INSIDE).all()
     assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}
+
+
+@pytest.mark.parametrize("influences", [0, 4])
+def test_bake_to_bones_deforms_like_the_binding(gc, influences):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    coordinates = coordinates_of(gc, obj)
+    activate(obj)
+    assert bpy.ops.object.gencoords_bake_bones(max_influences=influences) == {'FINISHED'}
+    assert [m.type for m in obj.modifiers] == ['ARMATURE'] and not gc.binding.bindings(obj)
+    rest_cage = positions(cage.data).astype(np.float64)
+    moved = gc.core.compact.smooth_test_motion(rest_cage)
+    set_positions(cage.data, moved)
+    exact = positions(obj.data) + coordinates @ (moved - rest_cage)
+    gap = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max()
+    diagonal = np.linalg.norm(np.ptp(rest_cage, axis=0))
+    if influences == 0:
+        assert gap < 1e-5 * diagonal
+    else:
+        truncated = gc.bones.truncate(coordinates, influences)
+        expected = gc.core.compact.deviation(coordinates, truncated, np.eye(12), rest_cage, moved)
+        assert gap / diagonal == pytest.approx(expected, rel=1e-3, abs=1e-6)
+        assert (np.count_nonzero(truncated, axis=1) <= 4).all()
