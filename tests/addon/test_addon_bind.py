@@ -576,3 +576,36 @@ def test_bake_to_bones_deforms_like_the_binding(gc, influences):
         expected = gc.core.compact.deviation(coordinates, truncated, np.eye(12), rest_cage, moved)
         assert gap / diagonal == pytest.approx(expected, rel=1e-3, abs=1e-6)
         assert (np.count_nonzero(truncated, axis=1) <= 4).all()
+
+
+def test_a_baked_rig_round_trips_through_gltf(gc, tmp_path):
+    """Export with Blender's glTF exporter, import, pose the imported bones like the cage
+    moves: the imported skin deforms like the original within the reported deviation."""
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    coordinates = coordinates_of(gc, obj)
+    activate(obj)
+    assert bpy.ops.object.gencoords_bake_bones(max_influences=4) == {'FINISHED'}
+    rig = bpy.data.objects["Mesh cage rig"]
+    rest_cage = positions(cage.data).astype(np.float64)
+    displacement = gc.core.compact.smooth_test_motion(rest_cage) - rest_cage
+    truncated = gc.bones.truncate(coordinates, 4)
+    expected = positions(obj.data) + truncated @ displacement
+    for other in bpy.context.view_layer.objects:
+        other.select_set(other in (obj, rig))
+    path = str(tmp_path / "baked.glb")
+    bpy.ops.export_scene.gltf(filepath=path, export_format='GLB', use_selection=True)
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.import_scene.gltf(filepath=path)
+    (imported_rig,) = [o for o in bpy.data.objects if o.type == 'ARMATURE']
+    (imported,) = [o for o in bpy.data.objects if o.type == 'MESH']
+    for j, move in enumerate(displacement):  # in armature space: whatever the bone axes
+        bone = imported_rig.pose.bones[f"GenCoords {j}"]
+        bone.matrix = Matrix.Translation(move) @ bone.bone.matrix_local
+        bpy.context.view_layer.update()
+    world = apply_matrix(imported.matrix_world, evaluated_positions(imported))
+    order = np.lexsort(np.round(world, 4).T)  # the importer may reorder vertices
+    reference = expected[np.lexsort(np.round(expected, 4).T)]
+    np.testing.assert_allclose(world[order], reference, atol=1e-4)
