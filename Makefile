@@ -34,6 +34,7 @@ build: $(STAMP)
 bench: $(STAMP) build
 	$(PY) scripts/bench_core.py
 	$(PY) scripts/bench_blender.py
+	$(PY) scripts/bench_artist.py
 
 bench-core: $(STAMP)
 	$(PY) scripts/bench_core.py

@@ -1,0 +1,129 @@
+"""The artist controls' figures (part of ``make bench``): what Strength and a vertex-group
+Mask cost per evaluation, how long Make Cage takes and how many vertices it makes, and how
+far Bake to Bones deviates with 4, 8 or all influences per vertex.
+
+Usage: bench_artist.py [--million]   (--million adds the strength and mask timing on a
+998,002-vertex sphere in a 642-vertex cage, compact storage: a few minutes to bind)
+"""
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import _blender_scene as scn  # noqa: E402  (imports bpy after setting its user folder)
+import bpy  # noqa: E402
+from core import compact  # noqa: E402
+
+REPEATS = 7
+
+
+def bind(mesh, cage, kind="mean_value", storage="AUTO"):
+    mesh.gencoords.cage = cage
+    mesh.gencoords.kind = kind.upper()
+    mesh.gencoords.storage = storage
+    scn.make_active(mesh)
+    with scn.quiet():
+        result = bpy.ops.object.gencoords_bind()
+    if "FINISHED" not in result:
+        raise RuntimeError(f"gencoords_bind returned {result}")
+    return scn.addon_module("binding").binding(mesh)
+
+
+def evaluation_ms(mesh, cage):
+    """Median milliseconds of one evaluation after moving the cage's first vertex."""
+    rest = scn.positions(cage)
+    times = []
+    for repeat in range(REPEATS):
+        moved = rest.copy()
+        moved[0, 2] += 0.02 * (repeat + 1)
+        scn.set_positions(cage, moved)
+        start = time.perf_counter()
+        bpy.context.view_layer.update()
+        scn.evaluated_positions(mesh)
+        times.append(time.perf_counter() - start)
+    scn.set_positions(cage, rest)
+    return 1000 * float(np.median(times))
+
+
+def strength_and_mask(level, subdivisions, storage):
+    scn.reset_scene()
+    if level is None:
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=1000, ring_count=1000, radius=1.4)
+        mesh = bpy.context.active_object
+    else:
+        mesh = scn.add_suzanne(level)
+    cage = scn.add_icosphere_cage(subdivisions)
+    found = bind(mesh, cage, storage=storage)
+    plain = evaluation_ms(mesh, cage)
+    compat = scn.addon_module("compat")
+    upper = np.flatnonzero(scn.positions(mesh)[:, 2] > 0.0)
+    group = mesh.vertex_groups.new(name="Upper")
+    group.add(upper.tolist(), 1.0, 'REPLACE')
+    compat.set_modifier_input(found.modifier, "Strength", 0.5)
+    compat.set_modifier_input_attribute(found.modifier, "Mask", "Upper")
+    masked = evaluation_ms(mesh, cage)
+    return len(mesh.data.vertices), len(cage.data.vertices), found.info["storage"], plain, masked
+
+
+def make_cage_figures(targets):
+    rows = []
+    for target in targets:
+        scn.reset_scene()
+        mesh = scn.add_suzanne(2)
+        scn.make_active(mesh)
+        start = time.perf_counter()
+        with scn.quiet():
+            bpy.ops.object.gencoords_make_cage(target_vertices=target)
+        rows.append((target, time.perf_counter() - start, len(mesh.gencoords.cage.data.vertices)))
+    return rows
+
+
+def bake_deviation(subdivisions, influences):
+    scn.reset_scene()
+    mesh = scn.add_suzanne(2)
+    cage = scn.add_icosphere_cage(subdivisions)
+    found = bind(mesh, cage, storage="EXACT")
+    coordinates = found.coordinates(mesh.data)
+    bones = scn.addon_module("bones")
+    rest = scn.positions(cage)
+    moved = compact.smooth_test_motion(rest)
+    return [compact.deviation(coordinates, bones.truncate(coordinates, count), np.eye(len(rest)),
+                              rest, moved) for count in influences]
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--million", action="store_true")
+    args = parser.parse_args()
+    scn.install_extension()
+    print(f"Blender {bpy.app.version_string}; ms per evaluation after a cage edit "
+          f"(median of {REPEATS}), reading the positions included")
+    print("\nStrength and Mask:")
+    print("| mesh | cage | storage | plain | strength 0.5 + vertex-group mask |")
+    print("|---:|---:|---|---:|---:|")
+    scenes = [(3, 3, "AUTO")] + ([(None, 4, "COMPACT")] if args.million else [])
+    for level, subdivisions, storage in scenes:
+        k, n, used, plain, masked = strength_and_mask(level, subdivisions, storage)
+        print(f"| {k} | {n} | {used.lower()} | {plain:.1f} ms | {masked:.1f} ms |", flush=True)
+    print("\nMake Cage around the demo's Suzanne (7958 vertices):")
+    print("| target vertices | time | cage vertices |")
+    print("|---:|---:|---:|")
+    for target, seconds, count in make_cage_figures((50, 100, 200)):
+        print(f"| {target} | {seconds * 1000:.0f} ms | {count} |", flush=True)
+    print("\nBake to Bones: deviation for the standard smooth cage motion (of the cage size),"
+          " Suzanne 7958 vertices, mean value:")
+    influences = (4, 8, 0)
+    print("| cage | 4 influences | 8 influences | all |")
+    print("|---:|---:|---:|---:|")
+    for subdivisions in (2, 3):
+        row = bake_deviation(subdivisions, influences)
+        print(f"| {scn.ICOSPHERE_VERTICES[subdivisions]} | "
+              + " | ".join(f"{value:.1e}" for value in row) + " |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
