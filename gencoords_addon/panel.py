@@ -16,6 +16,9 @@ def draw_settings(layout, obj):
     row = column.row(align=True)
     row.prop(settings, "cage")
     row.operator("object.gencoords_make_cage", text="", icon='MESH_ICOSPHERE')
+    if settings.cage is not None:
+        # Artists keep cages out of the way: as wires or bounds, or hidden (still driving).
+        column.prop(settings.cage, "display_type", text="Show Cage As")
     column.prop(settings, "kind")
     column.prop(settings, "outside")
     column.prop(settings, "storage")

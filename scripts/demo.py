@@ -6,8 +6,11 @@
    cage edit (out/before.png, out/after_<kind>.png, out/demo.png).
 2. Renders the paper's figures 9 and 10: each type's coordinate field for one vertex v of
    a regular and an irregular octahedron, on three cross-sections (out/fields.png).
-   ``--update-docs`` copies out/demo.png and out/fields.png to docs/ for the README.
-3. Saves out/demo.blend: Suzanne bound to the cage (mean value), the cage animated by a
+   ``--update-docs`` copies out/demo.png, out/fields.png and out/artist.png to docs/ for
+   the README.
+3. Makes a cage with Make Cage and deforms the mesh with two cages at once
+   (out/artist.png).
+4. Saves out/demo.blend: Suzanne bound to the cage (mean value), the cage animated by a
    keyframed shape key, ready to play in Blender with the extension installed.
 
 Runs in well under two minutes on two cores.
@@ -220,23 +223,48 @@ def bind(mesh, cage, kind):
 
 
 def settle():
-    """Two view-layer updates: the add-on writes the mesh in a depsgraph handler, the
-    second update evaluates what it wrote."""
-    bpy.context.view_layer.update()
+    """Evaluate the scene: the GenCoords modifier moves the mesh with its cage."""
     bpy.context.view_layer.update()
 
 
-def render_with_cage_wire(cage, path):
-    """Render with the cage drawn as thin wires: Workbench renders a WIRE-display object
-    solid, and a Wireframe modifier on the cage itself would change the evaluated cage
-    the add-on follows, so a throw-away wire copy is drawn instead."""
-    cage.hide_render = True
-    wire = scn.add_mesh_object("Cage wire", scn.positions(cage), scn.triangles(cage))
-    wire.location, wire.color = cage.location, CAGE_WIRE
-    modifier = wire.modifiers.new("Wire", "WIREFRAME")
-    modifier.thickness, modifier.use_even_offset = 0.016, True
+def render_with_cage_wire(cage, path, *more_cages):
+    """Render with the cages drawn as thin wires: Workbench renders a WIRE-display object
+    solid, and a Wireframe modifier on a cage itself would change the evaluated cage the
+    mesh follows, so throw-away wire copies (of the evaluated cages) are drawn instead."""
+    wires = []
+    for each in (cage, *more_cages):
+        each.hide_render = True
+        wire = scn.add_mesh_object("Cage wire", scn.evaluated_positions(each), scn.triangles(each))
+        wire.matrix_world, wire.color = each.matrix_world, CAGE_WIRE
+        modifier = wire.modifiers.new("Wire", "WIREFRAME")
+        modifier.thickness, modifier.use_even_offset = 0.016, True
+        wires.append(wire)
     scn.render(path)
-    bpy.data.meshes.remove(wire.data)
+    for wire in wires:
+        bpy.data.meshes.remove(wire.data)
+
+
+def artist_pictures():
+    """A cage made by Make Cage around the demo mesh, and two cages deforming it at once
+    (the made cage stretched, the fitted one pulled and twisted): out/artist.png."""
+    scene, mesh, fitted = deformation_scene(shape_key=False)
+    scn.make_active(mesh)
+    with scn.quiet():
+        bpy.ops.object.gencoords_make_cage(target_vertices=100, margin=0.04)
+    made = mesh.gencoords.cage
+    corner_label(f"made cage, {len(made.data.vertices)} vertices", scene.camera)
+    fitted.hide_render = True
+    render_with_cage_wire(made, scn.OUT / "made_cage.png")
+    bind(mesh, made, "mean_value")
+    bind(mesh, fitted, "mean_value")
+    stretched = scn.positions(made) * (1.25, 1.0, 1.0)
+    scn.set_positions(made, stretched)
+    scn.set_positions(fitted, scn.nonaffine_edit(scn.positions(fitted)))
+    settle()
+    corner_label("two cages at once", scene.camera)
+    render_with_cage_wire(fitted, scn.OUT / "two_cages.png", made)
+    scn.side_by_side([scn.OUT / "made_cage.png", scn.OUT / "two_cages.png"],
+                     scn.OUT / "artist.png")
 
 
 def corner_label(text, camera):
@@ -331,11 +359,13 @@ def main():
         print("  (affine error: max |deformed - exact image| after an affine cage motion)")
         print("pictures: out/before.png, out/after_<type>.png, out/after_all.png, "
               "out/demo.png (before | mean value)")
+        artist_pictures()
+        print("out/artist.png: a cage made by Make Cage, and two cages deforming one mesh")
 
     minima = render_fields(scn.OUT / "fields.png")
     if args.update_docs:
         scn.DOCS.mkdir(exist_ok=True)
-        for picture in ("demo.png", "fields.png"):
+        for picture in ("demo.png", "fields.png", "artist.png"):
             if (scn.OUT / picture).exists():
                 shutil.copyfile(scn.OUT / picture, scn.DOCS / picture)
         print("README pictures updated in docs/")
