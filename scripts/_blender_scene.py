@@ -138,6 +138,18 @@ def add_suzanne(level=2, name="Suzanne"):
     return obj
 
 
+MILLION_VERTICES = 998_002  # the large-mesh scene: a 1000 x 1000 UV sphere
+
+
+def add_benchmark_mesh(level):
+    """Suzanne subdivided ``level`` times, or (``None``) the million-vertex UV sphere,
+    which a radius-2 icosphere cage contains like Suzanne."""
+    if level is None:
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=1000, ring_count=1000, radius=1.4)
+        return bpy.context.active_object
+    return add_suzanne(level)
+
+
 def add_icosphere_cage(subdivisions=2, radius=CAGE_RADIUS, name="Cage"):
     """A convex icosphere cage (42, 162, 642 vertices at 2, 3, 4), drawn as a wireframe."""
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=subdivisions, radius=radius)

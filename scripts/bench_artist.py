@@ -51,11 +51,7 @@ def evaluation_ms(mesh, cage):
 
 def strength_and_mask(level, subdivisions, storage):
     scn.reset_scene()
-    if level is None:
-        bpy.ops.mesh.primitive_uv_sphere_add(segments=1000, ring_count=1000, radius=1.4)
-        mesh = bpy.context.active_object
-    else:
-        mesh = scn.add_suzanne(level)
+    mesh = scn.add_benchmark_mesh(level)
     cage = scn.add_icosphere_cage(subdivisions)
     found = bind(mesh, cage, storage=storage)
     plain = evaluation_ms(mesh, cage)

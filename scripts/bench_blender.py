@@ -201,11 +201,7 @@ def run_method(level, subdivisions, method):
     None is the million-vertex sphere.
     """
     scn.reset_scene()
-    if level is None:
-        bpy.ops.mesh.primitive_uv_sphere_add(segments=1000, ring_count=1000, radius=1.4)
-        mesh = bpy.context.active_object
-    else:
-        mesh = scn.add_suzanne(level)
+    mesh = scn.add_benchmark_mesh(level)
     cage = scn.add_icosphere_cage(subdivisions)
     rest_mesh, rest_cage = scn.positions(mesh), scn.positions(cage)
     size = scn.cage_size(rest_cage)
@@ -326,7 +322,7 @@ def main():
     started = time.perf_counter()
     for level in levels:
         for subdivisions in cages:
-            key = (998_002 if level is None else scn.SUZANNE_VERTICES[level],
+            key = (scn.MILLION_VERTICES if level is None else scn.SUZANNE_VERTICES[level],
                    scn.ICOSPHERE_VERTICES[subdivisions])
             rows = results.setdefault(key, {})
             smallest = (level, subdivisions) == (levels[0], cages[0])
