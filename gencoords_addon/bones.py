@@ -94,6 +94,8 @@ def bake(obj, context, max_influences=0):
     bindings_module.remove(obj, found)
     skin = obj.modifiers.new("Armature", 'ARMATURE')
     skin.object = rig
+    if obj.parent is None:  # exporters (glTF) expect a skinned mesh under its armature
+        obj.parent = rig  # the rig sits at the world origin: the mesh does not move
     obj.modifiers.move(len(obj.modifiers) - 1, position)
     context.view_layer.objects.active = previous
     return rig, deviation

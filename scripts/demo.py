@@ -237,7 +237,8 @@ def render_with_cage_wire(cage, path, *more_cages):
         wire = scn.add_mesh_object("Cage wire", scn.evaluated_positions(each), scn.triangles(each))
         wire.matrix_world, wire.color = each.matrix_world, CAGE_WIRE
         modifier = wire.modifiers.new("Wire", "WIREFRAME")
-        modifier.thickness, modifier.use_even_offset = 0.016, True
+        # No even offset: it divides by the sine of the angles, spiking at sliver triangles.
+        modifier.thickness, modifier.use_even_offset = 0.016, False
         wires.append(wire)
     scn.render(path)
     for wire in wires:

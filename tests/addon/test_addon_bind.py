@@ -600,8 +600,9 @@ def test_a_baked_rig_round_trips_through_gltf(gc, tmp_path):
 
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.import_scene.gltf(filepath=path)
-    (imported_rig,) = [o for o in bpy.data.objects if o.type == 'ARMATURE']
-    (imported,) = [o for o in bpy.data.objects if o.type == 'MESH']
+    imported_rig = bpy.data.objects["Mesh cage rig"]
+    imported = bpy.data.objects["Mesh"]
+    assert imported.parent == imported_rig
     # glTF splits vertices along seams: match each imported vertex to its original.
     imported_rest = apply_matrix(imported.matrix_world, evaluated_positions(imported))
     match = np.linalg.norm(imported_rest[:, None] - rest[None], axis=2).argmin(axis=1)
