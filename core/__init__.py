@@ -3,8 +3,8 @@
 Ju, Liepa and Warren's general construction (CAGD 2007) in pure numpy: one N-D routine
 parameterised by ridge scalars d (a generating surface) gives Wachspress, mean value,
 discrete harmonic and Voronoi coordinates, Floater's construction, and, by completeness,
-every other set of coordinates. Conventions: ``../shared/MATH.md``; array shapes are in
-every docstring (k points, n vertices, m facets, r ridges, dimension N).
+every other set of coordinates. Conventions and formulas: ``docs/MATH.md``; array shapes
+are in every docstring (k points, n vertices, m facets, r ridges, dimension N).
 """
 
 from .boundary import BOUNDARY, INSIDE, OUTSIDE

@@ -1,6 +1,6 @@
 """The general construction (paper eq. 5, 6, 8, 17, 18), in any dimension N >= 2.
 
-For a query point x, a facet T and its vertex i (MATH.md):
+For a query point x, a facet T and its vertex i (docs/MATH.md):
 
     m_i   = cofactor vector of E_T, e_i . m_i = det E_T        (generalized cross product)
     r^T   = sum_i d(ridge opposite i) m_i / |m_i|              (Stokes on the wedge)

@@ -1,4 +1,4 @@
-"""Floater's construction (paper eq. 14, 21, N-D in MATH.md) and completeness (Prop. 10).
+"""Floater's construction (paper eq. 14, 21, N-D in docs/MATH.md) and completeness (Prop. 10).
 
 Each ridge R is shared by two facets R+p and R+q. With D_p, D_q their determinants
 ``det E`` (N! times the signed volumes of {x} + facet), the N+1 vectors

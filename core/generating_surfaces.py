@@ -1,4 +1,4 @@
-"""Ridge scalars d of the named generating surfaces (MATH.md table).
+"""Ridge scalars d of the named generating surfaces (docs/MATH.md table).
 
 d, shape (r, k) (ridges by points, the frame's layout), is the signed (N-1)-volume
 enclosed by x and the ridge projected onto the surface. Ridges have p = N-1 vertices;

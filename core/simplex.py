@@ -1,7 +1,7 @@
 """Geometry of single simplices in R^N, vectorised over leading axes.
 
 These are the primitives the construction is built from: the generalized cross product
-(the cofactor vector ``m_i`` of MATH.md), and the closest point of a simplex to a point
+(the cofactor vector ``m_i`` of docs/MATH.md), and the closest point of a simplex to a point
 (for boundary limits and ``outside="project"``).
 """
 

@@ -92,7 +92,7 @@ def test_power_dual_closed_forms_equal_the_subset_construction(seed, dim, count,
 
 
 def test_3d_table_formulas_of_math_md():
-    """d of the four named surfaces against MATH.md's table, edge by edge."""
+    """d of the four named surfaces against docs/MATH.md's table, edge by edge."""
     vertices, faces = octahedron((1.0, 1.3, 0.8))
     x = np.array([0.1, -0.2, 0.15])
     ridges = core.ridges(faces)
@@ -119,7 +119,7 @@ def test_3d_table_formulas_of_math_md():
 
 @pytest.mark.parametrize("dim", [3, 4])
 def test_mean_value_equals_its_definition_by_integration(dim):
-    """The N-D mean value scalar (3D: angle / 2; 4D: solid angle / 3, MATH.md's
+    """The N-D mean value scalar (3D: angle / 2; 4D: solid angle / 3, docs/MATH.md's
     derivation) against Monte Carlo integration of the definition."""
     vertices, facets = cross_polytope(dim, radii=np.linspace(0.7, 1.4, dim))
     x = np.linspace(0.05, 0.2, dim)
