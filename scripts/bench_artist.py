@@ -3,7 +3,7 @@ Mask cost per evaluation, how long Make Cage takes and how many vertices it make
 far Bake to Bones deviates with 4, 8 or all influences per vertex.
 
 Usage: bench_artist.py [--million]   (--million adds the strength and mask timing on a
-998,002-vertex sphere in a 642-vertex cage, compact storage: a few minutes to bind)
+999,547-vertex sphere in a 642-vertex cage, compact storage: a few minutes to bind)
 """
 
 import argparse

@@ -5,7 +5,7 @@ icosphere cages of 42, 162, 642 vertices (radius 2: convex and containing the me
 Methods: Mesh Deform at precision 5 and 6 (6 takes minutes and gigabytes per scene, so by
 default only on the smallest scene; 7 and more exhaust memory) and GenCoords with each
 coordinate type in exact and compact storage, each bound in a freshly built scene.
-``--million``: a 998,002-vertex UV sphere in the 642-vertex cage instead (the native
+``--million``: a 999,547-vertex UV sphere in the 642-vertex cage instead (the native
 deformer's large-mesh target), GenCoords compact against Mesh Deform precision 5.
 
 Metrics, measured the same way for every method:
@@ -279,7 +279,7 @@ def main():
                        help="8k/32k/126k meshes x 42/162/642 cages (about an hour: "
                             "Mesh Deform precision 6 takes minutes per scene)")
     sweep.add_argument("--million", action="store_true",
-                       help="a 998,002-vertex sphere in the 642-vertex cage: GenCoords "
+                       help="a 999,547-vertex sphere in the 642-vertex cage: GenCoords "
                             "compact against Mesh Deform precision 5")
     parser.add_argument("--kinds", nargs="+", choices=scn.KINDS, default=list(scn.KINDS))
     parser.add_argument("--storages", nargs="+", default=["EXACT", "COMPACT"],
