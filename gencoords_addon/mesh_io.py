@@ -23,17 +23,6 @@ def read_positions(mesh):
     return flat.reshape(-1, 3)
 
 
-def write_positions(mesh, positions):
-    """Replace every vertex position of ``mesh``; ``positions`` must be (k, 3), finite.
-
-    The caller checks the vertex count and finiteness first: a mismatched ``foreach_set``
-    would leave the mesh half written.
-    """
-    flat = np.ascontiguousarray(positions, dtype=np.float32).reshape(-1)
-    mesh.attributes[POSITION].data.foreach_set("vector", flat)
-    mesh.update()  # recomputes normals and tags the mesh so the evaluated copy follows
-
-
 def read_triangles(mesh, positions):
     """Triangulation of ``mesh``'s faces, with the face each triangle comes from.
 
@@ -91,12 +80,6 @@ def faces_hash(mesh):
     return hashlib.sha1(_face_sizes(mesh).tobytes() + _corner_vertices(mesh).tobytes()).hexdigest()[:16]
 
 
-def transform_points(matrix, points):
-    """Apply a 4x4 affine ``mathutils.Matrix`` to (k, 3) points; float64 result."""
-    affine = np.array(matrix, dtype=np.float64)
-    return np.asarray(points, dtype=np.float64) @ affine[:3, :3].T + affine[:3, 3]
-
-
 @dataclass
 class CageGeometry:
     """The evaluated cage as the core needs it, in the cage object's local space."""
@@ -128,13 +111,3 @@ def read_evaluated_cage(cage, depsgraph):
         positions = read_positions(mesh)
         return CageGeometry(positions, *read_triangles(mesh, positions),
                             count_non_triangles(mesh), faces_hash(mesh))
-
-
-def cage_to_mesh_matrix(obj, cage, depsgraph):
-    """4x4 matrix taking the cage's local space to the mesh object's local space.
-
-    Uses the evaluated (animated, constrained) transforms of both objects. Raises
-    ValueError when the mesh object's transform cannot be inverted (zero scale).
-    """
-    mesh_world = obj.evaluated_get(depsgraph).matrix_world
-    return mesh_world.inverted() @ cage.evaluated_get(depsgraph).matrix_world
