@@ -14,7 +14,7 @@ from .deformation import coordinate_summary, deform, field_colors
 from .errors import CageError, OutsideCageError
 from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalars, floater_weights,
                       ridge_scalars_from_floater)
-from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS
+from .generating_surfaces import CONVEX_ONLY_KINDS, KIND_TABLE, KINDS
 from .orientation import orient_facets_outward
 from .topology import ridges
 from .triangulation import triangulate_quads
@@ -24,6 +24,6 @@ __all__ = [
     "coordinates", "weights", "ridges", "ridge_scalars", "weights_from_ridge_scalars",
     "floater_weights", "floater_matrix", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
     "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
-    "field_colors", "coordinate_summary", "triangulate_quads", "orient_facets_outward", "CageError", "OutsideCageError", "KINDS",
+    "field_colors", "coordinate_summary", "triangulate_quads", "orient_facets_outward", "CageError", "OutsideCageError", "KINDS", "KIND_TABLE",
     "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
 ]

@@ -11,12 +11,13 @@ product nor a square root), others in d: each is written in its natural form and
 :func:`named_ridge_scalars` / :func:`named_scaled_ridge_scalars` convert.
 """
 
+from dataclasses import dataclass
 from itertools import combinations, permutations
 from math import factorial
 
 import numpy as np
 
-__all__ = ["KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
+__all__ = ["Kind", "KIND_TABLE", "KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
            "mean_value", "discrete_harmonic_scaled", "wachspress_scaled", "voronoi_scaled",
            "power_dual", "power_dual_scaled", "power_dual_by_subsets"]
 
@@ -128,16 +129,34 @@ def power_dual_by_subsets(gram, heights):
     return total / factorial(size)
 
 
-# Each surface in its natural form: d ("d") or d |m_R| ("scaled").
-_NAMED = {
-    "wachspress": (wachspress_scaled, "scaled"),
-    "mean_value": (mean_value, "d"),
-    "discrete_harmonic": (discrete_harmonic_scaled, "scaled"),
-    "voronoi": (voronoi_scaled, "scaled"),
-}
+@dataclass(frozen=True)
+class Kind:
+    """A named generating surface: the one table the core, the add-on and the scripts
+    derive their lists from (a new surface is a new row)."""
+
+    name: str  # the core's name, e.g. "mean_value"
+    label: str  # for people, e.g. "Mean Value"
+    description: str
+    surface: object  # function of a PointFrame: d, or d |m_R| (``form``)
+    form: str  # "d" or "scaled"
+    convex_only: bool  # needs a convex cage
+    may_be_negative: bool  # can go negative inside a convex cage
+
+
+KIND_TABLE = (
+    Kind("wachspress", "Wachspress", "Smooth, positive and affine invariant; needs a convex "
+         "cage", wachspress_scaled, "scaled", True, False),
+    # Mean value coordinates stay well defined on non-convex closed cages (Ju et al. 2005).
+    Kind("mean_value", "Mean Value", "Smooth and positive inside convex cages; also works "
+         "on non-convex closed cages", mean_value, "d", False, False),
+    Kind("discrete_harmonic", "Discrete Harmonic", "Cotangent weights; needs a convex cage "
+         "and can be negative", discrete_harmonic_scaled, "scaled", True, True),
+    Kind("voronoi", "Voronoi", "Voronoi-cell weights; needs a convex cage and can be "
+         "negative", voronoi_scaled, "scaled", True, True),
+)
+_NAMED = {kind.name: (kind.surface, kind.form) for kind in KIND_TABLE}
 KINDS = tuple(_NAMED)
-# Mean value coordinates stay well defined on non-convex closed cages (Ju et al. 2005).
-CONVEX_ONLY_KINDS = ("wachspress", "discrete_harmonic", "voronoi")
+CONVEX_ONLY_KINDS = tuple(kind.name for kind in KIND_TABLE if kind.convex_only)
 
 
 def _named(kind):

@@ -2,16 +2,11 @@
 
 import bpy
 
+from .. import core
 
-# Enum identifiers are the core's names in upper case (see ``core_name``).
-KIND_ITEMS = (
-    ("WACHSPRESS", "Wachspress", "Smooth, positive and affine invariant; needs a convex cage"),
-    ("MEAN_VALUE", "Mean Value",
-     "Smooth and positive inside convex cages; also works on non-convex closed cages"),
-    ("DISCRETE_HARMONIC", "Discrete Harmonic",
-     "Cotangent weights; needs a convex cage and can be negative"),
-    ("VORONOI", "Voronoi", "Voronoi-cell weights; needs a convex cage and can be negative"),
-)
+# Enum identifiers are the core's names in upper case (see ``core_name``); the core's
+# table of kinds is the one list.
+KIND_ITEMS = tuple((kind.name.upper(), kind.label, kind.description) for kind in core.KIND_TABLE)
 OUTSIDE_ITEMS = (
     ("RAISE", "Report Error", "Refuse to bind when mesh vertices lie outside the cage"),
     ("PROJECT", "Project",

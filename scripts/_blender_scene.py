@@ -51,13 +51,8 @@ ICOSPHERE_VERTICES = {2: 42, 3: 162, 4: 642}
 # inscribed radius above 1.85 from 42 vertices on, so it contains every vertex.
 CAGE_RADIUS = 2.0
 
-KINDS = ("wachspress", "mean_value", "discrete_harmonic", "voronoi")
-KIND_LABELS = {
-    "wachspress": "Wachspress",
-    "mean_value": "Mean value",
-    "discrete_harmonic": "Discrete harmonic",
-    "voronoi": "Voronoi",
-}
+KINDS = core.KINDS
+KIND_LABELS = {kind.name: kind.label for kind in core.KIND_TABLE}
 
 
 # --------------------------------------------------------------------------- extension
