@@ -7,6 +7,7 @@ every other set of coordinates. Conventions and formulas: ``docs/MATH.md``; arra
 are in every docstring (k points, n vertices, m facets, r ridges, dimension N).
 """
 
+from . import tolerances
 from .boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction import weights_from_ridge_scalars
 from .barycentric import OUTSIDE_MODES, coordinates, needs_convex, point_locations, ridge_scalars, weights

@@ -11,6 +11,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from . import tolerances
 from .boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances,
                        plane_limit_coordinates)
 from .construction import construct_weights, facet_determinants, point_frame, prepare_cage
@@ -150,7 +151,7 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progres
         # is taken: extrapolated outside points on a facet's hyperplane take their affine
         # coordinates in it; anything else (rounding at a tolerance below the data's
         # precision) the nearest boundary point's.
-        undefined = ~np.isfinite(values).all(axis=1) | (np.abs(total[:, 0]) <= 1e-300)
+        undefined = ~np.isfinite(values).all(axis=1) | (np.abs(total[:, 0]) <= tolerances.TINY)
         on_plane = outside_rows & undefined if outside == "extrapolate" else np.zeros_like(undefined)
         if on_plane.any():
             values[on_plane] = plane_limit_coordinates(cage, x[on_plane], distance[on_plane])

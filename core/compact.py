@@ -18,6 +18,8 @@ vertex deviates: :func:`deviation` measures it for any motion. The same form wit
 
 import numpy as np
 
+from . import tolerances
+
 __all__ = ["motion_basis", "smooth_test_motion", "vertex_drag_motion", "deviation"]
 
 
@@ -53,7 +55,8 @@ def motion_basis(vertices, faces, size):
     if not dim + 1 <= size <= count:
         raise ValueError(f"size must be between {dim + 1} (the affine motions) and "
                          f"{count} (the cage's vertex count), got {size}")
-    centred = (vertices - vertices.mean(axis=0)) / max(np.ptp(vertices, axis=0).max(), 1e-300)
+    extent = max(np.ptp(vertices, axis=0).max(), tolerances.TINY)
+    centred = (vertices - vertices.mean(axis=0)) / extent
     affine, _ = np.linalg.qr(np.column_stack([np.ones(count), centred]))
     edges = _edges(faces)
     laplacian = np.zeros((count, count))
@@ -89,7 +92,7 @@ def smooth_test_motion(vertices):
     axis = int(np.argmax(high - low))
     across = [(axis + 1) % 3, (axis + 2) % 3]
     centre = 0.5 * (low + high)
-    height = (vertices[:, axis] - low[axis]) / max(high[axis] - low[axis], 1e-300)
+    height = (vertices[:, axis] - low[axis]) / max(high[axis] - low[axis], tolerances.TINY)
     angle = np.radians(60.0) * height
     u, v = (vertices[:, across] - centre[across]).T
     moved = vertices.copy()
@@ -115,7 +118,8 @@ def vertex_drag_motion(vertices, index=0, fraction=0.1):
     moved = np.array(vertices, dtype=np.float64)
     direction = moved[index] - moved.mean(axis=0)
     diagonal = np.linalg.norm(np.ptp(moved, axis=0))
-    moved[index] += fraction * diagonal * direction / max(np.linalg.norm(direction), 1e-300)
+    length = max(np.linalg.norm(direction), tolerances.TINY)
+    moved[index] += fraction * diagonal * direction / length
     return moved
 
 

@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from . import tolerances
+
 __all__ = ["deform", "field_colors", "coordinate_summary"]
 
 
@@ -68,8 +70,8 @@ def coordinate_summary(coordinates):
     Returns
     -------
     summary : dict
-        ``min`` (smallest coordinate), ``negative_points`` (points with any negative
-        coordinate below -1e-9), ``max_affine_error`` (largest ``|row sum - 1|``) and
+        ``min`` (smallest coordinate), ``negative_points`` (points with any coordinate
+        below ``-tolerances.NEGATIVE``), ``max_affine_error`` (largest ``|row sum - 1|``) and
         ``nbytes`` (memory of the matrix).
     """
     coordinates = np.asarray(coordinates)
@@ -78,7 +80,7 @@ def coordinate_summary(coordinates):
     row_min = coordinates.min(axis=1)
     return {
         "min": float(row_min.min()),
-        "negative_points": int(np.count_nonzero(row_min < -1e-9)),
+        "negative_points": int(np.count_nonzero(row_min < -tolerances.NEGATIVE)),
         "max_affine_error": float(np.abs(coordinates.sum(axis=1, dtype=np.float64) - 1.0).max()),
         "nbytes": int(coordinates.nbytes),
     }

@@ -2,12 +2,13 @@
 
 import numpy as np
 
+from . import tolerances
 from .construction import prepare_cage
 from .errors import CageError
 
 __all__ = ["validate_cage", "convexity_violation", "DEFAULT_TOLERANCE"]
 
-DEFAULT_TOLERANCE = 1e-9
+DEFAULT_TOLERANCE = tolerances.DEFAULT
 _CHUNK_ENTRIES = 1 << 22  # bounded memory for the all-vertices x all-facets tests
 
 

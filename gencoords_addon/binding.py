@@ -23,11 +23,10 @@ from ..core import compact
 from . import compat, deformer, mesh_io, messages
 from .properties import KIND_ITEMS, core_name, enum_label
 
-# Blender stores positions as float32 (about 7 significant digits): a flat cage face
-# after Apply Rotation, or a mesh vertex on the cage surface, is exact only to ~1e-7 of
-# the cage's size. The core's default (1e-9, for float64 input) would call such a face
-# non-convex and such a vertex outside; this is the float32 equivalent, with a margin.
-FLOAT32_TOLERANCE = 1e-6
+# Blender stores positions as float32: a flat cage face after Apply Rotation, or a mesh
+# vertex on the cage surface, is exact only to ~1e-7 of the cage's size, which the
+# core's float64 default would call non-convex or outside.
+FLOAT32_TOLERANCE = core.tolerances.FLOAT32
 METADATA = "gencoords"  # ID property of the binding's node group
 FORMAT = 2  # bind data layout; data of another number read as "Bind again"
 MODIFIER_NAME = "GenCoords"
