@@ -10,9 +10,10 @@ are in every docstring (k points, n vertices, m facets, r ridges, dimension N).
 from . import tolerances
 from .boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction import weights_from_ridge_scalars
+from .cage import Cage
 from .barycentric import OUTSIDE_MODES, coordinates, needs_convex, point_locations, ridge_scalars, weights
 from .deformation import coordinate_summary, deform, field_colors
-from .errors import CageError, OutsideCageError
+from .errors import CageError, OutsideCageError, WorkerError
 from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalars, floater_weights,
                       ridge_scalars_from_floater)
 from .generating_surfaces import CONVEX_ONLY_KINDS, KIND_TABLE, KINDS
@@ -22,9 +23,10 @@ from .triangulation import triangulate_quads
 from .validation import DEFAULT_TOLERANCE, validate_cage
 
 __all__ = [
-    "coordinates", "weights", "ridges", "ridge_scalars", "weights_from_ridge_scalars",
+    "Cage", "coordinates", "weights", "ridges", "ridge_scalars", "weights_from_ridge_scalars",
     "floater_weights", "floater_matrix", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
     "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
-    "field_colors", "coordinate_summary", "triangulate_quads", "orient_facets_outward", "CageError", "OutsideCageError", "KINDS", "KIND_TABLE",
+    "field_colors", "coordinate_summary", "triangulate_quads", "orient_facets_outward", "CageError", "OutsideCageError", "WorkerError",
+    "KINDS", "KIND_TABLE",
     "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
 ]

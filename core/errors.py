@@ -5,7 +5,7 @@ attributes let a front end (the Blender add-on) phrase its own message or select
 offending elements.
 """
 
-__all__ = ["CageError", "OutsideCageError"]
+__all__ = ["CageError", "OutsideCageError", "WorkerError"]
 
 
 class CageError(ValueError):
@@ -50,3 +50,10 @@ class OutsideCageError(ValueError):
             "pass outside='project' to use the nearest boundary point or "
             "outside='extrapolate' to evaluate the formula there"
         )
+
+
+class WorkerError(RuntimeError):
+    """A worker process could not start, failed or was killed (its message says which).
+
+    The call that used it has stopped its other workers and removed its shared memory.
+    """

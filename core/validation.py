@@ -6,7 +6,7 @@ from . import tolerances
 from .construction import prepare_cage
 from .errors import CageError
 
-__all__ = ["validate_cage", "convexity_violation", "DEFAULT_TOLERANCE"]
+__all__ = ["validate_cage", "convexity_violation", "non_convex_error", "DEFAULT_TOLERANCE"]
 
 DEFAULT_TOLERANCE = tolerances.DEFAULT
 _CHUNK_ENTRIES = 1 << 22  # bounded memory for the all-vertices x all-facets tests
@@ -138,12 +138,17 @@ def convexity_violation(cage, tolerance=DEFAULT_TOLERANCE):
     return None
 
 
+def non_convex_error(violation):
+    """The :class:`CageError` for a :func:`convexity_violation` (vertex, face, height)."""
+    vertex, face, height = violation
+    return CageError("non_convex", f"the cage is not convex: vertex {vertex} lies {height:.3g} "
+                                   f"outside the plane of face {face}", faces=[face], vertices=[vertex])
+
+
 def _check_convex(cage, tolerance):
     violation = convexity_violation(cage, tolerance)
     if violation is not None:
-        vertex, face, height = violation
-        raise CageError("non_convex", f"the cage is not convex: vertex {vertex} lies {height:.3g} "
-                                      f"outside the plane of face {face}", faces=[face], vertices=[vertex])
+        raise non_convex_error(violation)
 
 
 def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):

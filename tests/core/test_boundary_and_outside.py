@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import core
+import core.evaluation
 import core.barycentric
 from polytopes import icosphere, octahedron, random_convex_polytope, random_interior_points, regular_polygon
 from reference_formulas import mean_value_3d_ju, normalise
@@ -148,7 +149,7 @@ def test_chunking_and_threads_do_not_change_results(monkeypatch):
     points = np.concatenate([random_interior_points(rng, vertices, 300), vertices[:3],
                              vertices.mean(axis=0) + 10.0 * np.ones((2, 3))])
     reference = core.coordinates(points, vertices, faces, kind="voronoi", outside="project")
-    monkeypatch.setattr(core.barycentric, "_CHUNK_BYTES", 1)  # one point per chunk
+    monkeypatch.setattr(core.evaluation, "_CHUNK_BYTES", 1)  # one point per chunk
     chunked = core.coordinates(points, vertices, faces, kind="voronoi", outside="project")
     np.testing.assert_allclose(chunked, reference, rtol=0, atol=1e-15)  # BLAS rounding only
 
@@ -156,7 +157,7 @@ def test_chunking_and_threads_do_not_change_results(monkeypatch):
 def test_progress_is_reported_in_order_up_to_one(monkeypatch):
     vertices, faces = icosphere(1)
     points = 0.5 * random_interior_points(np.random.default_rng(0), vertices, 500)
-    monkeypatch.setattr(core.barycentric, "_CHUNK_BYTES", 1 << 16)
+    monkeypatch.setattr(core.evaluation, "_CHUNK_BYTES", 1 << 16)
     fractions = []
     core.coordinates(points, vertices, faces, progress=fractions.append)
     assert len(fractions) > 2 and fractions == sorted(fractions) and fractions[-1] == 1.0

@@ -1,0 +1,130 @@
+"""Worker processes: the same numbers as one process, and nothing left behind."""
+
+import glob
+import os
+import tempfile
+
+import numpy as np
+import pytest
+
+import core
+import core.evaluation
+from polytopes import icosphere, random_convex_polytope, random_interior_points
+
+
+def shared_files():
+    return set(glob.glob("/dev/shm/gencoords-*") + glob.glob(os.path.join(tempfile.gettempdir(), "gencoords-*")))
+
+
+@pytest.fixture
+def mixed_points():
+    """Interior points, cage vertices, facet midpoints and outside points of a 3D cage."""
+    rng = np.random.default_rng(3)
+    vertices, faces = random_convex_polytope(rng, 3, 30)
+    points = np.concatenate([random_interior_points(rng, vertices, 700), vertices[:5],
+                             vertices[faces[:5]].mean(axis=1),
+                             vertices.mean(axis=0) + 3.0 * (vertices[:4] - vertices.mean(axis=0))])
+    return vertices, faces, rng.permutation(points)
+
+
+@pytest.fixture
+def small_chunks(monkeypatch):
+    # Many chunks and units even for few points, so that every worker gets several.
+    monkeypatch.setattr(core.evaluation, "_CHUNK_PAIRS", 2000)
+
+
+@pytest.mark.parametrize("kind", core.KINDS)
+def test_workers_give_bitwise_the_single_process_result(kind, mixed_points, small_chunks):
+    vertices, faces, points = mixed_points
+    with core.Cage(vertices, faces) as cage:
+        for outside, dtype in (("project", np.float64), ("extrapolate", np.float32)):
+            alone = cage.coordinates(points, kind=kind, outside=outside, dtype=dtype, workers=1)
+            shared_locations = np.zeros(len(points), dtype=np.int8)
+            together = cage.coordinates(points, kind=kind, outside=outside, dtype=dtype, workers=2,
+                                        locations=shared_locations)
+            assert together.dtype == dtype
+            np.testing.assert_array_equal(together, alone)
+            np.testing.assert_array_equal(shared_locations, cage.point_locations(points, workers=1))
+    np.testing.assert_allclose(together.astype(np.float64) @ vertices, points, atol=1e-5)
+
+
+def test_free_function_and_weights_with_workers(mixed_points, small_chunks):
+    vertices, faces, points = mixed_points
+    np.testing.assert_array_equal(core.weights(points, vertices, faces, kind="wachspress", workers=2),
+                                  core.weights(points, vertices, faces, kind="wachspress", workers=1))
+    np.testing.assert_array_equal(core.point_locations(points, vertices, faces, workers=2),
+                                  core.point_locations(points, vertices, faces, workers=1))
+
+
+def test_outside_points_are_all_named_with_workers(mixed_points, small_chunks):
+    vertices, faces, points = mixed_points
+    with pytest.raises(core.OutsideCageError) as alone:
+        core.coordinates(points, vertices, faces, workers=1)
+    with pytest.raises(core.OutsideCageError) as together:
+        core.coordinates(points, vertices, faces, workers=2)
+    assert len(alone.value.indices) == 4
+    np.testing.assert_array_equal(together.value.indices, alone.value.indices)
+
+
+def test_a_cage_keeps_its_workers_between_calls_and_stops_them(mixed_points, small_chunks):
+    vertices, faces, points = mixed_points
+    inside = points[core.point_locations(points, vertices, faces) == core.INSIDE]
+    cage = core.Cage(vertices, faces)
+    cage.coordinates(inside, workers=2)
+    processes = list(cage._pool._processes)
+    fractions = []
+    cage.coordinates(inside, progress=fractions.append)  # workers=None: the pool it has
+    assert cage._pool._processes == processes
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0 and len(fractions) > 2
+    cage.close()
+    assert all(process.poll() is not None for process in processes)
+    # Still usable, in this process.
+    np.testing.assert_allclose(cage.coordinates(inside[:5], workers=1) @ vertices, inside[:5], atol=1e-12)
+
+
+def test_a_cancel_stops_the_workers_and_removes_the_shared_memory(mixed_points, small_chunks):
+    vertices, faces, points = mixed_points
+    before = shared_files()
+    cage = core.Cage(vertices, faces)
+
+    def cancel(fraction):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        cage.coordinates(points, outside="project", workers=2, progress=cancel)
+    assert cage._pool is None or cage._pool.closed
+    assert shared_files() == before
+
+
+def test_a_killed_worker_raises_a_clear_error_and_leaves_nothing(mixed_points, small_chunks):
+    vertices, faces, points = mixed_points
+    before = shared_files()
+    cage = core.Cage(vertices, faces)
+    cage.coordinates(points[:50], outside="project", workers=2)  # starts the pool
+    processes = list(cage._pool._processes)
+
+    def kill_one(fraction):
+        processes[0].kill()
+
+    with pytest.raises(core.WorkerError, match="ended unexpectedly"):
+        cage.coordinates(points, outside="project", workers=2, progress=kill_one)
+    assert all(process.poll() is not None for process in processes)
+    assert shared_files() == before
+    # The next call starts fresh workers.
+    np.testing.assert_array_equal(cage.coordinates(points, outside="project", workers=2),
+                                  cage.coordinates(points, outside="project", workers=1))
+    cage.close()
+
+
+def test_default_stays_in_process_for_small_calls():
+    vertices, faces = icosphere(1)
+    with core.Cage(vertices, faces) as cage:
+        cage.coordinates(0.5 * vertices)
+        assert cage._pool is None
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, "2", True])
+def test_bad_worker_counts_are_refused(workers):
+    vertices, faces = icosphere(0)
+    with pytest.raises(ValueError, match="workers must be a positive integer"):
+        core.coordinates(0.1 * vertices, vertices, faces, workers=workers)
