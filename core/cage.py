@@ -102,6 +102,15 @@ class Cage:
             self._pool.close()
             self._pool = None
 
+    def suggested_workers(self, point_count):
+        """Worker processes that ``workers=None`` would use for this many points: int.
+
+        For callers splitting a long computation into calls of their own (to show
+        progress, or to turn each batch into something smaller at once), who should
+        choose once, for the whole job.
+        """
+        return self._worker_count(None, point_count, len(self.faces))
+
     # -- the public computations -------------------------------------------------------
 
     def coordinates(self, points, kind="mean_value", outside="raise", progress=None,

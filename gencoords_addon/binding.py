@@ -36,7 +36,10 @@ EXACT_MAX_PRODUCT = 8_000_000
 EXACT_MAX_CAGE_VERTICES = 400
 # Coordinates computed per chunk of points: progress and cancel granularity, and the
 # bound on the dense float64 block a chunk makes (points x cage vertices).
-CHUNK_ENTRIES = 4_000_000
+CHUNK_ENTRIES = 4_000_000  # per worker process
+# Worker processes for the core (None: the core's choice for the whole job, all cores
+# for a long Bind; 1: compute in Blender's own process).
+WORKERS = None
 DEVIATION_SAMPLES = 2000  # mesh vertices the compact form's deviation is measured on
 
 
@@ -268,8 +271,22 @@ class BindJob:
         """Compute the bind data chunk by chunk, yielding the fraction done (0 to 1).
 
         Raises BindError for a bad cage or vertices outside it. Closing the generator
-        early (a cancel) leaves nothing behind.
+        early (a cancel) stops the core's worker processes and leaves nothing behind.
         """
+        try:
+            cage = core.Cage(self.cage_vertices, self.triangles, tolerance=FLOAT32_TOLERANCE)
+        except ValueError as error:  # every core error about the input is a ValueError
+            raise BindError(self._core_message(error)) from None
+        try:
+            yield from self._compute(cage)
+        finally:
+            cage.close()
+
+    def _core_message(self, error):
+        return messages.core_error(self.cage.name, error, self.kind_label, len(self.points),
+                                   self.triangle_faces)
+
+    def _compute(self, cage):
         count, cage_count = len(self.points), len(self.cage_vertices)
         slot_count = cage_count if self.basis is None else self.basis.shape[1]
         slots = np.empty((count, slot_count), dtype=np.float32)
@@ -277,19 +294,21 @@ class BindJob:
         stride = max(1, count // DEVIATION_SAMPLES)
         samples, sample_slots = [], []
         smallest, negative, affine_error = np.inf, 0, 0.0
-        chunk = max(1, CHUNK_ENTRIES // cage_count)
+        # Workers are chosen once for the whole job; each call gives every one a chunk.
+        workers = cage.suggested_workers(count) if WORKERS is None else WORKERS
+        chunk = max(1, CHUNK_ENTRIES * workers // cage_count)
         for start in range(0, count, chunk):
             rows = slice(start, min(start + chunk, count))
             try:
-                coordinates = core.coordinates(
-                    self.points[rows], self.cage_vertices, self.triangles, kind=self.kind,
-                    outside=self.outside, locations=locations[rows],
-                    tolerance=FLOAT32_TOLERANCE)
+                coordinates = cage.coordinates(self.points[rows], kind=self.kind, outside=self.outside,
+                                               locations=locations[rows], workers=workers)
             except core.OutsideCageError:
-                raise BindError(self._outside_message()) from None
+                raise BindError(self._outside_message(cage)) from None
             except ValueError as error:  # every other core error is a ValueError
-                raise BindError(messages.core_error(self.cage.name, error, self.kind_label,
-                                                    count, self.triangle_faces)) from None
+                raise BindError(self._core_message(error)) from None
+            except core.WorkerError as error:
+                raise BindError(f"Bind's worker processes failed ({error}); try again, or bind "
+                                "with fewer vertices at a time") from None
             if not np.isfinite(coordinates).all():
                 raise BindError(f"Binding to '{self.cage.name}' gave undefined coordinates: "
                                 "check the cage for tiny or overlapping faces")
@@ -301,6 +320,7 @@ class BindJob:
             picked = np.arange(-start % stride, rows.stop - start, stride)
             samples.append(coordinates[picked])
             sample_slots.append(slots[rows][picked])
+            del coordinates  # with workers, shared memory: freed before the next chunk's
             yield rows.stop / count
 
         deviation = {"deviation_smooth": 0.0, "deviation_drag": 0.0}
@@ -323,9 +343,8 @@ class BindJob:
             bind_seconds=time.perf_counter() - self.started, **deviation)
         self.result = BindResult(self.storage, slots, self.basis, self.rest_cage, self.info)
 
-    def _outside_message(self):
-        where = core.point_locations(self.points, self.cage_vertices, self.triangles,
-                                     tolerance=FLOAT32_TOLERANCE)
+    def _outside_message(self, cage):
+        where = cage.point_locations(self.points)
         return messages.outside_error(self.cage.name, int(np.count_nonzero(where == core.OUTSIDE)),
                                       len(self.points))
 

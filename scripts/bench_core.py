@@ -1,14 +1,17 @@
 """Speed and memory of core.coordinates, beside an independent C++ implementation.
 
 Cost is reported per (point x facet) on a 642-vertex icosphere cage (1280 triangles),
-as the issue quotes the C++ figures measured on this machine (single-threaded), and
-peak extra memory for a large batch (numpy reports its allocations to tracemalloc).
+beside CGAL 6.2's figures measured on this machine (C++, double, one thread), and peak
+extra memory for a large batch (numpy reports its allocations to tracemalloc).
 
     .venv/bin/python scripts/bench_core.py [--points 4000] [--memory-points 200000]
+    .venv/bin/python scripts/bench_core.py --workers     # 1, 2, 4, ... all cores
+    .venv/bin/python scripts/bench_core.py --million     # 1M points, mean value, float32
 """
 
 import argparse
 import os
+import resource
 import sys
 import time
 import tracemalloc
@@ -17,7 +20,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import core  # noqa: E402
-import core.barycentric  # noqa: E402
+from core.parallel import available_cores  # noqa: E402
 from core.shapes import icosphere  # noqa: E402
 
 CPP_NS_PER_POINT_FACET = {"wachspress": 39.0, "discrete_harmonic": 78.0, "mean_value": 231.0}
@@ -39,45 +42,86 @@ def best_time(function, repeats):
     return best
 
 
+def single_worker_table(vertices, faces, points, repeats):
+    pairs = len(points) * len(faces)
+    print("| kind | CGAL 6.2, 1 thread, ns | ours, 1 worker, ns | CGAL / ours | max linear precision error |")
+    print("|---|---|---|---|---|")
+    with core.Cage(vertices, faces) as cage:
+        for kind in core.KINDS:
+            cage.coordinates(points[:200], kind=kind, workers=1)  # warm up
+            seconds = best_time(lambda: cage.coordinates(points, kind=kind, workers=1), repeats)
+            ns = seconds / pairs * 1e9
+            error = np.abs(cage.coordinates(points, kind=kind, workers=1) @ vertices - points).max()
+            reference = CPP_NS_PER_POINT_FACET.get(kind)
+            ratio = f"{reference / ns:.2f}" if reference else "-"
+            print(f"| {kind} | {reference or '-'} | {ns:.1f} | {ratio} | {error:.1e} |")
+
+
+def workers_table(vertices, faces, points, repeats):
+    """Throughput for 1, 2, 4, ... workers (and all cores), each kind."""
+    cores = available_cores()
+    counts = sorted({min(2 ** i, cores) for i in range(cores.bit_length() + 1)})
+    print(f"\nworkers: {len(points)} points per call, a kept core.Cage (workers started once, "
+          f"then reused); points per second and speed-up over one worker\n")
+    print("| kind | " + " | ".join(f"{count} workers" for count in counts) + " |")
+    print("|---|" + "---|" * len(counts))
+    for kind in core.KINDS:
+        cells, single = [], None
+        for count in counts:
+            with core.Cage(vertices, faces) as cage:
+                cage.coordinates(points[:4 * count], kind=kind, workers=count)  # start
+                seconds = best_time(lambda: cage.coordinates(points, kind=kind, workers=count), repeats)
+            rate = len(points) / seconds
+            single = single or rate
+            cells.append(f"{rate:,.0f}/s ({rate / single:.2f}x)")
+        print(f"| {kind} | " + " | ".join(cells) + " |")
+
+
+def million(vertices, faces):
+    """1M points, mean value, float32 result, all cores: wall time and peak memory."""
+    points = interior_points(1_000_000, 0.95, seed=2)
+    start = time.perf_counter()
+    result = core.coordinates(points, vertices, faces, kind="mean_value", dtype=np.float32)
+    seconds = time.perf_counter() - start
+    parent = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
+    child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 2**10
+    error = np.abs(result[::1000].astype(np.float64) @ vertices - points[::1000]).max()
+    print(f"\n1,000,000 points x {len(vertices)}-vertex cage, mean value, float32 out, "
+          f"{available_cores()} workers: {seconds:.1f} s; result {result.nbytes / 2**20:.0f} MB "
+          f"(shared memory); peak resident memory: this process {parent:.0f} MB (the result "
+          f"included), largest worker {child:.0f} MB; linear precision error {error:.1e}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=4000)
     parser.add_argument("--memory-points", type=int, default=200_000)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--workers", action="store_true", help="the table of worker counts")
+    parser.add_argument("--workers-points", type=int, default=40_000)
+    parser.add_argument("--million", action="store_true", help="1M points, mean value, float32")
     args = parser.parse_args()
 
     vertices, faces = icosphere(4 - 1)  # 642 vertices
     points = interior_points(args.points, 0.95)
-    pairs = len(points) * len(faces)
     print(f"$ {' '.join([os.path.basename(sys.executable)] + sys.argv)}")
     print(f"cage: icosphere, {len(vertices)} vertices, {len(faces)} triangles; {len(points)} interior "
-          f"points; {os.cpu_count()} cores\n")
-    print("| kind | C++ 1 thread ns | ours 1 thread ns | ours 2 threads ns | C++ / ours (2 threads) "
-          "| max linear precision error |")
-    print("|---|---|---|---|---|---|")
-    workers = core.barycentric._WORKERS
-    for kind in core.KINDS:
-        timings = {}
-        core.coordinates(points[:200], vertices, faces, kind=kind)  # warm up
-        for threads in (1, workers):
-            core.barycentric._WORKERS = threads
-            timings[threads] = best_time(lambda: core.coordinates(points, vertices, faces, kind=kind),
-                                         args.repeats) / pairs * 1e9
-        core.barycentric._WORKERS = workers
-        error = np.abs(core.coordinates(points, vertices, faces, kind=kind) @ vertices - points).max()
-        reference = CPP_NS_PER_POINT_FACET.get(kind)
-        ratio = f"{reference / timings[workers]:.2f}" if reference else "-"
-        print(f"| {kind} | {reference or '-'} | {timings[1]:.1f} | {timings[workers]:.1f} | {ratio} "
-              f"| {error:.1e} |")
+          f"points; {os.cpu_count()} cores, {available_cores()} usable\n")
+    single_worker_table(vertices, faces, points, args.repeats)
+    if args.workers:
+        workers_table(vertices, faces, interior_points(args.workers_points, 0.95, seed=3), args.repeats)
+    if args.million:
+        million(vertices, faces)
+        return
 
     many = interior_points(args.memory_points, 0.95, seed=1)
     tracemalloc.start()
     baseline = tracemalloc.get_traced_memory()[0]
-    result = core.coordinates(many, vertices, faces, kind="mean_value")
+    result = core.coordinates(many, vertices, faces, kind="mean_value", workers=1)
     peak = tracemalloc.get_traced_memory()[1] - baseline
     tracemalloc.stop()
-    print(f"\npeak memory for {len(many)} points (mean value): {peak / 2**20:.0f} MB, of which the "
-          f"(k, n) result is {result.nbytes / 2**20:.0f} MB: working memory "
+    print(f"\npeak memory for {len(many)} points (mean value, one worker): {peak / 2**20:.0f} MB, of "
+          f"which the (k, n) result is {result.nbytes / 2**20:.0f} MB: working memory "
           f"{(peak - result.nbytes) / 2**20:.0f} MB (budget 256 MB)")
 
 

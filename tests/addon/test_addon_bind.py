@@ -1,5 +1,8 @@
 """Binding and the native deformer, driven through the operators as a script would."""
 
+import glob
+import os
+
 import bmesh
 import bpy
 import numpy as np
@@ -371,18 +374,38 @@ def test_status_reports_the_core_summary(gc):
     assert all(len(line) < 110 for line in text.splitlines())
 
 
-def test_bind_computes_in_chunks_and_a_cancel_changes_nothing(gc, monkeypatch):
+def worker_processes():
+    """Live core worker processes started by this process (Linux /proc)."""
+    found = []
+    for status in glob.glob("/proc/[0-9]*/status"):
+        try:
+            with open(status) as file:
+                parent = next(line for line in file if line.startswith("PPid:")).split()[1]
+            with open(status.replace("status", "cmdline"), "rb") as file:
+                command = file.read()
+        except (OSError, StopIteration):
+            continue
+        if int(parent) == os.getpid() and b".parallel').serve()" in command:
+            found.append(status)
+    return found
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_bind_computes_in_chunks_and_a_cancel_changes_nothing(gc, monkeypatch, workers):
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
     obj.gencoords.cage = cage
     before = mesh_state(obj)
-    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 3000)  # 250 points a chunk
+    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 3000)  # 250 points a chunk per worker
+    monkeypatch.setattr(gc.binding, "WORKERS", workers)
     activate(obj)
     job = gc.binding.BindJob(obj, bpy.context)
     steps = job.steps()
     fractions = [next(steps) for _ in range(3)]
     assert fractions == sorted(fractions) and fractions[-1] < 1.0
+    assert len(worker_processes()) == (workers if workers > 1 else 0)
     steps.close()  # what Esc does
+    assert not worker_processes()
     assert mesh_state(obj)[1] == before[1] and not obj.modifiers
     assert not [g for g in bpy.data.node_groups if "GenCoords" in g.name]
     job = gc.binding.BindJob(obj, bpy.context)
@@ -414,17 +437,30 @@ def test_a_failure_in_the_middle_of_the_compute_changes_nothing(gc, monkeypatch)
     before = mesh_state(obj)
     monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 3000)
     calls = []
-    original = gc.core.coordinates
+    original = gc.core.Cage.coordinates
 
     def fails_on_the_third_chunk(*args, **kwargs):
         calls.append(1)
         if len(calls) == 3:
             raise ValueError("injected fault")
         return original(*args, **kwargs)
-    monkeypatch.setattr(gc.core, "coordinates", fails_on_the_third_chunk)
+    monkeypatch.setattr(gc.core.Cage, "coordinates", fails_on_the_third_chunk)
     with pytest.raises(RuntimeError, match="injected fault"):
         bind(obj, cage)
     assert mesh_state(obj)[1] == before[1] and not obj.modifiers
+
+
+def test_bind_in_worker_processes_stores_what_one_process_computes(gc, monkeypatch):
+    # The workers run the installed extension's core (not bpy) in fresh interpreters.
+    cage = add_icosphere_cage()
+    first, second = add_subdivided_sphere(levels=2), add_subdivided_sphere(levels=2)
+    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 5000)
+    monkeypatch.setattr(gc.binding, "WORKERS", 1)
+    bind(first, cage)
+    monkeypatch.setattr(gc.binding, "WORKERS", 2)
+    bind(second, cage)
+    np.testing.assert_array_equal(coordinates_of(gc, second), coordinates_of(gc, first))
+    assert not worker_processes()
 
 
 def test_auto_rebind_binds_again_on_leaving_edit_mode(gc):
