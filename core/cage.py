@@ -11,8 +11,7 @@ import numpy as np
 from .boundary import OUTSIDE
 from .construction import point_frame
 from .errors import CageError, OutsideCageError
-from .evaluation import chunk_size, evaluate_rows, keep_freed_memory_for_reuse, locate_rows
-from .floater import floater_terms
+from .evaluation import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
 from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS, named_ridge_scalars
 from .parallel import SharedArrays, WorkerPool, available_cores
 from .validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
@@ -207,7 +206,7 @@ class Cage:
         points = self._points(points)
         cage = self._prepared
         if self._terms is None:
-            self._terms = floater_terms(cage)
+            self._terms = evaluation_terms(cage)
         count = len(points)
         chunk = chunk_size(cage)
         job = dict(kind=kind, outside=outside, normalise=normalise, convex=self.convex,

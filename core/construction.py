@@ -43,9 +43,10 @@ class Cage:
         Outward normal of each facet scaled to (N-1)! times its (N-1)-volume.
     facet_offsets : (m,) float
         ``v_t0 . facet_normal``: ``det E_T(x) = facet_offset - x . facet_normal``.
-    ridge_dot_constant, ridge_dot_linear : (p, p, r, 1), (p, p, r, N) float
-        ``e_a . e_b = v_a . v_b - x . (v_a + v_b) + |x|^2`` for ridge vertices a, b:
-        the constant and the vector multiplying -x.
+    ridge_side_lengths_squared : (p, p, r, 1) float
+        ``|v_a - v_b|^2`` for ridge vertices a, b: with the vertices' ``|e|^2`` it gives
+        every ``e_a . e_b = (|e_a|^2 + |e_b|^2 - |v_a - v_b|^2) / 2`` (law of cosines),
+        so a ridge's Gram matrix costs gathers instead of matrix products.
     ridge_cross_constant, ridge_cross_linear : (N, r, 1), (N, r, N) float
         The ridge's generalized cross product of ``e = v - x`` is affine in x (it is
         alternating multilinear, so terms with x in two slots vanish): constant plus
@@ -58,8 +59,7 @@ class Cage:
     topology: CageTopology
     facet_normals: np.ndarray
     facet_offsets: np.ndarray
-    ridge_dot_constant: np.ndarray
-    ridge_dot_linear: np.ndarray
+    ridge_side_lengths_squared: np.ndarray
     ridge_cross_constant: np.ndarray
     ridge_cross_linear: np.ndarray
 
@@ -123,8 +123,7 @@ def _ridge_polynomials(corners):
     """
     count, size, dim = corners.shape
     slots = corners.transpose(1, 2, 0)  # (p, N, r)
-    dot_constant = np.einsum("arN,brN->abr", corners.transpose(1, 0, 2), corners.transpose(1, 0, 2))
-    dot_linear = (corners.transpose(1, 0, 2)[:, None] + corners.transpose(1, 0, 2)[None, :])  # (p, p, r, N)
+    sides = corners[:, :, None, :] - corners[:, None, :, :]  # (r, p, p, N)
     cross_linear = np.zeros((dim, count, dim))
     for slot in range(size):
         for axis in range(dim):
@@ -135,8 +134,7 @@ def _ridge_polynomials(corners):
             replaced[slot, axis] = 1.0
             cross_linear[:, :, axis] -= generalized_cross(replaced)
     return {
-        "ridge_dot_constant": dot_constant[..., None],
-        "ridge_dot_linear": np.ascontiguousarray(dot_linear),
+        "ridge_side_lengths_squared": np.einsum("rabN,rabN->abr", sides, sides)[..., None],
         "ridge_cross_constant": generalized_cross(slots)[..., None],
         "ridge_cross_linear": cross_linear,
     }
@@ -170,17 +168,39 @@ class PointFrame:
         if facet_det is not None:
             self.facet_det = np.ascontiguousarray(facet_det)  # rows are gathered per ridge
 
+    @property
+    def centred_points(self):
+        """The points relative to the cage's origin: (k, N) float."""
+        return self._x
+
+    @cached_property
+    def vertex_lengths_squared(self):
+        """``|e|^2 = |v - x|^2`` of every cage vertex: (n, k) float.
+
+        From the differences, not ``|v|^2 - 2 v.x + |x|^2``: exact to rounding even for
+        x next to v, where the expanded form would cancel.
+        """
+        vertices, x = self._cage.vertices, self._x
+        total = np.subtract.outer(vertices[:, 0], x[:, 0])
+        total *= total
+        for axis in range(1, vertices.shape[1]):
+            difference = np.subtract.outer(vertices[:, axis], x[:, axis])
+            difference *= difference
+            total += difference
+        return total
+
     @cached_property
     def ridge_gram(self):
-        cage, x = self._cage, self._x
-        size = cage.ridge_dot_constant.shape[0]
-        squared_norm = np.einsum("kN,kN->k", x, x)
-        gram = np.empty((size, size, cage.ridge_dot_constant.shape[2], len(x)))
+        cage = self._cage
+        size = cage.ridge_side_lengths_squared.shape[0]
+        gram = np.empty((size, size, len(cage.topology.ridges), len(self._x)))
         for a in range(size):
-            for b in range(a, size):
-                np.matmul(cage.ridge_dot_linear[a, b], -x.T, out=gram[a, b])
-                gram[a, b] += cage.ridge_dot_constant[a, b]
-                gram[a, b] += squared_norm
+            np.take(self.vertex_lengths_squared, cage.topology.ridges[:, a], axis=0, out=gram[a, a])
+        for a in range(size):
+            for b in range(a + 1, size):
+                np.add(gram[a, a], gram[b, b], out=gram[a, b])
+                gram[a, b] -= cage.ridge_side_lengths_squared[a, b]
+                gram[a, b] *= 0.5
                 gram[b, a] = gram[a, b]
         return gram
 
@@ -205,7 +225,12 @@ class PointFrame:
     @property
     def ridge_lengths_squared(self):
         """``|e|^2`` of each ridge vertex: (p, r, k) float."""
-        return np.stack([self.ridge_gram[a, a] for a in range(self.ridge_gram.shape[0])])
+        return np.take(self.vertex_lengths_squared, self._cage.topology.ridges.T, axis=0)
+
+    @property
+    def ridge_size(self):
+        """p = N-1, the vertices of a ridge: int."""
+        return self._cage.topology.ridges.shape[1]
 
 
 def point_frame(cage, points, facet_det=None):

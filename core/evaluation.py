@@ -6,16 +6,19 @@ the result depends only on its point and on the chunking, so splitting the point
 processes at chunk boundaries gives bitwise the same coordinates as one process.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from . import tolerances
 from .boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances,
                        plane_limit_coordinates)
 from .construction import construct_weights, facet_determinants, point_frame
-from .floater import floater_form_weights
+from .floater import FloaterTerms, floater_form_weights, floater_terms
 from .generating_surfaces import named_ridge_scalars, named_scaled_ridge_scalars
+from .polar_dual import PolarDualTerms, polar_dual_terms, wachspress_polar_weights
 
-__all__ = ["chunk_size", "evaluate_rows", "locate_rows"]
+__all__ = ["EvaluationTerms", "evaluation_terms", "chunk_size", "evaluate_rows", "locate_rows"]
 
 # (point, facet) pairs per chunk: few enough that the temporaries stay in cache, enough
 # that numpy's per-call overhead is amortised (measured optimum on 162- and 642-vertex
@@ -26,6 +29,20 @@ _CHUNK_BYTES = 24 << 20
 # Locating points in a convex cage needs a few (k, m) arrays: larger chunks, less
 # per-chunk overhead (winding numbers for other cages need the usual chunks).
 _LOCATE_CHUNK_PAIRS = 1 << 20
+
+
+@dataclass(frozen=True)
+class EvaluationTerms:
+    """Per-cage data of the evaluators: Floater's form, and Wachspress's closed form
+    (None above 3D)."""
+
+    floater: FloaterTerms
+    polar_dual: PolarDualTerms
+
+
+def evaluation_terms(cage):
+    """The :class:`EvaluationTerms` of a prepared, closed and oriented cage."""
+    return EvaluationTerms(floater_terms(cage), polar_dual_terms(cage))
 
 
 def chunk_size(cage, locate_only=False, convex=True):
@@ -65,8 +82,8 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
     Parameters
     ----------
     cage : core.construction.Cage
-    terms : core.floater.FloaterTerms
-        ``floater_terms(cage)``.
+    terms : EvaluationTerms
+        ``evaluation_terms(cage)``.
     points : (k, N) float
     kind : str
     convex : bool
@@ -94,12 +111,14 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
     # Mean value terms of facets whose hyperplane passes through x (off the facet) tend
     # to zero and their formula is 0/0: only the reciprocal-basis form can drop single
     # facets. Otherwise Floater's form, the same weights grouped by ridge (Prop. 9), is
-    # cheaper.
+    # cheaper, and Wachspress's closed form (2D, 3D) cheaper still.
     skip = (np.abs(distance.T) <= absolute) if kind == "mean_value" else None
     if skip is not None and skip.any():
         values = construct_weights(cage, frame, named_ridge_scalars(kind, frame), skip).T
+    elif kind == "wachspress" and terms.polar_dual is not None:
+        values = wachspress_polar_weights(cage, terms.polar_dual, frame).T
     else:
-        values = floater_form_weights(cage, terms, points, frame.facet_det,
+        values = floater_form_weights(cage, terms.floater, points, frame.facet_det,
                                       named_scaled_ridge_scalars(kind, frame)).T
     total = values.sum(axis=1, keepdims=True)
     if normalise:

@@ -46,7 +46,7 @@ def mean_value(frame):
 
 def discrete_harmonic_scaled(frame):
     """The polytope itself: d = (N-1)-volume of {x} + ridge = |m_R| / (N-1)!; scaled, |m_R|^2 / (N-1)!."""
-    return frame.ridge_measure_squared / factorial(frame.ridge_gram.shape[0])
+    return frame.ridge_measure_squared / factorial(frame.ridge_size)
 
 
 def wachspress_scaled(frame):

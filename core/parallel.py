@@ -291,8 +291,7 @@ def serve():
     import traceback
 
     from .construction import prepare_cage
-    from .evaluation import evaluate_rows, keep_freed_memory_for_reuse, locate_rows
-    from .floater import floater_terms
+    from .evaluation import evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
 
     commands, replies = sys.stdin.buffer, sys.stdout.buffer
     sys.stdout = sys.stderr  # nothing but replies on the reply pipe
@@ -311,7 +310,7 @@ def serve():
         try:
             if command[0] == "cage":
                 cage = prepare_cage(command[1], command[2])
-                terms = floater_terms(cage)
+                terms = evaluation_terms(cage)
             elif command[0] == "map":
                 arrays, job = attach(command[1], command[2]), command[3]
                 reply("mapped")

@@ -166,3 +166,21 @@ def test_ridge_order_matches_the_columns_of_ridge_scalars():
     d = core.ridge_scalars(x, vertices, faces, "discrete_harmonic")
     e = vertices[ridges] - x  # (r, 2, 3)
     np.testing.assert_allclose(d[0], 0.5 * np.linalg.norm(np.cross(e[:, 0], e[:, 1]), axis=1))
+
+
+@given(seed=SEEDS, shape=st.sampled_from([(2, 9), (3, 12)]))
+@EXAMPLES
+def test_wachspress_closed_form_equals_the_construction(seed, shape):
+    # The polar dual's closed form (the evaluator of Wachspress in 2D and 3D) against
+    # the reciprocal-basis construction fed with the polar dual's ridge scalars: the
+    # same homogeneous weights, scale included.
+    from core.construction import construct_weights, point_frame
+    from core.polar_dual import polar_dual_terms, wachspress_polar_weights
+
+    rng, vertices, faces, points = polytope_and_points(seed, *shape)
+    cage = core.validate_cage(vertices, faces)
+    frame = point_frame(cage, points)
+    closed_form = wachspress_polar_weights(cage, polar_dual_terms(cage), frame)
+    construction = construct_weights(cage, frame, core.ridge_scalars(points, vertices, faces, "wachspress").T)
+    np.testing.assert_allclose(closed_form, construction, rtol=1e-9, atol=1e-12 * np.abs(construction).max())
+    assert residual(closed_form.T, points, vertices) < 1e-12
