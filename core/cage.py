@@ -10,10 +10,10 @@ import numpy as np
 
 from .boundary import OUTSIDE
 from .construction import point_frame
-from .errors import CageError, OutsideCageError
+from .errors import CageError, OutsideCageError, WorkerError
 from .evaluation import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
 from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS, named_ridge_scalars
-from .parallel import SharedArrays, WorkerPool, available_cores
+from .parallel import SharedArrays, WorkerPool, available_cores, python_executable
 from .validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
 
 __all__ = ["Cage", "OUTSIDE_MODES", "needs_convex"]
@@ -199,7 +199,13 @@ class Cage:
             return int(workers)
         if self._pool is not None and not self._pool.closed:
             return self._pool.size
-        return max(1, min(available_cores(), count * pairs_per_point // _PAIRS_PER_WORKER))
+        wanted = max(1, min(available_cores(), count * pairs_per_point // _PAIRS_PER_WORKER))
+        if wanted > 1:
+            try:
+                python_executable()
+            except WorkerError:  # an embedding without a Python to start: compute here
+                return 1
+        return wanted
 
     def _evaluate(self, points, kind, outside, normalise, progress, dtype, workers):
         self._check_kind(kind)

@@ -1,10 +1,11 @@
 """Worker processes: the points of one call split over fresh Python interpreters.
 
 Threads do not help: the construction is many small numpy calls, each holding the
-interpreter lock. Processes do. Each worker is ``sys.executable`` (the venv's Python,
-or the Python that Blender bundles, never Blender itself) running only this package and
-numpy: the package is imported by its folder, so a parent package that needs bpy is
-never imported, and no ``multiprocessing`` start method re-runs the caller's script.
+interpreter lock. Processes do. Each worker is a Python interpreter (the venv's, or the
+one Blender bundles, never Blender itself: :func:`python_executable`) running only this
+package and numpy: the package is imported by its folder, so a parent package that
+needs bpy is never imported, and no ``multiprocessing`` start method re-runs the
+caller's script.
 
 Data crosses in shared memory, never pickled: a call's points, locations and result
 live in one memory-mapped file (in ``/dev/shm`` where there is one), mapped by the
@@ -31,7 +32,7 @@ import numpy as np
 
 from .errors import WorkerError
 
-__all__ = ["available_cores", "WorkerPool", "SharedArrays", "serve"]
+__all__ = ["available_cores", "python_executable", "WorkerPool", "SharedArrays", "serve"]
 
 # A worker gets this many dispatch units at a time: one computing, one queued, so it
 # never waits on the parent.
@@ -53,6 +54,26 @@ def available_cores():
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not Linux
         return os.cpu_count() or 1
+
+
+def python_executable():
+    """The Python interpreter to start workers with: str.
+
+    ``sys.executable``, which Blender (2.91 and later) sets to the Python it bundles;
+    where it is missing or is not a Python (some embedding programs leave it unset or
+    point it at themselves), the interpreter under ``sys.prefix``.
+    """
+    name = os.path.basename(sys.executable or "").lower()
+    if name.startswith("python"):
+        return sys.executable
+    version = f"{sys.version_info.major}.{sys.version_info.minor}"
+    for candidate in (os.path.join(sys.prefix, "bin", f"python{version}"),
+                      os.path.join(sys.prefix, "bin", "python3"), os.path.join(sys.prefix, "python.exe"),
+                      os.path.join(sys.prefix, "bin", "python.exe")):
+        if os.path.isfile(candidate):
+            return candidate
+    raise WorkerError(f"no Python interpreter found to start worker processes (sys.executable is "
+                      f"{sys.executable!r}); pass workers=1")
 
 
 class SharedArrays:
@@ -145,7 +166,7 @@ class WorkerPool:
 
     def __init__(self, vertices, faces, count):
         package_folder = os.path.dirname(os.path.abspath(__file__))
-        command = [sys.executable, "-c", _BOOT, os.path.dirname(package_folder),
+        command = [python_executable(), "-c", _BOOT, os.path.dirname(package_folder),
                    os.path.basename(package_folder)]
         environment = dict(os.environ, **_SINGLE_THREADED)
         self._replies = queue.Queue()
@@ -161,7 +182,7 @@ class WorkerPool:
                 self._send(index, ("cage", np.asarray(vertices, np.float64), np.asarray(faces, np.int64)))
         except OSError as error:
             self.close()
-            raise WorkerError(f"could not start worker processes with {sys.executable!r}: {error}; "
+            raise WorkerError(f"could not start worker processes with {command[0]!r}: {error}; "
                               "pass workers=1 to compute in this process") from error
         # Stop the workers whatever happens to the pool (garbage, interpreter exit).
         self._finalizer = weakref.finalize(self, _stop_processes, list(self._processes))

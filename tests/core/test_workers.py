@@ -9,6 +9,7 @@ import pytest
 
 import core
 import core.evaluation
+import core.parallel
 from polytopes import icosphere, random_convex_polytope, random_interior_points
 
 
@@ -128,3 +129,17 @@ def test_bad_worker_counts_are_refused(workers):
     vertices, faces = icosphere(0)
     with pytest.raises(ValueError, match="workers must be a positive integer"):
         core.coordinates(0.1 * vertices, vertices, faces, workers=workers)
+
+
+@pytest.mark.parametrize("executable", [None, "", "/opt/blender/blender"])
+def test_workers_start_the_prefix_python_when_sys_executable_is_not_one(monkeypatch, executable,
+                                                                       mixed_points, small_chunks):
+    # Embedding programs may leave sys.executable unset or point it at themselves.
+    import sys
+
+    vertices, faces, points = mixed_points
+    expected = core.coordinates(points, vertices, faces, outside="project", workers=1)
+    monkeypatch.setattr(sys, "executable", executable)
+    assert os.path.basename(core.parallel.python_executable()).startswith("python")
+    np.testing.assert_array_equal(core.coordinates(points, vertices, faces, outside="project", workers=2),
+                                  expected)
