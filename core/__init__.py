@@ -11,7 +11,7 @@ from . import tolerances
 from .boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction import weights_from_ridge_scalars
 from .barycentric import OUTSIDE_MODES, coordinates, needs_convex, point_locations, ridge_scalars, weights
-from .deformation import coordinate_summary, deform, field_colors
+from .deformation import coordinate_summary, deform, field_colors, field_range
 from .errors import CageError, OutsideCageError
 from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalars, floater_weights,
                       ridge_scalars_from_floater)
@@ -25,6 +25,6 @@ __all__ = [
     "coordinates", "weights", "ridges", "ridge_scalars", "weights_from_ridge_scalars",
     "floater_weights", "floater_matrix", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
     "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
-    "field_colors", "coordinate_summary", "triangulate_quads", "orient_facets_outward", "CageError", "OutsideCageError", "KINDS", "KIND_TABLE",
+    "field_colors", "field_range", "coordinate_summary", "triangulate_quads", "orient_facets_outward", "CageError", "OutsideCageError", "KINDS", "KIND_TABLE",
     "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
 ]

@@ -5,7 +5,7 @@ import bpy
 
 from .binding import binding, bindings
 from .status import status_lines
-from .visualise import FIELD_ATTRIBUTE
+from .visualise import field_range
 
 
 def draw_settings(layout, obj):
@@ -52,8 +52,14 @@ def draw_settings(layout, obj):
         row = field.row(align=True)
         row.prop(settings, "field_vertex")
         row.operator("object.gencoords_show_field", text="Show", icon='HIDE_OFF')
-        if FIELD_ATTRIBUTE in obj.data.color_attributes:
+        shown = field_range(obj)
+        if shown is not None:
             row.operator("object.gencoords_clear_field", text="", icon='X')
+            lowest, highest = shown
+            legend = field.column(align=True)
+            legend.label(text=f"Purple 0 to yellow {highest:.3g}")
+            if lowest < 0.0:
+                legend.label(text=f"Pink to red: negative, down to {lowest:.3g}")
 
 
 class GenCoordsPanel:
