@@ -12,7 +12,7 @@ from .boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction import weights_from_ridge_scalars
 from .cage import Cage
 from .barycentric import OUTSIDE_MODES, coordinates, needs_convex, point_locations, ridge_scalars, weights
-from .deformation import coordinate_summary, deform, field_colors
+from .deformation import coordinate_summary, deform, field_colors, field_range
 from .errors import CageError, OutsideCageError, WorkerError
 from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalars, floater_weights,
                       ridge_scalars_from_floater)
@@ -26,7 +26,7 @@ __all__ = [
     "Cage", "coordinates", "weights", "ridges", "ridge_scalars", "weights_from_ridge_scalars",
     "floater_weights", "floater_matrix", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
     "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
-    "field_colors", "coordinate_summary", "triangulate_quads", "orient_facets_outward", "CageError", "OutsideCageError", "WorkerError",
-    "KINDS", "KIND_TABLE",
+    "field_colors", "field_range", "coordinate_summary", "triangulate_quads", "orient_facets_outward",
+    "CageError", "OutsideCageError", "WorkerError", "KINDS", "KIND_TABLE",
     "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
 ]

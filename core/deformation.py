@@ -4,7 +4,7 @@ import numpy as np
 
 from . import tolerances
 
-__all__ = ["deform", "field_colors", "coordinate_summary"]
+__all__ = ["deform", "field_colors", "field_range", "coordinate_summary"]
 
 
 def deform(coordinates, cage_positions, out=None):
@@ -34,11 +34,40 @@ def deform(coordinates, cage_positions, out=None):
     return out
 
 
-def field_colors(values):
-    """Paper-style grey scale of one coordinate field (figures 9 to 11).
+# Viridis (matplotlib's perceptually uniform colour map: its lightness rises evenly, so
+# the field reads the same in grey and to colour-blind eyes), sRGB, sampled at 17 evenly
+# spaced points of 0..1; linear interpolation between them keeps the lightness monotonic.
+VIRIDIS_SRGB = np.array([
+    (0.2670, 0.0049, 0.3294), (0.2823, 0.0950, 0.4173), (0.2788, 0.1755, 0.4834),
+    (0.2590, 0.2515, 0.5247), (0.2297, 0.3224, 0.5457), (0.1994, 0.3876, 0.5546),
+    (0.1727, 0.4488, 0.5579), (0.1490, 0.5081, 0.5573), (0.1276, 0.5669, 0.5506),
+    (0.1206, 0.6258, 0.5335), (0.1579, 0.6838, 0.5017), (0.2461, 0.7389, 0.4520),
+    (0.3692, 0.7889, 0.3829), (0.5160, 0.8312, 0.2943), (0.6785, 0.8637, 0.1895),
+    (0.8456, 0.8873, 0.0997), (0.9932, 0.9062, 0.1439)])
+# Negative coordinates get a ramp of their own, from light pink just below zero to deep
+# magenta-red at the field's most negative value: no colour of it is near viridis, so
+# where a coordinate type goes negative shows at a glance.
+NEGATIVE_SRGB = np.array([(0.99, 0.75, 0.84), (0.93, 0.36, 0.55), (0.70, 0.02, 0.22)])
 
-    Larger values are lighter, scaled to the field's maximum; negative values are black,
-    so a field that stays positive never shows pure black.
+
+def field_range(values):
+    """The values ``field_colors`` scales to: ``(lowest, highest)``, 0 included.
+
+    Values above ``-tolerances.NEGATIVE`` count as zero (round-off, not a negative
+    coordinate), as in ``coordinate_summary``.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    lowest = values.min(initial=0.0)
+    return (lowest if lowest < -tolerances.NEGATIVE else 0.0), values.max(initial=0.0)
+
+
+def field_colors(values):
+    """Colours of one coordinate field: viridis for 0 to its maximum, a separate pink to
+    red ramp for negative values.
+
+    0 is dark purple and the field's largest value yellow; negative values run from light
+    pink (just below 0) to deep red (the field's most negative value). ``field_range``
+    gives the two ends, for a legend.
 
     Parameters
     ----------
@@ -48,16 +77,32 @@ def field_colors(values):
     Returns
     -------
     colors : (k, 4) float32
-        Linear RGBA in [0, 1], alpha 1.
+        Linear RGBA (what Blender's colour attributes hold), alpha 1.
     """
     values = np.asarray(values, dtype=np.float64)
-    top = values.max(initial=0.0)
-    scale = 1.0 / top if top > 0.0 else 0.0
-    grey = np.where(values < 0.0, 0.0, 0.08 + 0.92 * np.clip(values * scale, 0.0, 1.0))
+    lowest, highest = field_range(values)
+    positive = np.clip(values / highest, 0.0, 1.0) if highest > 0.0 else np.zeros_like(values)
+    srgb = _ramp(VIRIDIS_SRGB, positive)
+    negative = values < -tolerances.NEGATIVE
+    if negative.any():
+        srgb[negative] = _ramp(NEGATIVE_SRGB, values[negative] / lowest)
     colors = np.empty((len(values), 4), dtype=np.float32)
-    colors[:, :3] = grey[:, None]
+    colors[:, :3] = _srgb_to_linear(srgb)
     colors[:, 3] = 1.0
     return colors
+
+
+def _ramp(table, t):
+    """Colours at ``t`` in [0, 1] interpolated linearly between the rows of ``table``."""
+    position = np.clip(t, 0.0, 1.0) * (len(table) - 1)
+    below = np.minimum(position.astype(np.int64), len(table) - 2)
+    fraction = (position - below)[:, None]
+    return (1.0 - fraction) * table[below] + fraction * table[below + 1]
+
+
+def _srgb_to_linear(srgb):
+    """The sRGB transfer function inverted (IEC 61966-2-1)."""
+    return np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
 
 
 def coordinate_summary(coordinates):

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["regular_polygon", "octahedron", "icosphere"]
+__all__ = ["regular_polygon", "octahedron", "irregular_octahedron", "icosphere"]
 
 
 def regular_polygon(sides, radius=1.0):
@@ -33,6 +33,22 @@ def octahedron(radii=(1.0, 1.0, 1.0)):
     faces = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4],
                       [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
     return vertices, faces
+
+
+def irregular_octahedron():
+    """The irregular octahedron of the paper's figure 10, in ``octahedron``'s vertex order
+    and with its faces: a convex double pyramid over a planar convex quadrilateral, its
+    apexes leaning off axis, so no sphere passes through its vertices.
+
+    Returns
+    -------
+    vertices : (6, 3) float
+        Order: near +x, -x, +y, -y (the quadrilateral, in z = 0), then the two apexes.
+    faces : (8, 3) int
+    """
+    vertices = np.array([[1.25, 0.15, 0.0], [-0.85, -0.1, 0.0], [-0.1, 0.95, 0.0],
+                         [0.2, -0.8, 0.0], [0.3, 0.15, 1.1], [-0.25, -0.1, -0.8]])
+    return vertices, octahedron()[1]
 
 
 def icosphere(subdivisions=1, radius=1.0):

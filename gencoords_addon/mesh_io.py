@@ -1,8 +1,5 @@
-"""Fast transfers between Blender meshes and numpy arrays.
-
-``foreach_get``/``foreach_set`` on flat, C-contiguous float32 buffers avoid a Python object
-per vertex; the ``position`` attribute is the fastest path to vertex coordinates.
-"""
+"""What Bind reads from Blender meshes: positions (``mesh_arrays``), triangles, face
+fingerprints and the evaluated cage."""
 
 import contextlib
 import hashlib
@@ -11,16 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import core
+from .mesh_arrays import read_positions
 
-POSITION = "position"
 CORNER_VERTEX = ".corner_vert"  # internal attribute (leading dot), in Blender since 4.0
-
-
-def read_positions(mesh):
-    """Vertex positions of ``mesh`` (its own local space) as a (k, 3) float32 array."""
-    flat = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.attributes[POSITION].data.foreach_get("vector", flat)
-    return flat.reshape(-1, 3)
 
 
 def read_triangles(mesh, positions):

@@ -182,8 +182,9 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
 
 
 class OBJECT_OT_gencoords_show_field(MeshOperator, bpy.types.Operator):
-    """Paint the coordinate field of the chosen cage vertex on the mesh (lighter is larger,
-    black is negative) as the colour attribute "GenCoords Field\""""
+    """Paint the coordinate field of the chosen cage vertex on the mesh (purple 0 to yellow
+    largest, pink to red negative) as the colour attribute "GenCoords Field", and mark the
+    vertex on the cage"""
 
     bl_idname = "object.gencoords_show_field"
     bl_label = "Show Coordinate"

@@ -1,15 +1,27 @@
 """The GenCoords panel, drawn identically in the Modifiers tab (above the stack, with the
 modifier Bind adds) and in the 3D view sidebar."""
 
+import textwrap
+
 import bpy
 
 from .binding import binding, bindings
 from .status import status_lines
-from .visualise import FIELD_ATTRIBUTE
+from .visualise import field_range
 
 
-def draw_settings(layout, obj):
-    """Everything the panel shows for the mesh object ``obj``."""
+CHARACTER_WIDTH = 7  # pixels of an average interface character at UI scale 1
+
+
+def wrapped(text, width):
+    """``text`` in lines of at most ``width`` characters (``None``: one line); status
+    lines are sentences, and a label Blender cuts off loses their end."""
+    return [text] if width is None else textwrap.wrap(text, max(width, 16)) or [""]
+
+
+def draw_settings(layout, obj, width=None):
+    """Everything the panel shows for the mesh object ``obj``; ``width``: characters that
+    fit on a status line (None: no wrapping)."""
     settings = obj.gencoords
     bound = binding(obj) is not None
     column = layout.column()
@@ -18,12 +30,12 @@ def draw_settings(layout, obj):
     row.operator("object.gencoords_make_cage", text="", icon='MESH_ICOSPHERE')
     if settings.cage is not None:
         # Artists keep cages out of the way: as wires or bounds, or hidden (still driving).
-        column.prop(settings.cage, "display_type", text="Show Cage As")
-    column.prop(settings, "kind")
+        column.prop(settings.cage, "display_type", text="Display")
+    column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
     column.prop(settings, "outside")
     column.prop(settings, "storage")
     if settings.storage != 'EXACT':
-        column.prop(settings, "compact_size")
+        column.prop(settings, "compact_size", text="Slots")
     column.prop(settings, "auto_rebind")
 
     row = layout.row(align=True)
@@ -42,9 +54,10 @@ def draw_settings(layout, obj):
             item.operator("object.gencoords_unbind", text="", icon='X').modifier = \
                 found.modifier.name
 
-    box = layout.box()
+    box = layout.box().column(align=True)
     for text, icon in status_lines(obj):
-        box.label(text=text, icon=icon)
+        for number, line in enumerate(wrapped(text, width)):
+            box.label(text=line, icon=icon if number == 0 else 'BLANK1')
 
     if bound:
         field = layout.column()
@@ -52,8 +65,14 @@ def draw_settings(layout, obj):
         row = field.row(align=True)
         row.prop(settings, "field_vertex")
         row.operator("object.gencoords_show_field", text="Show", icon='HIDE_OFF')
-        if FIELD_ATTRIBUTE in obj.data.color_attributes:
+        shown = field_range(obj)
+        if shown is not None:
             row.operator("object.gencoords_clear_field", text="", icon='X')
+            lowest, highest = shown
+            legend = field.column(align=True)
+            legend.label(text=f"Purple 0 to yellow {highest:.3g}")
+            if lowest < 0.0:
+                legend.label(text=f"Pink to red: negative, down to {lowest:.3g}")
 
 
 class GenCoordsPanel:
@@ -65,7 +84,10 @@ class GenCoordsPanel:
 
     def draw(self, context):
         self.layout.use_property_split = True
-        draw_settings(self.layout, context.object)
+        scale = context.preferences.system.ui_scale
+        # the icon and the box's margins take about 6 characters
+        width = int(context.region.width / (CHARACTER_WIDTH * scale)) - 6
+        draw_settings(self.layout, context.object, width)
 
 
 class OBJECT_PT_gencoords(GenCoordsPanel, bpy.types.Panel):

@@ -1,9 +1,18 @@
-"""Show coordinate: paint one cage vertex's coordinate field on the mesh as colours."""
+"""Show coordinate: paint one cage vertex's coordinate field on the mesh as colours, and
+mark that vertex on the cage."""
+
+import bpy
 
 from .. import core
 from . import binding
 
 FIELD_ATTRIBUTE = "GenCoords Field"
+# On the mesh data, beside the colours: (lowest, highest) of the field shown, from
+# ``core.field_range``, for the panel's legend. A leading underscore hides it in the UI.
+FIELD_RANGE = "_gencoords_field_range"
+# On the mesh object: the empty that marks the chosen cage vertex.
+FIELD_MARKER = "_gencoords_field_marker"
+MARKER_SIZE = 0.04  # of the cage's bounding-box diagonal: visible, not in the way
 
 
 def field_problem(obj):
@@ -38,8 +47,51 @@ def paint_field(obj):
         attribute = mesh.color_attributes.new(FIELD_ATTRIBUTE, kind[1], kind[0])
     attribute.data.foreach_set("color", colors.reshape(-1))
     mesh.color_attributes.active_color = attribute
+    mesh[FIELD_RANGE] = core.field_range(values)
     mesh.update()
+    mark_cage_vertex(obj, binding.binding(obj).cage, obj.gencoords.field_vertex)
     return True
+
+
+def field_range(obj):
+    """(lowest, highest) of the field shown on ``obj``, or None when none is shown."""
+    if FIELD_ATTRIBUTE not in obj.data.color_attributes or FIELD_RANGE not in obj.data:
+        return None
+    lowest, highest = obj.data[FIELD_RANGE]
+    return lowest, highest
+
+
+def mark_cage_vertex(obj, cage, vertex):
+    """Put a small sphere empty on ``cage``'s vertex ``vertex``: the field's origin.
+
+    Vertex-parented to the cage, so it follows every cage edit and animation with no
+    Python running; drawn in front, not selectable, not rendered.
+    """
+    marker = obj.get(FIELD_MARKER)
+    if marker is None or marker.name not in bpy.data.objects:
+        marker = bpy.data.objects.new(f"{obj.name}: field vertex", None)
+        marker.empty_display_type = 'SPHERE'
+        marker.show_in_front = True
+        marker.hide_select = True
+        marker.hide_render = True
+        for collection in cage.users_collection:
+            collection.objects.link(marker)
+        obj[FIELD_MARKER] = marker
+    marker.parent = cage
+    marker.parent_type = 'VERTEX'
+    marker.parent_vertices = (vertex, 0, 0)
+    marker.location = (0.0, 0.0, 0.0)
+    # A vertex parent passes on the vertex's world position only, not the cage's scale.
+    marker.empty_display_size = MARKER_SIZE * max(cage.dimensions.length, 1e-6)
+    return marker
+
+
+def remove_marker(obj):
+    marker = obj.get(FIELD_MARKER)
+    if FIELD_MARKER in obj:
+        del obj[FIELD_MARKER]
+    if marker is not None and marker.name in bpy.data.objects:
+        bpy.data.objects.remove(marker)
 
 
 def repaint_if_shown(obj):
@@ -51,6 +103,9 @@ def repaint_if_shown(obj):
 def clear_field(obj):
     """Remove the field colours; False when there were none."""
     mesh = obj.data
+    remove_marker(obj)
+    if FIELD_RANGE in mesh:
+        del mesh[FIELD_RANGE]
     attribute = mesh.color_attributes.get(FIELD_ATTRIBUTE)
     if attribute is None:
         return False

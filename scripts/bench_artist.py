@@ -7,15 +7,16 @@ Usage: bench_artist.py [--million]   (--million adds the strength and mask timin
 """
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import _blender_scene as scn  # noqa: E402  (imports bpy after setting its user folder)
+import blender_session as session
+
+session.prepare()  # before bpy is imported: Blender reads its user folder then
+import blender_scenes as scenes  # noqa: E402
 import bpy  # noqa: E402
+from blender_scenes import arrays  # noqa: E402
 from core import compact  # noqa: E402
 
 REPEATS = 7
@@ -25,38 +26,38 @@ def bind(mesh, cage, kind="mean_value", storage="AUTO"):
     mesh.gencoords.cage = cage
     mesh.gencoords.kind = kind.upper()
     mesh.gencoords.storage = storage
-    scn.make_active(mesh)
-    with scn.quiet():
+    scenes.make_active(mesh)
+    with session.quiet():
         result = bpy.ops.object.gencoords_bind()
     if "FINISHED" not in result:
         raise RuntimeError(f"gencoords_bind returned {result}")
-    return scn.addon_module("binding").binding(mesh)
+    return session.addon_module("binding").binding(mesh)
 
 
 def evaluation_ms(mesh, cage):
     """Median milliseconds of one evaluation after moving the cage's first vertex."""
-    rest = scn.positions(cage)
+    rest = arrays.read_positions(cage.data)
     times = []
     for repeat in range(REPEATS):
         moved = rest.copy()
         moved[0, 2] += 0.02 * (repeat + 1)
-        scn.set_positions(cage, moved)
+        arrays.write_positions(cage.data, moved)
         start = time.perf_counter()
         bpy.context.view_layer.update()
-        scn.evaluated_positions(mesh)
+        arrays.evaluated_positions(mesh)
         times.append(time.perf_counter() - start)
-    scn.set_positions(cage, rest)
+    arrays.write_positions(cage.data, rest)
     return 1000 * float(np.median(times))
 
 
 def strength_and_mask(level, subdivisions, storage):
-    scn.reset_scene()
-    mesh = scn.add_benchmark_mesh(level)
-    cage = scn.add_icosphere_cage(subdivisions)
+    scenes.reset_scene()
+    mesh = scenes.add_benchmark_mesh(level)
+    cage = scenes.add_icosphere_cage(subdivisions)
     found = bind(mesh, cage, storage=storage)
     plain = evaluation_ms(mesh, cage)
-    compat = scn.addon_module("compat")
-    upper = np.flatnonzero(scn.positions(mesh)[:, 2] > 0.0)
+    compat = session.addon_module("compat")
+    upper = np.flatnonzero(arrays.read_positions(mesh.data)[:, 2] > 0.0)
     group = mesh.vertex_groups.new(name="Upper")
     group.add(upper.tolist(), 1.0, 'REPLACE')
     compat.set_modifier_input(found.modifier, "Strength", 0.5)
@@ -68,24 +69,24 @@ def strength_and_mask(level, subdivisions, storage):
 def make_cage_figures(targets):
     rows = []
     for target in targets:
-        scn.reset_scene()
-        mesh = scn.add_suzanne(2)
-        scn.make_active(mesh)
+        scenes.reset_scene()
+        mesh = scenes.add_suzanne(2)
+        scenes.make_active(mesh)
         start = time.perf_counter()
-        with scn.quiet():
+        with session.quiet():
             bpy.ops.object.gencoords_make_cage(target_vertices=target)
         rows.append((target, time.perf_counter() - start, len(mesh.gencoords.cage.data.vertices)))
     return rows
 
 
 def bake_deviation(subdivisions, influences):
-    scn.reset_scene()
-    mesh = scn.add_suzanne(2)
-    cage = scn.add_icosphere_cage(subdivisions)
+    scenes.reset_scene()
+    mesh = scenes.add_suzanne(2)
+    cage = scenes.add_icosphere_cage(subdivisions)
     found = bind(mesh, cage, storage="EXACT")
     coordinates = found.coordinates(mesh.data)
-    bones = scn.addon_module("bones")
-    rest = scn.positions(cage)
+    bones = session.addon_module("bones")
+    rest = arrays.read_positions(cage.data)
     moved = compact.smooth_test_motion(rest)
     return [compact.deviation(coordinates, bones.truncate(coordinates, count), np.eye(len(rest)),
                               rest, moved) for count in influences]
@@ -95,7 +96,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--million", action="store_true")
     args = parser.parse_args()
-    scn.install_extension()
+    session.install_extension()
     print(f"Blender {bpy.app.version_string}; ms per evaluation after a cage edit "
           f"(median of {REPEATS}), reading the positions included")
     print("\nStrength and Mask:")
@@ -117,7 +118,7 @@ def main():
     print("|---:|---:|---:|---:|")
     for subdivisions in (2, 3):
         row = bake_deviation(subdivisions, influences)
-        print(f"| {scn.ICOSPHERE_VERTICES[subdivisions]} | "
+        print(f"| {scenes.ICOSPHERE_VERTICES[subdivisions]} | "
               + " | ".join(f"{value:.1e}" for value in row) + " |", flush=True)
 
 

@@ -46,9 +46,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import _blender_scene as scn  # noqa: E402  (imports bpy after setting its user folder)
+import blender_session as session
+
+session.prepare()  # before bpy is imported: Blender reads its user folder then
+import blender_scenes as scenes  # noqa: E402
 import bpy  # noqa: E402
+from blender_scenes import arrays  # noqa: E402
 
 UPDATE_REPEATS = 7
 MOVED_CAGE_VERTEX = 0  # the top vertex of every icosphere: moves many mesh vertices
@@ -112,9 +115,9 @@ def bind_mesh_deform(mesh, cage, precision):
     modifier = mesh.modifiers.new("MeshDeform", "MESH_DEFORM")
     modifier.object = cage
     modifier.precision = precision
-    scn.make_active(mesh)
+    scenes.make_active(mesh)
     start = time.perf_counter()
-    with scn.quiet():
+    with session.quiet():
         bpy.ops.object.meshdeform_bind(modifier=modifier.name)
     seconds = time.perf_counter() - start
     if not modifier.is_bound:
@@ -131,9 +134,9 @@ def bind_gencoords(mesh, cage, kind, storage):
     mesh.gencoords.storage = storage
     if slots:
         mesh.gencoords.compact_size = int(slots)
-    scn.make_active(mesh)
+    scenes.make_active(mesh)
     start = time.perf_counter()
-    with scn.quiet():  # its "Info: Bound ..." report
+    with session.quiet():  # its "Info: Bound ..." report
         result = bpy.ops.object.gencoords_bind()
     seconds = time.perf_counter() - start
     if "FINISHED" not in result or not mesh.modifiers:
@@ -154,7 +157,7 @@ def update_until_changed(mesh, previous, buffer=None, max_passes=4):
     """
     for passes in range(1, max_passes + 1):
         bpy.context.view_layer.update()
-        now = scn.evaluated_positions(mesh, out=buffer)
+        now = arrays.evaluated_positions(mesh, out=buffer)
         if not np.array_equal(now, previous):
             break
     return now, passes
@@ -162,13 +165,13 @@ def update_until_changed(mesh, previous, buffer=None, max_passes=4):
 
 def settle(mesh):
     """The evaluated mesh after a cage change (made outside any timing)."""
-    return update_until_changed(mesh, scn.evaluated_positions(mesh).copy())[0].copy()
+    return update_until_changed(mesh, arrays.evaluated_positions(mesh).copy())[0].copy()
 
 
 def time_updates(mesh, cage, rest_cage):
     """Median seconds of one live update after moving one cage vertex, and passes used."""
     buffer = np.empty(len(mesh.data.vertices) * 3, dtype=np.float32)
-    previous = scn.evaluated_positions(mesh).copy()
+    previous = arrays.evaluated_positions(mesh).copy()
     times, passes_used = [], []
     for repeat in range(UPDATE_REPEATS):
         offset = 0.05 * (repeat + 1) * (1 if repeat % 2 else -1)
@@ -180,7 +183,7 @@ def time_updates(mesh, cage, rest_cage):
         times.append(time.perf_counter() - start)
         passes_used.append(passes)
         previous = now.copy()
-    scn.set_positions(cage, rest_cage)
+    arrays.write_positions(cage.data, rest_cage)
     settle(mesh)
     return float(np.median(times)), max(passes_used)
 
@@ -189,7 +192,7 @@ def blend_size(tag):
     """Bytes of an uncompressed .blend of the current scene (written, measured, deleted)."""
     with tempfile.TemporaryDirectory(prefix="gencoords-bench-") as folder:
         path = Path(folder) / f"{tag}.blend"
-        with scn.quiet():
+        with session.quiet():
             bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True, compress=False)
         return path.stat().st_size
 
@@ -200,11 +203,11 @@ def run_method(level, subdivisions, method):
     ``method`` is ``("md", precision)`` or ``("gencoords", kind, storage)``; ``level``
     None is the million-vertex sphere.
     """
-    scn.reset_scene()
-    mesh = scn.add_benchmark_mesh(level)
-    cage = scn.add_icosphere_cage(subdivisions)
-    rest_mesh, rest_cage = scn.positions(mesh), scn.positions(cage)
-    size = scn.cage_size(rest_cage)
+    scenes.reset_scene()
+    mesh = scenes.add_benchmark_mesh(level)
+    cage = scenes.add_icosphere_cage(subdivisions)
+    rest_mesh, rest_cage = arrays.read_positions(mesh.data), arrays.read_positions(cage.data)
+    size = scenes.cage_size(rest_cage)
     bpy.context.view_layer.update()
 
     with PeakMemory() as memory:
@@ -214,21 +217,21 @@ def run_method(level, subdivisions, method):
             seconds = bind_gencoords(mesh, cage, method[1], method[2])
     row = {"bind": seconds, "peak": memory.peak, "kept": memory.kept, "deviation": "-"}
     if method[0] == "gencoords":
-        info = scn.addon_module("binding").binding(mesh).info
+        info = session.addon_module("binding").binding(mesh).info
         row["storage"] = f"{info['storage'].lower()} {info['slot_count']}"
         if info["storage"] == "COMPACT":
             row["deviation"] = f"{info['deviation_smooth']:.1e} / {info['deviation_drag']:.1e}"
 
     bpy.context.view_layer.update()
-    bound = scn.evaluated_positions(mesh)
+    bound = arrays.evaluated_positions(mesh)
     row["rest_error"] = float(np.abs(bound - rest_mesh).max()) / size
     row["blend"] = blend_size(f"{method[0]}-{method[1]}")
     row["update"], row["passes"] = time_updates(mesh, cage, rest_cage)
 
-    scn.set_positions(cage, scn.affine_map(rest_cage))
+    arrays.write_positions(cage.data, scenes.affine_map(rest_cage))
     moved = settle(mesh)
-    row["affine"] = float(np.linalg.norm(moved - scn.affine_map(rest_mesh), axis=1).max()) / size
-    scn.set_positions(cage, scn.nonaffine_edit(rest_cage))
+    row["affine"] = float(np.linalg.norm(moved - scenes.affine_map(rest_mesh), axis=1).max()) / size
+    arrays.write_positions(cage.data, scenes.nonaffine_edit(rest_cage))
     row["edited"] = settle(mesh)
     row["size"] = size
     return row
@@ -252,7 +255,7 @@ def table(results):
         reference = rows.get(("md", 5))
         for method, row in rows.items():
             name = (f"Mesh Deform p{method[1]}" if method[0] == "md"
-                    else f"GenCoords {scn.KIND_LABELS[method[1]]} ({row['storage']})")
+                    else f"GenCoords {scenes.KIND_LABELS[method[1]]} ({row['storage']})")
             if reference is not None and method != ("md", 5):
                 ratio = reference["bind"] / row["bind"]
                 speedup = f"{ratio:.1f}x" if ratio >= 1 else f"{ratio:.2g}x"
@@ -281,7 +284,7 @@ def main():
     sweep.add_argument("--million", action="store_true",
                        help="a 999,547-vertex sphere in the 642-vertex cage: GenCoords "
                             "compact against Mesh Deform precision 5")
-    parser.add_argument("--kinds", nargs="+", choices=scn.KINDS, default=list(scn.KINDS))
+    parser.add_argument("--kinds", nargs="+", choices=scenes.KINDS, default=list(scenes.KINDS))
     parser.add_argument("--storages", nargs="+", default=["EXACT", "COMPACT"],
                         help="EXACT, COMPACT (36 slots) or COMPACT:<slots>; --million "
                              "default: COMPACT:12 COMPACT:24 COMPACT:36 (the trade-off)")
@@ -289,7 +292,7 @@ def main():
                         help="Mesh Deform precisions on every scene (5 is the reference "
                              "for ratios). Default: 5 everywhere, 6 on the smallest scene "
                              "only (about 5 minutes); --full: 5 and 6 everywhere")
-    parser.add_argument("--output", type=Path, default=scn.OUT / "bench_blender.md")
+    parser.add_argument("--output", type=Path, default=session.OUT / "bench_blender.md")
     args = parser.parse_args()
     levels, cages = ((2, 3, 4), (2, 3, 4)) if args.full else ((2, 3), (2, 3))
     if args.million:
@@ -311,8 +314,8 @@ def main():
         f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.machine()}",
     ]
     print("\n".join(header), flush=True)
-    zip_path = scn.install_extension()
-    print(f"extension: {zip_path.relative_to(scn.REPO)}\n", flush=True)
+    zip_path = session.install_extension()
+    print(f"extension: {zip_path.relative_to(session.REPO)}\n", flush=True)
 
     # One throw-away bind of a plain Suzanne, so one-time costs (first imports, worker
     # threads) are not charged to the first measured row.
@@ -322,8 +325,8 @@ def main():
     started = time.perf_counter()
     for level in levels:
         for subdivisions in cages:
-            key = (scn.MILLION_VERTICES if level is None else scn.SUZANNE_VERTICES[level],
-                   scn.ICOSPHERE_VERTICES[subdivisions])
+            key = (scenes.MILLION_VERTICES if level is None else scenes.SUZANNE_VERTICES[level],
+                   scenes.ICOSPHERE_VERTICES[subdivisions])
             rows = results.setdefault(key, {})
             smallest = (level, subdivisions) == (levels[0], cages[0])
             precisions = everywhere + (smallest_only if smallest else [])

@@ -18,18 +18,21 @@ Runs in well under two minutes on two cores.
 
 import argparse
 import shutil
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import _blender_scene as scn  # noqa: E402  (imports bpy after setting its user folder)
-import bpy  # noqa: E402
-import core  # noqa: E402
+import blender_session as session
 
-ADDON_KINDS = {kind: kind.upper() for kind in scn.KINDS}  # "mean_value" -> 'MEAN_VALUE'
+session.prepare()  # before bpy is imported: Blender reads its user folder then
+import blender_pictures as pictures  # noqa: E402
+import blender_scenes as scenes  # noqa: E402
+import bpy  # noqa: E402
+from blender_scenes import arrays  # noqa: E402
+import core  # noqa: E402
+import core.shapes  # noqa: E402  (not imported by core itself)
+
+ADDON_KINDS = {kind: kind.upper() for kind in scenes.KINDS}  # "mean_value" -> 'MEAN_VALUE'
 
 INK = (0.05, 0.05, 0.05, 1.0)  # labels and octahedron edges
 ACCENT = (0.85, 0.1, 0.05, 1.0)  # the vertex v
@@ -93,10 +96,10 @@ def add_label(text, location, camera, size=0.32):
     bpy.context.scene.collection.objects.link(obj)
     obj.location = location
     obj.rotation_euler = camera.rotation_euler
-    scn.make_active(obj)
+    scenes.make_active(obj)
     bpy.ops.object.convert(target="MESH")
     obj = bpy.context.active_object
-    scn.set_color_attribute(obj, INK)  # shown when Workbench colours by attribute
+    pictures.set_color_attribute(obj, INK)  # shown when Workbench colours by attribute
     obj.color = INK  # ... and when it colours by object
     return obj
 
@@ -104,11 +107,11 @@ def add_label(text, location, camera, size=0.32):
 def add_outline(polygon, height, location):
     """A thin dark frame around a drawn section, so light regions keep a visible edge."""
     polygon = np.column_stack([polygon[:, :2], np.full(len(polygon), height)])
-    obj = scn.add_mesh_object("outline", polygon, [range(len(polygon))])
+    obj = scenes.add_mesh_object("outline", polygon, [range(len(polygon))])
     obj.location = location
     wire = obj.modifiers.new("Edge", "WIREFRAME")
     wire.thickness, wire.use_even_offset = 0.02, True
-    scn.set_color_attribute(obj, INK)
+    pictures.set_color_attribute(obj, INK)
     return obj
 
 
@@ -120,13 +123,13 @@ def render_fields(path, segments=48):
     another; one grey scale per panel (``core.field_colors`` over all three sections).
     Returns ``{(octahedron, kind): min coordinate of v}`` for the summary.
     """
-    scene = scn.reset_scene()
+    scene = scenes.reset_scene()
     width, height = 1400, 780
-    scn.setup_workbench(scene, width, height, lighting="FLAT", color_type="VERTEX")
+    pictures.setup_workbench(scene, width, height, lighting="FLAT", color_type="VERTEX")
     panel_w, panel_h, title_h = 3.0, 3.75, 0.55
     frame_h = 5 * panel_w * height / width
-    camera = scn.add_camera((0, 0, 0), azimuth=-62, elevation=35, ortho_scale=5 * panel_w)
-    right, up = scn.camera_axes(camera)
+    camera = pictures.add_camera((0, 0, 0), azimuth=-62, elevation=35, ortho_scale=5 * panel_w)
+    right, up = pictures.camera_axes(camera)
     # centre of panel (row 0, col 0): below the title strip at the top of the frame
     top_left = -2.0 * panel_w * right + (frame_h / 2 - title_h - panel_h / 2) * up
     spacing = 1.35  # exploded distance between drawn sections: far enough not to overlap
@@ -136,7 +139,7 @@ def render_fields(path, segments=48):
 
     minima = {}
     for row, regular in enumerate((True, False)):
-        vertices, faces = scn.octahedron(regular)
+        vertices, faces = core.shapes.octahedron() if regular else core.shapes.irregular_octahedron()
         vertices = vertices - vertices.mean(axis=0)  # centre each panel's content
         top, bottom = vertices[:, 2].max(), vertices[:, 2].min()
         heights = (0.45 * top, 0.0, 0.45 * bottom)
@@ -146,17 +149,17 @@ def render_fields(path, segments=48):
 
         # Column 0: the polyhedron, its cutting planes and v.
         origin = panel_origin(row, 0) + 0.3 * up
-        frame = scn.add_mesh_object(f"{name} octahedron", vertices, faces)
+        frame = scenes.add_mesh_object(f"{name} octahedron", vertices, faces)
         frame.location = origin
         wire = frame.modifiers.new("Edges", "WIREFRAME")
         wire.thickness, wire.use_relative_offset = 0.035, True
-        scn.set_color_attribute(frame, INK)
+        pictures.set_color_attribute(frame, INK)
         for polygon in sections:
-            plane = scn.add_mesh_object(f"{name} cut", polygon, [range(len(polygon))])
+            plane = scenes.add_mesh_object(f"{name} cut", polygon, [range(len(polygon))])
             plane.location = origin
-            scn.set_color_attribute(plane, SECTION_TINT)
+            pictures.set_color_attribute(plane, SECTION_TINT)
         bpy.ops.mesh.primitive_uv_sphere_add(radius=0.09, location=origin + vertices[0])
-        scn.set_color_attribute(bpy.context.active_object, ACCENT)
+        pictures.set_color_attribute(bpy.context.active_object, ACCENT)
         add_label("v", origin + vertices[0] + 0.3 * right + 0.15 * up, camera)
         caption = "vertices on a sphere\n(fig. 9)" if regular else "irregular\n(fig. 10)"
         add_label(caption, panel_origin(row, 0) - 1.45 * up, camera, size=0.26)
@@ -164,7 +167,7 @@ def render_fields(path, segments=48):
         # Columns 1-4: the coordinate of v on the sections, one type each.
         grids = [fan_grid(polygon, segments) for polygon in sections]
         points = np.concatenate([g[0] for g in grids])
-        for col, kind in enumerate(scn.KINDS, start=1):
+        for col, kind in enumerate(scenes.KINDS, start=1):
             values = core.coordinates(points, vertices, faces, kind=kind)[:, 0]
             minima[name, kind] = float(values.min())
             colors = core.field_colors(values)
@@ -172,14 +175,14 @@ def render_fields(path, segments=48):
             for level, (grid_points, grid_faces) in enumerate(grids):
                 drawn = grid_points.copy()
                 drawn[:, 2] = (1 - level) * spacing  # exploded: top, middle, bottom
-                obj = scn.add_mesh_object(f"{name} {kind} {level}", drawn, grid_faces)
+                obj = scenes.add_mesh_object(f"{name} {kind} {level}", drawn, grid_faces)
                 obj.location = panel_origin(row, col)
-                scn.set_color_attribute(obj, colors[start:start + len(grid_points)])
+                pictures.set_color_attribute(obj, colors[start:start + len(grid_points)])
                 start += len(grid_points)
                 add_outline(sections[level], drawn[0, 2], panel_origin(row, col))
-    for col, title in enumerate(["polyhedron"] + [scn.KIND_LABELS[k] for k in scn.KINDS]):
+    for col, title in enumerate(["polyhedron"] + [scenes.KIND_LABELS[k] for k in scenes.KINDS]):
         add_label(title, panel_origin(0, col) + (panel_h + title_h) / 2 * up, camera)
-    scn.render(path)
+    pictures.render(path)
     return minima
 
 
@@ -193,21 +196,21 @@ CAMERA_TARGET = np.array([0.0, 0.0, 0.4])  # the edited cage reaches higher than
 def deformation_scene(shape_key=True):
     """Suzanne (7958 vertices) in a snug 42-vertex cage, a camera framing the edited
     cage, and (for the saved file) a "Pull and twist" shape key on the cage at value 0."""
-    scene = scn.reset_scene()
-    scn.setup_workbench(scene, 480, 360, lighting="STUDIO", color_type="OBJECT",
+    scene = scenes.reset_scene()
+    pictures.setup_workbench(scene, 480, 360, lighting="STUDIO", color_type="OBJECT",
                         background=(0.94, 0.94, 0.94))
-    mesh = scn.add_suzanne(level=2)
+    mesh = scenes.add_suzanne(level=2)
     mesh.color = SKIN
-    cage = scn.add_fitted_cage(mesh, subdivisions=2)
+    cage = scenes.add_fitted_cage(mesh, subdivisions=2)
     cage.color = CAGE_WIRE
-    rest_cage = scn.positions(cage)
+    rest_cage = arrays.read_positions(cage.data)
     if shape_key:
         # Animated through the evaluated cage, which is what the add-on follows.
         cage.shape_key_add(name="Basis")
         pull = cage.shape_key_add(name="Pull and twist", from_mix=False)
-        pull.data.foreach_set("co", scn.nonaffine_edit(rest_cage).astype(np.float32).ravel())
+        pull.data.foreach_set("co", scenes.nonaffine_edit(rest_cage).astype(np.float32).ravel())
         pull.value = 0.0
-    scn.add_camera(CAMERA_TARGET, azimuth=-75, elevation=12, ortho_scale=5.0)
+    pictures.add_camera(CAMERA_TARGET, azimuth=-75, elevation=12, ortho_scale=5.0)
     return scene, mesh, cage
 
 
@@ -215,9 +218,9 @@ def bind(mesh, cage, kind):
     """Bind through the extension's operator, as a user would; returns the wall time."""
     mesh.gencoords.cage = cage
     mesh.gencoords.kind = ADDON_KINDS[kind]
-    scn.make_active(mesh)
+    scenes.make_active(mesh)
     start = time.perf_counter()
-    with scn.quiet():  # its "Info: Bound ..." report; the summary says it all
+    with session.quiet():  # its "Info: Bound ..." report; the summary says it all
         bpy.ops.object.gencoords_bind()
     return time.perf_counter() - start
 
@@ -234,13 +237,13 @@ def render_with_cage_wire(cage, path, *more_cages):
     wires = []
     for each in (cage, *more_cages):
         each.hide_render = True
-        wire = scn.add_mesh_object("Cage wire", scn.evaluated_positions(each), scn.triangles(each))
+        wire = scenes.add_mesh_object("Cage wire", arrays.evaluated_positions(each), arrays.read_loop_triangles(each.data))
         wire.matrix_world, wire.color = each.matrix_world, CAGE_WIRE
         modifier = wire.modifiers.new("Wire", "WIREFRAME")
         # No even offset: it divides by the sine of the angles, spiking at sliver triangles.
         modifier.thickness, modifier.use_even_offset = 0.016, False
         wires.append(wire)
-    scn.render(path)
+    pictures.render(path)
     for wire in wires:
         bpy.data.meshes.remove(wire.data)
 
@@ -249,30 +252,30 @@ def artist_pictures():
     """A cage made by Make Cage around the demo mesh, and two cages deforming it at once
     (the made cage stretched, the fitted one pulled and twisted): out/artist.png."""
     scene, mesh, fitted = deformation_scene(shape_key=False)
-    scn.make_active(mesh)
-    with scn.quiet():
+    scenes.make_active(mesh)
+    with session.quiet():
         bpy.ops.object.gencoords_make_cage(target_vertices=100, margin=0.04)
     made = mesh.gencoords.cage
     corner_label(f"made cage, {len(made.data.vertices)} vertices", scene.camera)
     fitted.hide_render = True
-    render_with_cage_wire(made, scn.OUT / "made_cage.png")
+    render_with_cage_wire(made, session.OUT / "made_cage.png")
     bind(mesh, made, "mean_value")
     bind(mesh, fitted, "mean_value")
-    stretched = scn.positions(made) * (1.25, 1.0, 1.0)
-    scn.set_positions(made, stretched)
-    scn.set_positions(fitted, scn.nonaffine_edit(scn.positions(fitted)))
+    stretched = arrays.read_positions(made.data) * (1.25, 1.0, 1.0)
+    arrays.write_positions(made.data, stretched)
+    arrays.write_positions(fitted.data, scenes.nonaffine_edit(arrays.read_positions(fitted.data)))
     settle()
     corner_label("two cages at once", scene.camera)
-    render_with_cage_wire(fitted, scn.OUT / "two_cages.png", made)
-    scn.side_by_side([scn.OUT / "made_cage.png", scn.OUT / "two_cages.png"],
-                     scn.OUT / "artist.png")
+    render_with_cage_wire(fitted, session.OUT / "two_cages.png", made)
+    pictures.side_by_side([session.OUT / "made_cage.png", session.OUT / "two_cages.png"],
+                     session.OUT / "artist.png")
 
 
 def corner_label(text, camera):
     """A caption in the picture's top-left corner (replaces the previous one)."""
     for obj in [o for o in bpy.data.objects if o.name.startswith("Caption")]:
         bpy.data.objects.remove(obj)
-    right, up = scn.camera_axes(camera)
+    right, up = pictures.camera_axes(camera)
     obj = add_label(text, CAMERA_TARGET - 2.3 * right + 1.72 * up, camera, size=0.26)
     obj.name = "Caption"
     # Left-align: shift by half the text's width (labels are centred on their location).
@@ -283,27 +286,27 @@ def corner_label(text, camera):
 def deform_each_kind(kinds):
     """Bind with each type; affine check; render the non-affine edit. Returns summary rows."""
     scene, mesh, cage = deformation_scene(shape_key=False)
-    rest_mesh, rest_cage = scn.positions(mesh), scn.positions(cage)
-    size = scn.cage_size(rest_cage)
+    rest_mesh, rest_cage = arrays.read_positions(mesh.data), arrays.read_positions(cage.data)
+    size = scenes.cage_size(rest_cage)
     corner_label("rest", scene.camera)
-    render_with_cage_wire(cage, scn.OUT / "before.png")
-    binding = scn.addon_module("binding")
+    render_with_cage_wire(cage, session.OUT / "before.png")
+    binding = session.addon_module("binding")
     rows = []
     for kind in kinds:
         seconds = bind(mesh, cage, kind)
         smallest = binding.binding(mesh).info["min_coordinate"]
         # Affine check: exact coordinates move the mesh exactly like the cage.
-        scn.set_positions(cage, scn.affine_map(rest_cage))
+        arrays.write_positions(cage.data, scenes.affine_map(rest_cage))
         settle()
-        error = np.linalg.norm(scn.evaluated_positions(mesh) - scn.affine_map(rest_mesh),
+        error = np.linalg.norm(arrays.evaluated_positions(mesh) - scenes.affine_map(rest_mesh),
                                axis=1).max()
-        scn.set_positions(cage, scn.nonaffine_edit(rest_cage))
+        arrays.write_positions(cage.data, scenes.nonaffine_edit(rest_cage))
         settle()
-        corner_label(scn.KIND_LABELS[kind].lower(), scene.camera)
-        render_with_cage_wire(cage, scn.OUT / f"after_{kind}.png")
-        scn.set_positions(cage, rest_cage)
+        corner_label(scenes.KIND_LABELS[kind].lower(), scene.camera)
+        render_with_cage_wire(cage, session.OUT / f"after_{kind}.png")
+        arrays.write_positions(cage.data, rest_cage)
         settle()
-        scn.make_active(mesh)
+        scenes.make_active(mesh)
         bpy.ops.object.gencoords_unbind()
         rows.append((kind, seconds, smallest, error))
     return rows, size
@@ -312,7 +315,7 @@ def deform_each_kind(kinds):
 def save_playable_blend(path):
     """out/demo.blend: mean value bind, the cage's shape key keyframed 0 -> 1 -> 0."""
     scene, mesh, cage = deformation_scene(shape_key=True)
-    rest_mesh = scn.positions(mesh)
+    rest_mesh = arrays.read_positions(mesh.data)
     bind(mesh, cage, "mean_value")
     pull = cage.data.shape_keys.key_blocks["Pull and twist"]
     for frame, value in ((1, 0.0), (40, 1.0), (60, 1.0), (100, 0.0)):
@@ -322,13 +325,13 @@ def save_playable_blend(path):
     # Check the animation drives the mesh: at frame 50 the cage is fully edited.
     scene.frame_set(50)
     settle()
-    moved = np.abs(scn.evaluated_positions(mesh) - rest_mesh).max()
+    moved = np.abs(arrays.evaluated_positions(mesh) - rest_mesh).max()
     scene.frame_set(1)
     settle()
     cage.hide_render = True  # F12 shows Suzanne, not a solid cage
-    scn.make_active(mesh)
+    scenes.make_active(mesh)
     path.unlink(missing_ok=True)  # else Blender keeps the previous run as demo.blend1
-    with scn.quiet():
+    with session.quiet():
         bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
     return moved
 
@@ -342,16 +345,16 @@ def main():
                              "writes only to out/, leaving a clone's files untouched)")
     args = parser.parse_args()
     started = time.perf_counter()
-    scn.OUT.mkdir(exist_ok=True)
+    session.OUT.mkdir(exist_ok=True)
 
     if not args.skip_deform:
-        zip_path = scn.install_extension()
-        print(f"extension {zip_path.relative_to(scn.REPO)} installed")
-        rows, size = deform_each_kind(scn.KINDS)
-        scn.side_by_side([scn.OUT / "before.png", scn.OUT / "after_mean_value.png"],
-                         scn.OUT / "demo.png")
-        scn.side_by_side([scn.OUT / f"after_{kind}.png" for kind in scn.KINDS],
-                         scn.OUT / "after_all.png")
+        zip_path = session.install_extension()
+        print(f"extension {zip_path.relative_to(session.REPO)} installed")
+        rows, size = deform_each_kind(scenes.KINDS)
+        pictures.side_by_side([session.OUT / "before.png", session.OUT / "after_mean_value.png"],
+                         session.OUT / "demo.png")
+        pictures.side_by_side([session.OUT / f"after_{kind}.png" for kind in scenes.KINDS],
+                         session.OUT / "after_all.png")
         print(f"Suzanne (7958 vertices) in a snug 42-vertex icosphere cage "
               f"(diagonal {size:.2f}):")
         print(f"  {'type':17s} {'bind':>7s} {'min coordinate':>15s} {'affine error':>13s}")
@@ -363,18 +366,18 @@ def main():
         artist_pictures()
         print("out/artist.png: a cage made by Make Cage, and two cages deforming one mesh")
 
-    minima = render_fields(scn.OUT / "fields.png")
+    minima = render_fields(session.OUT / "fields.png")
     if args.update_docs:
-        scn.DOCS.mkdir(exist_ok=True)
+        session.DOCS.mkdir(exist_ok=True)
         for picture in ("demo.png", "fields.png", "artist.png"):
-            if (scn.OUT / picture).exists():
-                shutil.copyfile(scn.OUT / picture, scn.DOCS / picture)
+            if (session.OUT / picture).exists():
+                shutil.copyfile(session.OUT / picture, session.DOCS / picture)
         print("README pictures updated in docs/")
     print("coordinate fields (figures 9, 10) -> out/fields.png; min coordinate of v:")
     for (name, kind), value in minima.items():
         print(f"  {name:9s} {kind:17s} {value:+.4f}")
     if not args.skip_deform:
-        moved = save_playable_blend(scn.OUT / "demo.blend")
+        moved = save_playable_blend(session.OUT / "demo.blend")
         print(f"out/demo.blend: Suzanne bound (mean value) to the cage, shape key keyframed "
               f"over frames 1-100 (mesh moves up to {moved:.2f} at frame 50); open it in "
               "Blender with the extension installed and press play")

@@ -12,7 +12,7 @@ import bpy
 import numpy as np
 
 from scene_helpers import (add_icosphere_cage, add_sphere, bind, evaluated_positions,
-                           load_user_preferences, positions)
+                           load_user_preferences, read_positions)
 
 blend_path, positions_path = sys.argv[1:3]
 load_user_preferences()
@@ -25,7 +25,7 @@ cage = add_icosphere_cage()
 cage.hide_render = True  # as artists do; renders must still follow its animation
 cage.shape_key_add(name="Basis")
 stretch = cage.shape_key_add(name="Stretch")
-stretch.data.foreach_set("co", (positions(cage.data) * (1.6, 1.0, 1.0) + (0.8, 0, 0)).reshape(-1))
+stretch.data.foreach_set("co", (read_positions(cage.data) * (1.6, 1.0, 1.0) + (0.8, 0, 0)).reshape(-1))
 for frame, value in ((1, 0.0), (2, 1.0)):
     stretch.value = value
     stretch.keyframe_insert("value", frame=frame)
@@ -37,7 +37,7 @@ deleted = add_sphere(radius=0.5, name="Deleted")
 assert bind(deleted, cage) == {'FINISHED'}
 bpy.data.objects.remove(deleted)  # its bind data must not be saved
 scene.frame_set(2)
-np.save(positions_path, np.stack([positions(obj.data), evaluated_positions(obj)]))
+np.save(positions_path, np.stack([read_positions(obj.data), evaluated_positions(obj)]))
 
 camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
 scene.collection.objects.link(camera)

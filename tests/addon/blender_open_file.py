@@ -10,7 +10,7 @@ import sys
 import bpy
 import numpy as np
 
-from scene_helpers import evaluated_positions, load_user_preferences, positions
+from scene_helpers import evaluated_positions, load_user_preferences, read_positions
 
 blend_path, positions_path = sys.argv[1:3]
 load_user_preferences()
@@ -20,7 +20,7 @@ rest, stretched = np.load(positions_path)
 scene = bpy.context.scene
 report = {
     "enabled": "bl_ext.user_default.gencoords" in bpy.context.preferences.addons,
-    "mesh_data_is_rest": bool(np.array_equal(positions(obj.data), rest)),
+    "mesh_data_is_rest": bool(np.array_equal(read_positions(obj.data), rest)),
     "node_groups": sorted(group.name for group in bpy.data.node_groups),
     "meshes": sorted(mesh.name for mesh in bpy.data.meshes),
 }
@@ -33,7 +33,7 @@ if report["enabled"]:
 
     report["status"] = [text for text, _ in status.status_lines(obj)]
 basis = cage.data.shape_keys.key_blocks["Basis"]  # an edit after reopening
-basis.data.foreach_set("co", (positions(cage.data) * 1.25).reshape(-1))
+basis.data.foreach_set("co", (read_positions(cage.data) * 1.25).reshape(-1))
 cage.data.update()
 report["follows_an_edit"] = float(np.abs(evaluated_positions(obj) - rest * 1.25).max())
 print("REPORT " + json.dumps(report))

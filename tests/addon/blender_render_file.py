@@ -13,7 +13,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from scene_helpers import load_user_preferences, positions
+from scene_helpers import load_user_preferences, read_positions
 
 blend_path, output_dir = sys.argv[1:3]
 load_user_preferences()
@@ -25,7 +25,7 @@ widths = {}
 def record_width(scene, depsgraph):
     if depsgraph.mode != 'RENDER':  # the viewport re-evaluates once rendering ends
         return
-    x = positions(bpy.data.objects["Mesh"].evaluated_get(depsgraph).data)[:, 0]
+    x = read_positions(bpy.data.objects["Mesh"].evaluated_get(depsgraph).data)[:, 0]
     widths[scene.frame_current] = float(x.max() - x.min())
 
 

@@ -1,10 +1,30 @@
-"""Building test scenes with bpy, shared by the tests and their subprocess scripts."""
+"""Building test scenes with bpy, shared by the tests and their subprocess scripts.
 
+Mesh arrays are read and written by the add-on's own ``gencoords_addon/mesh_arrays.py``,
+loaded by path: it imports only bpy and numpy, and some subprocess scripts run without
+the extension installed.
+"""
+
+import importlib.util
 import os
+from pathlib import Path
 
 import bmesh
 import bpy
-import numpy as np
+
+
+def _load_mesh_arrays():
+    path = Path(__file__).resolve().parents[2] / "gencoords_addon" / "mesh_arrays.py"
+    spec = importlib.util.spec_from_file_location("gencoords_mesh_arrays", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_arrays = _load_mesh_arrays()
+read_positions = _arrays.read_positions
+write_positions = _arrays.write_positions
+evaluated_positions = _arrays.evaluated_positions
 
 
 def activate(obj):
@@ -48,27 +68,15 @@ def add_subdivided_sphere(levels, name="Mesh"):
     return obj
 
 
-def positions(mesh):
-    """Vertex positions of a mesh datablock, (k, 3) float32."""
-    flat = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.attributes["position"].data.foreach_get("vector", flat)
-    return flat.reshape(-1, 3)
-
-
 def evaluated_cage_positions(cage):
-    """Vertex positions of the cage with modifiers and shape keys, in its local space."""
+    """Vertex positions of the cage with modifiers and shape keys, in its local space
+    (``to_mesh``: also in edit mode)."""
     evaluated = cage.evaluated_get(bpy.context.evaluated_depsgraph_get())
     mesh = evaluated.to_mesh()
     try:
-        return positions(mesh)
+        return read_positions(mesh).copy()
     finally:
         evaluated.to_mesh_clear()
-
-
-def set_positions(mesh, new_positions):
-    mesh.attributes["position"].data.foreach_set(
-        "vector", np.ascontiguousarray(new_positions, dtype=np.float32).reshape(-1))
-    mesh.update()
 
 
 def update():
@@ -101,13 +109,6 @@ def edit_mesh(obj, change):
     obj.data.update()
 
 
-def evaluated_positions(obj):
-    """Positions of ``obj``'s evaluated mesh (its modifiers applied), (k, 3) float32."""
-    bpy.context.view_layer.update()
-    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    return positions(evaluated.data)
-
-
 def mesh_state(obj):
     """Everything Bind must leave and Unbind must restore: positions and attribute names."""
-    return positions(obj.data).copy(), sorted(a.name for a in obj.data.attributes)
+    return read_positions(obj.data).copy(), sorted(a.name for a in obj.data.attributes)

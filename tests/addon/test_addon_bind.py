@@ -3,15 +3,14 @@
 import glob
 import os
 
-import bmesh
 import bpy
 import numpy as np
 import pytest
 from mathutils import Matrix
 
 from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere,
-                           add_subdivided_sphere, bind, edit_mesh, evaluated_cage_positions,
-                           evaluated_positions, mesh_state, positions, set_positions, update)
+                           add_subdivided_sphere, bind, evaluated_cage_positions,
+                           evaluated_positions, mesh_state, read_positions, write_positions, update)
 
 KINDS = ("WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI")
 
@@ -37,18 +36,18 @@ def test_bind_leaves_the_mesh_data_alone_and_deforms_by_coordinates_times_cage(g
     assert bind(obj, cage) == {'FINISHED'}
     (modifier,) = obj.modifiers
     assert (modifier.name, modifier.type) == ("GenCoords", 'NODES')
-    np.testing.assert_array_equal(positions(obj.data), before[0])  # never written
+    np.testing.assert_array_equal(read_positions(obj.data), before[0])  # never written
     np.testing.assert_array_equal(evaluated_positions(obj), before[0])  # at rest: bitwise
     coordinates = coordinates_of(gc, obj)
     assert coordinates.shape == (len(before[0]), len(cage.data.vertices))
     np.testing.assert_allclose(coordinates.sum(axis=1), 1.0, atol=1e-5)
 
     noise = np.random.default_rng(0).normal(0, 0.2, (len(cage.data.vertices), 3))
-    set_positions(cage.data, positions(cage.data) + noise)
+    write_positions(cage.data, read_positions(cage.data) + noise)
     deformed = evaluated_positions(obj)
     np.testing.assert_allclose(deformed, coordinates @ evaluated_cage_positions(cage), atol=2e-6)
     assert np.abs(deformed - before[0]).max() > 0.05
-    np.testing.assert_array_equal(positions(obj.data), before[0])
+    np.testing.assert_array_equal(read_positions(obj.data), before[0])
     # The group removes its attributes from its output: nothing downstream sees them.
     evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
     assert not [a.name for a in evaluated.attributes if "gencoords" in a.name]
@@ -60,11 +59,11 @@ def test_affine_cage_motion_moves_the_mesh_affinely(gc, kind, storage):
     cage = add_icosphere_cage(subdivisions=2)  # 42 vertices: compact keeps 12 of them
     obj = add_sphere(radius=0.8)
     obj.gencoords.storage, obj.gencoords.compact_size = storage, 12
-    rest = positions(obj.data).astype(np.float64)
+    rest = read_positions(obj.data).astype(np.float64)
     assert bind(obj, cage, kind=kind) == {'FINISHED'}
     assert gc.binding.binding(obj).info["storage"] == storage
     linear, shift = random_affine(1)
-    set_positions(cage.data, positions(cage.data) @ linear.T + shift)
+    write_positions(cage.data, read_positions(cage.data) @ linear.T + shift)
     np.testing.assert_allclose(evaluated_positions(obj), rest @ linear.T + shift, atol=2e-5)
 
 
@@ -79,10 +78,10 @@ def test_compact_storage_is_close_for_smooth_motions_and_reports_its_deviation(g
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
     assert "Storage: Compact, 24 per vertex" in text and "Deviation:" in text
 
-    rest_cage = positions(cage.data).astype(np.float64)
+    rest_cage = read_positions(cage.data).astype(np.float64)
     moved = gc.core.compact.smooth_test_motion(rest_cage)
-    set_positions(cage.data, moved)
-    exact = gc.core.coordinates(positions(obj.data), rest_cage, triangles_of(cage))
+    write_positions(cage.data, moved)
+    exact = gc.core.coordinates(read_positions(obj.data), rest_cage, triangles_of(cage))
     deviation = np.linalg.norm(evaluated_positions(obj) - exact @ moved, axis=1).max()
     diagonal = np.linalg.norm(np.ptp(rest_cage, axis=0))
     assert deviation / diagonal < 2 * info["deviation_smooth"] + 1e-6  # a sample measured it
@@ -110,10 +109,10 @@ def test_coordinates_are_computed_in_world_space(gc):
     obj = add_sphere(radius=0.5, location=(0.6, -0.9, 2.1))
     obj.scale = (1.2, 0.8, 1.0)
     update()
-    rest = positions(obj.data).copy()
+    rest = read_positions(obj.data).copy()
     assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}
     world = apply_matrix(obj.matrix_world, rest)
-    cage_world = apply_matrix(cage.matrix_world, positions(cage.data))
+    cage_world = apply_matrix(cage.matrix_world, read_positions(cage.data))
     expected = gc.core.coordinates(world, cage_world, triangles_of(cage), kind="wachspress")
     np.testing.assert_allclose(coordinates_of(gc, obj), expected, atol=1e-5)
     np.testing.assert_array_equal(evaluated_positions(obj), rest)
@@ -139,7 +138,7 @@ def test_unbind_restores_the_mesh_data_bitwise_and_removes_everything(gc):
     bind(obj, cage)
     bind(obj, cage, kind="VORONOI")  # a rebind replaces the binding, in place
     assert len(obj.modifiers) == 1
-    set_positions(cage.data, positions(cage.data) * 1.3)
+    write_positions(cage.data, read_positions(cage.data) * 1.3)
     assert not np.array_equal(evaluated_positions(obj), before[0])
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     after = mesh_state(obj)
@@ -157,7 +156,7 @@ def test_the_modifier_is_first_and_subdivision_after_it_deforms_smoothly(gc):
     rest_count = len(evaluated_positions(obj))
     bind(obj, cage)
     assert [m.name for m in obj.modifiers] == ["GenCoords", "Subdivision"]
-    set_positions(cage.data, positions(cage.data) * 1.5)
+    write_positions(cage.data, read_positions(cage.data) * 1.5)
     deformed = evaluated_positions(obj)
     assert len(deformed) == rest_count > len(obj.data.vertices)
     radii = np.linalg.norm(deformed, axis=1)
@@ -172,8 +171,8 @@ def test_a_quad_cage_with_a_dragged_corner_stays_convex(gc, corner):
     cage.data.update()
     obj = add_sphere()
     assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}
-    np.testing.assert_allclose(coordinates_of(gc, obj) @ positions(cage.data),
-                               positions(obj.data), atol=1e-5)
+    np.testing.assert_allclose(coordinates_of(gc, obj) @ read_positions(cage.data),
+                               read_positions(obj.data), atol=1e-5)
 
 
 def test_hooks_armatures_modifiers_and_shape_keys_on_the_cage_drive_the_mesh(gc):
@@ -193,7 +192,7 @@ def test_hooks_armatures_modifiers_and_shape_keys_on_the_cage_drive_the_mesh(gc)
     hook.vertex_indices_set([0, 1, 2])
     handle.location = (0.4, -0.2, 0.3)
     update()
-    assert not np.allclose(evaluated_cage_positions(cage), positions(cage.data))
+    assert not np.allclose(evaluated_cage_positions(cage), read_positions(cage.data))
     follows()
     cage.modifiers.remove(hook)
 
@@ -223,7 +222,7 @@ def test_hooks_armatures_modifiers_and_shape_keys_on_the_cage_drive_the_mesh(gc)
 
     cage.shape_key_add(name="Basis")
     key = cage.shape_key_add(name="Stretch")
-    stretched = positions(cage.data) * (1.5, 1.0, 1.0)
+    stretched = read_positions(cage.data) * (1.5, 1.0, 1.0)
     key.data.foreach_set("co", stretched.reshape(-1))
     key.value = 0.0
     key.keyframe_insert("value", frame=1)
@@ -232,7 +231,7 @@ def test_hooks_armatures_modifiers_and_shape_keys_on_the_cage_drive_the_mesh(gc)
     bpy.context.scene.frame_set(10)
     np.testing.assert_allclose(evaluated_positions(obj), coordinates @ stretched, atol=2e-6)
     bpy.context.scene.frame_set(1)
-    np.testing.assert_array_equal(evaluated_positions(obj), positions(obj.data))
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
 
     # A cage hidden in viewports and renders still drives the mesh that depends on it.
     cage.hide_viewport = cage.hide_render = True
@@ -248,7 +247,7 @@ def test_cage_edit_mode_changes_are_followed(gc):
     bpy.ops.object.mode_set(mode='EDIT')
     bpy.ops.mesh.select_all(action='SELECT')
     bpy.ops.transform.resize(value=(1.4, 1.4, 1.4))
-    np.testing.assert_allclose(evaluated_positions(obj), positions(obj.data) * 1.4, atol=1e-5)
+    np.testing.assert_allclose(evaluated_positions(obj), read_positions(obj.data) * 1.4, atol=1e-5)
     bpy.ops.object.mode_set(mode='OBJECT')
 
 
@@ -258,12 +257,12 @@ def test_shape_keys_and_edits_of_the_bound_mesh_are_carried_along(gc):
     bind(obj, cage)
     obj.shape_key_add(name="Basis")
     bulge = obj.shape_key_add(name="Bulge")
-    bulged = positions(obj.data) * (1.0, 1.0, 1.3)
+    bulged = read_positions(obj.data) * (1.0, 1.0, 1.3)
     bulge.data.foreach_set("co", bulged.reshape(-1))
     bulge.value = 1.0
     # At rest: the key alone (its mix with the basis rounds at 1e-7).
     np.testing.assert_allclose(evaluated_positions(obj), bulged, atol=1e-6)
-    set_positions(cage.data, positions(cage.data) + (0.5, 0.0, 0.0))
+    write_positions(cage.data, read_positions(cage.data) + (0.5, 0.0, 0.0))
     np.testing.assert_allclose(evaluated_positions(obj), bulged + (0.5, 0.0, 0.0), atol=2e-6)
 
 
@@ -277,15 +276,15 @@ def test_linked_duplicates_and_several_meshes_on_one_cage(gc):
     for bound in (obj, twin, other):
         assert bind(bound, cage) == {'FINISHED'}
     assert obj.data.users == 2
-    set_positions(cage.data, positions(cage.data) * 1.2)
+    write_positions(cage.data, read_positions(cage.data) * 1.2)
     for bound in (obj, twin, other):
-        world = apply_matrix(bound.matrix_world, positions(bound.data))
+        world = apply_matrix(bound.matrix_world, read_positions(bound.data))
         expected = apply_matrix(bound.matrix_world.inverted(), world * 1.2)
         np.testing.assert_allclose(evaluated_positions(bound), expected, atol=1e-5)
     activate(obj)
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     assert gc.binding.binding(twin) is not None  # the twin's own bind data stays
-    np.testing.assert_array_equal(evaluated_positions(obj), positions(obj.data))
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
 
 
 def test_a_cage_bound_to_another_cage_drives_its_mesh_in_the_same_update(gc):
@@ -294,8 +293,8 @@ def test_a_cage_bound_to_another_cage_drives_its_mesh_in_the_same_update(gc):
     obj = add_sphere()
     assert bind(inner, outer) == {'FINISHED'}
     assert bind(obj, inner) == {'FINISHED'}
-    set_positions(outer.data, positions(outer.data) * 1.25)
-    np.testing.assert_allclose(evaluated_positions(obj), positions(obj.data) * 1.25, atol=1e-5)
+    write_positions(outer.data, read_positions(outer.data) * 1.25)
+    np.testing.assert_allclose(evaluated_positions(obj), read_positions(obj.data) * 1.25, atol=1e-5)
 
 
 def test_binding_from_edit_mode_binds_what_the_artist_sees(gc):
@@ -308,9 +307,9 @@ def test_binding_from_edit_mode_binds_what_the_artist_sees(gc):
     assert bind(obj, cage) == {'FINISHED'}
     assert obj.mode == 'EDIT'
     bpy.ops.object.mode_set(mode='OBJECT')
-    assert np.linalg.norm(positions(obj.data), axis=1).max() == pytest.approx(0.5, abs=1e-6)
-    set_positions(cage.data, positions(cage.data) * 2.0)
-    np.testing.assert_allclose(evaluated_positions(obj), positions(obj.data) * 2.0, atol=1e-5)
+    assert np.linalg.norm(read_positions(obj.data), axis=1).max() == pytest.approx(0.5, abs=1e-6)
+    write_positions(cage.data, read_positions(cage.data) * 2.0)
+    np.testing.assert_allclose(evaluated_positions(obj), read_positions(obj.data) * 2.0, atol=1e-5)
 
 
 @pytest.mark.parametrize("outside", ["PROJECT", "EXTRAPOLATE"])
@@ -319,9 +318,9 @@ def test_outside_vertices_do_not_move_at_bind(gc, outside):
     obj = add_sphere(radius=1.1)
     assert bind(obj, cage, outside=outside) == {'FINISHED'}
     assert gc.binding.binding(obj).info["points_outside"] > 0
-    np.testing.assert_array_equal(evaluated_positions(obj), positions(obj.data))
-    set_positions(cage.data, positions(cage.data) + (0.0, 0.0, 1.0))  # translations still exact
-    np.testing.assert_allclose(evaluated_positions(obj), positions(obj.data) + (0, 0, 1), atol=1e-5)
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+    write_positions(cage.data, read_positions(cage.data) + (0.0, 0.0, 1.0))  # translations still exact
+    np.testing.assert_allclose(evaluated_positions(obj), read_positions(obj.data) + (0, 0, 1), atol=1e-5)
 
 
 def test_apply_gives_a_clean_deformed_mesh(gc):
@@ -329,11 +328,11 @@ def test_apply_gives_a_clean_deformed_mesh(gc):
     obj = add_sphere()
     before = mesh_state(obj)
     bind(obj, cage)
-    set_positions(cage.data, positions(cage.data) * 1.1)
+    write_positions(cage.data, read_positions(cage.data) * 1.1)
     deformed = evaluated_positions(obj)
     activate(obj)
     bpy.ops.object.modifier_apply(modifier="GenCoords")
-    np.testing.assert_array_equal(positions(obj.data), deformed)
+    np.testing.assert_array_equal(read_positions(obj.data), deformed)
     assert sorted(a.name for a in obj.data.attributes) == before[1]
 
 
@@ -349,14 +348,22 @@ def test_show_coordinate_paints_the_core_field(gc):
     attribute.data.foreach_get("color", colors)
     coordinates = gc.binding.binding(obj).coordinates(obj.data)
     np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.field_colors(coordinates[:, 3]))
+    assert gc.visualise.field_range(obj) == pytest.approx(gc.core.field_range(coordinates[:, 3]))
     obj.gencoords.field_vertex = 5  # repaints while shown
     attribute.data.foreach_get("color", colors)
     np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.field_colors(coordinates[:, 5]))
+    # The chosen cage vertex is marked, and the marker follows the cage.
+    cage.location = (0.5, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    (marker,) = [o for o in bpy.data.objects if o.parent == cage]
+    world_vertex = np.array(cage.matrix_world @ cage.data.vertices[5].co)
+    np.testing.assert_allclose(np.array(marker.matrix_world.translation), world_vertex, atol=1e-6)
     obj.gencoords.field_vertex = 99
     with pytest.raises(RuntimeError, match="Cage Vertex must be below 12"):
         bpy.ops.object.gencoords_show_field()
     assert bpy.ops.object.gencoords_clear_field() == {'FINISHED'}
     assert "GenCoords Field" not in obj.data.color_attributes
+    assert not [o for o in bpy.data.objects if o.parent == cage]
 
 
 def test_status_reports_the_core_summary(gc):
@@ -476,8 +483,8 @@ def test_auto_rebind_binds_again_on_leaving_edit_mode(gc):
     bpy.ops.object.mode_set(mode='OBJECT')
     update()
     assert gc.binding.binding(obj).info["mesh_vertex_count"] == len(obj.data.vertices)
-    set_positions(cage.data, positions(cage.data) * 1.2)
-    np.testing.assert_allclose(evaluated_positions(obj), positions(obj.data) * 1.2, atol=1e-5)
+    write_positions(cage.data, read_positions(cage.data) * 1.2)
+    np.testing.assert_allclose(evaluated_positions(obj), read_positions(obj.data) * 1.2, atol=1e-5)
 
 
 def test_undo_and_redo_of_bind_and_unbind(gc):
@@ -498,7 +505,7 @@ def test_undo_and_redo_of_bind_and_unbind(gc):
         assert not obj.modifiers and mesh_state(obj)[1] == before[1]
         assert bpy.ops.ed.redo() == {'FINISHED'}
         obj, cage = bpy.data.objects["Mesh"], bpy.data.objects["Cage"]
-        set_positions(cage.data, positions(cage.data) * 1.2)
+        write_positions(cage.data, read_positions(cage.data) * 1.2)
         np.testing.assert_allclose(evaluated_positions(obj), before[0] * 1.2, atol=1e-5)
 
         activate(obj)
@@ -510,16 +517,16 @@ def test_undo_and_redo_of_bind_and_unbind(gc):
         assert bpy.ops.ed.redo() == {'FINISHED'}
         obj = bpy.data.objects["Mesh"]
         assert not obj.modifiers and mesh_state(obj)[1] == before[1]
-        np.testing.assert_array_equal(positions(obj.data), before[0])
+        np.testing.assert_array_equal(read_positions(obj.data), before[0])
 
 
 def test_strength_and_a_vertex_group_mask_scale_the_displacement(gc):
     cage = add_icosphere_cage()
     obj = add_sphere()
-    rest = positions(obj.data).astype(np.float64)
+    rest = read_positions(obj.data).astype(np.float64)
     bind(obj, cage)
     modifier = gc.binding.binding(obj).modifier
-    set_positions(cage.data, positions(cage.data) + (1.0, 0.0, 0.0))
+    write_positions(cage.data, read_positions(cage.data) + (1.0, 0.0, 0.0))
     np.testing.assert_allclose(evaluated_positions(obj), rest + (1.0, 0, 0), atol=1e-5)
     gc.compat.set_modifier_input(modifier, "Strength", 0.25)
     obj.data.update()
@@ -544,15 +551,15 @@ def test_two_cages_on_one_mesh_compose_and_unbind_one_at_a_time(gc):
     big = add_icosphere_cage(radius=2.0, name="Big")
     small = add_icosphere_cage(radius=1.5, name="Small")
     obj = add_sphere()
-    rest = positions(obj.data).astype(np.float64)
+    rest = read_positions(obj.data).astype(np.float64)
     assert bind(obj, big) == {'FINISHED'}
     assert bind(obj, small) == {'FINISHED'}
     assert bind(obj, small) == {'FINISHED'}  # the same cage again: replaced in place
     first, second = gc.binding.bindings(obj)
     assert (first.cage, second.cage) == (big, small)
     assert [m.name for m in obj.modifiers] == [first.modifier.name, second.modifier.name]
-    set_positions(big.data, positions(big.data) + (1.0, 0.0, 0.0))
-    set_positions(small.data, positions(small.data) + (0.0, 0.5, 0.0))
+    write_positions(big.data, read_positions(big.data) + (1.0, 0.0, 0.0))
+    write_positions(small.data, read_positions(small.data) + (0.0, 0.5, 0.0))
     np.testing.assert_allclose(evaluated_positions(obj), rest + (1.0, 0.5, 0), atol=1e-5)
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
     assert "Bound to 'Big'" in text and "Bound to 'Small'" in text
@@ -581,10 +588,10 @@ def test_make_cage_encloses_the_mesh_with_a_convex_cage(gc, shape):
     assert bpy.ops.object.gencoords_make_cage(target_vertices=60) == {'FINISHED'}
     cage = obj.gencoords.cage
     assert cage is not None and 30 <= len(cage.data.vertices) <= 90
-    cage_world = apply_matrix(cage.matrix_world, positions(cage.data).astype(np.float64))
+    cage_world = apply_matrix(cage.matrix_world, read_positions(cage.data).astype(np.float64))
     triangles = triangles_of(cage)
     gc.core.validate_cage(cage_world, triangles, convex=True, tolerance=1e-6)
-    mesh_world = apply_matrix(obj.matrix_world, positions(obj.data).astype(np.float64))
+    mesh_world = apply_matrix(obj.matrix_world, read_positions(obj.data).astype(np.float64))
     where = gc.core.point_locations(mesh_world, cage_world, triangles, tolerance=1e-6)
     assert (where == gc.core.INSIDE).all()
     assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}
@@ -599,10 +606,10 @@ def test_bake_to_bones_deforms_like_the_binding(gc, influences):
     activate(obj)
     assert bpy.ops.object.gencoords_bake_bones(max_influences=influences) == {'FINISHED'}
     assert [m.type for m in obj.modifiers] == ['ARMATURE'] and not gc.binding.bindings(obj)
-    rest_cage = positions(cage.data).astype(np.float64)
+    rest_cage = read_positions(cage.data).astype(np.float64)
     moved = gc.core.compact.smooth_test_motion(rest_cage)
-    set_positions(cage.data, moved)
-    exact = positions(obj.data) + coordinates @ (moved - rest_cage)
+    write_positions(cage.data, moved)
+    exact = read_positions(obj.data) + coordinates @ (moved - rest_cage)
     gap = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max()
     diagonal = np.linalg.norm(np.ptp(rest_cage, axis=0))
     if influences == 0:
@@ -624,10 +631,10 @@ def test_a_baked_rig_round_trips_through_gltf(gc, tmp_path):
     activate(obj)
     assert bpy.ops.object.gencoords_bake_bones(max_influences=4) == {'FINISHED'}
     rig = bpy.data.objects["Mesh cage rig"]
-    rest_cage = positions(cage.data).astype(np.float64)
+    rest_cage = read_positions(cage.data).astype(np.float64)
     displacement = gc.core.compact.smooth_test_motion(rest_cage) - rest_cage
     truncated = gc.bones.truncate(coordinates, 4)
-    rest = positions(obj.data).astype(np.float64)
+    rest = read_positions(obj.data).astype(np.float64)
     expected = rest + truncated @ displacement
     for other in bpy.context.view_layer.objects:
         other.select_set(other in (obj, rig))

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere, bind,
-                           edit_mesh, evaluated_positions, mesh_state, positions,
-                           set_positions, update)
+                           edit_mesh, evaluated_positions, mesh_state, read_positions,
+                           write_positions, update)
 
 
 def open_hole(bm):
@@ -89,9 +89,9 @@ def test_non_convex_cage_suggests_mean_value(gc):
 
 def test_mesh_with_an_undefined_vertex_is_refused(gc):
     obj = add_sphere()
-    broken = positions(obj.data).copy()
+    broken = read_positions(obj.data).copy()
     broken[5] = np.nan
-    set_positions(obj.data, broken)
+    write_positions(obj.data, broken)
     assert_bind_refused(obj, add_icosphere_cage(), re.escape(
         "'Mesh' has 1 vertices at undefined (NaN or infinite) positions (first: vertex 5)"))
 
@@ -112,7 +112,7 @@ def test_missing_self_and_non_mesh_cages_are_refused(gc):
 def test_vertices_outside_are_counted_and_project_or_extrapolate_bind(gc):
     cage = add_icosphere_cage(radius=2.0)
     obj = add_sphere(radius=1.0, location=(1.5, 0, 0))
-    distances = np.linalg.norm(positions(obj.data) + (1.5, 0, 0), axis=1)
+    distances = np.linalg.norm(read_positions(obj.data) + (1.5, 0, 0), axis=1)
     surely_outside = int(np.count_nonzero(distances > 2.0))  # beyond the circumsphere
     assert surely_outside > 0
     assert_bind_refused(obj, cage, r"\d+ of 114 mesh vertices lie outside the cage 'Cage': "
@@ -141,7 +141,7 @@ def bound(gc, **cage_options):
 def assert_passed_through_and_unbind_restores(obj):
     """The deformer shows the mesh as it is, and Unbind gives back the mesh data."""
     before = mesh_state(obj)
-    np.testing.assert_array_equal(evaluated_positions(obj), positions(obj.data))
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
     activate(obj)
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     np.testing.assert_array_equal(mesh_state(obj)[0], before[0])
@@ -159,8 +159,8 @@ def test_bind_data_of_another_format_is_reported_not_misread(gc):
 
 def test_deleting_the_cage_passes_the_mesh_through_and_unbind_restores(gc):
     obj, cage = bound(gc)
-    set_positions(cage.data, positions(cage.data) * 1.2)
-    assert not np.array_equal(evaluated_positions(obj), positions(obj.data))
+    write_positions(cage.data, read_positions(cage.data) * 1.2)
+    assert not np.array_equal(evaluated_positions(obj), read_positions(obj.data))
     bpy.data.objects.remove(cage)
     update()
     assert "The cage was deleted or cleared" in fault_text(gc, obj)
@@ -177,7 +177,7 @@ def test_cage_topology_change_is_reported_until_rebind(gc, change, message):
     update()
     assert re.search(message, fault_text(gc, obj))
     if change is subdivide:  # the deformer sees the count and passes the mesh through
-        np.testing.assert_array_equal(evaluated_positions(obj), positions(obj.data))
+        np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
     assert bind(obj, cage) == {'FINISHED'}
     assert fault_text(gc, obj) == ""
     assert gc.binding.binding(obj).info["cage_vertex_count"] == len(cage.data.vertices)
@@ -186,7 +186,7 @@ def test_cage_topology_change_is_reported_until_rebind(gc, change, message):
 def test_mesh_topology_change_is_reported_and_passed_through(gc):
     obj, cage = bound(gc)
     edit_mesh(obj, lambda bm: bmesh.ops.delete(bm, geom=[bm.verts[:][0]], context='VERTS'))
-    set_positions(cage.data, positions(cage.data) * 1.3)
+    write_positions(cage.data, read_positions(cage.data) * 1.3)
     assert "Mesh edited since Bind: 1 vertices deleted" in fault_text(gc, obj)
     with pytest.raises(RuntimeError, match="edited since Bind"):
         bpy.ops.object.gencoords_show_field()
@@ -195,9 +195,9 @@ def test_mesh_topology_change_is_reported_and_passed_through(gc):
 
 def test_non_finite_cage_positions_leave_the_mesh_alone(gc):
     obj, cage = bound(gc)
-    broken = positions(cage.data).copy()
+    broken = read_positions(cage.data).copy()
     broken[0] = np.nan
-    set_positions(cage.data, broken)
+    write_positions(cage.data, broken)
     update()
     assert "undefined (NaN or infinite)" in fault_text(gc, obj)
     assert np.isfinite(evaluated_positions(obj)).all()

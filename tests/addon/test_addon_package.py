@@ -75,3 +75,13 @@ def test_panel_draws_settings_status_and_operators(gc):
                  ("label", "Bound to 'Cage' (modifier 'GenCoords')"),
                  ("label", "Coordinates: Mean Value")):
         assert item in drawn
+
+
+def test_status_lines_wrap_to_the_panel_width_without_losing_words(gc):
+    panel = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.panel")
+    sentence = ("Mesh edited since Bind: 812 vertices added; it is not deformed until you "
+                "Bind again (or turn on Auto Rebind)")
+    lines = panel.wrapped(sentence, 30)
+    assert len(lines) > 1 and all(len(line) <= 30 for line in lines)
+    assert " ".join(lines) == sentence
+    assert panel.wrapped(sentence, None) == [sentence]

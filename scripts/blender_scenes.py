@@ -1,0 +1,171 @@
+"""Scenes the scripts build with bpy: Suzanne inside icosphere cages, fitted cages, mesh
+objects from arrays, and the cage edits the demo and the benchmarks apply.
+
+One piece of code per idea: ``demo.py`` and ``bench_*.py`` build the same subdivided
+Suzanne inside the same cages and read positions back the same way (the add-on's own
+``gencoords_addon/mesh_arrays.py``, loaded by path), so the demo's pictures and the
+benchmarks' numbers describe the same thing. Import after ``blender_session.prepare()``.
+"""
+
+import importlib.util
+
+import bpy
+import numpy as np
+
+import core
+from core.construction import prepare_cage
+from blender_session import REPO
+from mathutils import Euler
+
+
+def _load_mesh_arrays():
+    """The add-on's mesh_arrays.py by path: it imports only bpy and numpy, and the demo
+    also runs parts without the extension installed."""
+    path = REPO / "gencoords_addon" / "mesh_arrays.py"
+    spec = importlib.util.spec_from_file_location("gencoords_mesh_arrays", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+arrays = _load_mesh_arrays()
+
+# Suzanne's subdivision level -> vertex count (primitive_monkey_add, size 2, applied
+# Catmull-Clark): the benchmark's three mesh sizes.
+SUZANNE_VERTICES = {2: 7958, 3: 31658, 4: 126_218}
+# Icosphere subdivisions -> cage vertex count.
+ICOSPHERE_VERTICES = {2: 42, 3: 162, 4: 642}
+# Suzanne (size 2) reaches 1.45 from the origin; an icosphere of radius 2 has an
+# inscribed radius above 1.85 from 42 vertices on, so it contains every vertex.
+CAGE_RADIUS = 2.0
+
+KINDS = core.KINDS
+KIND_LABELS = {kind.name: kind.label for kind in core.KIND_TABLE}
+
+
+# ------------------------------------------------------------------------------ scenes
+
+
+def reset_scene():
+    """An empty scene, keeping enabled add-ons (``read_factory_settings`` would not)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    if scene.world is None:  # Workbench takes its background from the world colour
+        scene.world = bpy.data.worlds.new("World")
+    return scene
+
+
+def add_suzanne(level=2, name="Suzanne"):
+    """Suzanne with ``level`` Catmull-Clark subdivisions applied (7958 vertices at 2)."""
+    bpy.ops.mesh.primitive_monkey_add(size=2.0)
+    obj = bpy.context.active_object
+    obj.name = obj.data.name = name
+    if level:
+        modifier = obj.modifiers.new("Subdivision", "SUBSURF")
+        modifier.levels = modifier.render_levels = level
+        bpy.ops.object.modifier_apply(modifier=modifier.name)
+    bpy.ops.object.shade_smooth()
+    return obj
+
+
+MILLION_VERTICES = 999_547  # the large-mesh scene: a 1000 x 1000 UV sphere
+
+
+def add_benchmark_mesh(level):
+    """Suzanne subdivided ``level`` times, or (``None``) the million-vertex UV sphere,
+    which a radius-2 icosphere cage contains like Suzanne."""
+    if level is None:
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=1000, ring_count=1000, radius=1.4)
+        return bpy.context.active_object
+    return add_suzanne(level)
+
+
+def add_icosphere_cage(subdivisions=2, radius=CAGE_RADIUS, name="Cage"):
+    """A convex icosphere cage (42, 162, 642 vertices at 2, 3, 4), drawn as a wireframe."""
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=subdivisions, radius=radius)
+    obj = bpy.context.active_object
+    obj.name = obj.data.name = name
+    obj.display_type = "WIRE"  # the bound mesh stays visible inside it in the viewport
+    return obj
+
+
+def add_fitted_cage(mesh, subdivisions=2, margin=1.08, name="Cage"):
+    """A snug convex cage: an icosphere stretched into an ellipsoid around ``mesh``.
+
+    The axis radii follow the mesh's bounding box; then the whole cage is scaled until
+    every mesh vertex is inside every face plane, times ``margin``. Scaling keeps it
+    convex. A snug cage makes the mesh follow cage edits visibly (a loose one smooths
+    them out), which is what the demo wants to show.
+    """
+    points = arrays.read_positions(mesh.data) @ np.array(mesh.matrix_world)[:3, :3].T + np.array(
+        mesh.matrix_world.translation)
+    centre = 0.5 * (points.max(axis=0) + points.min(axis=0))
+    radii = 0.5 * (points.max(axis=0) - points.min(axis=0))
+    cage = add_icosphere_cage(subdivisions, radius=1.0, name=name)
+    unit = arrays.read_positions(cage.data)
+    # For the unit icosphere P: x is inside diag(radii) * P iff x / radii is inside P, i.e.
+    # below every facet plane: facet_normal . y < facet_offset (the core's planes, relative
+    # to P's centre, where the offsets are positive).
+    planes = prepare_cage(unit, arrays.read_loop_triangles(cage.data))
+    scaled = (points - centre) / radii - planes.origin
+    needed = (scaled @ planes.facet_normals.T / planes.facet_offsets).max()
+    arrays.write_positions(cage.data, centre + unit * radii * needed * margin)
+    return cage
+
+
+def add_mesh_object(name, vertices, faces=(), edges=(), collection=None):
+    """A mesh object from arrays, linked to ``collection`` (the scene's by default)."""
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(np.asarray(vertices, dtype=float).tolist(),
+                     [tuple(e) for e in np.asarray(edges, dtype=int).reshape(-1, 2)],
+                     [tuple(f) for f in faces])
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    (collection or bpy.context.scene.collection).objects.link(obj)
+    return obj
+
+
+def make_active(obj):
+    """Select ``obj`` alone and make it active: what the bind operators act on."""
+    for other in bpy.context.view_layer.objects:
+        other.select_set(False)
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+
+
+def cage_size(points):
+    """Length of the cage's bounding-box diagonal: the scale errors are reported against."""
+    points = np.asarray(points)
+    return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+
+
+# --------------------------------------------------------------------------- cage edits
+
+
+def nonaffine_edit(rest):
+    """The demo's cage edit: pull the upper vertices up and twist them about the z axis.
+
+    Height-dependent stretch and twist, so no affine map reproduces it and the mesh
+    actually has to interpolate.
+    """
+    rest = np.asarray(rest, dtype=float)
+    z = rest[:, 2]
+    t = np.clip((z - z.min()) / max(z.max() - z.min(), 1e-12), 0.0, 1.0)  # 0 bottom, 1 top
+    lift = np.maximum(t - 0.45, 0.0) ** 2 * 1.6 * (z.max() - z.min()) / 2.0
+    angle = np.radians(75.0) * np.maximum(t - 0.3, 0.0)
+    cos, sin = np.cos(angle), np.sin(angle)
+    edited = rest.copy()
+    edited[:, 0] = cos * rest[:, 0] - sin * rest[:, 1]
+    edited[:, 1] = sin * rest[:, 0] + cos * rest[:, 1]
+    edited[:, 2] = z + lift
+    return edited
+
+
+def affine_map(points):
+    """A fixed general affine map (rotation, anisotropic scale, shear, translation).
+
+    Exact coordinates reproduce it exactly on the bound mesh: the accuracy check.
+    """
+    matrix = (np.array(Euler((0.3, -0.2, 0.5)).to_matrix())
+              @ np.array([[1.2, 0.25, 0.0], [0.0, 0.8, 0.1], [0.0, 0.0, 1.1]]))
+    return np.asarray(points, dtype=float) @ matrix.T + np.array([0.3, -0.2, 0.15])

@@ -1,0 +1,60 @@
+#!/bin/sh
+# Screenshots of the GenCoords panel in a real Blender window, for the README.
+#
+# Blender runs under Xvfb inside a Debian chroot (outside git), so nothing is installed
+# on this machine but debootstrap:
+#   scripts/panel_screenshots.sh --setup   # once, as root: builds the chroot (~1.5 GB)
+#   scripts/panel_screenshots.sh           # as root: writes docs/pictures/*.png
+# The chroot is Debian testing with Blender from unstable (testing has no blender
+# package at the moment); GENCOORDS_CHROOT picks another folder.
+set -eu
+
+CHROOT=${GENCOORDS_CHROOT:-/work/chroot-blender}
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+STAGE=/tmp/gencoords-screenshots   # inside the chroot
+PICTURES="$REPO/docs/pictures"
+APT="apt-get -o Acquire::Check-Valid-Until=false"  # the mirror's dates may trail the clock
+
+mount_system() {
+    for fs in proc sys dev; do
+        mountpoint -q "$CHROOT/$fs" || mount --bind "/$fs" "$CHROOT/$fs"
+    done
+    cp /etc/resolv.conf "$CHROOT/etc/resolv.conf"
+}
+
+if [ "${1:-}" = "--setup" ]; then
+    command -v debootstrap >/dev/null || apt-get install -y debootstrap
+    debootstrap --variant=minbase testing "$CHROOT" http://deb.debian.org/debian
+    echo "deb http://deb.debian.org/debian unstable main" > "$CHROOT/etc/apt/sources.list.d/unstable.list"
+    mount_system
+    chroot "$CHROOT" sh -c "$APT update && DEBIAN_FRONTEND=noninteractive $APT install -y \
+        --no-install-recommends -t unstable blender xvfb xauth libgl1-mesa-dri x11-apps \
+        python3-numpy python3-cattr python3-requests"
+    exit 0
+fi
+
+[ -x "$CHROOT/usr/bin/blender" ] || { echo "no Blender in $CHROOT: run $0 --setup" >&2; exit 1; }
+mount_system
+
+rm -rf "$CHROOT$STAGE"
+mkdir -p "$CHROOT$STAGE/shots"
+# The extension zip (Blender's own tools), and the scene bound with pip bpy 5.0.1 here:
+# Bind does not work yet in Blender 5.2 (see README), which still opens the bound file.
+"$REPO/.venv/bin/python" "$REPO/scripts/panel_screenshot_scene.py" "$CHROOT$STAGE"
+ZIP=$(ls -t "$REPO"/dist/gencoords-*.zip | head -n 1)
+cp -r "$REPO/scripts" "$CHROOT$STAGE/"
+cp "$ZIP" "$CHROOT$STAGE/gencoords.zip"
+
+# A throw-away user folder: the extension installed and enabled, no splash screen.
+chroot "$CHROOT" env HOME=/root BLENDER_USER_RESOURCES="$STAGE/user" sh -ec "
+    blender --command extension install-file -r user_default -e $STAGE/gencoords.zip
+    blender -b --factory-startup --python-expr 'import bpy; \
+bpy.context.preferences.view.show_splash = False; \
+bpy.ops.preferences.addon_enable(module=\"bl_ext.user_default.gencoords\"); \
+bpy.ops.wm.save_userpref()'
+    xvfb-run -a -s '-screen 0 1440x900x24' blender --window-geometry 0 0 1440 900 \
+        --python $STAGE/scripts/panel_screenshots.py -- $STAGE $STAGE/shots
+"
+mkdir -p "$PICTURES"
+cp "$CHROOT$STAGE"/shots/*.png "$PICTURES/"
+ls -l "$PICTURES"
