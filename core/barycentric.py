@@ -14,16 +14,17 @@ import numpy as np
 from . import tolerances
 from .boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances,
                        plane_limit_coordinates)
-from .construction import construct_weights, facet_determinants, point_frame, prepare_cage
+from .construction import construct_weights, facet_determinants, point_frame
 from .errors import CageError, OutsideCageError
 from .floater import floater_form_weights, floater_terms
-from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS, named_ridge_scalars, named_scaled_ridge_scalars
+from .generating_surfaces import CONVEX_ONLY_KINDS, named_ridge_scalars, named_scaled_ridge_scalars
+from .inputs import OUTSIDE_MODES, checked
+from .units import length_degree, to_world
 from .validation import DEFAULT_TOLERANCE, convexity_violation, validate_cage
 
 __all__ = ["coordinates", "weights", "ridge_scalars", "point_locations", "needs_convex",
            "OUTSIDE_MODES"]
 
-OUTSIDE_MODES = ("raise", "extrapolate", "project")
 # (point, facet) pairs per chunk: few enough that the temporaries stay in cache, enough
 # that numpy's per-call overhead is amortised (measured optimum on 162- and 642-vertex
 # cages: 32k pairs, 10 to 25% faster than 16k or 64k).
@@ -37,10 +38,9 @@ _LOCATE_CHUNK_PAIRS = 1 << 20
 _WORKERS = max(1, min(os.cpu_count() or 1, 8))
 
 
+@checked
 def needs_convex(kind):
     """Whether coordinates of ``kind`` require a convex cage (all but mean value)."""
-    if kind not in KINDS:
-        raise ValueError(f"unknown kind {kind!r}; expected one of {', '.join(KINDS)}")
     return kind in CONVEX_ONLY_KINDS
 
 
@@ -82,21 +82,6 @@ def _map_chunks(function, count, chunk, progress=None):
             report(piece.stop / count)
 
 
-def _as_points(points, dim):
-    points = np.asarray(points, dtype=np.float64)
-    if points.size == 0:
-        return points.reshape(0, dim)
-    if points.ndim == 1:
-        points = points[None, :]
-    if points.ndim != 2 or points.shape[1] != dim:
-        raise ValueError(f"points must have shape (k, {dim}) for a {dim}D cage, got {points.shape}")
-    bad = ~np.isfinite(points).all(axis=1)
-    if bad.any():
-        raise ValueError(f"{np.count_nonzero(bad)} points have non-finite coordinates "
-                         f"(first: {int(np.flatnonzero(bad)[0])})")
-    return points
-
-
 def _prepare(points, vertices, faces, kind, tolerance):
     convex_required = needs_convex(kind)
     cage = validate_cage(vertices, faces, convex=convex_required, tolerance=tolerance)
@@ -104,7 +89,7 @@ def _prepare(points, vertices, faces, kind, tolerance):
     if not convex and cage.dimension > 3:
         raise CageError("non_convex", "mean value coordinates on non-convex cages are implemented "
                                       "for 2D and 3D cages only")
-    return _as_points(points, cage.dimension), cage, convex
+    return points, cage, convex  # points: (k, N) float64, checked by @checked
 
 
 def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progress=None,
@@ -166,6 +151,7 @@ def _evaluate(points, cage, kind, convex, tolerance, outside, normalise, progres
     return result, location
 
 
+@checked
 def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
                 tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64, locations=None):
     """Generalized barycentric coordinates of points with respect to a cage.
@@ -216,8 +202,6 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
     OutsideCageError
         ``outside="raise"`` and some points are outside.
     """
-    if outside not in OUTSIDE_MODES:
-        raise ValueError(f"outside must be one of {', '.join(OUTSIDE_MODES)}, got {outside!r}")
     points, cage, convex = _prepare(points, vertices, faces, kind, tolerance)
     result, where = _evaluate(points, cage, kind, convex, tolerance, outside, normalise=True,
                               progress=progress, dtype=dtype)
@@ -226,6 +210,7 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
     return result
 
 
+@checked
 def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERANCE):
     """Homogeneous weights of a named kind: ``sum_i w_i (v_i - x) = 0``.
 
@@ -240,9 +225,15 @@ def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERA
     weights : (k, n) float
     """
     points, cage, convex = _prepare(points, vertices, faces, kind, tolerance)
-    return _evaluate(points, cage, kind, convex, tolerance, "extrapolate", normalise=False)[0]
+    values, where = _evaluate(points, cage, kind, convex, tolerance, "extrapolate", normalise=False)
+    # Frame weights to world units (limit coordinates on the boundary are unit-free).
+    formula = where != BOUNDARY
+    values[formula] = to_world(values[formula], cage.scale, length_degree(kind, cage.dimension) - 1,
+                               "weights")
+    return values
 
 
+@checked
 def ridge_scalars(points, vertices, faces, kind):
     """Ridge scalars d of a named generating surface.
 
@@ -259,11 +250,12 @@ def ridge_scalars(points, vertices, faces, kind):
     d : (k, r) float
         Columns follow :func:`core.ridges` (2D: vertices, 3D: edges).
     """
-    cage = prepare_cage(vertices, faces)
-    points = _as_points(points, cage.dimension)
-    return named_ridge_scalars(kind, point_frame(cage, points)).T
+    cage = validate_cage(vertices, faces, convex=False)
+    d = named_ridge_scalars(kind, point_frame(cage, points)).T
+    return to_world(d, cage.scale, length_degree(kind, cage.dimension), "ridge scalars")
 
 
+@checked
 def point_locations(points, vertices, faces, tolerance=DEFAULT_TOLERANCE):
     """Where each point is: 1 inside, 0 on the boundary (within tolerance), -1 outside.
 
@@ -281,7 +273,6 @@ def point_locations(points, vertices, faces, tolerance=DEFAULT_TOLERANCE):
     locations : (k,) int8
     """
     cage = validate_cage(vertices, faces, convex=False, tolerance=tolerance)
-    points = _as_points(points, cage.dimension)
     convex = convexity_violation(cage, tolerance) is None
     absolute = tolerance * cage.size
     result = np.empty(len(points), dtype=np.int8)
