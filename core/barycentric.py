@@ -7,6 +7,7 @@ on a thread pool because numpy releases the GIL inside its kernels.
 
 import os
 import threading
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -14,8 +15,8 @@ import numpy as np
 from . import tolerances
 from .boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances,
                        plane_limit_coordinates)
-from .construction import construct_weights, facet_determinants, point_frame
-from .errors import CageError, OutsideCageError
+from .construction import construct_weights, facet_determinants, point_frame, prepare_cage
+from .errors import AccuracyWarning, CageError, OutsideCageError
 from .floater import floater_form_weights, floater_terms
 from .generating_surfaces import CONVEX_ONLY_KINDS, named_ridge_scalars, named_scaled_ridge_scalars
 from .inputs import OUTSIDE_MODES, checked
@@ -205,9 +206,35 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
     points, cage, convex = _prepare(points, vertices, faces, kind, tolerance)
     result, where = _evaluate(points, cage, kind, convex, tolerance, outside, normalise=True,
                               progress=progress, dtype=dtype)
+    if kind == "mean_value" and outside == "extrapolate":
+        _warn_if_flat_extrapolation(points, vertices, faces, cage, convex, tolerance, result, where)
     if locations is not None:
         locations[...] = where
     return result
+
+
+def _warn_if_flat_extrapolation(points, vertices, faces, cage, convex, tolerance, result, where):
+    """AccuracyWarning when mean value extrapolation outside a near-flat cage lost accuracy.
+
+    The solid angles of a thin cage seen from outside nearly cancel. Coordinates are
+    invariant under scaling both the cage and the points, so evaluating the outside
+    points again on a copy scaled by a non-dyadic factor changes only the rounding: the
+    gap estimates the error (1:1:1e-6 icosphere: estimate 5e4, error 9e4).
+    """
+    outside_rows = np.flatnonzero(where == OUTSIDE)
+    extent = np.linalg.svd(cage.vertices - cage.vertices.mean(axis=0), compute_uv=False)
+    if not len(outside_rows) or extent[-1] > tolerances.FLAT * extent[0]:
+        return
+    factor = 1.0 + 1.0 / 3.0
+    twin = prepare_cage(vertices * factor, faces)
+    again = _evaluate(points[outside_rows] * factor, twin, "mean_value", convex, tolerance,
+                      "extrapolate", normalise=True)[0]
+    error = float(np.abs(again - result[outside_rows]).max())
+    if error > tolerances.ACCURACY:
+        warnings.warn(f"mean value coordinates extrapolated outside this thin cage (thickness "
+                      f"{extent[-1] / extent[0]:.1e} of its extent) are accurate only to about "
+                      f"{error:.1e} (estimated; {len(outside_rows)} outside points); use "
+                      "outside='project', or a thicker cage", AccuracyWarning, stacklevel=3)
 
 
 @checked

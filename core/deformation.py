@@ -3,10 +3,12 @@
 import numpy as np
 
 from . import tolerances
+from .inputs import checked
 
 __all__ = ["deform", "field_colors", "coordinate_summary"]
 
 
+@checked
 def deform(coordinates, cage_positions, out=None):
     """Deformed positions: each point is its coordinates times the cage's positions.
 
@@ -34,6 +36,7 @@ def deform(coordinates, cage_positions, out=None):
     return out
 
 
+@checked
 def field_colors(values):
     """Paper-style grey scale of one coordinate field (figures 9 to 11).
 
@@ -60,6 +63,7 @@ def field_colors(values):
     return colors
 
 
+@checked
 def coordinate_summary(coordinates):
     """Figures an artist checks after binding.
 

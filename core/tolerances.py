@@ -29,5 +29,8 @@ SMALLEST_SIZE = 2.0 ** -1000
 # products of up to ~6 such distances would overflow float64.
 FARTHEST = 1e30
 # Mean value extrapolation outside a cage whose thinnest extent is below this fraction
-# of its size loses accuracy (cancellation in near-flat solid angles): AccuracyWarning.
-FLAT = 1e-4
+# of its size can lose accuracy (cancellation in near-flat solid angles: 1:1:1e-4
+# loses 0.15, 1:1:1e-2 3e-7): such results are re-evaluated to estimate their error...
+FLAT = 1e-2
+# ... and an AccuracyWarning is given when that estimate exceeds this.
+ACCURACY = 1e-6

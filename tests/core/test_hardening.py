@@ -1,5 +1,7 @@
 """Bad input is refused with a message naming it; results hold at every scale (issue 11)."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -168,3 +170,20 @@ def test_beyond_float64s_range_the_cage_or_points_are_refused():
         core.coordinates([[0.0, 0.0, 0.0]], vertices * 1e-310, faces)
     with pytest.raises(ValueError, match="more than 1e\\+30 times the cage's size"):
         core.coordinates([[1e35, 0.0, 0.0]], vertices, faces, outside="project")
+
+
+# 5. Mean value extrapolation outside a near-flat cage warns that it lost accuracy.
+
+def test_extrapolating_outside_a_flat_cage_warns_with_an_error_estimate():
+    vertices, faces = icosphere(1)
+    points = np.random.default_rng(0).uniform(-2.0, 2.0, (50, 3)) * [1.0, 1.0, 0.5]
+    with pytest.warns(core.AccuracyWarning, match="accurate only to about"):
+        core.coordinates(points, vertices * [1.0, 1.0, 1e-6], faces, kind="mean_value", outside="extrapolate")
+    with warnings.catch_warnings():  # a thick cage, or projection, or no outside point: silence
+        warnings.simplefilter("error")
+        core.coordinates(points, vertices, faces, kind="mean_value", outside="extrapolate")
+        core.coordinates(points, vertices * [1.0, 1.0, 1e-6], faces, kind="mean_value", outside="project")
+        core.coordinates(0.1 * points * [1.0, 1.0, 1e-6], vertices * [1.0, 1.0, 1e-6], faces,
+                         kind="mean_value", outside="extrapolate")
+        core.coordinates(points, vertices * [1.0, 1.0, 0.5e-2], faces, kind="mean_value",
+                         outside="extrapolate")  # flat enough to check, accurate enough to pass
