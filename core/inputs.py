@@ -128,8 +128,8 @@ class _Context:
 
 def _vertices(value, context, name="vertices"):
     array = real_array(value, name)
-    if array.ndim != 2 or array.shape[1] < 2 or array.shape[0] == 0:
-        raise CageError("bad_faces", f"{name} must have shape (n, N) with n >= 1 and N >= 2, "
+    if array.ndim != 2 or array.shape[1] < 2:  # too few vertices for a cage: validate_cage
+        raise CageError("bad_faces", f"{name} must have shape (n, N) with N >= 2, "
                                      f"got {array.shape}")
     first, count = _first_bad_row(array)
     if first is not None:
@@ -143,6 +143,8 @@ def _vertices(value, context, name="vertices"):
 def _faces(value, context, name="faces", width=None):
     array = _as_array(value, name)
     width = width or context.dimension
+    if array.size == 0 and name == "quads":  # no quads to split (any empty list)
+        array = array.reshape(0, 4).astype(np.int64)
     if array.dtype.kind not in "iu" or array.dtype == np.bool_:
         raise CageError("bad_faces", f"{name} must be integer vertex indices, got {array.dtype} "
                                      f"values")
@@ -151,7 +153,7 @@ def _faces(value, context, name="faces", width=None):
     if width is not None and array.ndim == 1 and array.size % width == 0 and name == "quads":
         array = array.reshape(-1, width)  # a flat list of quad corners
     expected = f"(m, {width})" if width else "(m, N) with N >= 2"
-    if array.ndim != 2 or len(array) == 0 or (array.shape[1] != width if width else array.shape[1] < 2):
+    if array.ndim != 2 or (len(array) == 0 and name != "quads") or (array.shape[1] != width if width else array.shape[1] < 2):
         raise CageError("bad_faces", f"{name} must be integer {expected}"
                                      + (f" for a {width}D cage" if name != "quads" and width else "")
                                      + f", got shape {array.shape}")
@@ -358,7 +360,8 @@ def checked(function):
         context = _Context(function)
         for name in order:
             bound.arguments[name] = CHECKS[name](bound.arguments[name], context)
-        if context.vertices is not None and context.points is not None and len(context.points):
+        if (context.vertices is not None and context.points is not None and len(context.points)
+                and len(context.vertices) > context.dimension):  # fewer: validate_cage says so
             _check_reach(context)
         return function(*bound.args, **bound.kwargs)
 

@@ -1,5 +1,6 @@
 """Bad input is refused with a message naming it; results hold at every scale (issue 11)."""
 
+import inspect
 import warnings
 
 import numpy as np
@@ -187,3 +188,82 @@ def test_extrapolating_outside_a_flat_cage_warns_with_an_error_estimate():
                          kind="mean_value", outside="extrapolate")
         core.coordinates(points, vertices * [1.0, 1.0, 0.5e-2], faces, kind="mean_value",
                          outside="extrapolate")  # flat enough to check, accurate enough to pass
+
+
+# 6. Every public function checks its inputs the same way (core.inputs).
+
+def good_calls():
+    """A valid call of every public function that takes arrays: name -> keyword arguments."""
+    vertices, faces = octahedron((1.0, 1.3, 0.8))
+    points = np.array([[0.1, -0.2, 0.15], [0.0, 0.3, -0.1]])
+    ones = np.ones((2, len(core.ridges(faces))))
+    coordinates = core.coordinates(points, vertices, faces)
+    cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+    cage = dict(points=points, vertices=vertices, faces=faces)
+    return {
+        "coordinates": cage, "weights": cage, "point_locations": cage, "floater_matrix": cage,
+        "ridges": dict(faces=faces),
+        "ridge_scalars": dict(cage, kind="voronoi"),
+        "weights_from_ridge_scalars": dict(cage, d=ones),
+        "floater_weights": dict(cage, c=ones),
+        "ridge_scalars_from_floater": dict(cage, c=ones),
+        "floater_from_ridge_scalars": dict(cage, d=ones),
+        "floater_scalars": dict(point=points[0], vertices=vertices, faces=faces, w=coordinates[0]),
+        "validate_cage": dict(vertices=vertices, faces=faces),
+        "orient_facets_outward": dict(vertices=vertices, facets=faces),
+        "triangulate_quads": dict(vertices=cube, quads=quads),
+        "deform": dict(coordinates=coordinates, cage_positions=vertices, out=np.empty((2, 3))),
+        "field_colors": dict(values=coordinates[:, 0]),
+        "coordinate_summary": dict(coordinates=coordinates),
+    }
+
+
+def bad_versions(array):
+    """(what, bad array) pairs: NaN, a wrong shape, a wrong dtype, complex values."""
+    yield "wrong shape", array[None]
+    yield "complex", array.astype(np.complex128)
+    if array.dtype.kind == "f":
+        broken = array.copy()
+        broken.flat[-1] = np.nan
+        yield "NaN", broken
+        yield "wrong dtype", array.astype(str)
+    else:
+        yield "wrong dtype", array.astype(np.float64)
+
+
+# What each parameter is called in messages (a vertex, a face...).
+NAMED_AS = {"vertices": "vert", "faces": "face", "facets": "facet", "quads": "quad", "points": "point",
+            "point": "point", "c": "c must", "d": "d must", "w": "w must", "coordinates": "coordinates",
+            "cage_positions": "cage_positions", "out": "out must", "values": "values"}
+
+
+def test_every_public_function_checks_its_inputs():
+    calls = good_calls()
+    public = [getattr(core, name) for name in core.__all__ if callable(getattr(core, name))
+              and not isinstance(getattr(core, name), type)]
+    for function in public:
+        assert getattr(function, "checks_inputs", False), f"{function.__name__} is not @checked"
+    takes_arrays = {f.__name__ for f in public} - {"needs_convex"}
+    assert takes_arrays == set(calls), "every public function taking arrays has a good call here"
+    for name, arguments in calls.items():
+        function = getattr(core, name)
+        function(**arguments)  # the good call works
+        for parameter, value in arguments.items():
+            if not isinstance(value, np.ndarray):
+                continue
+            for what, bad in bad_versions(value):
+                if parameter == "out" and what == "NaN":
+                    continue  # an output buffer: its contents are overwritten
+                with pytest.raises(ValueError) as error:
+                    function(**dict(arguments, **{parameter: bad}))
+                assert NAMED_AS[parameter] in str(error.value), (name, parameter, what, str(error.value))
+        if "tolerance" in inspect.signature(function).parameters:
+            for tolerance in (0.5, "1e-3", np.nan):
+                with pytest.raises(ValueError, match=r"tolerance must be a number in \(0, 0.001\]"):
+                    function(**dict(arguments, tolerance=tolerance))
+
+
+def test_a_function_with_an_unchecked_parameter_cannot_be_declared():
+    with pytest.raises(TypeError, match="no input check for parameter"):
+        core.inputs.checked(lambda points, gamma: None)
