@@ -6,13 +6,15 @@ with its worker processes); callers with several batches of points keep one inst
 
 import numpy as np
 
-from .cage import OUTSIDE_MODES, Cage, needs_convex
+from .cage import Cage, needs_convex
+from .inputs import OUTSIDE_MODES, checked
 from .validation import DEFAULT_TOLERANCE
 
 __all__ = ["coordinates", "weights", "ridge_scalars", "point_locations", "needs_convex",
            "OUTSIDE_MODES"]
 
 
+@checked
 def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
                 tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64, locations=None,
                 workers=None):
@@ -80,6 +82,7 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
                                 locations=locations, workers=workers)
 
 
+@checked
 def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERANCE, workers=None):
     """Homogeneous weights of a named kind: ``sum_i w_i (v_i - x) = 0``.
 
@@ -97,6 +100,7 @@ def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERA
         return cage.weights(points, kind=kind, workers=workers)
 
 
+@checked
 def ridge_scalars(points, vertices, faces, kind):
     """Ridge scalars d of a named generating surface.
 
@@ -116,6 +120,7 @@ def ridge_scalars(points, vertices, faces, kind):
     return Cage(vertices, faces).ridge_scalars(points, kind)
 
 
+@checked
 def point_locations(points, vertices, faces, tolerance=DEFAULT_TOLERANCE, workers=None):
     """Where each point is: 1 inside, 0 on the boundary (within tolerance), -1 outside.
 

@@ -49,7 +49,7 @@ def winding_numbers(cage, points):
     dim = cage.dimension
     if dim not in (2, 3):
         raise NotImplementedError("winding numbers are implemented for 2D and 3D cages")
-    x = np.asarray(points, dtype=np.float64) - cage.origin
+    x = cage.local(points)
     corners = cage.vertices[cage.topology.faces][None] - x[:, None, None, :]  # (k, m, N, N)
     dot = lambda u, v: np.einsum("kmN,kmN->km", u, v)  # noqa: E731
     if dim == 2:  # signed angle subtended by each edge
@@ -75,7 +75,7 @@ def _nearest_of_pairs(cage, points, point_index, facet_index):
     distance : (u,) float
     """
     corners = cage.facet_corners()
-    x = np.asarray(points, dtype=np.float64) - cage.origin
+    x = cage.local(points)
     barycentric = np.empty((len(point_index), cage.dimension))
     distance = np.empty(len(point_index))
     for start in range(0, len(point_index), _PAIR_CHUNK):
@@ -154,7 +154,7 @@ def plane_limit_coordinates(cage, points, plane_distance):
     """
     facet = np.argmin(np.abs(plane_distance), axis=1)
     corners = cage.facet_corners()[facet]  # (k, N, N): rows are the facet's vertices
-    x = np.asarray(points, dtype=np.float64) - cage.origin
+    x = cage.local(points)
     # Least squares for sum(l) = 1, sum(l_i c_i) = x (exact when x is in the hyperplane).
     system = np.concatenate([np.swapaxes(corners, 1, 2), np.ones((len(x), 1, corners.shape[1]))], axis=1)
     target = np.concatenate([x, np.ones((len(x), 1))], axis=1)[..., None]

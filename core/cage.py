@@ -6,30 +6,32 @@ an animation tool) keeps one, and with it everything that depends only on the ca
 the validation, the per-facet and per-ridge polynomials, and the worker processes.
 """
 
+import warnings
+
 import numpy as np
 
-from .boundary import OUTSIDE
+from . import tolerances
+from .boundary import BOUNDARY, OUTSIDE
 from .construction import point_frame
-from .errors import CageError, OutsideCageError, WorkerError
+from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
 from .evaluation import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
-from .generating_surfaces import CONVEX_ONLY_KINDS, KINDS, named_ridge_scalars
+from .generating_surfaces import CONVEX_ONLY_KINDS, named_ridge_scalars
+from .inputs import OUTSIDE_MODES, checked
 from .parallel import SharedArrays, WorkerPool, available_cores, python_executable
+from .units import length_degree, to_world
 from .validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
 
 __all__ = ["Cage", "OUTSIDE_MODES", "needs_convex"]
 
-OUTSIDE_MODES = ("raise", "extrapolate", "project")
 # With workers=None, processes start only for calls long enough to repay starting them
 # (about 0.2 s each: a Python importing numpy): one worker per this many (point, facet)
 # pairs, about half a second of work at 30 ns a pair.
 _PAIRS_PER_WORKER = 16 << 20
-_RESULT_DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
 
 
+@checked
 def needs_convex(kind):
     """Whether coordinates of ``kind`` require a convex cage (all but mean value)."""
-    if kind not in KINDS:
-        raise ValueError(f"unknown kind {kind!r}; expected one of {', '.join(KINDS)}")
     return kind in CONVEX_ONLY_KINDS
 
 
@@ -78,7 +80,7 @@ class Cage:
     @property
     def size(self):
         """The bounding-box diagonal that tolerances are relative to: float."""
-        return self._prepared.size
+        return self._prepared.size * self._prepared.scale
 
     @property
     def convex(self):
@@ -101,6 +103,7 @@ class Cage:
             self._pool.close()
             self._pool = None
 
+    @checked
     def suggested_workers(self, point_count):
         """Worker processes that ``workers=None`` would use for this many points: int.
 
@@ -112,6 +115,7 @@ class Cage:
 
     # -- the public computations -------------------------------------------------------
 
+    @checked
     def coordinates(self, points, kind="mean_value", outside="raise", progress=None,
                     dtype=np.float64, locations=None, workers=None):
         """Generalized barycentric coordinates of points (see :func:`core.coordinates`).
@@ -131,31 +135,36 @@ class Cage:
         -------
         coordinates : (k, n) dtype
         """
-        if outside not in OUTSIDE_MODES:
-            raise ValueError(f"outside must be one of {', '.join(OUTSIDE_MODES)}, got {outside!r}")
-        if np.dtype(dtype) not in _RESULT_DTYPES:
-            raise ValueError(f"dtype must be float64 or float32, got {np.dtype(dtype)}")
-        result, where = self._evaluate(points, kind, outside, True, progress, np.dtype(dtype), workers)
+        result, where = self._evaluate(points, kind, outside, True, progress, dtype, workers)
+        if kind == "mean_value" and outside == "extrapolate":
+            self._warn_if_flat_extrapolation(points, result, where)
         if locations is not None:
             locations[...] = where
         return result
 
+    @checked
     def weights(self, points, kind="mean_value", workers=None):
         """Homogeneous weights of a named kind (see :func:`core.weights`): (k, n) float."""
-        return self._evaluate(points, kind, "extrapolate", False, None, np.dtype(np.float64), workers)[0]
+        values, where = self._evaluate(points, kind, "extrapolate", False, None, np.dtype(np.float64),
+                                       workers)
+        # The frame's weights in world units (boundary rows, limit coordinates, have none).
+        formula = where != BOUNDARY
+        values[formula] = to_world(values[formula], self._prepared.scale,
+                                   length_degree(kind, self.dimension) - 1, "weights")
+        return values
 
+    @checked
     def ridge_scalars(self, points, kind):
         """Ridge scalars d of a named generating surface (see :func:`core.ridge_scalars`):
         (k, r) float."""
-        needs_convex(kind)
-        points = self._points(points)
-        return named_ridge_scalars(kind, point_frame(self._prepared, points)).T
+        d = named_ridge_scalars(kind, point_frame(self._prepared, points)).T
+        return to_world(d, self._prepared.scale, length_degree(kind, self.dimension), "ridge scalars")
 
+    @checked
     def point_locations(self, points, workers=None):
         """1 inside, 0 on the boundary (within the tolerance), -1 outside: (k,) int8."""
-        points = self._points(points)
         locations = np.empty(len(points), dtype=np.int8)
-        absolute = self.tolerance * self.size
+        absolute = self.tolerance * self._prepared.size  # in the frame, as the distances
         chunk = chunk_size(self._prepared, locate_only=True, convex=self.convex)
         # Locating costs a few times less per pair than coordinates.
         count = self._worker_count(workers, len(points), len(self.faces) // 4 + 1)
@@ -170,21 +179,6 @@ class Cage:
 
     # -- shared machinery ----------------------------------------------------------------
 
-    def _points(self, points):
-        dim = self.dimension
-        points = np.asarray(points, dtype=np.float64)
-        if points.size == 0:
-            return points.reshape(0, dim)
-        if points.ndim == 1:
-            points = points[None, :]
-        if points.ndim != 2 or points.shape[1] != dim:
-            raise ValueError(f"points must have shape (k, {dim}) for a {dim}D cage, got {points.shape}")
-        bad = ~np.isfinite(points).all(axis=1)
-        if bad.any():
-            raise ValueError(f"{np.count_nonzero(bad)} points have non-finite coordinates "
-                             f"(first: {int(np.flatnonzero(bad)[0])})")
-        return points
-
     def _check_kind(self, kind):
         if needs_convex(kind) and not self.convex:
             raise non_convex_error(self._violation)
@@ -194,9 +188,7 @@ class Cage:
 
     def _worker_count(self, workers, count, pairs_per_point):
         if workers is not None:
-            if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-                raise ValueError(f"workers must be a positive integer or None, got {workers!r}")
-            return int(workers)
+            return workers
         if self._pool is not None and not self._pool.closed:
             return self._pool.size
         wanted = max(1, min(available_cores(), count * pairs_per_point // _PAIRS_PER_WORKER))
@@ -209,14 +201,13 @@ class Cage:
 
     def _evaluate(self, points, kind, outside, normalise, progress, dtype, workers):
         self._check_kind(kind)
-        points = self._points(points)
         cage = self._prepared
         if self._terms is None:
             self._terms = evaluation_terms(cage)
         count = len(points)
         chunk = chunk_size(cage)
         job = dict(kind=kind, outside=outside, normalise=normalise, convex=self.convex,
-                   absolute=self.tolerance * self.size, chunk=chunk)
+                   absolute=self.tolerance * cage.size, chunk=chunk)
         workers = self._worker_count(workers, count, len(cage.topology.faces))
         if workers > 1:
             result, location = self._run_in_workers(points, job, chunk, progress, workers, None, dtype)
@@ -238,6 +229,30 @@ class Cage:
         if outside == "raise" and (location == OUTSIDE).any():
             raise OutsideCageError(np.flatnonzero(location == OUTSIDE), count)
         return result, location
+
+    def _warn_if_flat_extrapolation(self, points, result, where):
+        """AccuracyWarning when mean value extrapolation outside a near-flat cage lost accuracy.
+
+        The solid angles of a thin cage seen from outside nearly cancel. Coordinates are
+        invariant under scaling both the cage and the points, so evaluating the outside
+        points again on a copy scaled by a non-dyadic factor changes only the rounding:
+        the gap estimates the error (1:1:1e-6 icosphere: estimate 5e4, error 9e4).
+        """
+        outside_rows = np.flatnonzero(where == OUTSIDE)
+        centred = self._prepared.vertices - self._prepared.vertices.mean(axis=0)
+        extent = np.linalg.svd(centred, compute_uv=False)
+        if not len(outside_rows) or extent[-1] > tolerances.FLAT * extent[0]:
+            return
+        factor = 1.0 + 1.0 / 3.0
+        twin = Cage(self.vertices * factor, self.faces, self.tolerance)
+        again, _ = twin._evaluate(points[outside_rows] * factor, "mean_value", "extrapolate", True,
+                                  None, np.dtype(np.float64), 1)
+        error = float(np.abs(again - result[outside_rows]).max())
+        if error > tolerances.ACCURACY:
+            warnings.warn(f"mean value coordinates extrapolated outside this thin cage (thickness "
+                          f"{extent[-1] / extent[0]:.1e} of its extent) are accurate only to about "
+                          f"{error:.1e} (estimated; {len(outside_rows)} outside points); use "
+                          "outside='project', or a thicker cage", AccuracyWarning, stacklevel=4)
 
     def _run_in_workers(self, points, job, chunk, progress, workers, locations, dtype):
         """Compute ``job`` in worker processes: (result or None, locations)."""

@@ -18,6 +18,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .inputs import bounding_frame, checked
 from .simplex import generalized_cross
 from .topology import CageTopology, cage_topology
 
@@ -32,12 +33,19 @@ class Cage:
     Attributes
     ----------
     vertices : (n, N) float
-        Vertex positions, relative to ``origin`` (centering keeps the affine formulas
-        below free of cancellation far from the world origin).
+        Vertex positions in the cage's frame: ``(v - origin) / scale``. Centring keeps the
+        affine formulas below free of cancellation far from the world origin; dividing
+        by a power of two near the size keeps every product in range at any scale
+        (1e-150 or 1e150 alike) without adding rounding. Every per-cage array below,
+        and every distance the core computes, is in this frame; map points with
+        :meth:`local`.
     origin : (N,) float
-        Centre of the bounding box.
+        Centre of the bounding box (world units).
+    scale : float
+        The frame's unit in world units: a power of two.
     size : float
-        Diagonal of the bounding box: the length that tolerances are relative to.
+        Diagonal of the bounding box in the frame (in [1, 2)): the length that
+        tolerances are relative to (``size * scale`` in world units).
     topology : CageTopology
     facet_normals : (m, N) float
         Outward normal of each facet scaled to (N-1)! times its (N-1)-volume.
@@ -55,6 +63,7 @@ class Cage:
 
     vertices: np.ndarray
     origin: np.ndarray
+    scale: float
     size: float
     topology: CageTopology
     facet_normals: np.ndarray
@@ -68,11 +77,18 @@ class Cage:
         return self.vertices.shape[1]
 
     def facet_corners(self):
-        """Vertex positions of each facet (relative to ``origin``): (m, N, N) float."""
+        """Vertex positions of each facet (in the frame): (m, N, N) float."""
         return self.vertices[self.topology.faces]
 
+    def local(self, points):
+        """World points in the cage's frame: ``(points - origin) / scale``, (k, N) float.
 
-def prepare_cage(vertices, faces):
+        Divided first (exact: the scale is a power of two), so nothing overflows.
+        """
+        return np.asarray(points, dtype=np.float64) / self.scale - self.origin / self.scale
+
+
+def prepare_cage(vertices, faces, scale=None):
     """Precompute a :class:`Cage` (no validation; see :func:`core.validate_cage`).
 
     Parameters
@@ -80,6 +96,8 @@ def prepare_cage(vertices, faces):
     vertices : (n, N) float
     faces : (m, N) int
         Outward-oriented facets.
+    scale : float, optional
+        The frame's unit; by default the power of two of :func:`core.inputs.bounding_frame`.
 
     Returns
     -------
@@ -90,9 +108,9 @@ def prepare_cage(vertices, faces):
     if vertices.ndim != 2 or faces.ndim != 2 or faces.shape[1] != vertices.shape[1]:
         raise ValueError(
             f"vertices must be (n, N) and faces (m, N); got {vertices.shape} and {faces.shape}")
-    low, high = vertices.min(axis=0), vertices.max(axis=0)
-    origin = 0.5 * (low + high)
-    centred = vertices - origin
+    origin, frame_scale = bounding_frame(vertices)
+    scale = frame_scale if scale is None else float(scale)
+    centred = vertices / scale - origin / scale
     corners = centred[faces]
     # det[v_0 - x, ..., v_{N-1} - x] = det[v_0 - x, v_1 - v_0, ...] = (v_0 - x) . normal
     edges = corners[:, 1:, :] - corners[:, :1, :]  # (m, N-1, N)
@@ -101,7 +119,8 @@ def prepare_cage(vertices, faces):
     return Cage(
         vertices=centred,
         origin=origin,
-        size=float(np.linalg.norm(high - low)),
+        scale=scale,
+        size=float(np.linalg.norm(np.ptp(centred, axis=0))),
         topology=topology,
         facet_normals=normals,
         facet_offsets=np.einsum("mn,mn->m", corners[:, 0, :], normals),
@@ -164,7 +183,7 @@ class PointFrame:
         self._cage = cage
         # Polynomials in x with precomputed coefficients: a few small matrix products.
         # The cage is centred, so rounding is of the order of computing e = v - x first.
-        self._x = np.asarray(points, dtype=np.float64) - cage.origin
+        self._x = cage.local(points)
         if facet_det is not None:
             self.facet_det = np.ascontiguousarray(facet_det)  # rows are gathered per ridge
 
@@ -220,7 +239,7 @@ class PointFrame:
 
     @cached_property
     def facet_det(self):
-        return np.ascontiguousarray(facet_determinants(self._cage, self._x + self._cage.origin).T)
+        return np.ascontiguousarray((self._cage.facet_offsets - self._x @ self._cage.facet_normals.T).T)
 
     @property
     def ridge_lengths_squared(self):
@@ -240,7 +259,7 @@ def point_frame(cage, points, facet_det=None):
     ----------
     cage : Cage
     points : (k, N) float
-        In the caller's coordinates (``cage.origin`` is subtracted here).
+        In the caller's (world) coordinates (mapped to the cage's frame here).
     facet_det : (m, k) float, optional
         Already computed determinants (:func:`facet_determinants`, transposed).
 
@@ -268,12 +287,14 @@ def facet_determinants(cage, points):
     ----------
     cage : Cage
     points : (k, N) float
+        World coordinates.
 
     Returns
     -------
     det : (k, m) float
+        In the cage's frame (world values are ``scale ** N`` times these).
     """
-    x = np.asarray(points, dtype=np.float64) - cage.origin
+    x = cage.local(points)
     return cage.facet_offsets - x @ cage.facet_normals.T
 
 
@@ -362,6 +383,7 @@ def sum_rows(rows, table):
     return total
 
 
+@checked
 def weights_from_ridge_scalars(points, vertices, faces, d):
     """The general construction for arbitrary ridge scalars (any generating surface).
 
@@ -372,7 +394,7 @@ def weights_from_ridge_scalars(points, vertices, faces, d):
         as is: poles on facet hyperplanes give inf or NaN).
     vertices : (n, N) float
     faces : (m, N) int
-        Outward-oriented simplicial facets.
+        Closed, outward-oriented simplicial facets of a convex cage.
     d : (k, r) float
         One scalar per (point, ridge), ridges ordered as :func:`core.ridges`.
 
@@ -381,10 +403,9 @@ def weights_from_ridge_scalars(points, vertices, faces, d):
     weights : (k, n) float
         Homogeneous weights: ``sum_i w_i (v_i - x) = 0`` for every point.
     """
-    cage = prepare_cage(vertices, faces)
-    points = np.atleast_2d(np.asarray(points, dtype=np.float64))
-    d = np.atleast_2d(np.asarray(d, dtype=np.float64))
-    if d.shape != (len(points), len(cage.topology.ridges)):
-        raise ValueError(f"d must be (k, r) = ({len(points)}, {len(cage.topology.ridges)}), "
-                         f"got {d.shape}")
-    return construct_weights(cage, point_frame(cage, points), d.T).T
+    from .units import to_world
+    from .validation import validate_cage  # it prepares cages: imported late
+
+    cage = validate_cage(vertices, faces)
+    # Frame weights have length degree -1 for the same d (u = r . m / det E).
+    return to_world(construct_weights(cage, point_frame(cage, points), d.T).T, cage.scale, -1, "weights")

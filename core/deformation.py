@@ -3,10 +3,12 @@
 import numpy as np
 
 from . import tolerances
+from .inputs import checked
 
 __all__ = ["deform", "field_colors", "field_range", "coordinate_summary"]
 
 
+@checked
 def deform(coordinates, cage_positions, out=None):
     """Deformed positions: each point is its coordinates times the cage's positions.
 
@@ -50,6 +52,7 @@ VIRIDIS_SRGB = np.array([
 NEGATIVE_SRGB = np.array([(0.99, 0.75, 0.84), (0.93, 0.36, 0.55), (0.70, 0.02, 0.22)])
 
 
+@checked
 def field_range(values):
     """The values ``field_colors`` scales to: ``(lowest, highest)``, 0 included.
 
@@ -61,6 +64,7 @@ def field_range(values):
     return (lowest if lowest < -tolerances.NEGATIVE else 0.0), values.max(initial=0.0)
 
 
+@checked
 def field_colors(values):
     """Colours of one coordinate field: viridis for 0 to its maximum, a separate pink to
     red ramp for negative values.
@@ -105,6 +109,7 @@ def _srgb_to_linear(srgb):
     return np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
 
 
+@checked
 def coordinate_summary(coordinates):
     """Figures an artist checks after binding.
 

@@ -5,7 +5,7 @@ attributes let a front end (the Blender add-on) phrase its own message or select
 offending elements.
 """
 
-__all__ = ["CageError", "OutsideCageError", "WorkerError"]
+__all__ = ["CageError", "OutsideCageError", "WorkerError", "AccuracyWarning"]
 
 
 class CageError(ValueError):
@@ -17,7 +17,7 @@ class CageError(ValueError):
         One of ``"non_finite"``, ``"too_few_vertices"``, ``"bad_faces"``,
         ``"loose_vertices"``, ``"duplicate_vertices"``, ``"degenerate_facet"``, ``"open"``,
         ``"non_manifold"``, ``"inconsistent_orientation"``, ``"inward"``,
-        ``"non_convex"``.
+        ``"non_convex"``, ``"scale"`` (a size float64 cannot compute with).
     faces : tuple of int
         Indices of the facets concerned (may be empty).
     vertices : tuple of int
@@ -29,6 +29,14 @@ class CageError(ValueError):
         self.problem = problem
         self.faces = tuple(int(f) for f in faces)
         self.vertices = tuple(int(v) for v in vertices)
+
+
+class AccuracyWarning(UserWarning):
+    """Results were computed but rounding may have spoilt them (the message says how much).
+
+    Raised as a warning, not an error: ``warnings.simplefilter("error", AccuracyWarning)``
+    turns it into one.
+    """
 
 
 class OutsideCageError(ValueError):

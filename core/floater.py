@@ -22,9 +22,14 @@ from math import factorial
 
 import numpy as np
 
-from .construction import facet_determinants, point_frame, prepare_cage, sum_rows
+from . import tolerances
+from .boundary import plane_distances
+from .construction import facet_determinants, point_frame, sum_rows
+from .inputs import checked
 from .simplex import generalized_cross
 from .topology import gather_table
+from .units import to_world
+from .validation import DEFAULT_TOLERANCE, validate_cage
 
 __all__ = ["FloaterTerms", "floater_terms", "floater_term_values", "floater_form_weights", "floater_matrix",
            "floater_weights", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
@@ -105,7 +110,7 @@ def floater_term_values(cage, terms, points, facet_det, scaled_scalars):
         row for the gather table's padding.
     """
     ridges = len(terms.facets)
-    x = np.asarray(points, dtype=np.float64) - cage.origin
+    x = cage.local(points)
     with np.errstate(divide="ignore", invalid="ignore"):
         inverse_det = 1.0 / facet_det
     inverse_p = np.take(inverse_det, terms.facets[:, 0], axis=0)
@@ -131,101 +136,148 @@ def floater_form_weights(cage, terms, points, facet_det, scaled_scalars):
                     terms.vertex_terms)
 
 
-def floater_matrix(points, vertices, faces):
+def _convex_cage_and_points(points, vertices, faces, tolerance, what):
+    """The validated convex cage, and the (m, k) determinants of points off every facet's
+    hyperplane (there Floater's terms have a pole: 1 / det E_T)."""
+    cage = validate_cage(vertices, faces, convex=True, tolerance=tolerance)
+    det = facet_determinants(cage, points)
+    near = (np.abs(plane_distances(cage, det)) <= tolerance * cage.size).any(axis=1)
+    if near.any():
+        first = ", ".join(str(i) for i in np.flatnonzero(near)[:5])
+        raise ValueError(f"{what} has a pole on the cage's facet hyperplanes: {np.count_nonzero(near)} "
+                         f"points lie within the tolerance ({tolerance:g} of the cage's size) of "
+                         f"one (first: {first}); use core.coordinates, which takes the boundary "
+                         "limit there, or points strictly inside")
+    return cage, det.T
+
+
+@checked
+def floater_matrix(points, vertices, faces, tolerance=DEFAULT_TOLERANCE):
     """The linear map from Floater scalars c to homogeneous weights, per point.
 
     Parameters
     ----------
     points : (k, N) float
-        Strictly inside the convex cage.
+        Inside the convex cage, off the facets' hyperplanes by more than the tolerance
+        (the terms have a pole there: ValueError).
     vertices : (n, N) float
     faces : (m, N) int
-        Closed, outward-oriented simplicial facets.
+        Closed, outward-oriented simplicial facets of a convex cage (CageError otherwise).
+    tolerance : float
+        Relative to the cage's size, in (0, 1e-3].
 
     Returns
     -------
     matrix : (k, n, r) float
         ``weights[k] = matrix[k] @ c[k]``; ridges ordered as :func:`core.ridges`.
     """
-    cage = prepare_cage(vertices, faces)
-    x = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    cage, det = _convex_cage_and_points(points, vertices, faces, tolerance, "floater_matrix")
     terms = floater_terms(cage)
     ridges = len(terms.facets)
     # Column R holds ridge R's terms for c_R = 1, each added at its vertex.
-    unit = np.full((ridges, len(x)), float(factorial(cage.dimension)))
-    values = floater_term_values(cage, terms, x, facet_determinants(cage, x).T, unit)[:-1]
+    unit = np.full((ridges, len(points)), float(factorial(cage.dimension)))
+    values = floater_term_values(cage, terms, points, det, unit)[:-1]
     roles = len(terms.term_vertices) // ridges
-    matrix = np.zeros((len(x), len(cage.vertices), ridges))
+    matrix = np.zeros((len(points), len(cage.vertices), ridges))
     np.add.at(matrix, (slice(None), terms.term_vertices, np.tile(np.arange(ridges), roles)), values.T)
-    return matrix
+    return to_world(matrix, cage.scale, -cage.dimension, "Floater matrices")
 
 
-def floater_weights(points, vertices, faces, c):
+@checked
+def floater_weights(points, vertices, faces, c, tolerance=DEFAULT_TOLERANCE):
     """Homogeneous weights of Floater's construction for scalars c.
 
     Parameters
     ----------
     points : (k, N) float
+        Off the facets' hyperplanes by more than the tolerance (ValueError otherwise).
     vertices : (n, N) float
     faces : (m, N) int
-        Closed, outward-oriented simplicial facets.
+        Closed, outward-oriented simplicial facets of a convex cage.
     c : (k, r) float
         One scalar per (point, ridge).
+    tolerance : float
+        Relative to the cage's size, in (0, 1e-3].
 
     Returns
     -------
     weights : (k, n) float
     """
-    cage = prepare_cage(vertices, faces)
-    x = np.atleast_2d(np.asarray(points, dtype=np.float64))
-    c = np.atleast_2d(np.asarray(c, dtype=np.float64))
+    cage, det = _convex_cage_and_points(points, vertices, faces, tolerance, "floater_weights")
     scaled = factorial(cage.dimension) * c.T
-    return floater_form_weights(cage, floater_terms(cage), x, facet_determinants(cage, x).T, scaled).T
+    weights = floater_form_weights(cage, floater_terms(cage), points, det, scaled).T
+    return to_world(weights, cage.scale, -cage.dimension, "Floater weights")
 
 
-def _ridge_measure(points, vertices, faces):
-    cage = prepare_cage(vertices, faces)
-    return point_frame(cage, np.atleast_2d(points)).ridge_measure.T, factorial(cage.dimension)
+def _ridge_measure(points, vertices, faces, tolerance):
+    """|m_R| per (point, ridge) in the frame, N! and the cage."""
+    cage, _ = _convex_cage_and_points(points, vertices, faces, tolerance, "the c <-> d map")
+    return point_frame(cage, points).ridge_measure.T, factorial(cage.dimension), cage
 
 
-def ridge_scalars_from_floater(points, vertices, faces, c):
+@checked
+def ridge_scalars_from_floater(points, vertices, faces, c, tolerance=DEFAULT_TOLERANCE):
     """Ridge scalars d giving the same weights as Floater scalars c (Prop. 3, 9).
+
+    Parameters as :func:`floater_weights`.
 
     Returns
     -------
     d : (k, r) float
         ``N! c / |m_R|``.
     """
-    measure, scale = _ridge_measure(points, vertices, faces)
-    return scale * np.asarray(c, dtype=np.float64) / measure
+    measure, scale, cage = _ridge_measure(points, vertices, faces, tolerance)
+    return to_world(scale * c / measure, cage.scale, 1 - cage.dimension, "ridge scalars")
 
 
-def floater_from_ridge_scalars(points, vertices, faces, d):
-    """Inverse of :func:`ridge_scalars_from_floater`: c = d |m_R| / N!."""
-    measure, scale = _ridge_measure(points, vertices, faces)
-    return np.asarray(d, dtype=np.float64) * measure / scale
+@checked
+def floater_from_ridge_scalars(points, vertices, faces, d, tolerance=DEFAULT_TOLERANCE):
+    """Inverse of :func:`ridge_scalars_from_floater`: c = d |m_R| / N!, (k, r) float."""
+    measure, scale, cage = _ridge_measure(points, vertices, faces, tolerance)
+    return to_world(d * measure / scale, cage.scale, cage.dimension - 1, "Floater scalars")
 
 
-def floater_scalars(point, vertices, faces, w):
+@checked
+def floater_scalars(point, vertices, faces, w, tolerance=DEFAULT_TOLERANCE):
     """Completeness (Prop. 10): Floater scalars c reproducing given homogeneous weights.
 
     Parameters
     ----------
     point : (N,) float
-        Strictly inside the convex cage.
+        Inside the convex cage, off the facets' hyperplanes (as :func:`floater_matrix`).
     vertices : (n, N) float
     faces : (m, N) int
     w : (n,) float
         Homogeneous weights at the point (coordinates of any kind qualify).
+    tolerance : float
+        Relative to the cage's size, in (0, 1e-3].
 
     Returns
     -------
     c : (r,) float
         The least-norm solution of ``floater_matrix(point) @ c = w``; the map is onto
-        the (n - N)-dimensional space of homogeneous weights, so the residual is only
-        rounding when w is homogeneous. Ridge scalars follow from
+        the (n - N)-dimensional space of homogeneous weights. Ridge scalars follow from
         :func:`ridge_scalars_from_floater`.
+
+    Raises
+    ------
+    ValueError
+        ``w`` is not homogeneous at the point (``sum_i w_i (v_i - x) != 0``): no c gives
+        it; the least-squares residual exceeds ``tolerances.HOMOGENEOUS`` times ``|w|``.
     """
-    matrix = floater_matrix(np.asarray(point, dtype=np.float64)[None, :], vertices, faces)[0]
-    c, *_ = np.linalg.lstsq(matrix, np.asarray(w, dtype=np.float64), rcond=None)
-    return c
+    cage, det = _convex_cage_and_points(point[None], vertices, faces, tolerance, "floater_scalars")
+    terms = floater_terms(cage)
+    ridges = len(terms.facets)
+    # The frame's matrix (its world form is scale^-N times it): solve there, convert c.
+    unit = np.full((ridges, 1), float(factorial(cage.dimension)))
+    values = floater_term_values(cage, terms, point[None], det, unit)[:-1, 0]
+    matrix = np.zeros((len(cage.vertices), ridges))
+    np.add.at(matrix, (terms.term_vertices, np.tile(np.arange(ridges), len(values) // ridges)), values)
+    c, *_ = np.linalg.lstsq(matrix, w, rcond=None)
+    residual = np.linalg.norm(matrix @ c - w)
+    if residual > tolerances.HOMOGENEOUS * np.linalg.norm(w):
+        raise ValueError(f"w is not homogeneous at the point (sum_i w_i (v_i - x) != 0), so no "
+                         f"Floater scalars reproduce it: least-squares residual {residual:.3g}, "
+                         f"{residual / max(np.linalg.norm(w), tolerances.TINY):.3g} of |w| (accepted: "
+                         f"{tolerances.HOMOGENEOUS:g}); pass weights or coordinates of the point")
+    return to_world(c, cage.scale, cage.dimension, "Floater scalars")

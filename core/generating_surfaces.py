@@ -117,9 +117,14 @@ def power_dual_by_subsets(gram, heights):
     for count in range(1, size + 1):
         for subset in combinations(range(size), count):
             index = list(subset)
-            local = np.linalg.solve(gram[..., index, :][..., :, index], heights[..., index, None])
+            block = gram[..., index, :][..., :, index]
+            # A ridge through x has a singular Gram block (its limit is taken elsewhere):
+            # solve a stand-in there and mark the result undefined instead of raising.
+            singular = ~(np.linalg.det(block) > 0.0)
+            block = np.where(singular[..., None, None], np.eye(count), block)
+            local = np.linalg.solve(block, heights[..., index, None])
             full = np.zeros(gram.shape[:-1])
-            full[..., index] = local[..., 0]
+            full[..., index] = np.where(singular[..., None], np.nan, local[..., 0])
             points[frozenset(subset)] = full
     total = np.zeros(gram.shape[:-2])
     for order in permutations(range(size)):

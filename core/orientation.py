@@ -2,11 +2,13 @@
 
 import numpy as np
 
+from .inputs import checked
 from .simplex import generalized_cross
 
 __all__ = ["orient_facets_outward"]
 
 
+@checked
 def orient_facets_outward(vertices, facets):
     """Reorder each facet's vertices so that it faces away from the polytope's interior.
 

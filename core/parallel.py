@@ -303,7 +303,7 @@ def _read_replies(index, pipe, replies):
     try:
         while True:
             replies.put((index, pickle.load(pipe)))
-    except (EOFError, OSError, pickle.UnpicklingError):
+    except (EOFError, OSError, ValueError, pickle.UnpicklingError):  # ValueError: pipe closed here
         replies.put((index, ("closed",)))
 
 

@@ -10,7 +10,27 @@ DEFAULT = 1e-9
 # The same for data stored as float32 (Blender's positions): a flat face after a
 # rotation is flat only to ~1e-7 of its size, so float32 data needs a wider margin.
 FLOAT32 = 1e-6
+# The accepted range of a user's tolerance: (0, LARGEST]. Beyond 1e-3 of the cage's
+# size the "boundary limit" is taken visibly off the boundary (0.1 moves coordinates by
+# ~0.2) and distinct vertices of fine cages start to "coincide".
+LARGEST = 1e-3
 # Below this a coordinate counts as negative (rounding noise of exact zeros is not).
 NEGATIVE = 1e-9
 # Guards a division by a length or sum that can be zero (degenerate input).
 TINY = 1e-300
+# Target weights w are homogeneous at x when the least-squares residual of Floater's
+# system is below this, relative to |w| (rounding gives ~1e-14; a wrong w, ~1e-1).
+HOMOGENEOUS = 1e-8
+# Cages and points are mapped to a frame where the cage has unit size. The smallest
+# cage diagonal accepted: below it the vertices' differences are subnormal numbers
+# with too few bits to be relied on.
+SMALLEST_SIZE = 2.0 ** -1000
+# Points farther than this many cage sizes from the cage are refused: the formulas'
+# products of up to ~6 such distances would overflow float64.
+FARTHEST = 1e30
+# Mean value extrapolation outside a cage whose thinnest extent is below this fraction
+# of its size can lose accuracy (cancellation in near-flat solid angles: 1:1:1e-4
+# loses 0.15, 1:1:1e-2 3e-7): such results are re-evaluated to estimate their error...
+FLAT = 1e-2
+# ... and an AccuracyWarning is given when that estimate exceeds this.
+ACCURACY = 1e-6

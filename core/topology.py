@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .inputs import checked
+
 __all__ = ["CageTopology", "ridges", "cage_topology", "gather_table"]
 
 
@@ -60,6 +62,7 @@ def _ridge_incidences(faces):
     return np.sort(opposite, axis=2), parity * slot_sign[None, :]
 
 
+@checked
 def ridges(faces):
     """Ridges of a simplicial cage, in the order ridge-scalar columns use.
 

@@ -2,9 +2,12 @@
 
 import numpy as np
 
+from .inputs import checked
+
 __all__ = ["triangulate_quads"]
 
 
+@checked
 def triangulate_quads(vertices, quads):
     """Split each quad along the diagonal that keeps the surface convex there.
 

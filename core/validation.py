@@ -5,6 +5,7 @@ import numpy as np
 from . import tolerances
 from .construction import prepare_cage
 from .errors import CageError
+from .inputs import checked
 
 __all__ = ["validate_cage", "convexity_violation", "non_convex_error", "DEFAULT_TOLERANCE"]
 
@@ -17,26 +18,12 @@ def _first(mask):
 
 
 def _check_arrays(vertices, faces):
-    vertices = np.asarray(vertices, dtype=np.float64)
-    faces = np.asarray(faces)
-    if vertices.ndim != 2 or vertices.shape[1] < 2:
-        raise CageError("bad_faces", f"vertices must have shape (n, N) with N >= 2, got {vertices.shape}")
+    # Shapes, dtypes, finiteness and index range: core.inputs (validate_cage is @checked).
+    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
     dim = vertices.shape[1]
-    if faces.ndim != 2 or faces.shape[1] != dim or not np.issubdtype(faces.dtype, np.integer):
-        raise CageError("bad_faces", f"faces must be integer (m, {dim}) for a {dim}D cage, got "
-                                     f"{faces.dtype} {faces.shape}")
-    bad = ~np.isfinite(vertices).all(axis=1)
-    if bad.any():
-        raise CageError("non_finite", f"cage vertex {_first(bad)} has a non-finite coordinate "
-                                      f"({np.count_nonzero(bad)} such vertices)",
-                        vertices=np.flatnonzero(bad)[:10])
     if len(vertices) < dim + 1:
         raise CageError("too_few_vertices", f"a {dim}D cage needs at least {dim + 1} vertices, "
                                             f"got {len(vertices)}")
-    out_of_range = ((faces < 0) | (faces >= len(vertices))).any(axis=1)
-    if out_of_range.any():
-        raise CageError("bad_faces", f"face {_first(out_of_range)} refers to a vertex index outside "
-                                     f"0..{len(vertices) - 1}", faces=[_first(out_of_range)])
     ordered = np.sort(faces, axis=1)
     repeated = (ordered[:, 1:] == ordered[:, :-1]).any(axis=1)
     if repeated.any():
@@ -124,6 +111,7 @@ def convexity_violation(cage, tolerance=DEFAULT_TOLERANCE):
     Returns
     -------
     violation : (vertex, face, height) or None
+        ``height`` in world units.
     """
     absolute = tolerance * cage.size
     unit_normals = cage.facet_normals / np.linalg.norm(cage.facet_normals, axis=1, keepdims=True)
@@ -134,7 +122,7 @@ def convexity_violation(cage, tolerance=DEFAULT_TOLERANCE):
         height = cage.vertices[start:start + step] @ unit_normals.T - unit_offsets[None, :]
         if (height > absolute).any():
             vertex, face = np.unravel_index(np.argmax(height), height.shape)
-            return int(start + vertex), int(face), float(height[vertex, face])
+            return int(start + vertex), int(face), float(height[vertex, face]) * cage.scale
     return None
 
 
@@ -151,6 +139,7 @@ def _check_convex(cage, tolerance):
         raise non_convex_error(violation)
 
 
+@checked
 def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):
     """Check that a cage can be used, raising :class:`CageError` naming the problem.
 
@@ -163,18 +152,14 @@ def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):
     convex : bool
         Also require convexity (every kind but mean value).
     tolerance : float
-        Relative to the cage's bounding-box diagonal: coincident vertices, flat facets
-        and convexity are judged to this precision.
+        Relative to the cage's bounding-box diagonal, in (0, 1e-3] (``core.tolerances``):
+        coincident vertices, flat facets and convexity are judged to this precision.
 
     Returns
     -------
     cage : Cage
         The prepared cage, for reuse.
     """
-    if not (np.isfinite(tolerance) and tolerance > 0.0):
-        # Zero would let rounding decide whether a point on a facet is "on" it (a pole).
-        raise ValueError(f"tolerance must be a positive number (relative to the cage's size), "
-                         f"got {tolerance}")
     vertices, faces = _check_arrays(vertices, faces)
     cage = prepare_cage(vertices, faces)
     absolute = tolerance * cage.size

@@ -244,3 +244,22 @@ def test_a_linked_library_object_is_refused(gc, tmp_path):
                                            "be changed: use Object > Library Override"):
         bpy.ops.object.gencoords_bind()
     assert not linked.modifiers
+
+
+def test_status_names_negative_coordinates_only_when_there_are_some(gc):
+    cage = add_icosphere_cage(radius=2.0)
+    obj = add_sphere(radius=1.0, location=(1.5, 0, 0))  # partly outside: extrapolated, negative
+    assert bind(obj, cage, outside="EXTRAPOLATE") == {'FINISHED'}
+    info = gc.binding.binding(obj).info
+    assert info["negative_points"] > 0 and info["min_coordinate"] < 0.0
+    lines = gc.status.status_lines(obj)
+    expected = (f"Smallest coordinate {info['min_coordinate']:.4g}: negative at "
+                f"{info['negative_points']} vertices")
+    assert (expected, 'ERROR') in lines
+    inside = add_sphere(radius=0.5)  # well inside: mean value coordinates are positive
+    assert bind(inside, cage) == {'FINISHED'}
+    info = gc.binding.binding(inside).info
+    assert info["negative_points"] == 0 and info["min_coordinate"] > 0.0
+    lines = gc.status.status_lines(inside)
+    assert (f"Smallest coordinate: {info['min_coordinate']:.4g}", 'CHECKMARK') in lines
+    assert not any("negative" in text for text, _ in lines)

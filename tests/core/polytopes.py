@@ -59,8 +59,13 @@ def random_convex_polytope(rng, dim, count):
     vertices : (count, dim) float
     facets : (m, dim) int
     """
-    directions = rng.normal(size=(count, dim))
-    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    while True:  # redraw the rare near-coincident vertices (an ill-conditioned cage whose
+        # rounding the precision tests would blame on the formulas)
+        directions = rng.normal(size=(count, dim))
+        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+        gaps = np.linalg.norm(directions[:, None] - directions[None], axis=-1)
+        if (gaps + np.eye(count) * 2.0).min() > 1e-3:
+            break
     axes = rng.uniform(0.5, 2.0, size=dim)
     rotation = np.linalg.qr(rng.normal(size=(dim, dim)))[0]
     vertices = (directions * axes) @ rotation.T + rng.uniform(-3, 3, size=dim)

@@ -40,11 +40,11 @@ def test_random_homogeneous_weights_are_reproduced(seed):
     np.testing.assert_allclose(core.floater_weights(x[None], vertices, faces, c[None])[0], wanted, atol=1e-11)
 
 
-def test_non_homogeneous_weights_are_not_reproduced():
-    """The check above can fail: weights outside the space leave a residual."""
+def test_non_homogeneous_weights_are_refused():
+    """The check above can fail: weights outside the space leave a residual, which is an error."""
     rng = np.random.default_rng(1)
     vertices, faces = random_convex_polytope(rng, 3, 11)
     x = random_interior_points(rng, vertices, 1)[0]
     wanted = rng.uniform(size=len(vertices))
-    c = core.floater_scalars(x, vertices, faces, wanted)
-    assert np.abs(core.floater_weights(x[None], vertices, faces, c[None])[0] - wanted).max() > 1e-3
+    with pytest.raises(ValueError, match="not homogeneous"):
+        core.floater_scalars(x, vertices, faces, wanted)

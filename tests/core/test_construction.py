@@ -175,12 +175,13 @@ def test_wachspress_closed_form_equals_the_construction(seed, shape):
     # the reciprocal-basis construction fed with the polar dual's ridge scalars: the
     # same homogeneous weights, scale included.
     from core.construction import construct_weights, point_frame
+    from core.generating_surfaces import named_ridge_scalars
     from core.polar_dual import polar_dual_terms, wachspress_polar_weights
 
     rng, vertices, faces, points = polytope_and_points(seed, *shape)
     cage = core.validate_cage(vertices, faces)
     frame = point_frame(cage, points)
     closed_form = wachspress_polar_weights(cage, polar_dual_terms(cage), frame)
-    construction = construct_weights(cage, frame, core.ridge_scalars(points, vertices, faces, "wachspress").T)
+    construction = construct_weights(cage, frame, named_ridge_scalars("wachspress", frame))
     np.testing.assert_allclose(closed_form, construction, rtol=1e-9, atol=1e-12 * np.abs(construction).max())
-    assert residual(closed_form.T, points, vertices) < 1e-12
+    assert residual(closed_form.T, points, vertices) < 1e-12  # (frame units: scale-free)

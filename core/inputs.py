@@ -1,0 +1,394 @@
+"""Checks of the public functions' arguments, in one place.
+
+Every public function of the core is wrapped by :func:`checked`. It binds the call's
+arguments and checks each one by its *name* (``points``, ``vertices``, ``faces``,
+``tolerance``, ``dtype``, ...) with the checker of :data:`CHECKS`, passing the function
+the converted value (float64 arrays, int64 faces, a float tolerance, a numpy dtype),
+then cross-checks shapes between arguments (points of the cage's dimension, one
+location per point, one scalar per ridge...). A parameter without a checker is an error
+when the module is imported, so a new function or parameter cannot skip the checks.
+Every message says what is wrong and what is accepted; errors are ``ValueError`` (cage
+problems :class:`~core.errors.CageError`, itself a ``ValueError``).
+"""
+
+import functools
+import inspect
+import math
+import numbers
+
+import numpy as np
+
+from . import tolerances
+from .errors import CageError
+from .generating_surfaces import KINDS
+
+__all__ = ["checked", "CHECKS", "OUTSIDE_MODES", "check_tolerance", "real_array",
+           "bounding_frame"]
+
+OUTSIDE_MODES = ("raise", "extrapolate", "project")
+_RESULT_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
+
+
+def _as_array(value, name):
+    try:
+        return np.asarray(value)
+    except (ValueError, TypeError) as error:  # ragged nested lists, odd objects
+        raise ValueError(f"{name} must be a rectangular array of numbers ({error})") from None
+
+
+def real_array(value, name, keep_float32=False):
+    """``value`` as a float64 array (float32 kept if asked), refusing what is not real.
+
+    Complex values are refused rather than cast (numpy would drop the imaginary part),
+    and so are booleans, strings and objects.
+    """
+    array = _as_array(value, name)
+    if array.dtype.kind == "c":
+        raise ValueError(f"{name} must be real numbers, got complex values ({array.dtype}); "
+                         "pass the real part explicitly if that is what is meant")
+    if array.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must be real numbers (integer or float), got {array.dtype}")
+    if keep_float32 and array.dtype == np.float32:
+        return array
+    return array.astype(np.float64, copy=False)
+
+
+def _first_bad_row(array):
+    """Index of the first row (or element) with a non-finite value, and their count."""
+    bad = ~np.isfinite(np.atleast_1d(array)).all(axis=tuple(range(1, max(array.ndim, 1))))
+    if not bad.any():
+        return None, 0
+    return int(np.flatnonzero(bad)[0]), int(np.count_nonzero(bad))
+
+
+def _finite(array, name, unit="rows"):
+    first, count = _first_bad_row(array)
+    if first is not None:
+        raise ValueError(f"{name} must be finite: {count} {unit} have NaN or infinite values "
+                         f"(first: {first})")
+    return array
+
+
+def check_tolerance(tolerance):
+    """A tolerance relative to the cage's size, as a float in (0, tolerances.LARGEST]."""
+    accepted = (f"a number in (0, {tolerances.LARGEST:g}] relative to the cage's size "
+                f"(default {tolerances.DEFAULT:g}; {tolerances.FLOAT32:g} for float32 data)")
+    if isinstance(tolerance, (bool, np.bool_)) or not isinstance(tolerance, numbers.Real):
+        raise ValueError(f"tolerance must be {accepted}, got {tolerance!r} ({type(tolerance).__name__})")
+    value = float(tolerance)
+    if not (math.isfinite(value) and 0.0 < value <= tolerances.LARGEST):
+        # Zero lets rounding decide whether a point on a facet is "on" it (a pole); large
+        # values take the boundary limit visibly off the boundary.
+        raise ValueError(f"tolerance must be {accepted}, got {value!r}")
+    return value
+
+
+def bounding_frame(vertices):
+    """The frame every formula works in: the cage centred on its bounding box and
+    divided by a power of two near its size (exact in binary: no rounding is added).
+
+    Parameters
+    ----------
+    vertices : (n, N) float
+
+    Returns
+    -------
+    origin : (N,) float
+        Centre of the bounding box.
+    scale : float
+        A power of two; ``(vertices - origin) / scale`` has a diagonal in [1, 2).
+
+    Raises
+    ------
+    CageError
+        ``problem="scale"``: a diagonal below ``tolerances.SMALLEST_SIZE`` or one that
+        overflows float64.
+    """
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    origin = 0.5 * low + 0.5 * high  # halves first: no overflow near the float64 limit
+    half = 0.5 * high - 0.5 * low
+    largest = float(half.max())
+    half_diagonal = largest * float(np.linalg.norm(half / largest)) if largest > 0.0 else 0.0
+    if not (tolerances.SMALLEST_SIZE <= 2.0 * half_diagonal < np.finfo(np.float64).max):
+        raise CageError("scale", f"the cage's bounding-box diagonal {2.0 * half_diagonal:.3g} is "
+                                 f"outside the range float64 can compute with "
+                                 f"({tolerances.SMALLEST_SIZE:.3g} to {np.finfo(np.float64).max:.3g}); "
+                                 "scale the cage and the points")
+    return origin, math.ldexp(1.0, math.frexp(half_diagonal)[1])
+
+
+class _Context:
+    """What the checks of one call learn about it (the cage's dimension, counts...)."""
+
+    def __init__(self, function):
+        self.function = function
+        self.dimension = self.vertex_count = self.point_count = None
+        self.vertices = self.faces = self.points = None
+
+
+def _vertices(value, context, name="vertices"):
+    array = real_array(value, name)
+    if array.ndim != 2 or array.shape[1] < 2:  # too few vertices for a cage: validate_cage
+        raise CageError("bad_faces", f"{name} must have shape (n, N) with N >= 2, "
+                                     f"got {array.shape}")
+    first, count = _first_bad_row(array)
+    if first is not None:
+        raise CageError("non_finite", f"cage vertex {first} has a non-finite coordinate "
+                                      f"({count} such vertices)",
+                        vertices=np.flatnonzero(~np.isfinite(array).all(axis=1))[:10])
+    context.dimension, context.vertex_count, context.vertices = array.shape[1], len(array), array
+    return array
+
+
+def _faces(value, context, name="faces", width=None):
+    array = _as_array(value, name)
+    width = width or context.dimension
+    if array.size == 0 and name == "quads":  # no quads to split (any empty list)
+        array = array.reshape(0, 4).astype(np.int64)
+    if array.dtype.kind not in "iu" or array.dtype == np.bool_:
+        raise CageError("bad_faces", f"{name} must be integer vertex indices, got {array.dtype} "
+                                     f"values")
+    if name == "quads" and context.dimension != 3:
+        raise ValueError(f"quads need 3D vertices, got {context.dimension}D")
+    if width is not None and array.ndim == 1 and array.size % width == 0 and name == "quads":
+        array = array.reshape(-1, width)  # a flat list of quad corners
+    expected = f"(m, {width})" if width else "(m, N) with N >= 2"
+    if array.ndim != 2 or (len(array) == 0 and name != "quads") or (array.shape[1] != width if width else array.shape[1] < 2):
+        raise CageError("bad_faces", f"{name} must be integer {expected}"
+                                     + (f" for a {width}D cage" if name != "quads" and width else "")
+                                     + f", got shape {array.shape}")
+    limit = context.vertex_count
+    out_of_range = ((array < 0) | (array >= limit)).any(axis=1) if limit else (array < 0).any(axis=1)
+    if out_of_range.any():
+        first = int(np.flatnonzero(out_of_range)[0])
+        upper = f"{limit - 1}" if limit else "(no upper limit)"
+        raise CageError("bad_faces", f"{name[:-1]} {first} refers to a vertex index outside 0..{upper}",
+                        faces=[first])
+    array = array.astype(np.int64, copy=False)
+    context.faces = array
+    return array
+
+
+def _points(value, context, name="points", single=False):
+    array = real_array(value, name)
+    dim = context.dimension
+    if single:
+        if array.shape != (dim,):
+            raise ValueError(f"{name} must have shape ({dim},) for a {dim}D cage, got {array.shape}")
+        return _finite(array, name, "coordinates")
+    if array.size == 0:
+        array = array.reshape(0, dim)
+    elif array.ndim == 1:
+        array = array[None, :]
+    if array.ndim != 2 or array.shape[1] != dim:
+        raise ValueError(f"{name} must have shape (k, {dim}) (or ({dim},) for one point) for a "
+                         f"{dim}D cage, got {array.shape}")
+    first, count = _first_bad_row(array)
+    if first is not None:
+        raise ValueError(f"{count} points have non-finite coordinates (first: {first}); every "
+                         "coordinate must be a finite number")
+    context.point_count, context.points = len(array), array
+    return array
+
+
+def _point(value, context):
+    array = _points(value, context, "point", single=True)
+    context.point_count, context.points = 1, array[None]
+    return array
+
+
+def _kind(value, context):
+    if not isinstance(value, str) or value not in KINDS:
+        raise ValueError(f"unknown kind {value!r}; expected one of {', '.join(KINDS)}")
+    return value
+
+
+def _outside(value, context):
+    if not isinstance(value, str) or value not in OUTSIDE_MODES:
+        raise ValueError(f"outside must be one of {', '.join(OUTSIDE_MODES)}, got {value!r}")
+    return value
+
+
+def _dtype(value, context):
+    try:
+        dtype = np.dtype(value)
+    except TypeError:
+        dtype = None
+    if value is None or dtype is None or dtype not in _RESULT_DTYPES:  # np.dtype(None) is float64
+        raise ValueError(f"dtype must be numpy.float32 or numpy.float64 (the result's precision), "
+                         f"got {value!r}")
+    return dtype
+
+
+def _locations(value, context):
+    if value is None:
+        return None
+    count = context.point_count
+    if not isinstance(value, np.ndarray) or value.shape != (count,):
+        shape = getattr(value, "shape", type(value).__name__)
+        raise ValueError(f"locations must be a numpy array of shape ({count},) (one per point), "
+                         f"got {shape}")
+    if not value.flags.writeable:
+        raise ValueError("locations must be a writable array (it is filled in place)")
+    if value.dtype.kind not in "if" or not np.can_cast(np.int8, value.dtype):
+        raise ValueError(f"locations must hold the values -1, 0 and 1: a signed integer or float "
+                         f"array (int8 is enough), got {value.dtype}")
+    return value
+
+
+def _progress(value, context):
+    if value is not None and not callable(value):
+        raise ValueError(f"progress must be a callable progress(fraction) or None, got {value!r}")
+    return value
+
+
+def _convex(value, context):
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"convex must be True or False, got {value!r}")
+    return bool(value)
+
+
+def _ridge_values(value, context, name):
+    from .topology import cage_topology  # topology's public function is itself @checked
+
+    ridges = len(cage_topology(context.faces, context.vertex_count).ridges)
+    array = np.atleast_2d(real_array(value, name))
+    expected = (context.point_count, ridges)
+    if array.shape != expected:
+        raise ValueError(f"{name} must have shape (k, r) = {expected} (one value per point and "
+                         f"ridge, ridges as core.ridges(faces)), got {array.shape}")
+    return _finite(array, name)
+
+
+def _vertex_weights(value, context):
+    array = real_array(value, "w")
+    if array.shape != (context.vertex_count,):
+        raise ValueError(f"w must have shape (n,) = ({context.vertex_count},) (one weight per cage "
+                         f"vertex), got {array.shape}")
+    return _finite(array, "w", "weights")
+
+
+def _coordinates(value, context):
+    array = real_array(value, "coordinates", keep_float32=True)
+    if array.ndim != 2:
+        raise ValueError(f"coordinates must have shape (k, n) (one row per point, one column per "
+                         f"cage vertex), got {array.shape}")
+    context.point_count, context.vertex_count = array.shape
+    return _finite(array, "coordinates")
+
+
+def _cage_positions(value, context):
+    array = real_array(value, "cage_positions")
+    if array.ndim != 2 or len(array) != context.vertex_count:
+        raise ValueError(f"cage_positions must have shape (n, N) with n = {context.vertex_count} "
+                         f"(the coordinates' columns), got {array.shape}")
+    context.dimension = array.shape[1]
+    return _finite(array, "cage_positions")
+
+
+def _out(value, context):
+    if value is None:
+        return None
+    expected = (context.point_count, context.dimension)
+    if not isinstance(value, np.ndarray) or value.shape != expected:
+        raise ValueError(f"out must be a numpy array of shape {expected}, got "
+                         f"{getattr(value, 'shape', type(value).__name__)}")
+    if value.dtype.kind != "f" or not value.flags.writeable:
+        raise ValueError(f"out must be a writable float array, got {value.dtype}"
+                         + ("" if value.flags.writeable else " (read-only)"))
+    return value
+
+
+def _values(value, context):
+    array = real_array(value, "values")
+    if array.ndim != 1:
+        raise ValueError(f"values must have shape (k,) (one coordinate per point), got {array.shape}")
+    return _finite(array, "values", "values")
+
+
+def _cage_self(value, context):
+    """A :class:`core.Cage` method's cage: its vertices and faces are already checked."""
+    context.dimension, context.vertex_count = value.vertices.shape[1], len(value.vertices)
+    context.vertices, context.faces = value.vertices, value.faces
+    return value
+
+
+def _workers(value, context):
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < 1:
+        raise ValueError(f"workers must be a positive integer or None (as many as the machine "
+                         f"allows, for long calls), got {value!r}")
+    return int(value)
+
+
+def _point_count(value, context):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < 0:
+        raise ValueError(f"point_count must be a non-negative integer, got {value!r}")
+    return int(value)
+
+
+# Checkers by parameter name, in the order they run (later ones use what earlier ones
+# learnt: faces need the vertex count, points the dimension...).
+CHECKS = {
+    "self": _cage_self,
+    "vertices": _vertices,
+    "coordinates": _coordinates,
+    "cage_positions": _cage_positions,
+    "faces": _faces,
+    "facets": lambda value, context: _faces(value, context, "facets"),
+    "quads": lambda value, context: _faces(value, context, "quads", width=4),
+    "points": _points,
+    "point": _point,
+    "values": _values,
+    "out": _out,
+    "kind": _kind,
+    "outside": _outside,
+    "tolerance": lambda value, context: check_tolerance(value),
+    "dtype": _dtype,
+    "locations": _locations,
+    "progress": _progress,
+    "convex": _convex,
+    "c": lambda value, context: _ridge_values(value, context, "c"),
+    "d": lambda value, context: _ridge_values(value, context, "d"),
+    "w": _vertex_weights,
+    "workers": _workers,
+    "point_count": _point_count,
+}
+
+
+def _check_reach(context):
+    """Points within ``tolerances.FARTHEST`` cage sizes of the cage (no overflow)."""
+    origin, scale = bounding_frame(context.vertices)
+    with np.errstate(over="ignore", invalid="ignore"):
+        local = np.abs(context.points / scale - origin / scale).max(axis=1)
+    far = ~(local <= tolerances.FARTHEST)
+    if far.any():
+        raise ValueError(f"{np.count_nonzero(far)} points lie more than {tolerances.FARTHEST:g} "
+                         f"times the cage's size from it (first: {int(np.flatnonzero(far)[0])}); "
+                         "the formulas would overflow there")
+
+
+def checked(function):
+    """Decorator: check and convert ``function``'s arguments by name (see :data:`CHECKS`)."""
+    signature = inspect.signature(function)
+    unknown = [name for name in signature.parameters if name not in CHECKS]
+    if unknown:
+        raise TypeError(f"{function.__qualname__}: no input check for parameter(s) {unknown}; "
+                        "add them to core.inputs.CHECKS")
+    order = [name for name in CHECKS if name in signature.parameters]
+
+    @functools.wraps(function)
+    def wrapper(*args, **kwargs):
+        bound = signature.bind(*args, **kwargs)
+        bound.apply_defaults()
+        context = _Context(function)
+        for name in order:
+            bound.arguments[name] = CHECKS[name](bound.arguments[name], context)
+        if (context.vertices is not None and context.points is not None and len(context.points)
+                and len(context.vertices) > context.dimension):  # fewer: validate_cage says so
+            _check_reach(context)
+        return function(*bound.args, **bound.kwargs)
+
+    wrapper.checks_inputs = True
+    return wrapper
