@@ -9,14 +9,20 @@ extra memory for a large batch (numpy reports its allocations to tracemalloc).
     .venv/bin/python scripts/bench_core.py --million     # 1M points, mean value, float32
 """
 
-import argparse
 import os
-import resource
-import sys
-import time
-import tracemalloc
 
-import numpy as np
+# One worker is one core, as CGAL's single thread: no BLAS threads beside it (the
+# worker processes set the same for themselves).
+for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+import argparse  # noqa: E402
+import resource  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+import tracemalloc  # noqa: E402
+
+import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import core  # noqa: E402
