@@ -17,7 +17,7 @@ __all__ = ["coordinates", "weights", "ridge_scalars", "point_locations", "needs_
 @checked
 def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
                 tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64, locations=None,
-                workers=None):
+                workers=None, gamma=None):
     """Generalized barycentric coordinates of points with respect to a cage.
 
     Parameters
@@ -30,9 +30,9 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
         Simplicial facets, outward oriented (2D: counter-clockwise polygon edges;
         3D: triangles counter-clockwise seen from outside).
     kind : str
-        ``"wachspress"``, ``"mean_value"``, ``"discrete_harmonic"`` or ``"voronoi"``.
-        Mean value coordinates accept any closed, consistently oriented 2D/3D cage;
-        the others need a convex one.
+        ``"wachspress"``, ``"mean_value"``, ``"discrete_harmonic"``, ``"voronoi"`` or
+        ``"power"`` (with ``gamma``). Mean value coordinates accept any closed,
+        consistently oriented 2D/3D cage; the others need a convex one.
     outside : str
         What to do with points outside the cage: ``"raise"`` (OutsideCageError naming
         them), ``"extrapolate"`` (the formula, smooth for mean value; on a facet's
@@ -61,6 +61,11 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
         whatever the number of workers. To compute several batches against one cage,
         keep a :class:`core.Cage`: it validates once and keeps its workers.
 
+    gamma : float, optional
+        The power family's exponent (kind ``"power"`` only; default 0): the surface's
+        face dual to v_k lies at distance ``l_k^gamma`` from x. -1 gives Wachspress, 1
+        Voronoi, 0 in 2D mean value (docs/POWER.md: where they stay positive).
+
     Returns
     -------
     coordinates : (k, n) dtype
@@ -79,11 +84,12 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
     """
     with Cage(vertices, faces, tolerance) as cage:
         return cage.coordinates(points, kind=kind, outside=outside, progress=progress, dtype=dtype,
-                                locations=locations, workers=workers)
+                                locations=locations, workers=workers, gamma=gamma)
 
 
 @checked
-def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERANCE, workers=None):
+def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERANCE, workers=None,
+            gamma=None):
     """Homogeneous weights of a named kind: ``sum_i w_i (v_i - x) = 0``.
 
     Parameters (``workers`` included) and cage requirements as :func:`coordinates`.
@@ -97,11 +103,11 @@ def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERA
     weights : (k, n) float
     """
     with Cage(vertices, faces, tolerance) as cage:
-        return cage.weights(points, kind=kind, workers=workers)
+        return cage.weights(points, kind=kind, workers=workers, gamma=gamma)
 
 
 @checked
-def ridge_scalars(points, vertices, faces, kind):
+def ridge_scalars(points, vertices, faces, kind, gamma=None):
     """Ridge scalars d of a named generating surface.
 
     Parameters
@@ -110,14 +116,16 @@ def ridge_scalars(points, vertices, faces, kind):
     vertices : (n, N) float
     faces : (m, N) int
     kind : str
-        One of ``"wachspress"``, ``"mean_value"``, ``"discrete_harmonic"``, ``"voronoi"``.
+        One of :data:`core.KINDS`.
+    gamma : float, optional
+        For kind ``"power"`` (see :func:`coordinates`).
 
     Returns
     -------
     d : (k, r) float
         Columns follow :func:`core.ridges` (2D: vertices, 3D: edges).
     """
-    return Cage(vertices, faces).ridge_scalars(points, kind)
+    return Cage(vertices, faces).ridge_scalars(points, kind, gamma=gamma)
 
 
 @checked

@@ -15,7 +15,7 @@ from .boundary import BOUNDARY, OUTSIDE
 from .construction import point_frame
 from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
 from .evaluation import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
-from .generating_surfaces import CONVEX_ONLY_KINDS, named_ridge_scalars
+from .generating_surfaces import CONVEX_ONLY_KINDS, kind_parameter, named_ridge_scalars
 from .inputs import OUTSIDE_MODES, checked
 from .parallel import SharedArrays, WorkerPool, available_cores, python_executable
 from .units import length_degree, to_world
@@ -117,7 +117,7 @@ class Cage:
 
     @checked
     def coordinates(self, points, kind="mean_value", outside="raise", progress=None,
-                    dtype=np.float64, locations=None, workers=None):
+                    dtype=np.float64, locations=None, workers=None, gamma=None):
         """Generalized barycentric coordinates of points (see :func:`core.coordinates`).
 
         Parameters
@@ -135,7 +135,7 @@ class Cage:
         -------
         coordinates : (k, n) dtype
         """
-        result, where = self._evaluate(points, kind, outside, True, progress, dtype, workers)
+        result, where = self._evaluate(points, kind, outside, True, progress, dtype, workers, gamma)
         if kind == "mean_value" and outside == "extrapolate":
             self._warn_if_flat_extrapolation(points, result, where)
         if locations is not None:
@@ -143,22 +143,25 @@ class Cage:
         return result
 
     @checked
-    def weights(self, points, kind="mean_value", workers=None):
+    def weights(self, points, kind="mean_value", workers=None, gamma=None):
         """Homogeneous weights of a named kind (see :func:`core.weights`): (k, n) float."""
+        gamma = kind_parameter(kind, gamma)
         values, where = self._evaluate(points, kind, "extrapolate", False, None, np.dtype(np.float64),
-                                       workers)
+                                       workers, gamma)
         # The frame's weights in world units (boundary rows, limit coordinates, have none).
         formula = where != BOUNDARY
         values[formula] = to_world(values[formula], self._prepared.scale,
-                                   length_degree(kind, self.dimension) - 1, "weights")
+                                   length_degree(kind, self.dimension, gamma) - 1, "weights")
         return values
 
     @checked
-    def ridge_scalars(self, points, kind):
+    def ridge_scalars(self, points, kind, gamma=None):
         """Ridge scalars d of a named generating surface (see :func:`core.ridge_scalars`):
         (k, r) float."""
-        d = named_ridge_scalars(kind, point_frame(self._prepared, points)).T
-        return to_world(d, self._prepared.scale, length_degree(kind, self.dimension), "ridge scalars")
+        gamma = kind_parameter(kind, gamma)
+        d = named_ridge_scalars(kind, point_frame(self._prepared, points), gamma).T
+        return to_world(d, self._prepared.scale, length_degree(kind, self.dimension, gamma),
+                        "ridge scalars")
 
     @checked
     def point_locations(self, points, workers=None):
@@ -199,14 +202,15 @@ class Cage:
                 return 1
         return wanted
 
-    def _evaluate(self, points, kind, outside, normalise, progress, dtype, workers):
+    def _evaluate(self, points, kind, outside, normalise, progress, dtype, workers, gamma=None):
         self._check_kind(kind)
+        gamma = kind_parameter(kind, gamma)
         cage = self._prepared
         if self._terms is None:
             self._terms = evaluation_terms(cage)
         count = len(points)
         chunk = chunk_size(cage)
-        job = dict(kind=kind, outside=outside, normalise=normalise, convex=self.convex,
+        job = dict(kind=kind, gamma=gamma, outside=outside, normalise=normalise, convex=self.convex,
                    absolute=self.tolerance * cage.size, chunk=chunk)
         workers = self._worker_count(workers, count, len(cage.topology.faces))
         if workers > 1:
@@ -222,7 +226,8 @@ class Cage:
                     location[rows] = locate_rows(cage, points[rows], job["absolute"], self.convex)
                 else:
                     location[rows] = evaluate_rows(cage, self._terms, points[rows], kind, self.convex,
-                                                   job["absolute"], outside, normalise, result[rows])
+                                                   job["absolute"], outside, normalise, result[rows],
+                                                   gamma)
                     raising = outside == "raise" and (location[rows] == OUTSIDE).any()
                 if progress is not None:
                     progress(rows.stop / count)

@@ -76,7 +76,7 @@ def locate_rows(cage, points, absolute, convex):
 
 
 @np.errstate(divide="ignore", invalid="ignore")  # boundary and undefined rows are replaced
-def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalise, out):
+def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalise, out, gamma=None):
     """Coordinates (or weights) of one chunk of points, written into ``out``.
 
     Parameters
@@ -96,6 +96,8 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
         Coordinates (rows summing to 1) rather than homogeneous weights.
     out : (k, n) float32 or float64
         Receives the rows.
+    gamma : float, optional
+        The power family's parameter (kind "power").
 
     Returns
     -------
@@ -114,12 +116,12 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
     # cheaper, and Wachspress's closed form (2D, 3D) cheaper still.
     skip = (np.abs(distance.T) <= absolute) if kind == "mean_value" else None
     if skip is not None and skip.any():
-        values = construct_weights(cage, frame, named_ridge_scalars(kind, frame), skip).T
+        values = construct_weights(cage, frame, named_ridge_scalars(kind, frame, gamma), skip).T
     elif kind == "wachspress" and terms.polar_dual is not None:
         values = wachspress_polar_weights(cage, terms.polar_dual, frame).T
     else:
         values = floater_form_weights(cage, terms.floater, points, frame.facet_det,
-                                      named_scaled_ridge_scalars(kind, frame)).T
+                                      named_scaled_ridge_scalars(kind, frame, gamma)).T
     total = values.sum(axis=1, keepdims=True)
     if normalise:
         values /= total

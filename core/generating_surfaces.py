@@ -18,7 +18,8 @@ from math import factorial
 import numpy as np
 
 __all__ = ["Kind", "KIND_TABLE", "KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
-           "mean_value", "discrete_harmonic_scaled", "wachspress_scaled", "voronoi_scaled",
+           "kind_parameter", "mean_value", "discrete_harmonic_scaled", "wachspress_scaled",
+           "voronoi_scaled", "power_scaled",
            "power_dual", "power_dual_scaled", "power_dual_by_subsets"]
 
 
@@ -57,6 +58,17 @@ def wachspress_scaled(frame):
 def voronoi_scaled(frame):
     """Voronoi dual (circumcentres of {x} + facet): the power dual with heights |e|^2 / 2."""
     return power_dual_scaled(frame, 0.5 * frame.ridge_lengths_squared)
+
+
+def power_scaled(frame, gamma):
+    """The power family (scaled form): the power dual with heights ``l_k^(gamma+1)``.
+
+    Its face dual to v_k is orthogonal to e_k at distance ``l_k^gamma`` from x: gamma = -1
+    is Wachspress, gamma = 1 Voronoi, and in 2D (where d_k = l_k^gamma) gamma = 0 is
+    mean value. Needs a convex cage; positive inside regular and irregular polytopes for
+    gamma up to about 0 (measured: docs/POWER.md).
+    """
+    return power_dual_scaled(frame, frame.ridge_lengths_squared ** (0.5 * (gamma + 1.0)))
 
 
 def power_dual(frame, heights):
@@ -146,6 +158,8 @@ class Kind:
     form: str  # "d" or "scaled"
     convex_only: bool  # needs a convex cage
     may_be_negative: bool  # can go negative inside a convex cage
+    parameter: str = None  # the surface's parameter (passed by keyword), if it has one
+    parameter_default: float = None  # its value when not given
 
 
 KIND_TABLE = (
@@ -158,8 +172,11 @@ KIND_TABLE = (
          "and can be negative", discrete_harmonic_scaled, "scaled", True, True),
     Kind("voronoi", "Voronoi", "Voronoi-cell weights; needs a convex cage and can be "
          "negative", voronoi_scaled, "scaled", True, True),
+    # gamma = -1 Wachspress, 1 Voronoi; 2D gamma = 0 mean value.
+    Kind("power", "Power", "The power family through Wachspress (gamma -1) and Voronoi "
+         "(gamma 1); needs a convex cage", power_scaled, "scaled", True, True, "gamma", 0.0),
 )
-_NAMED = {kind.name: (kind.surface, kind.form) for kind in KIND_TABLE}
+_NAMED = {kind.name: kind for kind in KIND_TABLE}
 KINDS = tuple(_NAMED)
 CONVEX_ONLY_KINDS = tuple(kind.name for kind in KIND_TABLE if kind.convex_only)
 
@@ -171,17 +188,36 @@ def _named(kind):
         raise ValueError(f"unknown kind {kind!r}; expected one of {', '.join(KINDS)}") from None
 
 
-def named_ridge_scalars(kind, frame):
-    """d of the named generating surface ``kind`` (one of :data:`KINDS`): (r, k) float."""
-    function, form = _named(kind)
+def kind_parameter(kind, value):
+    """The value of ``kind``'s parameter: ``value``, or its default when None.
+
+    Raises ValueError for a value given to a kind without a parameter.
+    """
+    entry = _named(kind)
+    if entry.parameter is None:
+        if value is not None:
+            with_parameter = [k.name for k in KIND_TABLE if k.parameter == "gamma"]
+            raise ValueError(f"gamma applies to kind={' or '.join(map(repr, with_parameter))} only, "
+                             f"not {kind!r}")
+        return None
+    return entry.parameter_default if value is None else value
+
+
+def _surface_values(kind, frame, parameter):
+    entry = _named(kind)
+    return entry.surface(frame) if entry.parameter is None else entry.surface(frame, parameter)
+
+
+def named_ridge_scalars(kind, frame, gamma=None):
+    """d of the named generating surface ``kind`` (one of :data:`KINDS`; ``gamma`` for
+    the power family): (r, k) float."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        values = function(frame)
-        return values if form == "d" else values / frame.ridge_measure
+        values = _surface_values(kind, frame, gamma)
+        return values if _named(kind).form == "d" else values / frame.ridge_measure
 
 
-def named_scaled_ridge_scalars(kind, frame):
+def named_scaled_ridge_scalars(kind, frame, gamma=None):
     """``d |m_R|`` (N! times Floater's c) of the named surface ``kind``: (r, k) float."""
-    function, form = _named(kind)
     with np.errstate(divide="ignore", invalid="ignore"):
-        values = function(frame)
-        return values * frame.ridge_measure if form == "d" else values
+        values = _surface_values(kind, frame, gamma)
+        return values * frame.ridge_measure if _named(kind).form == "d" else values

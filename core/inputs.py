@@ -322,6 +322,16 @@ def _workers(value, context):
     return int(value)
 
 
+def _gamma(value, context):
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) \
+            or not math.isfinite(float(value)):
+        raise ValueError(f"gamma must be a finite real number (the power family's exponent: -1 "
+                         f"Wachspress, 1 Voronoi) or None, got {value!r}")
+    return float(value)
+
+
 def _point_count(value, context):
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < 0:
         raise ValueError(f"point_count must be a non-negative integer, got {value!r}")
@@ -354,6 +364,7 @@ CHECKS = {
     "w": _vertex_weights,
     "workers": _workers,
     "point_count": _point_count,
+    "gamma": _gamma,
 }
 
 

@@ -358,7 +358,7 @@ def _compute(cage, terms, arrays, job, start, stop, locate_only, evaluate, locat
             where = locate(cage, points[rows], job["absolute"], job["convex"])
         else:
             where = evaluate(cage, terms, points[rows], job["kind"], job["convex"], job["absolute"],
-                             job["outside"], job["normalise"], result[rows])
+                             job["outside"], job["normalise"], result[rows], job.get("gamma"))
         locations[rows] = where
         outside += int(np.count_nonzero(where == OUTSIDE))
         if outside and job["outside"] == "raise":

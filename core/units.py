@@ -50,8 +50,9 @@ def to_world(values, scale, degree, what):
 
 
 @lru_cache(maxsize=None)
-def length_degree(kind, dimension):
-    """The degree in length of the named surface ``kind``'s ridge scalars d in R^dimension.
+def length_degree(kind, dimension, gamma=None):
+    """The degree in length of the named surface ``kind``'s ridge scalars d in R^dimension
+    (``gamma``: the power family's parameter).
 
     Measured: d of a simplex around its centroid, at unit size and at size 2 (exact powers
     of two), so any homogeneous surface, whatever its formula, is converted right.
@@ -63,7 +64,7 @@ def length_degree(kind, dimension):
     facets = np.array(list(combinations(range(dimension + 1), dimension)))
     centre = simplex.mean(axis=0)[None]
     values = [np.abs(named_ridge_scalars(kind, point_frame(prepare_cage(simplex, facets, scale=s),
-                                                           centre))).max()
+                                                           centre), gamma)).max()
               for s in (1.0, 0.5)]  # the simplex at sizes 1 and 2
     degree = float(np.log2(values[1] / values[0]))
     return round(degree) if abs(degree - round(degree)) < 1e-9 else degree

@@ -286,4 +286,4 @@ def test_every_cage_method_checks_its_inputs():
 
 def test_a_function_with_an_unchecked_parameter_cannot_be_declared():
     with pytest.raises(TypeError, match="no input check for parameter"):
-        core.inputs.checked(lambda points, gamma: None)
+        core.inputs.checked(lambda points, colour: None)
