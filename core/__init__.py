@@ -18,6 +18,7 @@ from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalar
                       ridge_scalars_from_floater)
 from .generating_surfaces import CONVEX_ONLY_KINDS, KIND_TABLE, KINDS
 from .orientation import orient_facets_outward
+from .report import CoordinateReport, coordinate_report
 from .topology import ridges
 from .triangulation import triangulate_quads
 from .validation import DEFAULT_TOLERANCE, validate_cage
@@ -28,5 +29,5 @@ __all__ = [
     "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
     "field_colors", "field_range", "coordinate_summary", "triangulate_quads", "orient_facets_outward",
     "CageError", "OutsideCageError", "WorkerError", "AccuracyWarning", "KINDS", "KIND_TABLE",
-    "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
+    "coordinate_report", "CoordinateReport", "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
 ]

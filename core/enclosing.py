@@ -104,4 +104,6 @@ def facet_vertices(directions, offsets, dual_facets):
     """
     directions = np.asarray(directions, dtype=np.float64)
     facets = np.asarray(dual_facets, dtype=np.int64)
-    return np.linalg.solve(directions[facets], np.asarray(offsets, dtype=np.float64)[facets])
+    # Right-hand sides as (f, N, 1): numpy 2 reads a stack of vectors (f, N) as one matrix.
+    rhs = np.asarray(offsets, dtype=np.float64)[facets][..., None]
+    return np.linalg.solve(directions[facets], rhs)[..., 0]

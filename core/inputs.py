@@ -170,6 +170,8 @@ def _faces(value, context, name="faces", width=None):
 
 
 def _points(value, context, name="points", single=False):
+    if value is None and not single:  # optional points (coordinate_report)
+        return None
     array = real_array(value, name)
     dim = context.dimension
     if single:
@@ -332,6 +334,12 @@ def _gamma(value, context):
     return float(value)
 
 
+def _samples(value, context):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < 1:
+        raise ValueError(f"samples must be a positive integer, got {value!r}")
+    return int(value)
+
+
 def _point_count(value, context):
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < 0:
         raise ValueError(f"point_count must be a non-negative integer, got {value!r}")
@@ -365,6 +373,7 @@ CHECKS = {
     "workers": _workers,
     "point_count": _point_count,
     "gamma": _gamma,
+    "samples": _samples,
 }
 
 

@@ -39,7 +39,8 @@ ICOSPHERE_VERTICES = {2: 42, 3: 162, 4: 642}
 # inscribed radius above 1.85 from 42 vertices on, so it contains every vertex.
 CAGE_RADIUS = 2.0
 
-KINDS = core.KINDS
+# The parameter-free kinds (the power family has its own pictures: docs/POWER.md).
+KINDS = tuple(kind.name for kind in core.KIND_TABLE if kind.parameter is None)
 KIND_LABELS = {kind.name: kind.label for kind in core.KIND_TABLE}
 
 

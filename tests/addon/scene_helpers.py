@@ -95,7 +95,12 @@ def bind(obj, cage, kind="MEAN_VALUE", outside="RAISE"):
 def load_user_preferences():
     """Start like the ``blender`` executable, which loads the user's preferences (they
     enable installed extensions); bpy as a module starts with factory preferences."""
-    if os.path.exists(bpy.utils.user_resource('CONFIG', path="userpref.blend")):
+    if bpy.app.version < (4, 3):
+        # bpy 4.2 (pip, headless) crashes with a segfault in wm.read_userpref() (seen on
+        # 4.2.23; fixed by 4.3): enable the installed extension as those preferences would.
+        import addon_utils
+        addon_utils.enable("bl_ext.user_default.gencoords", default_set=True)
+    elif os.path.exists(bpy.utils.user_resource('CONFIG', path="userpref.blend")):
         bpy.ops.wm.read_userpref()
 
 

@@ -31,7 +31,7 @@ def test_installed_extension_is_enabled_with_its_api(gc):
         assert not properties[name].is_animatable, name  # read at bind time only
     assert properties["kind"].default == 'MEAN_VALUE'
     assert {item.identifier for item in properties["kind"].enum_items} == {
-        'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI'}
+        'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER'}
 
 
 class RecordingLayout:

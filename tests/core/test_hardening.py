@@ -216,6 +216,7 @@ def good_calls():
         "deform": dict(coordinates=coordinates, cage_positions=vertices, out=np.empty((2, 3))),
         "field_colors": dict(values=coordinates[:, 0]),
         "field_range": dict(values=coordinates[:, 0]),
+        "coordinate_report": dict(cage, kind="power", gamma=0.5, samples=40),
         "coordinate_summary": dict(coordinates=coordinates),
     }
 

@@ -14,7 +14,7 @@ from polytopes import icosphere, random_convex_polytope, random_interior_points
 
 
 def shared_files():
-    return set(glob.glob("/dev/shm/gencoords-*") + glob.glob(os.path.join(tempfile.gettempdir(), "gencoords-*")))
+    return set(glob.glob("/dev/shm/gencoords-*.shared") + glob.glob(os.path.join(tempfile.gettempdir(), "gencoords-*.shared")))
 
 
 @pytest.fixture
