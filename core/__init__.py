@@ -11,7 +11,8 @@ from . import tolerances
 from .boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction import weights_from_ridge_scalars
 from .cage import Cage
-from .barycentric import OUTSIDE_MODES, coordinates, needs_convex, point_locations, ridge_scalars, weights
+from .barycentric import (OUTSIDE_MODES, coordinates, needs_convex, point_locations, ridge_scalars,
+                          ridge_scalars_from_surface, weights)
 from .deformation import coordinate_summary, deform, field_colors, field_range
 from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
 from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalars, floater_weights,
@@ -24,7 +25,7 @@ from .triangulation import triangulate_quads
 from .validation import DEFAULT_TOLERANCE, validate_cage
 
 __all__ = [
-    "Cage", "coordinates", "weights", "ridges", "ridge_scalars", "weights_from_ridge_scalars",
+    "Cage", "coordinates", "weights", "ridges", "ridge_scalars", "ridge_scalars_from_surface", "weights_from_ridge_scalars",
     "floater_weights", "floater_matrix", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
     "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
     "field_colors", "field_range", "coordinate_summary", "triangulate_quads", "orient_facets_outward",

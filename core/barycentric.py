@@ -8,10 +8,13 @@ import numpy as np
 
 from .cage import Cage, needs_convex
 from .inputs import OUTSIDE_MODES, checked
+from .numerical_surfaces import DEFAULT_LEVELS, geodesic_pieces, simplex_rule, surface_ridge_scalars
 from .validation import DEFAULT_TOLERANCE
 
-__all__ = ["coordinates", "weights", "ridge_scalars", "point_locations", "needs_convex",
-           "OUTSIDE_MODES"]
+__all__ = ["coordinates", "weights", "ridge_scalars", "ridge_scalars_from_surface", "point_locations",
+           "needs_convex", "OUTSIDE_MODES"]
+# Entries of the (k, r, nodes, N) arrays of one chunk of ridge_scalars_from_surface.
+_SURFACE_CHUNK_ENTRIES = 1 << 22
 
 
 @checked
@@ -126,6 +129,46 @@ def ridge_scalars(points, vertices, faces, kind, gamma=None):
         Columns follow :func:`core.ridges` (2D: vertices, 3D: edges).
     """
     return Cage(vertices, faces).ridge_scalars(points, kind, gamma=gamma)
+
+
+@checked
+def ridge_scalars_from_surface(points, vertices, faces, radius, levels=DEFAULT_LEVELS):
+    """Ridge scalars d of any generating surface star-shaped around the points.
+
+    Each ridge's d is the (N-1)-volume enclosed by x and the ridge projected onto the
+    surface, integrated numerically over the ridge's spherical simplex (docs/MATH.md);
+    :func:`weights_from_ridge_scalars` turns it into weights.
+
+    Parameters
+    ----------
+    points : (k, N) float
+        Inside the cage.
+    vertices : (n, N) float
+    faces : (m, N) int
+    radius : callable
+        ``radius(points, directions)`` with points (k, N) and unit directions (k, s, N)
+        returns the (k, s) distances from each point to its surface along each
+        direction (the unit sphere: ``lambda x, u: np.ones(u.shape[:2])``).
+    levels : int
+        The accuracy parameter: each ridge's spherical simplex is subdivided ``levels``
+        times into 2^(N-2) pieces (27 evaluations of ``radius`` per piece in 4D). With
+        the default (5), the unit sphere gives mean value to about 1e-9 relative in 3D
+        and 4e-7 in 4D; each level divides the error by roughly 30 to 60.
+
+    Returns
+    -------
+    d : (k, r) float
+        Columns follow :func:`core.ridges`.
+    """
+    cage = Cage(vertices, faces)
+    corners = cage.vertices[cage.topology_ridges]
+    size = corners.shape[1]
+    evaluations = len(geodesic_pieces(size, levels)) * len(simplex_rule(size, 3)[1]) * size
+    step = max(1, _SURFACE_CHUNK_ENTRIES // (corners.shape[0] * evaluations * corners.shape[2]))
+    d = np.empty((len(points), corners.shape[0]))
+    for start in range(0, len(points), step):
+        d[start:start + step] = surface_ridge_scalars(corners, points[start:start + step], radius, levels)
+    return d
 
 
 @checked

@@ -83,6 +83,11 @@ class Cage:
         return self._prepared.size * self._prepared.scale
 
     @property
+    def topology_ridges(self):
+        """The ridges' vertex indices, as :func:`core.ridges`: (r, N-1) int."""
+        return self._prepared.topology.ridges
+
+    @property
     def convex(self):
         """Whether the cage is convex (within the tolerance): bool."""
         return self._violation is None

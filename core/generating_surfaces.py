@@ -17,6 +17,8 @@ from math import factorial
 
 import numpy as np
 
+from .numerical_surfaces import unit_sphere_ridge_scalars
+
 __all__ = ["Kind", "KIND_TABLE", "KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
            "kind_parameter", "mean_value", "discrete_harmonic_scaled", "wachspress_scaled",
            "voronoi_scaled", "power_scaled",
@@ -27,7 +29,8 @@ def mean_value(frame):
     """Unit sphere: d = measure of the spherical (N-2)-simplex of the ridge / (N-1).
 
     2D: 1; 3D: a/2 with a the angle between the edge's two vectors; 4D: the solid angle
-    (Van Oosterom and Strackee) / 3. Higher dimensions have no elementary closed form.
+    (Van Oosterom and Strackee) / 3. Higher dimensions have no elementary closed form:
+    a Gauss rule on the spherical simplex (``numerical_surfaces``, ~1e-6 relative).
     """
     gram, measure = frame.ridge_gram, frame.ridge_measure
     size = gram.shape[0]
@@ -40,9 +43,8 @@ def mean_value(frame):
         denominator = (lengths[0] * lengths[1] * lengths[2]
                        + gram[0, 1] * lengths[2] + gram[0, 2] * lengths[1] + gram[1, 2] * lengths[0])
         return 2.0 * np.arctan2(measure, denominator) / 3.0
-    raise NotImplementedError(
-        f"mean value ridge scalars need a spherical simplex measure, which has no closed "
-        f"form in dimension {size + 1}; pass your own d to weights_from_ridge_scalars")
+    # No elementary closed form above 4D: the spherical simplex measured numerically.
+    return unit_sphere_ridge_scalars(gram, measure)
 
 
 def discrete_harmonic_scaled(frame):

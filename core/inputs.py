@@ -334,6 +334,20 @@ def _gamma(value, context):
     return float(value)
 
 
+def _radius(value, context):
+    if not callable(value):
+        raise ValueError(f"radius must be a callable radius(points, directions) returning "
+                         f"distances, got {value!r}")
+    return value
+
+
+def _levels(value, context):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < 0:
+        raise ValueError(f"levels must be a non-negative integer (subdivisions of each ridge's "
+                         f"spherical simplex), got {value!r}")
+    return int(value)
+
+
 def _samples(value, context):
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < 1:
         raise ValueError(f"samples must be a positive integer, got {value!r}")
@@ -374,6 +388,8 @@ CHECKS = {
     "point_count": _point_count,
     "gamma": _gamma,
     "samples": _samples,
+    "radius": _radius,
+    "levels": _levels,
 }
 
 
