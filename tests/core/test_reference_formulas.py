@@ -117,7 +117,7 @@ def test_3d_table_formulas_of_math_md():
         np.testing.assert_allclose(core.ridge_scalars(x, vertices, faces, kind)[0], expected, rtol=1e-12)
 
 
-@pytest.mark.parametrize("dim", [3, 4])
+@pytest.mark.parametrize("dim", [3, 4, 5])
 def test_mean_value_equals_its_definition_by_integration(dim):
     """The N-D mean value scalar (3D: angle / 2; 4D: solid angle / 3, docs/MATH.md's
     derivation) against Monte Carlo integration of the definition."""
@@ -130,7 +130,7 @@ def test_mean_value_equals_its_definition_by_integration(dim):
     assert np.abs(core.coordinates(x, vertices, facets, kind="wachspress")[0] - estimate).max() > 1e-2
 
 
-@pytest.mark.parametrize("dim,count", [(2, 7), (3, 10), (4, 8)])
+@pytest.mark.parametrize("dim,count", [(2, 7), (3, 10), (4, 8)])  # 5D: 40 s of hull volumes
 @given(seed=SEEDS)
 @settings(max_examples=3, deadline=None)
 def test_wachspress_equals_polar_dual_volumes_in_any_dimension(seed, dim, count):
@@ -141,7 +141,7 @@ def test_wachspress_equals_polar_dual_volumes_in_any_dimension(seed, dim, count)
     np.testing.assert_allclose(ours, theirs, atol=1e-10)
 
 
-@pytest.mark.parametrize("dim,count", [(2, 7), (3, 10), (4, 8)])
+@pytest.mark.parametrize("dim,count", [(2, 7), (3, 10), (4, 8), (5, 9)])
 @given(seed=SEEDS)
 @EXAMPLES
 def test_discrete_harmonic_minimises_the_dirichlet_energy_in_any_dimension(seed, dim, count):
