@@ -65,7 +65,7 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
         keep a :class:`core.Cage`: it validates once and keeps its workers.
 
     gamma : float, optional
-        The power family's exponent (kind ``"power"`` only; default 0): the surface's
+        The power family's exponent (kind ``"power"`` only; default -0.5): the surface's
         face dual to v_k lies at distance ``l_k^gamma`` from x. -1 gives Wachspress, 1
         Voronoi, 0 in 2D mean value (docs/POWER.md: where they stay positive).
 

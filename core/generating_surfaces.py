@@ -174,9 +174,10 @@ KIND_TABLE = (
          "and can be negative", discrete_harmonic_scaled, "scaled", True, True),
     Kind("voronoi", "Voronoi", "Voronoi-cell weights; needs a convex cage and can be "
          "negative", voronoi_scaled, "scaled", True, True),
-    # gamma = -1 Wachspress, 1 Voronoi; 2D gamma = 0 mean value.
+    # gamma = -1 Wachspress, 1 Voronoi; 2D gamma = 0 mean value. Default -0.5: positive
+    # in every polytope measured (docs/POWER.md).
     Kind("power", "Power", "The power family through Wachspress (gamma -1) and Voronoi "
-         "(gamma 1); needs a convex cage", power_scaled, "scaled", True, True, "gamma", 0.0),
+         "(gamma 1); needs a convex cage", power_scaled, "scaled", True, True, "gamma", -0.5),
 )
 _NAMED = {kind.name: kind for kind in KIND_TABLE}
 KINDS = tuple(_NAMED)

@@ -41,6 +41,7 @@ CHUNK_ENTRIES = 4_000_000  # per worker process
 # for a long Bind; 1: compute in Blender's own process).
 WORKERS = None
 DEVIATION_SAMPLES = 2000  # mesh vertices the compact form's deviation is measured on
+REPORT_SAMPLES = 1000  # points inside the cage core.coordinate_report examines at Bind
 
 
 class BindError(Exception):
@@ -225,6 +226,7 @@ class BindJob:
         settings = obj.gencoords
         self.cage = settings.cage
         self.kind = core_name(settings.kind)
+        self.gamma = float(settings.gamma) if core.KIND_TABLE[core.KINDS.index(self.kind)].parameter else None
         self.outside = core_name(settings.outside)
         self.kind_label = enum_label(KIND_ITEMS, settings.kind)
         depsgraph = context.evaluated_depsgraph_get()
@@ -264,6 +266,8 @@ class BindJob:
             "mesh_vertex_count": count, "cage_faces_hash": geometry.faces_hash,
             "cage_non_triangles": geometry.non_triangles,
         }
+        if self.gamma is not None:  # ID properties hold no None
+            self.info["gamma"] = self.gamma
         self.started = started
         self.result = None
 
@@ -301,7 +305,8 @@ class BindJob:
             rows = slice(start, min(start + chunk, count))
             try:
                 coordinates = cage.coordinates(self.points[rows], kind=self.kind, outside=self.outside,
-                                               locations=locations[rows], workers=workers)
+                                               locations=locations[rows], workers=workers,
+                                               gamma=self.gamma)
             except core.OutsideCageError:
                 raise BindError(self._outside_message(cage)) from None
             except ValueError as error:  # every other core error is a ValueError
@@ -330,12 +335,16 @@ class BindJob:
                                 ("deviation_drag", compact.vertex_drag_motion(self.cage_vertices))):
                 deviation[name] = compact.deviation(sample, sample_slot, self.basis,
                                                     self.cage_vertices, moved)
+        # How this kind behaves in this cage, away from the mesh's own vertices (the
+        # summary above covers those): positivity and well-definedness on a sample.
+        report = core.coordinate_report(self.cage_vertices, self.triangles, self.kind, gamma=self.gamma,
+                                        samples=REPORT_SAMPLES, tolerance=FLOAT32_TOLERANCE)
         # What the mesh stores: three slots per vector attribute (the last one padded),
         # and compact storage's basis in as many attributes again.
         stored = count * 3 * -(-slot_count // 3) * 4
         nbytes = stored * (1 if self.basis is None else 2)
         self.info.update(
-            slot_count=slot_count, key=secrets.token_hex(3),
+            slot_count=slot_count, key=secrets.token_hex(3), report=report.headline,
             points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
             points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
             min_coordinate=float(smallest), negative_points=int(negative),

@@ -32,6 +32,8 @@ def draw_settings(layout, obj, width=None):
         # Artists keep cages out of the way: as wires or bounds, or hidden (still driving).
         column.prop(settings.cage, "display_type", text="Display")
     column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
+    if settings.kind == 'POWER':
+        column.prop(settings, "gamma")
     column.prop(settings, "outside")
     column.prop(settings, "storage")
     if settings.storage != 'EXACT':

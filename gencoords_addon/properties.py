@@ -57,6 +57,12 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
         name="Coordinates", items=KIND_ITEMS, default="MEAN_VALUE", options=set(),
         description="Generalized barycentric coordinates used to bind the mesh to the cage",
     )
+    gamma: bpy.props.FloatProperty(
+        name="Gamma", default=-0.5, soft_min=-2.0, soft_max=2.0, step=10, options=set(),
+        description="Power coordinates' exponent: -1 is Wachspress, 1 Voronoi. Positive "
+                    "on every cage for -1; measured positive for -1 to -0.5 on irregular "
+                    "cages, up to 1 on regular ones (docs/POWER.md)",
+    )
     outside: bpy.props.EnumProperty(
         name="Outside", items=OUTSIDE_ITEMS, default="RAISE", options=set(),
         description="What to do with mesh vertices that lie outside the cage when binding",

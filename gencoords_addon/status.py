@@ -74,7 +74,10 @@ def binding_lines(obj, found, depsgraph=None):
     cage = found.cage
     cage_name = cage.name if cage is not None else "(missing)"
     lines.append((f"Bound to '{cage_name}' (modifier '{found.modifier.name}')", 'LINKED'))
-    lines.append((f"Coordinates: {enum_label(KIND_ITEMS, info['kind'].upper())}", 'MOD_LATTICE'))
+    kind_label = enum_label(KIND_ITEMS, info['kind'].upper())
+    if "gamma" in info:
+        kind_label += f" (gamma {info['gamma']:g})"
+    lines.append((f"Coordinates: {kind_label}", 'MOD_LATTICE'))
     lines.append((f"Cage: {info['cage_vertex_count']} vertices", 'MESH_ICOSPHERE'))
     lines.append((f"Mesh: {info['mesh_vertex_count']} vertices", 'MESH_DATA'))
     if info["cage_non_triangles"]:
@@ -92,6 +95,8 @@ def binding_lines(obj, found, depsgraph=None):
                       f"{info['negative_points']} vertices", 'ERROR'))
     else:
         lines.append((f"Smallest coordinate: {info['min_coordinate']:.4g}", 'CHECKMARK'))
+    if "report" in info:  # inside the whole cage, not only at the mesh's vertices
+        lines.append((f"In this cage: {info['report'].split(': ', 1)[-1]}", 'INFO'))
     if info["points_outside"]:
         verb = OUTSIDE_VERBS.get(info["outside"], info["outside"])
         lines.append((f"{info['points_outside']} vertices outside the cage ({verb})", 'INFO'))

@@ -381,6 +381,26 @@ def test_status_reports_the_core_summary(gc):
     assert all(len(line) < 110 for line in text.splitlines())
 
 
+def test_power_coordinates_bind_with_the_artists_gamma_and_report_positivity(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    obj.gencoords.gamma = -1.0  # Wachspress
+    bind(obj, cage, kind="POWER")
+    power = coordinates_of(gc, obj)
+    info = gc.binding.binding(obj).info
+    assert info["kind"] == "power" and info["gamma"] == -1.0
+    text = "\n".join(line for line, _ in gc.status.status_lines(obj))
+    assert "Coordinates: Power (gamma -1)" in text and "In this cage: positive" in text
+    other = add_sphere(name="Wachspress")
+    bind(other, cage, kind="WACHSPRESS")
+    np.testing.assert_allclose(power, coordinates_of(gc, other), atol=1e-6)
+    third = add_sphere(name="Gamma 2")
+    third.gencoords.gamma = 2.0
+    bind(third, cage, kind="POWER")
+    assert np.abs(coordinates_of(gc, third) - power).max() > 1e-3
+    assert "Gamma" in {p.identifier.title() for p in third.gencoords.bl_rna.properties}
+
+
 def worker_processes():
     """Live core worker processes started by this process (Linux /proc)."""
     found = []

@@ -217,6 +217,7 @@ def good_calls():
         "field_colors": dict(values=coordinates[:, 0]),
         "field_range": dict(values=coordinates[:, 0]),
         "coordinate_report": dict(cage, kind="power", gamma=0.5, samples=40),
+        "ridge_scalars_from_surface": dict(cage, radius=lambda x, u: np.ones(u.shape[:2]), levels=1),
         "coordinate_summary": dict(coordinates=coordinates),
     }
 

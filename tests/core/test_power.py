@@ -53,10 +53,10 @@ def test_power_coordinates_have_linear_precision_and_partition_of_unity(dim, cou
     assert np.abs(residual).max() < 1e-11 * np.abs(weights).max() * size
 
 
-def test_power_default_is_gamma_zero_and_other_kinds_refuse_gamma():
+def test_power_default_is_gamma_minus_a_half_and_other_kinds_refuse_gamma():
     vertices, faces, points = polytope(3, 12)
     np.testing.assert_array_equal(core.coordinates(points, vertices, faces, kind="power"),
-                                  core.coordinates(points, vertices, faces, kind="power", gamma=0.0))
+                                  core.coordinates(points, vertices, faces, kind="power", gamma=-0.5))
     with pytest.raises(ValueError, match="gamma applies to kind='power' only"):
         core.coordinates(points, vertices, faces, kind="voronoi", gamma=1.0)
     with pytest.raises(ValueError, match="gamma must be a finite real number"):
