@@ -83,6 +83,29 @@ def workers_table(vertices, faces, points, repeats):
         print(f"| {kind} | " + " | ".join(cells) + " |")
 
 
+def numerical_surfaces_table(repeats):
+    """ns per (point x ridge) of ridge scalars: closed forms beside numerical integration."""
+    from core.shapes import cross_polytope, random_convex_polytope
+
+    print("\nridge scalars, ns per point x ridge: closed form beside the numerical integral "
+          "(ridge_scalars_from_surface with the unit sphere, default levels)\n")
+    print("| cage | ridges | mean value, closed form | numerical, default levels | "
+          "numerical, levels 3 |")
+    print("|---|---|---|---|---|")
+    sphere = lambda x, u: np.ones(u.shape[:2])  # noqa: E731
+    cages = [("3D icosphere, 162 vertices", *icosphere(2)), ("4D 16-cell", *cross_polytope(4)),
+             ("4D hull of 12 points", *random_convex_polytope(np.random.default_rng(1), 4, 12))]
+    for name, vertices, faces in cages:
+        points = 0.3 * (vertices.mean(axis=0) + np.random.default_rng(2).uniform(-0.2, 0.2, (40, vertices.shape[1])))
+        pairs = len(points) * len(core.ridges(faces))
+        closed = best_time(lambda: core.ridge_scalars(points, vertices, faces, "mean_value"), repeats)
+        numerical = best_time(lambda: core.ridge_scalars_from_surface(points, vertices, faces, sphere), 1)
+        coarse = best_time(lambda: core.ridge_scalars_from_surface(points, vertices, faces, sphere,
+                                                                   levels=3), repeats)
+        print(f"| {name} | {len(core.ridges(faces))} | {closed / pairs * 1e9:.0f} | "
+              f"{numerical / pairs * 1e9:,.0f} | {coarse / pairs * 1e9:,.0f} |")
+
+
 def million(vertices, faces):
     """1M points, mean value, float32 result, all cores: wall time and peak memory."""
     points = interior_points(1_000_000, 0.95, seed=2)
@@ -106,6 +129,7 @@ def main():
     parser.add_argument("--workers", action="store_true", help="the table of worker counts")
     parser.add_argument("--workers-points", type=int, default=40_000)
     parser.add_argument("--million", action="store_true", help="1M points, mean value, float32")
+    parser.add_argument("--surfaces", action="store_true", help="numerical ridge scalars' cost")
     args = parser.parse_args()
 
     vertices, faces = icosphere(4 - 1)  # 642 vertices
@@ -116,6 +140,8 @@ def main():
     single_worker_table(vertices, faces, points, args.repeats)
     if args.workers:
         workers_table(vertices, faces, interior_points(args.workers_points, 0.95, seed=3), args.repeats)
+    if args.surfaces:
+        numerical_surfaces_table(args.repeats)
     if args.million:
         million(vertices, faces)
         return
