@@ -21,7 +21,7 @@ def plane_distances(cage, facet_det):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     facet_det : (k, m) float
         From :func:`core.construction.facet_determinants`.
 
@@ -39,7 +39,7 @@ def winding_numbers(cage, points):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     points : (k, N) float
 
     Returns
@@ -98,7 +98,7 @@ def locate(cage, points, plane_distance, tolerance, convex):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     points : (k, N) float
     plane_distance : (k, m) float
         From :func:`plane_distances`.
@@ -143,7 +143,7 @@ def plane_limit_coordinates(cage, points, plane_distance):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     points : (k, N) float
     plane_distance : (k, m) float
         From :func:`plane_distances`; the facet whose hyperplane is nearest is used.
@@ -168,7 +168,7 @@ def nearest_boundary_coordinates(cage, points):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     points : (k, N) float
 
     Returns

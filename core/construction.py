@@ -22,13 +22,16 @@ from .inputs import bounding_frame, checked
 from .simplex import generalized_cross
 from .topology import CageTopology, cage_topology
 
-__all__ = ["Cage", "PointFrame", "prepare_cage", "point_frame", "facet_determinants",
+__all__ = ["PreparedCage", "PointFrame", "prepare_cage", "point_frame", "facet_determinants",
            "construct_weights", "weights_from_ridge_scalars"]
 
 
 @dataclass(frozen=True)
-class Cage:
-    """A cage with everything that depends only on it, precomputed.
+class PreparedCage:
+    """A cage in its frame with everything the formulas need that depends only on it.
+
+    The internal, unvalidated form (:func:`prepare_cage`); :class:`core.Cage` is the
+    public one, validated and holding one of these.
 
     Attributes
     ----------
@@ -89,7 +92,7 @@ class Cage:
 
 
 def prepare_cage(vertices, faces, scale=None):
-    """Precompute a :class:`Cage` (no validation; see :func:`core.validate_cage`).
+    """Precompute a :class:`PreparedCage` (no validation; see :func:`core.validate_cage`).
 
     Parameters
     ----------
@@ -101,7 +104,7 @@ def prepare_cage(vertices, faces, scale=None):
 
     Returns
     -------
-    Cage
+    PreparedCage
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
@@ -116,7 +119,7 @@ def prepare_cage(vertices, faces, scale=None):
     edges = corners[:, 1:, :] - corners[:, :1, :]  # (m, N-1, N)
     normals = generalized_cross(np.moveaxis(edges, 0, -1)).T
     topology = cage_topology(faces, len(vertices))
-    return Cage(
+    return PreparedCage(
         vertices=centred,
         origin=origin,
         scale=scale,
@@ -138,7 +141,7 @@ def _ridge_polynomials(corners):
 
     Returns
     -------
-    dict of the ``ridge_*`` fields of :class:`Cage`.
+    dict of the ``ridge_*`` fields of :class:`PreparedCage`.
     """
     count, size, dim = corners.shape
     slots = corners.transpose(1, 2, 0)  # (p, N, r)
@@ -257,7 +260,7 @@ def point_frame(cage, points, facet_det=None):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     points : (k, N) float
         In the caller's (world) coordinates (mapped to the cage's frame here).
     facet_det : (m, k) float, optional
@@ -285,7 +288,7 @@ def facet_determinants(cage, points):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     points : (k, N) float
         World coordinates.
 
@@ -313,7 +316,7 @@ def construct_weights(cage, frame, ridge_scalars, skip_facets=None):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     frame : PointFrame
         Of k points.
     ridge_scalars : (r, k) float

@@ -95,7 +95,7 @@ def floater_term_values(cage, terms, points, facet_det, scaled_scalars):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     terms : FloaterTerms
     points : (k, N) float
     facet_det : (m, k) float

@@ -3,7 +3,7 @@
 The construction with the polar dual as generating surface (heights 1) gives Wachspress
 coordinates. Its weights also have a closed form with far fewer terms (docs/MATH.md,
 "Wachspress through the polar dual"): with ``p_T = n_T / det E_T`` the polar dual's
-vertex for facet T (``n_T`` the scaled facet normal, :attr:`Cage.facet_normals`), the
+vertex for facet T (``n_T`` the scaled facet normal, :attr:`PreparedCage.facet_normals`), the
 weight of vertex v is, up to a constant factor, the volume of the cone from x over the
 polar dual's face of v. Cut into one piece per ridge R = {v, ...} with facets p and q:
 
@@ -82,7 +82,7 @@ def wachspress_polar_weights(cage, terms, frame):
 
     Parameters
     ----------
-    cage : core.construction.Cage
+    cage : core.construction.PreparedCage
     terms : PolarDualTerms
     frame : core.construction.PointFrame
         Of the k points, with their facet determinants.

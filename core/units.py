@@ -1,7 +1,7 @@
 """World units of the frame's raw values (weights, ridge scalars, Floater scalars).
 
 Every formula runs in the cage's frame, where lengths are world lengths divided by
-``cage.scale``, a power of two (:class:`~core.construction.Cage`). Coordinates are
+``cage.scale``, a power of two (:class:`~core.construction.PreparedCage`). Coordinates are
 ratios and need nothing; the raw values the public functions also return are
 homogeneous in length, of a known degree, so the world value is the frame's times
 ``scale ** degree``: for the same ridge scalars d the general construction's weights

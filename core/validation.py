@@ -103,7 +103,7 @@ def convexity_violation(cage, tolerance=DEFAULT_TOLERANCE):
 
     Parameters
     ----------
-    cage : Cage
+    cage : PreparedCage
     tolerance : float
         Relative to the cage size; heights up to it count as coplanar (flat regions of
         triangulated quads are convex).
@@ -157,7 +157,7 @@ def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):
 
     Returns
     -------
-    cage : Cage
+    cage : PreparedCage
         The prepared cage, for reuse.
     """
     vertices, faces = _check_arrays(vertices, faces)
