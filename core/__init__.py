@@ -15,8 +15,8 @@ from .barycentric import (OUTSIDE_MODES, coordinates, needs_convex, point_locati
                           ridge_scalars_from_surface, weights)
 from .deformation import coordinate_summary, deform, field_colors, field_range
 from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
-from .floater import (floater_from_ridge_scalars, floater_matrix, floater_scalars, floater_weights,
-                      ridge_scalars_from_floater)
+from .completeness import floater_matrix, floater_scalars
+from .floater import floater_from_ridge_scalars, floater_weights, ridge_scalars_from_floater
 from .generating_surfaces import CONVEX_ONLY_KINDS, KIND_TABLE, KINDS
 from .orientation import orient_facets_outward
 from .report import CoordinateReport, coordinate_report

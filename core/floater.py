@@ -1,4 +1,5 @@
-"""Floater's construction (paper eq. 14, 21, N-D in docs/MATH.md) and completeness (Prop. 10).
+"""Floater's construction (paper eq. 14, 21, N-D in docs/MATH.md); completeness (Prop. 10)
+is `completeness.py`.
 
 Each ridge R is shared by two facets R+p and R+q. With D_p, D_q their determinants
 ``det E`` (N! times the signed volumes of {x} + facet), the N+1 vectors
@@ -22,7 +23,6 @@ from math import factorial
 
 import numpy as np
 
-from . import tolerances
 from .boundary import plane_distances
 from .construction import facet_determinants, point_frame, sum_rows
 from .inputs import checked
@@ -31,9 +31,9 @@ from .topology import gather_table
 from .units import to_world
 from .validation import DEFAULT_TOLERANCE, validate_cage
 
-__all__ = ["FloaterTerms", "floater_terms", "floater_term_values", "floater_form_weights", "floater_matrix",
-           "floater_weights", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
-           "floater_scalars"]
+__all__ = ["FloaterTerms", "floater_terms", "floater_term_values", "floater_form_weights",
+           "convex_cage_and_determinants", "floater_weights", "ridge_scalars_from_floater",
+           "floater_from_ridge_scalars"]
 
 
 @dataclass(frozen=True)
@@ -136,7 +136,7 @@ def floater_form_weights(cage, terms, points, facet_det, scaled_scalars):
                     terms.vertex_terms)
 
 
-def _convex_cage_and_points(points, vertices, faces, tolerance, what):
+def convex_cage_and_determinants(points, vertices, faces, tolerance, what):
     """The validated convex cage, and the (m, k) determinants of points off every facet's
     hyperplane (there Floater's terms have a pole: 1 / det E_T)."""
     cage = validate_cage(vertices, faces, convex=True, tolerance=tolerance)
@@ -149,38 +149,6 @@ def _convex_cage_and_points(points, vertices, faces, tolerance, what):
                          f"one (first: {first}); use core.coordinates, which takes the boundary "
                          "limit there, or points strictly inside")
     return cage, det.T
-
-
-@checked
-def floater_matrix(points, vertices, faces, tolerance=DEFAULT_TOLERANCE):
-    """The linear map from Floater scalars c to homogeneous weights, per point.
-
-    Parameters
-    ----------
-    points : (k, N) float
-        Inside the convex cage, off the facets' hyperplanes by more than the tolerance
-        (the terms have a pole there: ValueError).
-    vertices : (n, N) float
-    faces : (m, N) int
-        Closed, outward-oriented simplicial facets of a convex cage (CageError otherwise).
-    tolerance : float
-        Relative to the cage's size, in (0, 1e-3].
-
-    Returns
-    -------
-    matrix : (k, n, r) float
-        ``weights[k] = matrix[k] @ c[k]``; ridges ordered as :func:`core.ridges`.
-    """
-    cage, det = _convex_cage_and_points(points, vertices, faces, tolerance, "floater_matrix")
-    terms = floater_terms(cage)
-    ridges = len(terms.facets)
-    # Column R holds ridge R's terms for c_R = 1, each added at its vertex.
-    unit = np.full((ridges, len(points)), float(factorial(cage.dimension)))
-    values = floater_term_values(cage, terms, points, det, unit)[:-1]
-    roles = len(terms.term_vertices) // ridges
-    matrix = np.zeros((len(points), len(cage.vertices), ridges))
-    np.add.at(matrix, (slice(None), terms.term_vertices, np.tile(np.arange(ridges), roles)), values.T)
-    return to_world(matrix, cage.scale, -cage.dimension, "Floater matrices")
 
 
 @checked
@@ -203,7 +171,7 @@ def floater_weights(points, vertices, faces, c, tolerance=DEFAULT_TOLERANCE):
     -------
     weights : (k, n) float
     """
-    cage, det = _convex_cage_and_points(points, vertices, faces, tolerance, "floater_weights")
+    cage, det = convex_cage_and_determinants(points, vertices, faces, tolerance, "floater_weights")
     scaled = factorial(cage.dimension) * c.T
     weights = floater_form_weights(cage, floater_terms(cage), points, det, scaled).T
     return to_world(weights, cage.scale, -cage.dimension, "Floater weights")
@@ -211,7 +179,7 @@ def floater_weights(points, vertices, faces, c, tolerance=DEFAULT_TOLERANCE):
 
 def _ridge_measure(points, vertices, faces, tolerance):
     """|m_R| per (point, ridge) in the frame, N! and the cage."""
-    cage, _ = _convex_cage_and_points(points, vertices, faces, tolerance, "the c <-> d map")
+    cage, _ = convex_cage_and_determinants(points, vertices, faces, tolerance, "the c <-> d map")
     return point_frame(cage, points).ridge_measure.T, factorial(cage.dimension), cage
 
 
@@ -235,49 +203,3 @@ def floater_from_ridge_scalars(points, vertices, faces, d, tolerance=DEFAULT_TOL
     """Inverse of :func:`ridge_scalars_from_floater`: c = d |m_R| / N!, (k, r) float."""
     measure, scale, cage = _ridge_measure(points, vertices, faces, tolerance)
     return to_world(d * measure / scale, cage.scale, cage.dimension - 1, "Floater scalars")
-
-
-@checked
-def floater_scalars(point, vertices, faces, w, tolerance=DEFAULT_TOLERANCE):
-    """Completeness (Prop. 10): Floater scalars c reproducing given homogeneous weights.
-
-    Parameters
-    ----------
-    point : (N,) float
-        Inside the convex cage, off the facets' hyperplanes (as :func:`floater_matrix`).
-    vertices : (n, N) float
-    faces : (m, N) int
-    w : (n,) float
-        Homogeneous weights at the point (coordinates of any kind qualify).
-    tolerance : float
-        Relative to the cage's size, in (0, 1e-3].
-
-    Returns
-    -------
-    c : (r,) float
-        The least-norm solution of ``floater_matrix(point) @ c = w``; the map is onto
-        the (n - N)-dimensional space of homogeneous weights. Ridge scalars follow from
-        :func:`ridge_scalars_from_floater`.
-
-    Raises
-    ------
-    ValueError
-        ``w`` is not homogeneous at the point (``sum_i w_i (v_i - x) != 0``): no c gives
-        it; the least-squares residual exceeds ``tolerances.HOMOGENEOUS`` times ``|w|``.
-    """
-    cage, det = _convex_cage_and_points(point[None], vertices, faces, tolerance, "floater_scalars")
-    terms = floater_terms(cage)
-    ridges = len(terms.facets)
-    # The frame's matrix (its world form is scale^-N times it): solve there, convert c.
-    unit = np.full((ridges, 1), float(factorial(cage.dimension)))
-    values = floater_term_values(cage, terms, point[None], det, unit)[:-1, 0]
-    matrix = np.zeros((len(cage.vertices), ridges))
-    np.add.at(matrix, (terms.term_vertices, np.tile(np.arange(ridges), len(values) // ridges)), values)
-    c, *_ = np.linalg.lstsq(matrix, w, rcond=None)
-    residual = np.linalg.norm(matrix @ c - w)
-    if residual > tolerances.HOMOGENEOUS * np.linalg.norm(w):
-        raise ValueError(f"w is not homogeneous at the point (sum_i w_i (v_i - x) != 0), so no "
-                         f"Floater scalars reproduce it: least-squares residual {residual:.3g}, "
-                         f"{residual / max(np.linalg.norm(w), tolerances.TINY):.3g} of |w| (accepted: "
-                         f"{tolerances.HOMOGENEOUS:g}); pass weights or coordinates of the point")
-    return to_world(c, cage.scale, cage.dimension, "Floater scalars")
