@@ -1,17 +1,48 @@
-# GenCoords: every target sets up the project-local virtual environment first.
+# GenCoords: every target sets up the virtual environment of the Blender it tests first.
+#
+# BLENDER picks the Blender (as the pip `bpy` module) that `setup`, `test`, `build` and
+# `demo` use; each version gets its own virtual environment with the Python and numpy
+# that bpy wheel needs. The default, 5.0.1, lives in .venv (requirements.txt).
+BLENDER ?= 5.0.1
+# What `make test-blender-matrix` and CI run: the latest of each supported series.
+MATRIX  := 4.2.23 4.5.15 5.0.1 5.1.2 5.2.3
+
+SERIES  := $(word 1,$(subst ., ,$(BLENDER))).$(word 2,$(subst ., ,$(BLENDER)))
+# bpy 5.1 and later is built for Python 3.13, earlier versions for Python 3.11.
+ifneq ($(filter 5.1 5.2 5.3,$(SERIES)),)
+PYTHON ?= python3.13
+else
 PYTHON ?= python3.11
-VENV   := .venv
+endif
+# bpy 4.5 and 5.0 are built against numpy 1.x (they fail to import with numpy 2);
+# 4.2.23, 5.1 and 5.2 bring the numpy they need (2.x) themselves.
+ifneq ($(filter 4.5 5.0,$(SERIES)),)
+NUMPY := "numpy<2"
+endif
+
+ifeq ($(BLENDER),5.0.1)
+VENV := .venv
+REQUIREMENTS := requirements.txt
+else
+VENV := .venv-$(BLENDER)
+REQUIREMENTS := requirements-test.txt
+endif
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-core build bench bench-core clean distclean
+.PHONY: setup demo test test-core build bench bench-core test-blender-matrix \
+        setup-blender-matrix check-release clean distclean
 
 setup: $(STAMP)
 
-$(STAMP): requirements.txt
+$(STAMP): $(REQUIREMENTS)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
+ifeq ($(BLENDER),5.0.1)
 	$(PY) -m pip install --quiet -r requirements.txt
+else
+	$(PY) -m pip install --quiet "bpy==$(BLENDER)" $(NUMPY) -r requirements-test.txt
+endif
 	touch $(STAMP)
 
 ## The main job: a headless demo on a built-in default scene.
@@ -19,16 +50,29 @@ demo: $(STAMP)
 	$(PY) scripts/demo.py
 
 ## The whole test suite (core, then the built extension installed into Blender; the
-## tests build and validate the zip themselves).
+## tests build and validate the zip themselves with this Blender's tools).
 test: $(STAMP)
 	$(PY) -m pytest
 
 test-core: $(STAMP)
 	$(PY) -m pytest tests/core
 
+## The whole suite on every Blender of MATRIX, one after the other, each in its own
+## virtual environment; prints pass/fail counts and wall time per version at the end.
+test-blender-matrix:
+	$(PYTHON) scripts/test_matrix.py $(MATRIX)
+
+setup-blender-matrix:
+	for version in $(MATRIX); do $(MAKE) setup BLENDER=$$version || exit 1; done
+
 ## The extension zip, built and validated by Blender's own tools.
 build: $(STAMP)
 	$(PY) scripts/build_extension.py
+
+## Before a release: install the zip into a real Blender and render the demo scene,
+## e.g. `make check-release BLENDER_BINARY=~/blender-4.2.23-linux-x64/blender`.
+check-release: build
+	$(PY) scripts/check_release.py $(BLENDER_BINARY)
 
 ## Speed and memory figures (not part of the tests).
 bench: $(STAMP) build
@@ -39,9 +83,9 @@ bench: $(STAMP) build
 bench-core: $(STAMP)
 	$(PY) scripts/bench_core.py
 
-## Build outputs and caches; `make distclean` also removes the virtual environment.
+## Build outputs and caches; `make distclean` also removes the virtual environments.
 clean:
 	rm -rf dist build out .pytest_cache .hypothesis
 
 distclean: clean
-	rm -rf $(VENV)
+	rm -rf $(VENV) .venv-*

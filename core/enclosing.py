@@ -104,4 +104,6 @@ def facet_vertices(directions, offsets, dual_facets):
     """
     directions = np.asarray(directions, dtype=np.float64)
     facets = np.asarray(dual_facets, dtype=np.int64)
-    return np.linalg.solve(directions[facets], np.asarray(offsets, dtype=np.float64)[facets])
+    right = np.asarray(offsets, dtype=np.float64)[facets]
+    # A column right-hand side: numpy 2 takes a stack of vectors as one matrix.
+    return np.linalg.solve(directions[facets], right[..., None])[..., 0]

@@ -87,7 +87,16 @@ def bind(obj, cage, kind="MEAN_VALUE", outside="RAISE"):
 def load_user_preferences():
     """Start like the ``blender`` executable, which loads the user's preferences (they
     enable installed extensions); bpy as a module starts with factory preferences."""
-    if os.path.exists(bpy.utils.user_resource('CONFIG', path="userpref.blend")):
+    if not os.path.exists(bpy.utils.user_resource('CONFIG', path="userpref.blend")):
+        return
+    # Set by conftest where read_userpref crashes (bpy 4.2): enable what it saved instead.
+    enable_instead = os.environ.get("GENCOORDS_TEST_ENABLE_INSTEAD_OF_READ_USERPREF")
+    if enable_instead:
+        import addon_utils
+
+        for module in enable_instead.split(","):
+            addon_utils.enable(module, default_set=True, handle_error=None)
+    else:
         bpy.ops.wm.read_userpref()
 
 
