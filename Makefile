@@ -4,18 +4,24 @@
 # `demo` use; each version gets its own virtual environment with the Python and numpy
 # that bpy wheel needs. The default, 5.0.1, lives in .venv (requirements.txt).
 BLENDER ?= 5.0.1
-# What `make test-blender-matrix` and CI run: the latest of each supported series.
-MATRIX  := 4.2.23 4.5.15 5.0.1 5.1.2 5.2.3
+# What `make test-blender-matrix` and CI run: the oldest Blender the manifest accepts
+# (blender_version_min, a test holds them equal) and the latest of each series.
+MATRIX  := 4.2.0 4.2.23 4.5.15 5.0.1 5.1.2 5.2.3
 
 SERIES  := $(word 1,$(subst ., ,$(BLENDER))).$(word 2,$(subst ., ,$(BLENDER)))
 # bpy 5.1 and later is built for Python 3.13, earlier versions for Python 3.11.
 ifneq ($(filter 5.1 5.2 5.3,$(SERIES)),)
-PYTHON ?= python3.13
+PYTHON_VERSION := 3.13
 else
-PYTHON ?= python3.11
+PYTHON_VERSION := 3.11
 endif
+# pythonX.Y from the PATH when it runs (a pyenv shim of a version not selected does
+# not), else pyenv's own copy of that version; `make PYTHON=...` overrides.
+PYTHON ?= $(firstword $(foreach candidate,python$(PYTHON_VERSION) \
+            $(wildcard $(HOME)/.pyenv/versions/$(PYTHON_VERSION).*/bin/python$(PYTHON_VERSION)),\
+            $(shell $(candidate) -c "" >/dev/null 2>&1 && echo $(candidate))) python$(PYTHON_VERSION))
 # bpy 4.5 and 5.0 are built against numpy 1.x (they fail to import with numpy 2);
-# 4.2.23, 5.1 and 5.2 bring the numpy they need (2.x) themselves.
+# 4.2, 5.1 and 5.2 bring the numpy they need (2.x) themselves.
 ifneq ($(filter 4.5 5.0,$(SERIES)),)
 NUMPY := "numpy<2"
 endif

@@ -53,7 +53,7 @@ def get_modifier_input(modifier, name):
     """The value of the Geometry Nodes modifier input called ``name``."""
     item = _rna_input(modifier, name)
     if item is None:
-        return modifier.get(_identifier(modifier, name))  # None until first evaluated
+        return modifier.get(_identifier(modifier, name))  # None when it was never set
     return item.value
 
 

@@ -52,6 +52,10 @@ def main():
         print(f"{version:<9} {'ok' if code == 0 else 'FAIL':<7} {counts.get('passed', 0):>6} "
               f"{counts.get('failed', 0):>7} {counts.get('error', 0):>7} "
               f"{counts.get('skipped', 0):>8} {set_up:>9.0f} {tests:>8.0f}")
+    passed = sum(counts.get("passed", 0) for _, counts, *_ in results.values())
+    failed = sum(counts.get("failed", 0) + counts.get("error", 0)
+                 for _, counts, *_ in results.values())
+    print(f"matrix: {passed} passed, {failed} failed")
     sys.exit(0 if all(code == 0 for code, *_ in results.values()) else 1)
 
 

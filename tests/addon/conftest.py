@@ -53,10 +53,10 @@ def addon(package):
     assert result == {'FINISHED'}
     bpy.ops.wm.save_userpref()  # subprocesses using the same folder start with it enabled
     if read_userpref_crashes():
-        # bpy 4.2.x (pip module, seen on 4.2.23 on Linux): bpy.ops.wm.read_userpref()
-        # dies with SIGSEGV on any preferences file, even one bpy itself just saved
-        # with no add-on enabled; fixed in 4.3. The subprocess scripts then enable the
-        # extension through addon_utils instead of reading the saved preferences.
+        # bpy 4.2.x (pip module, Linux; seen on 4.2.0 and 4.2.23, not on 4.5 and later):
+        # bpy.ops.wm.read_userpref() dies with SIGSEGV on any preferences file, even one
+        # bpy itself just saved with no add-on enabled. The subprocess scripts then
+        # enable the extension through addon_utils instead of reading the preferences.
         warnings.warn(f"bpy {bpy.app.version_string}: wm.read_userpref() crashes; "
                       f"subprocesses enable {PACKAGE} with addon_utils instead")
         os.environ[ENABLE_INSTEAD_OF_READING_PREFERENCES] = PACKAGE
