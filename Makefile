@@ -1,36 +1,54 @@
-# GenCoords: every target sets up the project-local virtual environment first.
+# GenCoords: every target sets up the virtual environment of the Blender it tests first.
 #
-# BLENDER picks the pip bpy the tests run on (default 5.0.1, the .venv); any other
-# version gets its own .venv-<version> with the Python and numpy that bpy needs:
-#   make test BLENDER=4.2.23     make test-blender-matrix
+# BLENDER picks the Blender (as the pip `bpy` module) that `setup`, `test`, `build` and
+# `demo` use; each version gets its own virtual environment with the Python and numpy
+# that bpy wheel needs. The default, 5.0.1, lives in .venv (requirements.txt).
 BLENDER ?= 5.0.1
-# Latest of each series: 4.2 LTS, 4.5 LTS, 5.0, 5.1, 5.2.
-MATRIX  := 4.2.23 4.5.15 5.0.1 5.1.2 5.2.3
-SERIES  := $(basename $(BLENDER))
-# bpy 5.1 and later are built for Python 3.13, earlier ones for 3.11; 4.5 and 5.0 need
-# numpy 1.x (their C API), the others ship for numpy 2.
-PYTHON_VERSION := $(if $(filter 5.1 5.2 5.3,$(SERIES)),3.13,3.11)
-NUMPY          := $(if $(filter 4.5 5.0,$(SERIES)),numpy<2,numpy>=2)
+# What `make test-blender-matrix` and CI run: the oldest Blender the manifest accepts
+# (blender_version_min, a test holds them equal) and the latest of each series.
+MATRIX  := 4.2.0 4.2.23 4.5.15 5.0.1 5.1.2 5.2.3
+
+SERIES  := $(word 1,$(subst ., ,$(BLENDER))).$(word 2,$(subst ., ,$(BLENDER)))
+# bpy 5.1 and later is built for Python 3.13, earlier versions for Python 3.11.
+ifneq ($(filter 5.1 5.2 5.3,$(SERIES)),)
+PYTHON_VERSION := 3.13
+else
+PYTHON_VERSION := 3.11
+endif
+# pythonX.Y from the PATH when it runs (a pyenv shim of a version not selected does
+# not), else pyenv's own copy of that version; `make PYTHON=...` overrides.
+PYTHON ?= $(firstword $(foreach candidate,python$(PYTHON_VERSION) \
+            $(wildcard $(HOME)/.pyenv/versions/$(PYTHON_VERSION).*/bin/python$(PYTHON_VERSION)),\
+            $(shell $(candidate) -c "" >/dev/null 2>&1 && echo $(candidate))) python$(PYTHON_VERSION))
+# bpy 4.5 and 5.0 are built against numpy 1.x (they fail to import with numpy 2);
+# 4.2, 5.1 and 5.2 bring the numpy they need (2.x) themselves.
+ifneq ($(filter 4.5 5.0,$(SERIES)),)
+NUMPY := "numpy<2"
+endif
 
 ifeq ($(BLENDER),5.0.1)
-VENV         := .venv
-REQUIREMENTS := -r requirements.txt
+VENV := .venv
+REQUIREMENTS := requirements.txt
 else
-VENV         := .venv-$(BLENDER)
-REQUIREMENTS := bpy==$(BLENDER) "$(NUMPY)" pytest hypothesis
+VENV := .venv-$(BLENDER)
+REQUIREMENTS := requirements-test.txt
 endif
-PYTHON ?= $(shell scripts/find_python.sh $(PYTHON_VERSION))
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-core test-blender-matrix build bench bench-core clean distclean
+.PHONY: setup demo test test-core build bench bench-core test-blender-matrix \
+        setup-blender-matrix check-release clean distclean
 
 setup: $(STAMP)
 
-$(STAMP): requirements.txt
+$(STAMP): $(REQUIREMENTS)
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet $(REQUIREMENTS)
+ifeq ($(BLENDER),5.0.1)
+	$(PY) -m pip install --quiet -r requirements.txt
+else
+	$(PY) -m pip install --quiet "bpy==$(BLENDER)" $(NUMPY) -r requirements-test.txt
+endif
 	touch $(STAMP)
 
 ## The main job: a headless demo on a built-in default scene.
@@ -38,39 +56,42 @@ demo: $(STAMP)
 	$(PY) scripts/demo.py
 
 ## The whole test suite (core, then the built extension installed into Blender; the
-## tests build and validate the zip themselves).
+## tests build and validate the zip themselves with this Blender's tools).
 test: $(STAMP)
 	$(PY) -m pytest
 
 test-core: $(STAMP)
 	$(PY) -m pytest tests/core
 
-## The whole suite on every Blender of MATRIX, each in its own environment (downloads
-## about 400 MB per version the first time); prints a line per version at the end.
+## The whole suite on every Blender of MATRIX, one after the other, each in its own
+## virtual environment; prints pass/fail counts and wall time per version at the end.
 test-blender-matrix:
-	@failed=""; for version in $(MATRIX); do \
-	    start=$$(date +%s); \
-	    if $(MAKE) --no-print-directory test BLENDER=$$version; then result=passed; \
-	    else result=FAILED; failed="$$failed $$version"; fi; \
-	    echo "bpy $$version: $$result in $$(( $$(date +%s) - start )) s" | tee -a .matrix-summary; \
-	done; cat .matrix-summary; rm -f .matrix-summary; test -z "$$failed"
+	$(PYTHON) scripts/test_matrix.py $(MATRIX)
+
+setup-blender-matrix:
+	for version in $(MATRIX); do $(MAKE) setup BLENDER=$$version || exit 1; done
 
 ## The extension zip, built and validated by Blender's own tools.
 build: $(STAMP)
 	$(PY) scripts/build_extension.py
 
+## Before a release: install the zip into a real Blender and render the demo scene,
+## e.g. `make check-release BLENDER_BINARY=~/blender-4.2.23-linux-x64/blender`.
+check-release: build
+	$(PY) scripts/check_release.py $(BLENDER_BINARY)
+
 ## Speed and memory figures (not part of the tests).
 bench: $(STAMP) build
-	$(PY) scripts/bench_core.py
+	$(PY) scripts/bench_core.py --workers --surfaces
 	$(PY) scripts/bench_blender.py
 	$(PY) scripts/bench_artist.py
 
 bench-core: $(STAMP)
-	$(PY) scripts/bench_core.py
+	$(PY) scripts/bench_core.py --workers --surfaces
 
-## Build outputs and caches; `make distclean` also removes the virtual environment.
+## Build outputs and caches; `make distclean` also removes the virtual environments.
 clean:
 	rm -rf dist build out .pytest_cache .hypothesis
 
 distclean: clean
-	rm -rf .venv .venv-*
+	rm -rf $(VENV) .venv-*

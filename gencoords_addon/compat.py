@@ -9,46 +9,69 @@ import bpy
 VERSION = bpy.app.version
 
 
+def _rna_input(modifier, name):
+    """Blender 5.2+: the RNA item of the modifier input ``name``, or None before 5.2.
+
+    5.2 moved Geometry Nodes modifier inputs out of the modifier's ID properties
+    (``modifier[identifier]`` raises TypeError) into RNA:
+    ``modifier.properties.inputs.<identifier>`` with ``value``, ``type`` ('VALUE' or
+    'ATTRIBUTE') and ``attribute_name``.
+    """
+    inputs = getattr(getattr(modifier, "properties", None), "inputs", None)
+    if inputs is None:
+        return None
+    return getattr(inputs, _identifier(modifier, name))
+
+
+def _identifier(modifier, name):
+    return modifier.node_group.interface.items_tree[name].identifier
+
+
 def set_modifier_input(modifier, name, value):
     """Set the Geometry Nodes modifier input called ``name`` (its group socket's name)."""
-    socket = modifier.node_group.interface.items_tree[name]
-    try:
-        modifier[socket.identifier] = value
-    except TypeError:
-        # 5.2 keeps modifier inputs out of ID properties: they are RNA properties there.
-        _modern_input(modifier, socket).value = value
+    item = _rna_input(modifier, name)
+    if item is None:
+        modifier[_identifier(modifier, name)] = value
+    else:
+        item.value = value
 
 
 def set_modifier_input_attribute(modifier, name, attribute):
     """Make the field input ``name`` read the attribute (or vertex group) ``attribute``."""
-    socket = modifier.node_group.interface.items_tree[name]
-    try:
-        modifier[socket.identifier + "_use_attribute"] = True
-        modifier[socket.identifier + "_attribute_name"] = attribute
-    except TypeError:
-        item = _modern_input(modifier, socket)
-        item.use_attribute, item.attribute_name = True, attribute
+    item = _rna_input(modifier, name)
+    if item is None:
+        identifier = _identifier(modifier, name)
+        modifier[identifier + "_use_attribute"] = True
+        modifier[identifier + "_attribute_name"] = attribute
+    else:
+        item.type, item.attribute_name = 'ATTRIBUTE', attribute
+    # Before 5.2 ID property writes do not tag the modifier for re-evaluation.
     modifier.node_group.interface_update(bpy.context)
 
 
 def get_modifier_input(modifier, name):
     """The value of the Geometry Nodes modifier input called ``name``."""
-    socket = modifier.node_group.interface.items_tree[name]
-    try:
-        return modifier[socket.identifier]
-    except (TypeError, KeyError):
-        return _modern_input(modifier, socket).value
+    item = _rna_input(modifier, name)
+    if item is None:
+        return modifier.get(_identifier(modifier, name))  # None when it was never set
+    return item.value
 
 
-def _modern_input(modifier, socket):
-    inputs = getattr(modifier, "inputs", None)
-    if inputs is None:
-        raise RuntimeError(f"Blender {bpy.app.version_string}: cannot set the input "
-                           f"'{socket.name}' of modifier '{modifier.name}'")
-    for item in inputs:
-        if getattr(item, "identifier", None) == socket.identifier or item.name == socket.name:
-            return item
-    raise KeyError(socket.name)
+def compare_operands(node):
+    """The A and B inputs of a Compare node for its current data type.
+
+    Up to 5.1 a Compare node has the sockets of every data type (A and B for float, int,
+    vector, ...; only the data type's are available); 5.2 has only the current type's.
+    """
+    a_sockets = [socket for socket in node.inputs if socket.name == "A"]
+    b_sockets = [socket for socket in node.inputs if socket.name == "B"]
+    if len(a_sockets) == 1:
+        return a_sockets[0], b_sockets[0]
+    available = [(a, b) for a, b in zip(a_sockets, b_sockets) if a.enabled]
+    if len(available) != 1:
+        raise RuntimeError(f"Blender {bpy.app.version_string}: no single pair of Compare "
+                           f"inputs for data type {node.data_type}")
+    return available[0]
 
 
 def set_wildcard_removal(node, pattern):

@@ -137,19 +137,16 @@ class _Builder:
         self.link(value, node.inputs["Attribute"])
         return node.outputs["Sum"]
 
-    # The Compare node's A and B inputs per data type (all types' sockets always exist).
-    COMPARE_INPUTS = {'FLOAT': (0, 1), 'INT': (2, 3)}
-
     def compare(self, column, data_type, a, b):
         """Whether ``a == b`` exactly (single values or fields)."""
         node = self.add('FunctionNodeCompare', column, data_type=data_type, operation='EQUAL')
         if data_type == 'FLOAT':
             node.inputs["Epsilon"].default_value = 0.0
-        for index, value in zip(self.COMPARE_INPUTS[data_type], (a, b)):
+        for socket, value in zip(compat.compare_operands(node), (a, b)):
             if isinstance(value, bpy.types.NodeSocket):
-                self.link(value, node.inputs[index])
+                self.link(value, socket)
             else:
-                node.inputs[index].default_value = value
+                socket.default_value = value
         return node.outputs[0]
 
     def both(self, column, a, b):

@@ -36,4 +36,4 @@ basis = cage.data.shape_keys.key_blocks["Basis"]  # an edit after reopening
 basis.data.foreach_set("co", (read_positions(cage.data) * 1.25).reshape(-1))
 cage.data.update()
 report["follows_an_edit"] = float(np.abs(evaluated_positions(obj) - rest * 1.25).max())
-print("REPORT " + json.dumps(report))
+print("REPORT " + json.dumps(report), flush=True)

@@ -41,4 +41,4 @@ for frame in (1, 2):
 print("REPORT " + json.dumps({
     "widths": widths,
     "covered_pixels": covered_pixels,
-}))
+}), flush=True)

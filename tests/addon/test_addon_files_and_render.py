@@ -1,16 +1,10 @@
 """Files and fresh processes: save and reopen, render farm workers, missing extension."""
 
-import json
 import tempfile
 
 import pytest
 
-from conftest import run_blender_script
-
-
-def report_of(output):
-    (line,) = [line for line in output.splitlines() if line.startswith("REPORT ")]
-    return json.loads(line[len("REPORT "):])
+from conftest import report_of, run_blender_script
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +33,12 @@ def test_render_animation_shows_the_deformed_mesh(bound_file, tmp_path, installe
     blend, _ = bound_file
     with tempfile.TemporaryDirectory() as bare_user_folder:
         options = {} if installed else {"user_resources": bare_user_folder}
-        output = run_blender_script("blender_render_file.py", blend, tmp_path, **options)
+        # After a Cycles animation render with a frame_change_post handler defined in
+        # __main__, bpy crashes or hangs at interpreter exit, after the script is done:
+        # bpy 4.2.23 dies with SIGSEGV, bpy 4.5.15 never exits (both pip modules on
+        # Linux; 5.0 and later exit cleanly). The harness kills it and warns.
+        output = run_blender_script("blender_render_file.py", blend, tmp_path,
+                                    survive_exit_bug=True, **options)
     assert "Traceback" not in output
     report = report_of(output)
     widths = {int(frame): width for frame, width in report["widths"].items()}

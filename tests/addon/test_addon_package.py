@@ -1,10 +1,18 @@
 """The built zip: Blender's builder and validator accept it; it ships add-on and core only."""
 
 import importlib
+import re
 import tomllib
 import zipfile
+from pathlib import Path
 
 import bpy
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def version_tuple(text):
+    return tuple(int(part) for part in text.split("."))
 
 
 def test_zip_holds_only_the_addon_and_core(package):
@@ -17,6 +25,20 @@ def test_zip_holds_only_the_addon_and_core(package):
     assert not [name for name in names if "__pycache__" in name or name.endswith(".pyc")]
     manifest = tomllib.loads(zipfile.ZipFile(package).read("blender_manifest.toml").decode())
     assert package.name == f"{manifest['id']}-{manifest['version']}.zip"
+
+
+def test_manifest_claims_what_the_matrix_tests():
+    """blender_version_min is the oldest Blender `make test-blender-matrix` runs (so the
+    manifest promises nothing untested) and this Blender lies in the manifest's range."""
+    manifest = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))
+    matrix = re.search(r"^MATRIX\s*:=(.*)$", (REPO / "Makefile").read_text(), re.M).group(1)
+    tested = sorted(version_tuple(version) for version in matrix.split())
+    minimum = version_tuple(manifest["blender_version_min"])
+    assert tested[0] == minimum
+    assert minimum <= bpy.app.version
+    if "blender_version_max" in manifest:  # exclusive
+        assert tested[-1] < version_tuple(manifest["blender_version_max"])
+        assert bpy.app.version < version_tuple(manifest["blender_version_max"])
 
 
 def test_installed_extension_is_enabled_with_its_api(gc):

@@ -16,7 +16,10 @@ def normalise(weights):
 
 def _cot(u, v):
     """Cotangent of the angle between 2D or 3D vectors u and v."""
-    cross = np.cross(u, v)
+    if len(u) == 2:  # numpy 2 deprecates np.cross of 2D vectors
+        cross = u[0] * v[1] - u[1] * v[0]
+    else:
+        cross = np.cross(u, v)
     return np.dot(u, v) / np.linalg.norm(np.atleast_1d(cross))
 
 
