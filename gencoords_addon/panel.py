@@ -63,7 +63,7 @@ def draw_settings(layout, obj, width=None):
 
     if bound:
         field = layout.column()
-        field.label(text="Show one cage vertex's coordinate as colours:")
+        field.label(text="Coordinate field of a cage vertex:")
         row = field.row(align=True)
         row.prop(settings, "field_vertex")
         row.operator("object.gencoords_show_field", text="Show", icon='HIDE_OFF')

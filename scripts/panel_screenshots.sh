@@ -39,7 +39,7 @@ mount_system
 rm -rf "$CHROOT$STAGE"
 mkdir -p "$CHROOT$STAGE/shots"
 # The extension zip (Blender's own tools), and the scene bound with pip bpy 5.0.1 here:
-# Bind does not work yet in Blender 5.2 (see README), which still opens the bound file.
+# (a file bound by one Blender opens bound in another: the deformer is Geometry Nodes).
 "$REPO/.venv/bin/python" "$REPO/scripts/panel_screenshot_scene.py" "$CHROOT$STAGE"
 ZIP=$(ls -t "$REPO"/dist/gencoords-*.zip | head -n 1)
 cp -r "$REPO/scripts" "$CHROOT$STAGE/"
