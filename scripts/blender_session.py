@@ -28,6 +28,8 @@ def prepare():
     if str(REPO) not in sys.path:
         sys.path.insert(0, str(REPO))
     if "bpy" in sys.modules:
+        if getattr(sys.modules["bpy"].app, "binary_path", ""):  # inside a running Blender
+            return None  # (check_release.py): its own user folder stays
         raise RuntimeError("prepare() must run before bpy is imported")
     folder = tempfile.mkdtemp(prefix="gencoords-blender-user-")
     atexit.register(shutil.rmtree, folder, True)

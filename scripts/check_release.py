@@ -106,8 +106,10 @@ def inside(out):
     import numpy as np
 
     sys.path.insert(0, str(REPO / "scripts"))
-    import _blender_scene as scn
+    import blender_pictures as pictures
+    import blender_session as session
     import demo
+    from blender_scenes import arrays
 
     failures = []
     enabled = PACKAGE in bpy.context.preferences.addons
@@ -117,15 +119,15 @@ def inside(out):
               "extension enabled at start-up": enabled}
     if enabled:
         scene, mesh, cage = demo.deformation_scene(shape_key=True)
-        rest = scn.positions(mesh)
+        rest = arrays.read_positions(mesh.data)
         report["bind seconds"] = round(demo.bind(mesh, cage, "mean_value"), 2)
         modifiers = [m.name for m in mesh.modifiers if m.type == 'NODES']
         report["modifiers"] = modifiers
         demo.settle()
-        at_rest = float(np.abs(scn.evaluated_positions(mesh) - rest).max())
+        at_rest = float(np.abs(arrays.evaluated_positions(mesh) - rest).max())
         cage.data.shape_keys.key_blocks["Pull and twist"].value = 1.0
         demo.settle()
-        moved = float(np.abs(scn.evaluated_positions(mesh) - rest).max())
+        moved = float(np.abs(arrays.evaluated_positions(mesh) - rest).max())
         report["change at rest"], report["largest move after the cage edit"] = at_rest, moved
         if modifiers != ["GenCoords"]:
             failures.append(f"expected one GenCoords modifier, found {modifiers}")
@@ -133,12 +135,12 @@ def inside(out):
             failures.append(f"the mesh does not follow the cage (rest {at_rest}, moved {moved})")
         picture = Path(out) / "after.png"
         demo.render_with_cage_wire(cage, picture)  # Suzanne, the cage as a thin wire
-        pixels = scn.load_png(picture)
+        pixels = pictures.load_png(picture)
         report["render"] = f"{picture} ({pixels.shape[1]}x{pixels.shape[0]})"
         if pixels[..., :3].std() < 0.01:
             failures.append("the rendered frame is blank")
         path = Path(out) / "check_release.blend"
-        with scn.quiet():
+        with session.quiet():
             bpy.ops.wm.save_as_mainfile(filepath=str(path))
         report["saved"] = str(path)
     report["failures"] = failures
