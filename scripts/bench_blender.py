@@ -14,8 +14,9 @@ Metrics, measured the same way for every method:
              (repeated until the evaluated mesh changes) plus reading the evaluated
              positions (``position`` attribute, ``foreach_get``: 2 ms for a million
              vertices); median of 7 moves.
-  peak MB    peak resident memory of the process during the bind minus resident memory
-             just before it, sampled every millisecond from /proc by a separate process
+  peak MB    peak resident memory of the process and its worker processes during the
+             bind minus resident memory just before it, sampled every millisecond from
+             /proc by a separate process
              (operators hold the GIL, so a thread could not sample during a bind); freed
              heap memory is handed back first (malloc_trim) so earlier runs hide nothing.
   kept MB    resident memory after the bind minus before it: what the binding retains.
@@ -56,15 +57,26 @@ from blender_scenes import arrays  # noqa: E402
 UPDATE_REPEATS = 7
 MOVED_CAGE_VERTEX = 0  # the top vertex of every icosphere: moves many mesh vertices
 
-# A tiny watcher run in its own process: samples our resident memory every millisecond
-# until told to stop on stdin, then prints the peak in bytes.
+# A tiny watcher run in its own process: samples our resident memory, with that of our
+# child processes (the core's workers, which Bind starts) but not its own, every
+# millisecond until told to stop on stdin, then prints the peak in bytes.
 _WATCHER = r"""
 import os, select, sys
 page = os.sysconf("SC_PAGE_SIZE")
-statm = "/proc/%s/statm" % sys.argv[1]
+parent, me = sys.argv[1], str(os.getpid())
+def statm(pid):
+    try:
+        with open("/proc/%s/statm" % pid) as f:
+            return int(f.read().split()[1]) * page
+    except OSError:  # a worker that just ended
+        return 0
 def rss():
-    with open(statm) as f:
-        return int(f.read().split()[1]) * page
+    try:
+        with open("/proc/%s/task/%s/children" % (parent, parent)) as f:
+            children = [pid for pid in f.read().split() if pid != me]
+    except OSError:
+        children = []
+    return statm(parent) + sum(statm(pid) for pid in children)
 peak = rss()
 print("ready", flush=True)
 while not select.select([sys.stdin], [], [], 0.001)[0]:

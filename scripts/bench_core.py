@@ -1,10 +1,13 @@
 """Speed and memory of core.coordinates, beside an independent C++ implementation.
 
 Cost is reported per (point x facet) on a 642-vertex icosphere cage (1280 triangles),
-beside CGAL 6.2's figures measured on this machine (C++, double, one thread), and peak
-extra memory for a large batch (numpy reports its allocations to tracemalloc).
+beside CGAL's (C++, double, one thread, the cage prepared once) run in the same process
+on the same cage and points when its binary is given (scripts/cgal_reference.sh builds
+it), and peak extra memory for a large batch (numpy reports its allocations to
+tracemalloc).
 
     .venv/bin/python scripts/bench_core.py [--points 4000] [--memory-points 200000]
+    .venv/bin/python scripts/bench_core.py --cgal build/cgal_reference
     .venv/bin/python scripts/bench_core.py --workers     # 1, 2, 4, ... all cores
     .venv/bin/python scripts/bench_core.py --million     # 1M points, mean value, float32
 """
@@ -18,7 +21,9 @@ for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import resource  # noqa: E402
+import subprocess  # noqa: E402
 import sys  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
 import tracemalloc  # noqa: E402
 
@@ -29,7 +34,9 @@ import core  # noqa: E402
 from core.parallel import available_cores  # noqa: E402
 from core.shapes import icosphere  # noqa: E402
 
-CPP_NS_PER_POINT_FACET = {"wachspress": 39.0, "discrete_harmonic": 78.0, "mean_value": 231.0}
+# CGAL 6.2 on an earlier 2-core machine of this project (ns per point x facet), shown
+# when no CGAL binary is given; timings from another machine are not comparable.
+CGAL_EARLIER_NS = {"wachspress": 39.0, "discrete_harmonic": 78.0, "mean_value": 231.0}
 
 
 def interior_points(count, radius, seed=0):
@@ -48,29 +55,71 @@ def best_time(function, repeats):
     return best
 
 
-def single_worker_table(vertices, faces, points, repeats):
+def cgal_coordinates(binary, kind, vertices, faces, points, repeats):
+    """CGAL's coordinates and best time, by scripts/cgal_reference.cpp: ((k, n) float, s)."""
+    with tempfile.TemporaryDirectory() as folder:
+        cage, queries, result = (os.path.join(folder, name) for name in ("cage.off", "points", "out"))
+        with open(cage, "w") as off:
+            off.write(f"OFF\n{len(vertices)} {len(faces)} 0\n")
+            off.writelines(f"{x!r} {y!r} {z!r}\n" for x, y, z in vertices.tolist())
+            off.writelines(f"3 {a} {b} {c}\n" for a, b, c in faces.tolist())
+        np.ascontiguousarray(points, dtype=np.float64).tofile(queries)
+        seconds = float(subprocess.run([binary, kind, cage, queries, str(len(points)), str(repeats), result],
+                                       check=True, capture_output=True, text=True).stdout)
+        return np.fromfile(result).reshape(len(points), len(vertices)), seconds
+
+
+def single_worker_table(vertices, faces, points, repeats, cgal=None):
     pairs = len(points) * len(faces)
-    print("| kind | CGAL 6.2, 1 thread, ns | ours, 1 worker, ns | CGAL / ours | max linear precision error |")
-    print("|---|---|---|---|---|")
+    source = "same run" if cgal else "earlier machine, not comparable"
+    print(f"| kind | CGAL 6.2, 1 thread, ns ({source}) | ours, 1 worker, ns | CGAL / ours | "
+          "max linear precision error | max difference from CGAL |")
+    print("|---|---|---|---|---|---|")
     with core.Cage(vertices, faces) as cage:
         for kind in core.KINDS:
             cage.coordinates(points[:200], kind=kind, workers=1)  # warm up
             seconds = best_time(lambda: cage.coordinates(points, kind=kind, workers=1), repeats)
             ns = seconds / pairs * 1e9
-            error = np.abs(cage.coordinates(points, kind=kind, workers=1) @ vertices - points).max()
-            reference = CPP_NS_PER_POINT_FACET.get(kind)
+            ours = cage.coordinates(points, kind=kind, workers=1)
+            error = np.abs(ours @ vertices - points).max()
+            reference, difference = CGAL_EARLIER_NS.get(kind), "-"
+            if cgal and kind in CGAL_EARLIER_NS:
+                theirs, cgal_seconds = cgal_coordinates(cgal, kind, vertices, faces, points, repeats)
+                reference = round(cgal_seconds / pairs * 1e9, 1)
+                difference = f"{np.abs(theirs - ours).max():.1e}"
             ratio = f"{reference / ns:.2f}" if reference else "-"
-            print(f"| {kind} | {reference or '-'} | {ns:.1f} | {ratio} | {error:.1e} |")
+            print(f"| {kind} | {reference or '-'} | {ns:.1f} | {ratio} | {error:.1e} | {difference} |")
+
+
+def independent_rate(kind, count, points, repeats):
+    """Points per second of ``count`` independent single-process runs at once, each on its
+    share of ``points`` points, added up: what the machine allows (shared caches, memory
+    bandwidth), whatever the pool."""
+    command = [sys.executable, os.path.abspath(__file__), "--independent", kind,
+               "--repeats", str(repeats), "--workers-points", str(points // count)]
+    runs = [subprocess.Popen(command, stdout=subprocess.PIPE, text=True) for _ in range(count)]
+    return sum(float(run.communicate()[0]) for run in runs)
+
+
+def independent_run(kind, count, repeats):
+    """One of independent_rate's runs: prints its points per second."""
+    vertices, faces = icosphere(3)
+    points = interior_points(count, 0.95, seed=3)
+    with core.Cage(vertices, faces) as cage:
+        cage.coordinates(points[:200], kind=kind, workers=1)
+        print(len(points) / best_time(lambda: cage.coordinates(points, kind=kind, workers=1), repeats))
 
 
 def workers_table(vertices, faces, points, repeats):
-    """Throughput for 1, 2, 4, ... workers (and all cores), each kind."""
+    """Throughput for 1, 2, 4, ... workers (and all cores), each kind, beside as many
+    independent processes."""
     cores = available_cores()
     counts = sorted({min(2 ** i, cores) for i in range(cores.bit_length() + 1)})
     print(f"\nworkers: {len(points)} points per call, a kept core.Cage (workers started once, "
-          f"then reused); points per second and speed-up over one worker\n")
-    print("| kind | " + " | ".join(f"{count} workers" for count in counts) + " |")
-    print("|---|" + "---|" * len(counts))
+          f"then reused); points per second and speed-up over one worker; last column: {cores} "
+          "independent one-process runs at the same time (the machine's own ceiling)\n")
+    print("| kind | " + " | ".join(f"{count} workers" for count in counts) + f" | {cores} independent |")
+    print("|---|" + "---|" * (len(counts) + 1))
     for kind in core.KINDS:
         cells, single = [], None
         for count in counts:
@@ -80,6 +129,8 @@ def workers_table(vertices, faces, points, repeats):
             rate = len(points) / seconds
             single = single or rate
             cells.append(f"{rate:,.0f}/s ({rate / single:.2f}x)")
+        ceiling = independent_rate(kind, cores, len(points), repeats)
+        cells.append(f"{ceiling:,.0f}/s ({ceiling / single:.2f}x)")
         print(f"| {kind} | " + " | ".join(cells) + " |")
 
 
@@ -117,8 +168,10 @@ def million(vertices, faces):
     error = np.abs(result[::1000].astype(np.float64) @ vertices - points[::1000]).max()
     print(f"\n1,000,000 points x {len(vertices)}-vertex cage, mean value, float32 out, "
           f"{available_cores()} workers: {seconds:.1f} s; result {result.nbytes / 2**20:.0f} MB "
-          f"(shared memory); peak resident memory: this process {parent:.0f} MB (the result "
-          f"included), largest worker {child:.0f} MB; linear precision error {error:.1e}")
+          f"(shared memory, written by the workers); peak resident memory: this process "
+          f"{parent:.0f} MB, largest worker {child:.0f} MB (a process's resident memory counts "
+          f"the shared pages it wrote: about {result.nbytes / 2**20 / available_cores():.0f} MB "
+          f"per worker); linear precision error {error:.1e}")
 
 
 def main():
@@ -130,14 +183,18 @@ def main():
     parser.add_argument("--workers-points", type=int, default=40_000)
     parser.add_argument("--million", action="store_true", help="1M points, mean value, float32")
     parser.add_argument("--surfaces", action="store_true", help="numerical ridge scalars' cost")
+    parser.add_argument("--cgal", metavar="BINARY", help="scripts/cgal_reference.cpp, built")
+    parser.add_argument("--independent", metavar="KIND", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.independent:
+        return independent_run(args.independent, args.workers_points, args.repeats)
 
     vertices, faces = icosphere(4 - 1)  # 642 vertices
     points = interior_points(args.points, 0.95)
     print(f"$ {' '.join([os.path.basename(sys.executable)] + sys.argv)}")
     print(f"cage: icosphere, {len(vertices)} vertices, {len(faces)} triangles; {len(points)} interior "
           f"points; {os.cpu_count()} cores, {available_cores()} usable\n")
-    single_worker_table(vertices, faces, points, args.repeats)
+    single_worker_table(vertices, faces, points, args.repeats, args.cgal)
     if args.workers:
         workers_table(vertices, faces, interior_points(args.workers_points, 0.95, seed=3), args.repeats)
     if args.surfaces:

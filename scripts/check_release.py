@@ -11,7 +11,9 @@ Given the path of a ``blender`` executable, in a throw-away Blender user folder
    that starts with those preferences (the extension enabled at start-up, as for an
    artist) builds the demo's scene (Suzanne in a 42-vertex cage, scripts/demo.py), binds
    it through the operator, checks the mesh is unchanged at rest and follows a cage
-   edit, renders a frame (Workbench) and saves the file;
+   edit, renders a frame (Workbench) and saves the file; then the extension's own core
+   computes coordinates in two worker processes from inside Blender (where
+   ``sys.executable`` may be Blender itself) and checks them bitwise against one process;
 4. prints a report and exits non-zero when any step fails.
 
 Usage: python scripts/check_release.py BLENDER [--zip dist/gencoords-<version>.zip]
@@ -19,6 +21,7 @@ Usage: python scripts/check_release.py BLENDER [--zip dist/gencoords-<version>.z
 """
 
 import argparse
+import importlib
 import json
 import os
 import re
@@ -143,8 +146,31 @@ def inside(out):
         with session.quiet():
             bpy.ops.wm.save_as_mainfile(filepath=str(path))
         report["saved"] = str(path)
+        failures += workers_inside_blender(report)
     report["failures"] = failures
     print("REPORT " + json.dumps(report), flush=True)
+
+
+def workers_inside_blender(report):
+    """The installed extension's core in worker processes started from this Blender;
+    returns failures."""
+    import numpy as np
+
+    core = importlib.import_module(f"{PACKAGE}.core")
+    parallel = importlib.import_module(f"{PACKAGE}.core.parallel")
+    shapes = importlib.import_module(f"{PACKAGE}.core.shapes")
+    vertices, faces = shapes.icosphere(2)
+    points = np.random.default_rng(0).uniform(-0.5, 0.5, (5000, 3))
+    report["sys.executable"] = sys.executable
+    try:
+        report["worker Python"] = parallel.python_executable()
+        with core.Cage(vertices, faces) as cage:
+            alone = cage.coordinates(points, kind="mean_value", workers=1)
+            spread = cage.coordinates(points, kind="mean_value", workers=2)
+        report["core in 2 workers equals 1 process bitwise"] = bool(np.array_equal(alone, spread))
+    except core.WorkerError as error:
+        return [f"worker processes failed inside Blender: {error}"]
+    return [] if np.array_equal(alone, spread) else ["workers differ from one process"]
 
 
 def main():

@@ -1,4 +1,4 @@
-"""Bad input is refused with a message naming it; results hold at every scale (issue 11)."""
+"""Bad input is refused with a message naming it; results hold at every scale."""
 
 import inspect
 import warnings
