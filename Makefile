@@ -80,14 +80,17 @@ build: $(STAMP)
 check-release: build
 	$(PY) scripts/check_release.py $(BLENDER_BINARY)
 
-## Speed and memory figures (not part of the tests).
+## Speed and memory figures (not part of the tests). CGAL's timings join the core's
+## table in the same run once `sh scripts/cgal_reference.sh` has built its binary.
+CGAL_REFERENCE := $(if $(wildcard build/cgal_reference),--cgal build/cgal_reference)
+
 bench: $(STAMP) build
-	$(PY) scripts/bench_core.py --workers --surfaces
+	$(PY) scripts/bench_core.py --workers --surfaces $(CGAL_REFERENCE)
 	$(PY) scripts/bench_blender.py
 	$(PY) scripts/bench_artist.py
 
 bench-core: $(STAMP)
-	$(PY) scripts/bench_core.py --workers --surfaces
+	$(PY) scripts/bench_core.py --workers --surfaces $(CGAL_REFERENCE)
 
 ## Build outputs and caches; `make distclean` also removes the virtual environments.
 clean:

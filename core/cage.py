@@ -17,7 +17,7 @@ from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
 from .evaluation import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
 from .generating_surfaces import CONVEX_ONLY_KINDS, kind_parameter, named_ridge_scalars
 from .inputs import OUTSIDE_MODES, checked
-from .parallel import SharedArrays, WorkerPool, available_cores, python_executable
+from .parallel import SharedArrays, WorkerPool, available_cores, dispatch_units, python_executable
 from .units import length_degree, to_world
 from .validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
 
@@ -274,11 +274,10 @@ class Cage:
         specs = {"points": (points.shape, np.float64), "locations": ((count,), np.int8)}
         if dtype is not None:
             specs["result"] = ((count, len(self.vertices)), dtype)
-        shared = SharedArrays(specs)
+        shared = SharedArrays(specs, reserved_by_writers=("result",) if dtype is not None else ())
         shared.arrays["points"][...] = points
         # Units of whole chunks (the same chunks as one process: bitwise the same rows).
-        per_unit = chunk * max(1, -(-count // (chunk * workers * 8)))
-        units = [(start, min(start + per_unit, count)) for start in range(0, count, per_unit)]
+        units = dispatch_units(count, chunk, workers)
         report = None if progress is None else (lambda done: progress(done / count))
         self._pool.run(shared, job, units, report,
                        stop_early=lambda reply: job["outside"] == "raise" and reply[3] > 0)

@@ -143,3 +143,53 @@ def test_workers_start_the_prefix_python_when_sys_executable_is_not_one(monkeypa
     assert os.path.basename(core.parallel.python_executable()).startswith("python")
     np.testing.assert_array_equal(core.coordinates(points, vertices, faces, outside="project", workers=2),
                                   expected)
+
+
+@pytest.mark.parametrize("count, chunk, workers", [(40000, 25, 2), (1000, 7, 16), (5, 10, 4), (1, 1, 1),
+                                                   (123457, 300, 3)])
+def test_dispatch_units_cover_the_rows_in_whole_chunks_and_shrink_towards_the_end(count, chunk, workers):
+    units = core.parallel.dispatch_units(count, chunk, workers)
+    starts, stops = np.array(units).T
+    assert starts[0] == 0 and stops[-1] == count and (starts[1:] == stops[:-1]).all()
+    assert (starts % chunk == 0).all()  # the same chunks as one process: bitwise the same rows
+    sizes = stops - starts
+    assert (np.diff(sizes[:-1]) <= 0).all()  # shrinking (the last one may be cut short)
+    # No unit over 1/8 of a worker's share (progress and cancel between units) and the
+    # last ones single chunks (the workers finish together).
+    assert sizes.max() <= max(chunk, count // (workers * 8) + chunk)
+    assert sizes[-1] <= chunk
+
+
+def test_writers_reserve_their_rows_in_shared_memory(mixed_points, small_chunks):
+    shared = core.parallel.SharedArrays({"points": ((10, 3), np.float64), "result": ((10, 4), np.float32)},
+                                        reserved_by_writers=("result",))
+    try:
+        if not shared.path.startswith("/dev/shm"):
+            pytest.skip("no /dev/shm here: the whole file is reserved up front")
+        assert shared.reserved_by_writers == ("result",)
+        # Only the points are reserved up front: the result's blocks come with its writers.
+        assert os.stat(shared.path).st_blocks * 512 < shared.layout["result"][0] + 4096
+        views, descriptor = core.parallel.attach(shared.path, shared.layout)
+        core.parallel.reserve_rows(descriptor, shared.layout, ("result",), 0, 10)
+        assert os.stat(shared.path).st_blocks * 512 >= shared.layout["result"][0] + 10 * 4 * 4
+        read_only = os.open(shared.path, os.O_RDONLY)
+        with pytest.raises(core.WorkerError, match="could not reserve shared memory"):
+            core.parallel.reserve_rows(read_only, shared.layout, ("result",), 0, 10)
+        os.close(read_only)
+        os.close(descriptor)
+    finally:
+        shared.remove()
+
+
+def test_without_room_in_dev_shm_the_temporary_folder_serves(monkeypatch, mixed_points, small_chunks):
+    # A container's 64 MB /dev/shm: the file goes to the temporary folder, reserved whole.
+    vertices, faces, points = mixed_points
+    monkeypatch.setattr(core.parallel, "_free_bytes", lambda folder: 0)
+    shared = core.parallel.SharedArrays({"result": ((10, 4), np.float64)}, reserved_by_writers=("result",))
+    assert shared.path.startswith(tempfile.gettempdir()) and shared.reserved_by_writers == ()
+    shared.remove()
+    before = shared_files()
+    with core.Cage(vertices, faces) as cage:
+        np.testing.assert_array_equal(cage.coordinates(points, outside="project", workers=2),
+                                      cage.coordinates(points, outside="project", workers=1))
+    assert shared_files() == before
