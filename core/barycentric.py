@@ -126,7 +126,9 @@ def ridge_scalars(points, vertices, faces, kind, gamma=None):
     Returns
     -------
     d : (k, r) float
-        Columns follow :func:`core.ridges` (2D: vertices, 3D: edges).
+        Columns follow :func:`core.ridges` (2D: vertices, 3D: edges). A ridge through a
+        point has no scalar there: NaN (or inf) in that entry; :func:`coordinates` takes
+        the boundary limits instead.
     """
     return Cage(vertices, faces).ridge_scalars(points, kind, gamma=gamma)
 
@@ -142,7 +144,8 @@ def ridge_scalars_from_surface(points, vertices, faces, radius, levels=DEFAULT_L
     Parameters
     ----------
     points : (k, N) float
-        Inside the cage.
+        Inside the cage (a ridge through a point gives NaN in its entry, as for
+        :func:`ridge_scalars`).
     vertices : (n, N) float
     faces : (m, N) int
     radius : callable
@@ -151,7 +154,7 @@ def ridge_scalars_from_surface(points, vertices, faces, radius, levels=DEFAULT_L
         direction (the unit sphere: ``lambda x, u: np.ones(u.shape[:2])``).
     levels : int
         The accuracy parameter: each ridge's spherical simplex is subdivided ``levels``
-        times into 2^(N-2) pieces (27 evaluations of ``radius`` per piece in 4D). With
+        times into 2^(N-2) pieces (9 evaluations of ``radius`` per piece in 4D, 27 in 5D). With
         the default (5), the unit sphere gives mean value to about 1e-9 relative in 3D
         and 4e-7 in 4D; each level divides the error by roughly 30 to 60.
 

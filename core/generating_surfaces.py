@@ -175,7 +175,7 @@ KIND_TABLE = (
     Kind("voronoi", "Voronoi", "Voronoi-cell weights; needs a convex cage and can be "
          "negative", voronoi_scaled, "scaled", True, True),
     # gamma = -1 Wachspress, 1 Voronoi; 2D gamma = 0 mean value. Default -0.5: positive
-    # in every polytope measured (docs/POWER.md).
+    # in every 3D and 4D polytope measured, not in an irregular 2D 9-gon (docs/POWER.md).
     Kind("power", "Power", "The power family through Wachspress (gamma -1) and Voronoi "
          "(gamma 1); needs a convex cage", power_scaled, "scaled", True, True, "gamma", -0.5),
 )

@@ -66,7 +66,8 @@ class CoordinateReport:
 
     @property
     def headline(self):
-        """One line for people, e.g. ``"Positive (min 0.0012); well defined; exact to 3e-15"``."""
+        """One line for people, e.g. ``"Power (gamma -0.5): positive (smallest 2.2e-08); well
+        defined; linear precision 3e-16"``."""
         label = next(kind.label for kind in KIND_TABLE if kind.name == self.kind)
         if self.gamma is not None:
             label += f" (gamma {self.gamma:g})"

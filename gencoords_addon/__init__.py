@@ -4,7 +4,9 @@ Scripting API (works headless, e.g. ``blender -b`` or ``import bpy``):
 
 Properties, on every object as ``obj.gencoords`` (read when binding):
     cage          Object   the cage: a closed mesh object around ``obj`` (not ``obj`` itself)
-    kind          enum     'WACHSPRESS', 'MEAN_VALUE' (default), 'DISCRETE_HARMONIC', 'VORONOI'
+    kind          enum     'WACHSPRESS', 'MEAN_VALUE' (default), 'DISCRETE_HARMONIC', 'VORONOI',
+                           'POWER' (with ``gamma``)
+    gamma         float    power coordinates' exponent, -16 to 16 (default -0.5)
     outside       enum     vertices outside the cage: 'RAISE' (default: refuse to bind),
                            'PROJECT' (nearest cage surface point), 'EXTRAPOLATE'
     storage       enum     'AUTO' (default), 'EXACT', 'COMPACT' (see the README)

@@ -407,17 +407,41 @@ class BindJob:
             deformer.remove_slots(obj.data, key)
             raise
         if earlier is not None:
-            remove(obj, earlier)
+            remove(obj, [earlier])
         return binding(obj, self.cage)
 
 
-def remove(obj, found):
-    """Delete the binding ``found`` of ``obj``: modifier, node group and attributes.
+def remove(obj, bindings):
+    """Delete ``bindings`` of ``obj`` (their modifiers, node groups and attributes), all
+    or, as far as Blender lets anything fail, none.
 
-    The mesh data is left exactly as it was before that Bind.
+    The attributes go first, read before removal and put back if anything fails before
+    a modifier is gone; then the modifiers (the step after which the mesh no longer
+    follows the cage), then the node groups nobody uses any more. The mesh data is left
+    exactly as it was before those Binds.
+
+    Returns
+    -------
+    removed : list of str
+        Names of the modifiers removed: all of them, or on an exception (re-raised with
+        this list as its ``gencoords_removed`` attribute) the ones already gone.
     """
-    obj.modifiers.remove(found.modifier)
-    if found.group.users == 0:
-        bpy.data.node_groups.remove(found.group)
-    deformer.remove_slots(obj.data, found.key)
-    deformer.remove_unused_helpers()
+    names = [each.modifier.name for each in bindings]  # a removed modifier's RNA is gone
+    taken, removed = {}, []
+    try:
+        for each in bindings:
+            taken[each.key] = deformer.remove_slots(obj.data, each.key)
+        for name, each in zip(names, bindings):
+            group = each.group
+            obj.modifiers.remove(each.modifier)
+            removed.append(name)
+            if group.users == 0:
+                bpy.data.node_groups.remove(group)
+        deformer.remove_unused_helpers()
+    except Exception as error:
+        for name, each in zip(names, bindings):
+            if name not in removed:  # still bound: its data back
+                deformer.put_back_slots(obj.data, taken.get(each.key, {}))
+        error.gencoords_removed = removed
+        raise
+    return removed

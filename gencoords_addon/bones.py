@@ -62,40 +62,60 @@ def bake(obj, context, max_influences=0):
     size = float(np.linalg.norm(np.ptp(rest_cage, axis=0)))
 
     names = [f"{BONE_PREFIX}{j}" for j in range(len(rest_cage))]
-    for j, name in enumerate(names):  # the bones' targets: one cage vertex each
-        group = cage.vertex_groups.get(name) or cage.vertex_groups.new(name=name)
-        group.add([j], 1.0, 'REPLACE')
-    armature = bpy.data.armatures.new(f"{obj.name} cage rig")
-    rig = bpy.data.objects.new(f"{obj.name} cage rig", armature)
-    for collection in obj.users_collection:
-        collection.objects.link(rig)
-    previous = context.view_layer.objects.active
-    context.view_layer.objects.active = rig
-    bpy.ops.object.mode_set(mode='EDIT')
-    for name, head in zip(names, rest_cage):
-        bone = armature.edit_bones.new(name)
-        bone.head, bone.tail = head, head + (0.0, 0.0, 0.05 * size)
-    bpy.ops.object.mode_set(mode='OBJECT')
-    for name in names:
-        follow = rig.pose.bones[name].constraints.new('COPY_LOCATION')
-        follow.target, follow.subtarget = cage, name
+    # All or nothing: what this adds is removed again on a failure, and the binding goes
+    # last (its removal is all or nothing itself).
+    had = {"cage": {g.name for g in cage.vertex_groups}, "mesh": {g.name for g in obj.vertex_groups}}
+    previous, parent = context.view_layer.objects.active, obj.parent
+    armature = rig = skin = None
+    try:
+        for j, name in enumerate(names):  # the bones' targets: one cage vertex each
+            group = cage.vertex_groups.get(name) or cage.vertex_groups.new(name=name)
+            group.add([j], 1.0, 'REPLACE')
+        armature = bpy.data.armatures.new(f"{obj.name} cage rig")
+        rig = bpy.data.objects.new(f"{obj.name} cage rig", armature)
+        for collection in obj.users_collection:
+            collection.objects.link(rig)
+        context.view_layer.objects.active = rig
+        bpy.ops.object.mode_set(mode='EDIT')
+        for name, head in zip(names, rest_cage):
+            bone = armature.edit_bones.new(name)
+            bone.head, bone.tail = head, head + (0.0, 0.0, 0.05 * size)
+        bpy.ops.object.mode_set(mode='OBJECT')
+        for name in names:
+            follow = rig.pose.bones[name].constraints.new('COPY_LOCATION')
+            follow.target, follow.subtarget = cage, name
 
-    bm = bmesh.new()
-    bm.from_mesh(obj.data)
-    layer = bm.verts.layers.deform.verify()
-    groups = [obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name) for name in names]
-    for vert, row in zip(bm.verts, weights):
-        for j in np.flatnonzero(row):
-            vert[layer][groups[j].index] = float(row[j])
-    bm.to_mesh(obj.data)
-    bm.free()
+        bm = bmesh.new()
+        bm.from_mesh(obj.data)
+        layer = bm.verts.layers.deform.verify()
+        groups = [obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name) for name in names]
+        for vert, row in zip(bm.verts, weights):
+            for j in np.flatnonzero(row):
+                vert[layer][groups[j].index] = float(row[j])
+        bm.to_mesh(obj.data)
+        bm.free()
 
-    position = list(obj.modifiers).index(found.modifier)
-    bindings_module.remove(obj, found)
-    skin = obj.modifiers.new("Armature", 'ARMATURE')
-    skin.object = rig
-    if obj.parent is None:  # exporters (glTF) expect a skinned mesh under its armature
-        obj.parent = rig  # the rig sits at the world origin: the mesh does not move
-    obj.modifiers.move(len(obj.modifiers) - 1, position)
-    context.view_layer.objects.active = previous
+        position = list(obj.modifiers).index(found.modifier)
+        skin = obj.modifiers.new("Armature", 'ARMATURE')
+        skin.object = rig
+        obj.modifiers.move(len(obj.modifiers) - 1, position)
+        if obj.parent is None:  # exporters (glTF) expect a skinned mesh under its armature
+            obj.parent = rig  # the rig sits at the world origin: the mesh does not move
+        bindings_module.remove(obj, [found])
+    except Exception:
+        obj.parent = parent
+        if skin is not None:
+            obj.modifiers.remove(skin)
+        if rig is not None:
+            if rig.mode == 'EDIT':
+                bpy.ops.object.mode_set(mode='OBJECT')
+            bpy.data.objects.remove(rig)
+        if armature is not None:
+            bpy.data.armatures.remove(armature)
+        for owner, kept in ((cage, had["cage"]), (obj, had["mesh"])):
+            for group in [g for g in owner.vertex_groups if g.name in names and g.name not in kept]:
+                owner.vertex_groups.remove(group)
+        raise
+    finally:
+        context.view_layer.objects.active = previous
     return rig, deviation

@@ -99,11 +99,18 @@ def make_cage(obj, context, target_vertices=100, margin=0.05):
         raise CageError(f"{int((outside == core.OUTSIDE).sum())} vertices of '{obj.name}' "
                         "ended outside the cage: raise the margin")
     mesh = bpy.data.meshes.new(f"{obj.name} cage")
-    mesh.from_pydata(stored.tolist(), [], triangles.tolist())
-    mesh.update()
-    cage = bpy.data.objects.new(f"{obj.name} cage", mesh)
-    cage.display_type = 'WIRE'
-    for collection in obj.users_collection:
-        collection.objects.link(cage)
-    obj.gencoords.cage = cage
+    cage = None
+    try:  # all or nothing: what was added goes again on a failure
+        mesh.from_pydata(stored.tolist(), [], triangles.tolist())
+        mesh.update()
+        cage = bpy.data.objects.new(f"{obj.name} cage", mesh)
+        cage.display_type = 'WIRE'
+        for collection in obj.users_collection:
+            collection.objects.link(cage)
+        obj.gencoords.cage = cage
+    except Exception:
+        if cage is not None:
+            bpy.data.objects.remove(cage)
+        bpy.data.meshes.remove(mesh)
+        raise
     return cage

@@ -422,10 +422,35 @@ def read_triples(mesh, names, slot_count):
 
 
 def remove_slots(mesh, key):
-    """Delete every attribute of the binding ``key`` from ``mesh``."""
+    """Delete every attribute of the binding ``key`` from ``mesh``, all or none.
+
+    Returns
+    -------
+    taken : dict of name -> (3k,) float32
+        Their values, for :func:`put_back_slots` (every one is read before any is
+        removed; if a removal fails, those already removed are put back).
+    """
     prefix = attribute_prefix(key)
+    taken = {}
     for name in [a.name for a in mesh.attributes if a.name.startswith(prefix)]:
-        mesh.attributes.remove(mesh.attributes[name])
+        taken[name] = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.attributes[name].data.foreach_get("vector", taken[name])  # write_triples' layout
+    removed = {}
+    try:
+        for name, values in taken.items():
+            mesh.attributes.remove(mesh.attributes[name])
+            removed[name] = values
+    except Exception:
+        put_back_slots(mesh, removed)
+        raise
+    return taken
+
+
+def put_back_slots(mesh, taken):
+    """Undo :func:`remove_slots`: the attributes ``taken`` that ``mesh`` lacks, restored."""
+    for name, values in taken.items():
+        if mesh.attributes.get(name) is None:
+            mesh.attributes.new(name, 'FLOAT_VECTOR', 'POINT').data.foreach_set("vector", values)
 
 
 def remove_unused_helpers():

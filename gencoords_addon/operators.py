@@ -40,10 +40,10 @@ def object_mode(context, obj):
             bpy.ops.object.mode_set(mode='EDIT')
 
 
-def _internal_error(operator, error):
+def _internal_error(operator, error, changed="nothing was changed"):
     traceback.print_exc()
-    operator.report({'ERROR'}, f"GenCoords internal error, nothing was changed (details in "
-                               f"the system console): {error}")
+    operator.report({'ERROR'}, f"GenCoords internal error, {changed} (details in the "
+                               f"system console): {error}")
     return {'CANCELLED'}
 
 
@@ -174,10 +174,16 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
             return {'CANCELLED'}
         try:
             with object_mode(context, obj):
-                for each in found:
-                    binding.remove(obj, each)
+                binding.remove(obj, found)
         except Exception as error:
-            return _internal_error(self, error)
+            removed = getattr(error, "gencoords_removed", [])
+            if not removed:
+                return _internal_error(self, error)
+            if len(removed) == len(found):  # only the cleanup of unused node groups failed
+                return _internal_error(self, error, "the binding was removed but an unused "
+                                                    "node group may remain")
+            return _internal_error(self, error, f"only {', '.join(removed)} was removed: Unbind "
+                                                "again to remove the rest")
         return {'FINISHED'}
 
 
@@ -195,8 +201,12 @@ class OBJECT_OT_gencoords_show_field(MeshOperator, bpy.types.Operator):
         if problem:
             self.report({'ERROR'}, problem)
             return {'CANCELLED'}
-        with object_mode(context, obj):
-            painted = visualise.paint_field(obj)
+        try:
+            with object_mode(context, obj):
+                painted = visualise.paint_field(obj)
+        except Exception as error:
+            return _internal_error(self, error, "the field may be partly painted: Clear "
+                                                "Coordinate removes it")
         if not painted:
             self.report({'ERROR'}, f"The bind data of '{obj.name}' is missing: Bind again")
             return {'CANCELLED'}
@@ -212,8 +222,12 @@ class OBJECT_OT_gencoords_clear_field(MeshOperator, bpy.types.Operator):
 
     def execute(self, context):
         obj = context.active_object
-        with object_mode(context, obj):
-            cleared = visualise.clear_field(obj)
+        try:
+            with object_mode(context, obj):
+                cleared = visualise.clear_field(obj)
+        except Exception as error:
+            return _internal_error(self, error, "the field may be partly cleared: Clear "
+                                                "Coordinate again")
         if not cleared:
             self.report({'WARNING'}, "No coordinate field is shown")
         return {'FINISHED'}

@@ -3,6 +3,7 @@
 import bpy
 
 from .. import core
+from ..core.inputs import GAMMA_LIMIT
 
 # Enum identifiers are the core's names in upper case (see ``core_name``); the core's
 # table of kinds is the one list.
@@ -58,7 +59,8 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
         description="Generalized barycentric coordinates used to bind the mesh to the cage",
     )
     gamma: bpy.props.FloatProperty(
-        name="Gamma", default=-0.5, soft_min=-2.0, soft_max=2.0, step=10, options=set(),
+        name="Gamma", default=-0.5, soft_min=-2.0, soft_max=2.0, min=-GAMMA_LIMIT,
+        max=GAMMA_LIMIT, step=10, options=set(),
         description="Power coordinates' exponent: -1 is Wachspress, 1 Voronoi. Positive "
                     "on every cage for -1; measured positive for -1 to -0.5 on irregular "
                     "cages, up to 1 on regular ones (docs/POWER.md)",

@@ -29,7 +29,7 @@ def polytopes():
     yield ("2D irregular 9-gon", *random_convex_polytope(rng, 2, 9))
     yield ("3D regular octahedron", *octahedron())
     yield ("3D regular icosahedron", *icosphere(0))
-    yield ("3D irregular octahedron (paper fig. 11)", *irregular_octahedron())
+    yield ("3D irregular octahedron (paper fig. 10)", *irregular_octahedron())
     yield ("3D irregular 14 vertices", *random_convex_polytope(rng, 3, 14))
     yield ("4D regular 16-cell", *cross_polytope(4))
     yield ("4D irregular 10 vertices", *random_convex_polytope(rng, 4, 10))

@@ -57,6 +57,8 @@ def addon(package):
         # bpy.ops.wm.read_userpref() dies with SIGSEGV on any preferences file, even one
         # bpy itself just saved with no add-on enabled. The subprocess scripts then
         # enable the extension through addon_utils instead of reading the preferences.
+        # Upstream: no report found in Blender's tracker (projects.blender.org cannot be
+        # reached from this project's machines to search it or file one); fixed by 4.5.
         warnings.warn(f"bpy {bpy.app.version_string}: wm.read_userpref() crashes; "
                       f"subprocesses enable {PACKAGE} with addon_utils instead")
         os.environ[ENABLE_INSTEAD_OF_READING_PREFERENCES] = PACKAGE

@@ -8,12 +8,15 @@ import numpy as np
 import pytest
 from mathutils import Matrix
 
+import core as core_table
 from conftest import report_of, run_blender_script
 from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere,
                            add_subdivided_sphere, bind, evaluated_cage_positions,
                            evaluated_positions, mesh_state, read_positions, write_positions, update)
 
-KINDS = ("WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI")
+# The add-on's kind identifiers, derived from the core's table as the add-on does (the
+# repository's core: the installed copy is importable only once the session installed it).
+KINDS = tuple(kind.name.upper() for kind in core_table.KIND_TABLE)
 
 
 def random_affine(seed):
@@ -595,6 +598,65 @@ def test_two_cages_on_one_mesh_compose_and_unbind_one_at_a_time(gc):
     np.testing.assert_allclose(evaluated_positions(obj), rest + (0.0, 0.5, 0), atol=1e-5)
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     assert not obj.modifiers
+
+
+def attribute_values(obj):
+    """Every attribute of the mesh's data: name -> values (float32)."""
+    values = {}
+    for attribute in obj.data.attributes:
+        if attribute.data_type == 'FLOAT_VECTOR':
+            flat = np.empty(len(attribute.data) * 3, dtype=np.float32)
+            attribute.data.foreach_get("vector", flat)
+            values[attribute.name] = flat
+    return values
+
+
+def test_a_failing_unbind_of_two_bindings_changes_nothing(gc, monkeypatch):
+    # The second binding's attributes cannot be removed: the first's come back.
+    big = add_icosphere_cage(radius=2.0, name="Big")
+    small = add_icosphere_cage(radius=1.5, name="Small")
+    obj = add_sphere()
+    bind(obj, big)
+    bind(obj, small)
+    modifiers, before = [m.name for m in obj.modifiers], attribute_values(obj)
+    original, calls = gc.deformer.remove_slots, []
+
+    def fails_the_second_time(mesh, key):
+        calls.append(key)
+        if len(calls) == 2:
+            raise RuntimeError("injected fault")
+        return original(mesh, key)
+    monkeypatch.setattr(gc.deformer, "remove_slots", fails_the_second_time)
+    activate(obj)
+    with pytest.raises(RuntimeError, match="nothing was changed.*injected fault"):
+        bpy.ops.object.gencoords_unbind()
+    assert [m.name for m in obj.modifiers] == modifiers
+    after = attribute_values(obj)
+    assert sorted(after) == sorted(before)
+    for name, values in before.items():
+        np.testing.assert_array_equal(after[name], values)
+    write_positions(big.data, read_positions(big.data) + (1.0, 0.0, 0.0))
+    rest = read_positions(obj.data).astype(np.float64)
+    np.testing.assert_allclose(evaluated_positions(obj), rest + (1.0, 0.0, 0.0), atol=1e-5)
+
+
+def test_a_failing_bake_to_bones_changes_nothing(gc, monkeypatch):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    bind(obj, cage)
+    state, modifiers = mesh_state(obj), [m.name for m in obj.modifiers]
+    objects, armatures = set(bpy.data.objects.keys()), set(bpy.data.armatures.keys())
+
+    def broken(obj, bindings):
+        raise RuntimeError("injected fault")
+    monkeypatch.setattr(gc.binding, "remove", broken)  # the last step of the bake
+    activate(obj)
+    with pytest.raises(RuntimeError, match="injected fault"):
+        bpy.ops.object.gencoords_bake_bones()
+    assert set(bpy.data.objects.keys()) == objects and set(bpy.data.armatures.keys()) == armatures
+    assert [m.name for m in obj.modifiers] == modifiers and obj.parent is None
+    assert not obj.vertex_groups and not cage.vertex_groups
+    assert mesh_state(obj)[1] == state[1] and gc.binding.binding(obj) is not None
 
 
 @pytest.mark.parametrize("shape", ["suzanne", "long thin"])

@@ -47,7 +47,7 @@ def test_installed_extension_is_enabled_with_its_api(gc):
                      "gencoords_clear_field"):
         assert hasattr(bpy.ops.object, operator)
     properties = bpy.types.Object.bl_rna.properties["gencoords"].fixed_type.properties
-    for name in ("cage", "kind", "outside", "storage", "compact_size", "auto_rebind",
+    for name in ("cage", "kind", "gamma", "outside", "storage", "compact_size", "auto_rebind",
                  "field_vertex"):
         assert properties[name].description, name
         assert not properties[name].is_animatable, name  # read at bind time only

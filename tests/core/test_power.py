@@ -41,9 +41,9 @@ def test_power_zero_is_not_mean_value_in_3d():
 
 
 @pytest.mark.parametrize("dim,count", SHAPES)
-@pytest.mark.parametrize("gamma", [-2.0, -0.5, 0.0, 0.37, 2.0])
+@pytest.mark.parametrize("gamma", [-16.0, -2.0, -0.5, 0.0, 0.37, 2.0, 16.0])
 def test_power_coordinates_have_linear_precision_and_partition_of_unity(dim, count, gamma):
-    vertices, faces, points = polytope(dim, count, seed=int(10 * gamma) + 100 + dim)
+    vertices, faces, points = polytope(dim, count, seed=int(10 * gamma) + 200 + dim)
     coordinates = core.coordinates(points, vertices, faces, kind="power", gamma=gamma)
     size = np.ptp(vertices, axis=0).max()
     np.testing.assert_allclose(coordinates.sum(axis=1), 1.0, atol=1e-12)
@@ -59,8 +59,11 @@ def test_power_default_is_gamma_minus_a_half_and_other_kinds_refuse_gamma():
                                   core.coordinates(points, vertices, faces, kind="power", gamma=-0.5))
     with pytest.raises(ValueError, match="gamma applies to kind='power' only"):
         core.coordinates(points, vertices, faces, kind="voronoi", gamma=1.0)
-    with pytest.raises(ValueError, match="gamma must be a finite real number"):
-        core.coordinates(points, vertices, faces, kind="power", gamma=float("nan"))
+    for gamma in (float("nan"), float("inf"), -17.0, 1000.0):  # beyond +-16 float64 overflows
+        with pytest.raises(ValueError, match=r"gamma must be a real number in \[-16, 16\]"):
+            core.coordinates(points, vertices, faces, kind="power", gamma=gamma)
+        with pytest.raises(ValueError, match=r"gamma must be a real number in \[-16, 16\]"):
+            core.weights(points, vertices, faces, kind="power", gamma=gamma)
 
 
 def test_power_ridge_scalars_scale_with_their_length_degree():
