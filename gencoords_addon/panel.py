@@ -25,10 +25,10 @@ def draw_settings(layout, obj, width=None):
     settings = obj.gencoords
     bound = binding(obj) is not None
     column = layout.column()
-    row = column.row(align=True)
-    row.prop(settings, "cage")
-    row.operator("object.gencoords_make_cage", text="", icon='MESH_ICOSPHERE')
-    if settings.cage is not None:
+    column.prop(settings, "cage")
+    if settings.cage is None:  # a button of its own: a bare icon beside the field cut its name
+        column.operator("object.gencoords_make_cage", icon='MESH_ICOSPHERE')
+    else:
         # Artists keep cages out of the way: as wires or bounds, or hidden (still driving).
         column.prop(settings.cage, "display_type", text="Display")
     column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
@@ -64,12 +64,12 @@ def draw_settings(layout, obj, width=None):
     if bound:
         field = layout.column()
         field.label(text="Coordinate field of a cage vertex:")
-        row = field.row(align=True)
-        row.prop(settings, "field_vertex")
+        field.prop(settings, "field_vertex", text="Vertex")  # the heading says which
+        row = field.row(align=True)  # a row of its own: beside the vertex it was cut off
         row.operator("object.gencoords_show_field", text="Show", icon='HIDE_OFF')
         shown = field_range(obj)
         if shown is not None:
-            row.operator("object.gencoords_clear_field", text="", icon='X')
+            row.operator("object.gencoords_clear_field", text="Clear", icon='X')
             lowest, highest = shown
             legend = field.column(align=True)
             legend.label(text=f"Purple 0 to yellow {highest:.3g}")

@@ -4,7 +4,8 @@ installed, as ``blender --python scripts/panel_screenshots.py -- <output folder>
 
 Opens the scene of ``panel_screenshot_scene.py`` (Suzanne in a fitted 42-vertex cage),
 unbound then bound, and saves the Properties editor's Modifiers tab and the 3D view with
-its GenCoords sidebar tab for each, then with a coordinate field shown. Each step runs in
+its GenCoords sidebar tab for each, then with a coordinate field shown (the Properties
+editor scrolled to its end). Each step runs in
 a timer, so the window has drawn what the previous step changed before its screenshot.
 """
 
@@ -118,10 +119,17 @@ def show_field_colors():
     view.spaces.active.shading.color_type = 'VERTEX'
 
 
+def scroll_properties_down():
+    """The field's controls and legend sit below the fold of a narrow Properties editor."""
+    with in_area('PROPERTIES'):
+        for _ in range(4):
+            bpy.ops.view2d.scroll_down(page=True)
+
+
 STEPS = [lambda: open_scene("unbound"), set_up_views, pick_sidebar_tab,
          lambda: shoot_both("unbound"), lambda: open_scene("bound"), set_up_views,
          lambda: shoot_both("bound"), lambda: open_scene("field"), set_up_views,
-         show_field_colors, lambda: shoot_both("field")]
+         show_field_colors, scroll_properties_down, lambda: shoot_both("field")]
 
 
 def run_next_step():

@@ -49,6 +49,17 @@ def test_render_animation_shows_the_deformed_mesh(bound_file, tmp_path, installe
     assert covered[2] > covered[1] * 1.2  # the wider mesh covers more of the image
 
 
+def test_disabling_and_enabling_the_extension_keeps_bound_meshes_working(addon):
+    # The deformation is the modifier's: it carries on while the extension is disabled,
+    # and after enabling it again the panel's status and Unbind work on the same binding.
+    report = report_of(run_blender_script("blender_disable_enable.py"))
+    assert report["bind"] == ["FINISHED"] and report["disabled"]
+    assert report["follows_while_disabled"] < 1e-5
+    assert "Bound to 'Cage' (modifier 'GenCoords')" in report["status_after_enable"]
+    assert report["follows_after_enable"] < 1e-5
+    assert report["unbind"] == ["FINISHED"] and report["restored"] and report["modifiers"] == []
+
+
 def test_file_opens_and_deforms_without_the_extension(bound_file):
     with tempfile.TemporaryDirectory() as bare_user_folder:
         output = run_blender_script("blender_open_file.py", *bound_file,
