@@ -415,10 +415,11 @@ def remove(obj, bindings):
     """Delete ``bindings`` of ``obj`` (their modifiers, node groups and attributes), all
     or, as far as Blender lets anything fail, none.
 
-    The attributes go first, read before removal and put back if anything fails before
-    a modifier is gone; then the modifiers (the step after which the mesh no longer
-    follows the cage), then the node groups nobody uses any more. The mesh data is left
-    exactly as it was before those Binds.
+    The attributes are parked first (renamed, no copy: :func:`deformer.park_slots`) and
+    put back if anything fails before a modifier is gone; then the modifiers go (the step
+    after which the mesh no longer follows the cage), then the parked attributes and the
+    node groups nobody uses any more. The mesh data is left exactly as it was before
+    those Binds.
 
     Returns
     -------
@@ -427,21 +428,22 @@ def remove(obj, bindings):
         this list as its ``gencoords_removed`` attribute) the ones already gone.
     """
     names = [each.modifier.name for each in bindings]  # a removed modifier's RNA is gone
-    taken, removed = {}, []
+    parked, removed = {}, []
     try:
         for each in bindings:
-            taken[each.key] = deformer.remove_slots(obj.data, each.key)
+            parked[each.key] = deformer.park_slots(obj.data, each.key)
         for name, each in zip(names, bindings):
             group = each.group
             obj.modifiers.remove(each.modifier)
             removed.append(name)
+            deformer.drop_parked_slots(obj.data, parked[each.key])
             if group.users == 0:
                 bpy.data.node_groups.remove(group)
         deformer.remove_unused_helpers()
     except Exception as error:
         for name, each in zip(names, bindings):
             if name not in removed:  # still bound: its data back
-                deformer.put_back_slots(obj.data, taken.get(each.key, {}))
+                deformer.put_back_slots(obj.data, parked.get(each.key, {}))
         error.gencoords_removed = removed
         raise
     return removed

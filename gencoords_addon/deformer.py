@@ -37,6 +37,8 @@ STRENGTH = "Strength"
 MASK = "Mask"
 INVERT = "Invert Mask"
 ATTRIBUTE_PREFIX = ".gencoords_"  # a leading dot keeps them out of the attribute lists
+# Slot attributes an Unbind in progress has taken away (hidden: the leading dot).
+PARKED_PREFIX = ".unbinding"
 LANE_NAMES = ("gencoords_lane_x", "gencoords_lane_y", "gencoords_lane_z")
 DISPLACEMENT = "gencoords_displacement"  # on the cage's copy inside the group
 AXES = "XYZ"
@@ -422,35 +424,49 @@ def read_triples(mesh, names, slot_count):
 
 
 def remove_slots(mesh, key):
-    """Delete every attribute of the binding ``key`` from ``mesh``, all or none.
+    """Delete every attribute of the binding ``key`` from ``mesh``."""
+    prefix = attribute_prefix(key)
+    for name in [a.name for a in mesh.attributes if a.name.startswith(prefix)]:
+        mesh.attributes.remove(mesh.attributes[name])
+
+
+def park_slots(mesh, key):
+    """Take the binding ``key``'s attributes out of the deformer's reach, all or none,
+    by renaming them (no copy of the bind data): the first step of an Unbind that can
+    still be undone (:func:`put_back_slots`) or finished (:func:`drop_parked_slots`).
 
     Returns
     -------
-    taken : dict of name -> (3k,) float32
-        Their values, for :func:`put_back_slots` (every one is read before any is
-        removed; if a removal fails, those already removed are put back).
+    parked : dict of str -> str
+        Parked name -> original name.
     """
     prefix = attribute_prefix(key)
-    taken = {}
-    for name in [a.name for a in mesh.attributes if a.name.startswith(prefix)]:
-        taken[name] = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-        mesh.attributes[name].data.foreach_get("vector", taken[name])  # write_triples' layout
-    removed = {}
+    parked = {}
     try:
-        for name, values in taken.items():
-            mesh.attributes.remove(mesh.attributes[name])
-            removed[name] = values
+        for name in [a.name for a in mesh.attributes if a.name.startswith(prefix)]:
+            attribute = mesh.attributes[name]
+            attribute.name = PARKED_PREFIX + name
+            parked[attribute.name] = name  # as Blender made it unique
     except Exception:
-        put_back_slots(mesh, removed)
+        put_back_slots(mesh, parked)
         raise
-    return taken
+    return parked
 
 
-def put_back_slots(mesh, taken):
-    """Undo :func:`remove_slots`: the attributes ``taken`` that ``mesh`` lacks, restored."""
-    for name, values in taken.items():
-        if mesh.attributes.get(name) is None:
-            mesh.attributes.new(name, 'FLOAT_VECTOR', 'POINT').data.foreach_set("vector", values)
+def put_back_slots(mesh, parked):
+    """Undo :func:`park_slots`."""
+    for parked_name, name in parked.items():
+        attribute = mesh.attributes.get(parked_name)
+        if attribute is not None:
+            attribute.name = name
+
+
+def drop_parked_slots(mesh, parked):
+    """Finish an Unbind: delete what :func:`park_slots` parked."""
+    for parked_name in parked:
+        attribute = mesh.attributes.get(parked_name)
+        if attribute is not None:
+            mesh.attributes.remove(attribute)
 
 
 def remove_unused_helpers():

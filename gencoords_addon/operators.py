@@ -179,9 +179,9 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
             removed = getattr(error, "gencoords_removed", [])
             if not removed:
                 return _internal_error(self, error)
-            if len(removed) == len(found):  # only the cleanup of unused node groups failed
-                return _internal_error(self, error, "the binding was removed but an unused "
-                                                    "node group may remain")
+            if len(removed) == len(found):  # only the cleanup after the modifiers failed
+                return _internal_error(self, error, "the binding was removed but unused "
+                                                    "hidden data may remain")
             return _internal_error(self, error, f"only {', '.join(removed)} was removed: Unbind "
                                                 "again to remove the rest")
         return {'FINISHED'}

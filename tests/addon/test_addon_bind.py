@@ -619,14 +619,14 @@ def test_a_failing_unbind_of_two_bindings_changes_nothing(gc, monkeypatch):
     bind(obj, big)
     bind(obj, small)
     modifiers, before = [m.name for m in obj.modifiers], attribute_values(obj)
-    original, calls = gc.deformer.remove_slots, []
+    original, calls = gc.deformer.park_slots, []
 
     def fails_the_second_time(mesh, key):
         calls.append(key)
         if len(calls) == 2:
             raise RuntimeError("injected fault")
         return original(mesh, key)
-    monkeypatch.setattr(gc.deformer, "remove_slots", fails_the_second_time)
+    monkeypatch.setattr(gc.deformer, "park_slots", fails_the_second_time)
     activate(obj)
     with pytest.raises(RuntimeError, match="nothing was changed.*injected fault"):
         bpy.ops.object.gencoords_unbind()
