@@ -242,7 +242,7 @@ class WorkerPool:
                 threading.Thread(target=_read_replies, args=(index, process.stdout, self._replies),
                                  daemon=True).start()
                 self._send(index, ("cage", np.asarray(vertices, np.float64), np.asarray(faces, np.int64)))
-        except OSError as error:
+        except (OSError, WorkerError) as error:  # could not start, or died at once
             self.close()
             raise WorkerError(f"could not start worker processes with {command[0]!r}: {error}; "
                               "pass workers=1 to compute in this process") from error
@@ -259,9 +259,17 @@ class WorkerPool:
         return self._closed
 
     def _send(self, index, message):
-        pipe = self._processes[index].stdin
-        pickle.dump(message, pipe, protocol=pickle.HIGHEST_PROTOCOL)
-        pipe.flush()
+        process = self._processes[index]
+        try:
+            pickle.dump(message, process.stdin, protocol=pickle.HIGHEST_PROTOCOL)
+            process.stdin.flush()
+        except OSError as error:  # a broken pipe: the worker is gone (killed, crashed)
+            try:
+                status = process.wait(timeout=_STOP_SECONDS)
+            except subprocess.TimeoutExpired:
+                status = "unknown"
+            raise WorkerError(f"worker process {process.pid} ended unexpectedly (exit status "
+                              f"{status})") from error
 
     def _receive(self):
         """The next reply; raises WorkerError for a failed or vanished worker."""

@@ -117,6 +117,22 @@ def test_a_killed_worker_raises_a_clear_error_and_leaves_nothing(mixed_points, s
     cage.close()
 
 
+def test_a_worker_that_died_between_calls_raises_a_clear_error(mixed_points, small_chunks):
+    # Sending it work meets a broken pipe: a WorkerError, not a BrokenPipeError.
+    vertices, faces, points = mixed_points
+    before = shared_files()
+    cage = core.Cage(vertices, faces)
+    cage.coordinates(points[:50], outside="project", workers=2)  # starts the pool
+    processes = list(cage._pool._processes)
+    processes[0].kill()
+    processes[0].wait()
+    with pytest.raises(core.WorkerError, match="ended unexpectedly"):
+        cage.coordinates(points, outside="project", workers=2)
+    assert all(process.poll() is not None for process in processes)
+    assert shared_files() == before
+    cage.close()
+
+
 def test_default_stays_in_process_for_small_calls():
     vertices, faces = icosphere(1)
     with core.Cage(vertices, faces) as cage:
