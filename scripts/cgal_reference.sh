@@ -18,7 +18,7 @@ mkdir -p "$REPO/build"
 
 if [ "${1:-}" = "--setup" ]; then
     command -v debootstrap >/dev/null || apt-get install -y debootstrap
-    debootstrap --variant=minbase testing "$CHROOT" http://deb.debian.org/debian
+    debootstrap --variant=minbase testing "$CHROOT" "$(sh "$REPO/scripts/debian_mirror.sh")"
     cp /etc/resolv.conf "$CHROOT/etc/resolv.conf"
     chroot "$CHROOT" sh -c "apt-get -o Acquire::Check-Valid-Until=false update && \
         DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends libcgal-dev libboost-dev g++"

@@ -5,8 +5,8 @@
 # on this machine but debootstrap:
 #   scripts/panel_screenshots.sh --setup   # once, as root: builds the chroot (~1.5 GB)
 #   scripts/panel_screenshots.sh           # as root: writes docs/pictures/*.png
-# The chroot is Debian testing with Blender from unstable (testing has no blender
-# package at the moment); GENCOORDS_CHROOT picks another folder.
+# The chroot is Debian unstable (sid) with its Blender package, from the mirror this
+# machine's apt uses (scripts/debian_mirror.sh); GENCOORDS_CHROOT picks another folder.
 set -eu
 
 CHROOT=${GENCOORDS_CHROOT:-/work/chroot-blender}
@@ -24,11 +24,10 @@ mount_system() {
 
 if [ "${1:-}" = "--setup" ]; then
     command -v debootstrap >/dev/null || apt-get install -y debootstrap
-    debootstrap --variant=minbase testing "$CHROOT" http://deb.debian.org/debian
-    echo "deb http://deb.debian.org/debian unstable main" > "$CHROOT/etc/apt/sources.list.d/unstable.list"
+    debootstrap --variant=minbase sid "$CHROOT" "$(sh "$REPO/scripts/debian_mirror.sh")"
     mount_system
     chroot "$CHROOT" sh -c "$APT update && DEBIAN_FRONTEND=noninteractive $APT install -y \
-        --no-install-recommends -t unstable blender xvfb xauth libgl1-mesa-dri x11-apps \
+        --no-install-recommends blender xvfb xauth libgl1-mesa-dri x11-apps \
         python3-numpy python3-cattr python3-requests"
     exit 0
 fi
