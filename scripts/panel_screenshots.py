@@ -19,7 +19,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-SCENES, OUTPUT = map(Path, sys.argv[sys.argv.index("--") + 1:][:2])
+SCENES = OUTPUT = None  # set by main(), or by a script that reuses these helpers
 EXTENSION = "bl_ext.user_default.gencoords"
 STEP_SECONDS = 1.5  # time for the window to redraw between steps
 
@@ -145,6 +145,13 @@ def run_next_step():
     return None
 
 
-OUTPUT.mkdir(parents=True, exist_ok=True)
-# persistent: the timer carries on after each step opens a file
-bpy.app.timers.register(run_next_step, first_interval=3.0, persistent=True)
+def main():
+    global SCENES, OUTPUT
+    SCENES, OUTPUT = map(Path, sys.argv[sys.argv.index("--") + 1:][:2])
+    OUTPUT.mkdir(parents=True, exist_ok=True)
+    # persistent: the timer carries on after each step opens a file
+    bpy.app.timers.register(run_next_step, first_interval=3.0, persistent=True)
+
+
+if __name__ == "__main__":
+    main()

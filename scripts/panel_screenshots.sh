@@ -5,6 +5,8 @@
 # on this machine but debootstrap:
 #   scripts/panel_screenshots.sh --setup   # once, as root: builds the chroot (~1.5 GB)
 #   scripts/panel_screenshots.sh           # as root: writes docs/pictures/*.png
+#   scripts/panel_screenshots.sh --check   # as root: an artist's session driven by real
+#                                          # keys (scripts/gui_check.py): out/gui_check/
 # The chroot is Debian unstable (sid) with its Blender package, from the mirror this
 # machine's apt uses (scripts/debian_mirror.sh); GENCOORDS_CHROOT picks another folder.
 set -eu
@@ -13,6 +15,11 @@ CHROOT=${GENCOORDS_CHROOT:-/work/chroot-blender}
 REPO=$(cd "$(dirname "$0")/.." && pwd)
 STAGE=/tmp/gencoords-screenshots   # inside the chroot
 PICTURES="$REPO/docs/pictures"
+SCRIPT=panel_screenshots.py
+if [ "${1:-}" = "--check" ]; then  # the same window, driven by keys instead of photographed
+    SCRIPT=gui_check.py
+    PICTURES="$REPO/out/gui_check"
+fi
 APT="apt-get -o Acquire::Check-Valid-Until=false"  # the mirror's dates may trail the clock
 
 mount_system() {
@@ -27,7 +34,7 @@ if [ "${1:-}" = "--setup" ]; then
     debootstrap --variant=minbase sid "$CHROOT" "$(sh "$REPO/scripts/debian_mirror.sh")"
     mount_system
     chroot "$CHROOT" sh -c "$APT update && DEBIAN_FRONTEND=noninteractive $APT install -y \
-        --no-install-recommends blender xvfb xauth libgl1-mesa-dri x11-apps \
+        --no-install-recommends blender xvfb xauth libgl1-mesa-dri x11-apps xdotool \
         python3-numpy python3-cattr python3-requests"
     exit 0
 fi
@@ -40,11 +47,13 @@ mkdir -p "$CHROOT$STAGE/shots"
 # The extension zip (Blender's own tools), and the scene bound with pip bpy 5.0.1 here:
 # (a file bound by one Blender opens bound in another: the deformer is Geometry Nodes).
 "$REPO/.venv/bin/python" "$REPO/scripts/panel_screenshot_scene.py" "$CHROOT$STAGE"
+"$REPO/.venv/bin/python" "$REPO/scripts/build_extension.py" >/dev/null  # the zip of this tree
 ZIP=$(ls -t "$REPO"/dist/gencoords-*.zip | head -n 1)
 cp -r "$REPO/scripts" "$CHROOT$STAGE/"
 cp "$ZIP" "$CHROOT$STAGE/gencoords.zip"
 
 # A throw-away user folder: the extension installed and enabled, no splash screen.
+status=0
 chroot "$CHROOT" env HOME=/root BLENDER_USER_RESOURCES="$STAGE/user" sh -ec "
     blender --command extension install-file -r user_default -e $STAGE/gencoords.zip
     blender -b --factory-startup --python-expr 'import bpy; \
@@ -52,8 +61,9 @@ bpy.context.preferences.view.show_splash = False; \
 bpy.ops.preferences.addon_enable(module=\"bl_ext.user_default.gencoords\"); \
 bpy.ops.wm.save_userpref()'
     xvfb-run -a -s '-screen 0 1440x900x24' blender --window-geometry 0 0 1440 900 \
-        --python $STAGE/scripts/panel_screenshots.py -- $STAGE $STAGE/shots
-"
+        --python $STAGE/scripts/$SCRIPT -- $STAGE $STAGE/shots
+" || status=$?
 mkdir -p "$PICTURES"
-cp "$CHROOT$STAGE"/shots/*.png "$PICTURES/"
+cp "$CHROOT$STAGE"/shots/*.png "$PICTURES/" 2>/dev/null || true
 ls -l "$PICTURES"
+exit $status

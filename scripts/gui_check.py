@@ -1,0 +1,188 @@
+"""An artist's session in a real Blender window, driven by real key presses: run by
+``scripts/gui_check.sh`` (Blender under Xvfb, keys sent with ``xdotool``) as
+``blender --python scripts/gui_check.py -- <scene folder> <output folder>``.
+
+Opens ``bound.blend`` of ``panel_screenshot_scene.py`` (Suzanne bound to its cage) and,
+one step per timer tick so that the window handles each key before the next check:
+edits the cage (the mesh follows), deletes the cage with the Delete key (the mesh
+passes through, the panel says why, the cage can be purged), undoes with Ctrl+Z (the
+cage is back and drives the mesh), rebinds through the Replace Binding confirmation
+(Return), finds Bake to Bones with F3 search and runs it, and undoes that. Each check
+prints ``PASS``/``FAIL`` with what was measured, screenshots go to the output folder,
+and Blender exits non-zero when a check failed.
+"""
+
+import os
+import subprocess
+import sys
+import traceback
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import panel_screenshots as shots  # noqa: E402  (window helpers, xwd capture)
+
+SCENES, OUTPUT = map(Path, sys.argv[sys.argv.index("--") + 1:][:2])
+shots.SCENES, shots.OUTPUT = SCENES, OUTPUT
+EXTENSION = "bl_ext.user_default.gencoords"
+STEP_SECONDS = 1.5
+FAILURES = []
+
+
+def addon(name):
+    return sys.modules[f"{EXTENSION}.gencoords_addon.{name}"]
+
+
+def check(name, ok, measured):
+    print(f"gui_check: {'PASS' if ok else 'FAIL'} {name}: {measured}", flush=True)
+    if not ok:
+        FAILURES.append(name)
+
+
+def keys(*sequence, over='VIEW_3D'):
+    """Real key presses (xdotool) with the pointer over the largest area of ``over``."""
+    window, area = shots.window_and_area(over)
+    x = area.x + area.width // 2
+    y = window.height - (area.y + area.height // 2)
+    subprocess.run(["xdotool", "mousemove", str(x), str(y)], check=True)
+    for item in sequence:
+        if item.startswith("type:"):
+            subprocess.run(["xdotool", "type", "--delay", "30", item[5:]], check=True)
+        else:
+            subprocess.run(["xdotool", "key", "--delay", "80", item], check=True)
+
+
+def mesh_and_cage():
+    return bpy.data.objects["Suzanne"], bpy.data.objects.get("Cage")
+
+
+def evaluated(obj):
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(depsgraph).data
+    positions = np.empty(len(mesh.vertices) * 3)
+    mesh.vertices.foreach_get("co", positions)
+    return positions.reshape(-1, 3)
+
+
+def rest(obj):
+    positions = np.empty(len(obj.data.vertices) * 3)
+    obj.data.vertices.foreach_get("co", positions)
+    return positions.reshape(-1, 3)
+
+
+def moved_by(obj):
+    return float(np.abs(evaluated(obj) - rest(obj)).max())
+
+
+def status_text(obj):
+    return " | ".join(text for text, _ in addon("status").status_lines(obj))
+
+
+def select_only(obj):
+    for other in bpy.context.view_layer.objects:
+        other.select_set(other == obj)
+    bpy.context.view_layer.objects.active = obj
+
+
+# The steps -------------------------------------------------------------------------
+
+def open_bound():
+    shots.open_scene("bound")
+
+
+def edit_cage():
+    shots.set_up_views()
+    mesh, cage = mesh_and_cage()
+    check("at rest after opening", moved_by(mesh) < 1e-6, f"max move {moved_by(mesh):.2e}")
+    cage.data.vertices[7].co.z += 0.3
+    cage.data.update()
+    bpy.ops.ed.undo_push(message="Move cage vertex")
+
+
+def delete_cage():
+    mesh, cage = mesh_and_cage()
+    check("mesh follows the cage edit", moved_by(mesh) > 1e-2, f"max move {moved_by(mesh):.3f}")
+    select_only(cage)
+    keys("Delete")
+
+
+def after_delete():
+    mesh, cage = mesh_and_cage()
+    in_scene = cage is not None and bpy.context.scene.objects.get(cage.name) is not None
+    check("Delete removes the cage from the scene", not in_scene,
+          f"cage users {cage.users if cage else 0}, in scene {in_scene}")
+    check("mesh passes through after Delete", moved_by(mesh) < 1e-6, f"max move {moved_by(mesh):.2e}")
+    text = status_text(mesh)
+    check("panel says the cage was deleted", "delete" in text.lower(), text)
+    select_only(mesh)
+    shots.shoot('PROPERTIES', "deleted_cage")
+    keys("ctrl+z")
+
+
+def after_undo():
+    mesh, cage = mesh_and_cage()
+    in_scene = cage is not None and bpy.context.scene.objects.get(cage.name) is not None
+    check("Ctrl+Z brings the cage back", in_scene, f"cage {cage.name if cage else None}")
+    check("the mesh follows the restored cage", moved_by(mesh) > 1e-2, f"max move {moved_by(mesh):.3f}")
+    select_only(mesh)
+    with shots.in_area('PROPERTIES'):
+        bpy.ops.object.gencoords_bind('INVOKE_DEFAULT')  # already bound: Replace Binding?
+    keys("Return", over='PROPERTIES')
+
+
+def after_rebind():
+    mesh, _ = mesh_and_cage()
+    names = [m.name for m in mesh.modifiers if m.type == 'NODES']
+    check("Rebind through the confirmation binds once, named GenCoords", names == ["GenCoords"],
+          f"modifiers {names}")
+    check("rebound mesh at rest equals the mesh", moved_by(mesh) < 1e-5, f"max move {moved_by(mesh):.2e}")
+    shots.shoot('PROPERTIES', "rebound")
+    keys("F3", "type:Bake to Bones", over='VIEW_3D')
+
+
+def run_bake():
+    keys("Return", over='VIEW_3D')  # the search result
+
+
+def confirm_bake():
+    keys("Return", over='VIEW_3D')  # the operator's options dialog, if any
+
+
+def after_bake():
+    mesh, _ = mesh_and_cage()
+    rigs = [o.name for o in bpy.data.objects if o.type == 'ARMATURE']
+    kinds = [m.type for m in mesh.modifiers]
+    check("F3 finds and runs Bake to Bones", bool(rigs) and 'ARMATURE' in kinds,
+          f"armatures {rigs}, modifiers {kinds}")
+    shots.shoot('VIEW_3D', "baked")
+    keys("ctrl+z")
+
+
+def after_bake_undo():
+    mesh, _ = mesh_and_cage()
+    kinds = [m.type for m in mesh.modifiers]
+    check("Ctrl+Z undoes Bake to Bones", 'NODES' in kinds and 'ARMATURE' not in kinds,
+          f"modifiers {kinds}")
+
+
+STEPS = [open_bound, edit_cage, delete_cage, after_delete, after_undo, after_rebind,
+         run_bake, confirm_bake, after_bake, after_bake_undo]
+
+
+def run_next_step():
+    try:
+        STEPS.pop(0)()
+    except Exception:
+        traceback.print_exc()
+        FAILURES.append("exception")
+        STEPS.clear()
+    if STEPS:
+        return STEP_SECONDS
+    print(f"gui_check: {len(FAILURES)} failed", flush=True)
+    os._exit(1 if FAILURES else 0)
+
+
+OUTPUT.mkdir(parents=True, exist_ok=True)
+bpy.app.timers.register(run_next_step, first_interval=3.0, persistent=True)
