@@ -1,10 +1,12 @@
-"""GenCoords core: generalized barycentric coordinates in convex simplicial polytopes.
+"""GenCoords core: generalized barycentric coordinates in simplicial cages.
 
 Ju, Liepa and Warren's general construction (CAGD 2007) in pure numpy: one N-D routine
 parameterised by ridge scalars d (a generating surface) gives Wachspress, mean value,
 discrete harmonic and Voronoi coordinates, Floater's construction, and, by completeness,
-every other set of coordinates. Conventions and formulas: ``docs/MATH.md``; array shapes
-are in every docstring (k points, n vertices, m facets, r ridges, dimension N).
+every other set of coordinates. Mean value coordinates work in any closed, consistently
+oriented cage, convex or not; the other kinds need a convex cage and say so
+(``CONVEX_ONLY_KINDS``, ``needs_convex``). Conventions and formulas: ``docs/MATH.md``;
+array shapes are in every docstring (k points, n vertices, m facets, r ridges, dimension N).
 """
 
 from . import tolerances

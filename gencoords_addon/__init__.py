@@ -28,12 +28,15 @@ Failures are reported as errors and change nothing; in background scripts ``bpy.
 then raises RuntimeError with the message. The deformation is Blender's own evaluation
 of the modifier: no handler runs at playback or render, and a file opened without the
 extension still deforms. ``gencoords_addon.status.status_lines(obj)`` gives the panel's
-status lines; ``gencoords_addon.binding.binding(obj)`` the binding and its figures.
+status lines; ``binding_result(obj)`` (also ``bl_ext.user_default.gencoords.binding_result``)
+what Bind measured and stored, read-only: kind, storage chosen, smallest coordinate,
+deviations (``api.BindingResult``); ``binding_results(obj)`` every binding in stack order.
 """
 
 import bpy
 
 from . import handlers, operators, panel
+from .api import BindingResult, binding_result, binding_results  # noqa: F401 (public)
 from .properties import GenCoordsSettings
 
 CLASSES = (GenCoordsSettings, *operators.CLASSES, *panel.CLASSES)

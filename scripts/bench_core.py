@@ -35,7 +35,8 @@ from core.parallel import available_cores  # noqa: E402
 from core.shapes import icosphere  # noqa: E402
 
 # CGAL 6.2 on an earlier 2-core machine of this project (ns per point x facet), shown
-# when no CGAL binary is given; timings from another machine are not comparable.
+# for orientation when no CGAL binary is given; timings from another machine are not
+# comparable, so no ratio is printed for them.
 CGAL_EARLIER_NS = {"wachspress": 39.0, "discrete_harmonic": 78.0, "mean_value": 231.0}
 
 
@@ -72,7 +73,7 @@ def cgal_coordinates(binary, kind, vertices, faces, points, repeats):
 def single_worker_table(vertices, faces, points, repeats, cgal=None):
     pairs = len(points) * len(faces)
     source = "same run" if cgal else "earlier machine, not comparable"
-    print(f"| kind | CGAL 6.2, 1 thread, ns ({source}) | ours, 1 worker, ns | CGAL / ours | "
+    print(f"| kind | CGAL 6.2, 1 thread, ns ({source}) | ours, 1 worker, ns | CGAL / ours (same run) | "
           "max linear precision error | max difference from CGAL |")
     print("|---|---|---|---|---|---|")
     with core.Cage(vertices, faces) as cage:
@@ -87,7 +88,7 @@ def single_worker_table(vertices, faces, points, repeats, cgal=None):
                 theirs, cgal_seconds = cgal_coordinates(cgal, kind, vertices, faces, points, repeats)
                 reference = round(cgal_seconds / pairs * 1e9, 1)
                 difference = f"{np.abs(theirs - ours).max():.1e}"
-            ratio = f"{reference / ns:.2f}" if reference else "-"
+            ratio = f"{reference / ns:.2f}" if cgal and reference else "-"
             print(f"| {kind} | {reference or '-'} | {ns:.1f} | {ratio} | {error:.1e} | {difference} |")
 
 
@@ -118,7 +119,8 @@ def workers_table(vertices, faces, points, repeats):
     print(f"\nworkers: {len(points)} points per call, a kept core.Cage (workers started once, "
           f"then reused); points per second and speed-up over one worker; last column: {cores} "
           "independent one-process runs at the same time (the machine's own ceiling)\n")
-    print("| kind | " + " | ".join(f"{count} workers" for count in counts) + f" | {cores} independent |")
+    print("| kind | " + " | ".join(f"{count} worker{'s' if count > 1 else ''}" for count in counts)
+          + f" | {cores} independent |")
     print("|---|" + "---|" * (len(counts) + 1))
     for kind in core.KINDS:
         cells, single = [], None

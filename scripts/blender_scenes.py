@@ -105,13 +105,21 @@ def add_fitted_cage(mesh, subdivisions=2, margin=1.08, name="Cage"):
     cage = add_icosphere_cage(subdivisions, radius=1.0, name=name)
     unit = arrays.read_positions(cage.data)
     # For the unit icosphere P: x is inside diag(radii) * P iff x / radii is inside P, i.e.
-    # below every facet plane: facet_normal . y < facet_offset (the core's planes, relative
-    # to P's centre, where the offsets are positive).
+    # below every facet plane: facet_normal . y < facet_offset. The core's planes are in
+    # P's frame (centred, divided by a power-of-two scale), so y is mapped into that frame
+    # too; the offsets are positive there, and the ratio is then the scale P needs.
     planes = prepare_cage(unit, arrays.read_loop_triangles(cage.data))
-    scaled = (points - centre) / radii - planes.origin
+    scaled = planes.local((points - centre) / radii)
     needed = (scaled @ planes.facet_normals.T / planes.facet_offsets).max()
     arrays.write_positions(cage.data, centre + unit * radii * needed * margin)
     return cage
+
+
+def add_demo_mesh_and_cage():
+    """The demo's deformation scene: Suzanne subdivided twice (7958 vertices) in a snug
+    42-vertex fitted cage. Returns (mesh, cage)."""
+    mesh = add_suzanne(level=2)
+    return mesh, add_fitted_cage(mesh, subdivisions=2)
 
 
 def add_mesh_object(name, vertices, faces=(), edges=(), collection=None):

@@ -26,6 +26,7 @@ BLENDER_EXT_RELATIVE = Path("scripts", "addons_core", "bl_pkg", "cli", "blender_
 PACKAGED = ("blender_manifest.toml", "LICENSE", "gencoords_addon", "core")
 ENTRY_POINT = '''"""GenCoords Blender extension: the add-on is ``gencoords_addon``, the maths ``core``."""
 from .gencoords_addon import register, unregister  # noqa: F401
+from .gencoords_addon import BindingResult, binding_result, binding_results  # noqa: F401 (scripts)
 '''
 
 

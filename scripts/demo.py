@@ -199,10 +199,8 @@ def deformation_scene(shape_key=True):
     scene = scenes.reset_scene()
     pictures.setup_workbench(scene, 480, 360, lighting="STUDIO", color_type="OBJECT",
                         background=(0.94, 0.94, 0.94))
-    mesh = scenes.add_suzanne(level=2)
-    mesh.color = SKIN
-    cage = scenes.add_fitted_cage(mesh, subdivisions=2)
-    cage.color = CAGE_WIRE
+    mesh, cage = scenes.add_demo_mesh_and_cage()
+    mesh.color, cage.color = SKIN, CAGE_WIRE
     rest_cage = arrays.read_positions(cage.data)
     if shape_key:
         # Animated through the evaluated cage, which is what the add-on follows.

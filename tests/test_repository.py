@@ -1,0 +1,52 @@
+"""The repository names no package-registry host: mirrors and indexes come from the
+machine's own configuration (e.g. scripts/debian_mirror.sh reads apt's), so a clone
+works behind any mirror and no file points a tool at a host the project cannot reach."""
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+# Written as labels, so this file does not name the hosts it looks for.
+REGISTRY_HOSTS = tuple(".".join(labels) for labels in (
+    ("deb", "debian", "org"), ("security", "debian", "org"), ("ftp", "debian", "org"),
+    ("archive", "ubuntu", "com"), ("security", "ubuntu", "com"),
+    ("pypi", "org"), ("pypi", "python", "org"), ("files", "pythonhosted", "org"),
+    ("registry", "npmjs", "org"), ("registry", "yarnpkg", "com"),
+    ("crates", "io"), ("rubygems", "org"), ("proxy", "golang", "org"),
+    ("repo1", "maven", "org"), ("repo", "maven", "apache", "org"),
+    ("conda", "anaconda", "org"), ("repo", "anaconda", "com"),
+))
+PATTERN = re.compile("|".join(re.escape(host) for host in REGISTRY_HOSTS).encode(), re.IGNORECASE)
+
+
+def registry_hosts_in(data):
+    """(line number, host) of every registry host name in ``data`` (bytes)."""
+    return [(data.count(b"\n", 0, match.start()) + 1, match.group().decode().lower())
+            for match in PATTERN.finditer(data)]
+
+
+def tracked_files():
+    if shutil.which("git") is None or not (REPO / ".git").exists():
+        pytest.skip("not a git checkout: no list of tracked files")
+    listed = subprocess.run(["git", "ls-files", "-z"], cwd=REPO, capture_output=True, check=True)
+    return [REPO / name.decode() for name in listed.stdout.split(b"\0") if name]
+
+
+def test_the_pattern_finds_a_host_in_a_url():
+    url = f"deb http://{REGISTRY_HOSTS[0]}/debian sid main\n".upper().encode()
+    assert registry_hosts_in(b"first line\n" + url) == [(2, REGISTRY_HOSTS[0])]
+    assert registry_hosts_in(b"http://mirror.example/debian") == []
+
+
+def test_no_tracked_file_names_a_package_registry_host():
+    files = tracked_files()
+    assert any(path.name == "README.md" for path in files)
+    found = [f"{path.relative_to(REPO)}:{line}: {host}"
+             for path in files if path.is_file()
+             for line, host in registry_hosts_in(path.read_bytes())]
+    assert not found, "package-registry host names in tracked files:\n" + "\n".join(found)
