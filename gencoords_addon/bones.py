@@ -55,12 +55,44 @@ def read_weights(obj, names):
     columns = {obj.vertex_groups[name].index: j for j, name in enumerate(names)
                if name in obj.vertex_groups}
     weights = np.zeros((len(obj.data.vertices), len(names)))
-    for vertex in obj.data.vertices:
-        for element in vertex.groups:
-            j = columns.get(element.group)
-            if j is not None:
-                weights[vertex.index, j] = element.weight
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(obj.data)
+        layer = bm.verts.layers.deform.active
+        if layer is None:
+            return weights
+        for vert in bm.verts:
+            for group, weight in vert[layer].items():
+                j = columns.get(group)
+                if j is not None:
+                    weights[vert.index, j] = weight
+    finally:
+        bm.free()
     return weights
+
+
+def write_weights(obj, names, weights):
+    """Set the vertex groups ``names`` of ``obj`` (made as needed) to the positive
+    entries of ``weights`` ((k, len(names))); Blender clamps them to [0, 1]."""
+    groups = [(obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name)).index
+              for name in names]
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(obj.data)
+        layer = bm.verts.layers.deform.verify()
+        bm.verts.ensure_lookup_table()
+        rows, columns = np.nonzero(weights > 0.0)
+        values = weights[rows, columns].tolist()
+        group_of = [groups[j] for j in columns.tolist()]
+        deform = None
+        last = -1
+        for i, group, value in zip(rows.tolist(), group_of, values):
+            if i != last:
+                deform, last = bm.verts[i][layer], i
+            deform[group] = value
+        bm.to_mesh(obj.data)
+    finally:
+        bm.free()
 
 
 def evaluated_world_positions(obj, depsgraph):
@@ -97,13 +129,13 @@ def add_bones(rig, names, heads, size):
         _mode_set(rig, 'OBJECT')
 
 
-def keyframe_motion(rig, cage, names, context):
-    """Keyframe every bone on its cage vertex at each frame of the scene's range, as the
-    Copy Location constraints place it (exporters read keyframes, not constraints).
+def cage_motion(cage, context):
+    """The evaluated cage in world space at each frame of the scene's range.
 
     Returns
     -------
-    frames : (first, last)
+    frames : (f,) int
+    positions : (f, n, 3) float64
     """
     scene = context.scene
     frames = np.arange(scene.frame_start, scene.frame_end + 1)
@@ -115,8 +147,14 @@ def keyframe_motion(rig, cage, names, context):
             positions.append(evaluated_world_positions(cage, context.evaluated_depsgraph_get()))
     finally:
         scene.frame_set(current[0], subframe=current[1])
-    positions = np.array(positions)  # (frames, n, 3), world = the rig's space
-    for j, name in enumerate(names):  # creates the action and its curves, in all versions
+    return frames, np.array(positions)
+
+
+def keyframe_motion(rig, names, frames, positions):
+    """Keyframe every bone at ``positions`` (``cage_motion``, the rig's space: the rig sits
+    at the world origin) at ``frames``, as the Copy Location constraints place it:
+    exporters read keyframes, not constraints."""
+    for name in names:  # creates the action and its curves, in all versions
         rig.pose.bones[name].keyframe_insert("location", frame=float(frames[0]), group=name)
     rig.animation_data.action.name = f"{rig.name} cage motion"
     curves = {(curve.data_path, curve.array_index): curve
@@ -124,7 +162,7 @@ def keyframe_motion(rig, cage, names, context):
     for j, name in enumerate(names):
         bone = rig.data.bones[name]
         axes = np.array(bone.matrix_local.to_3x3(), dtype=np.float64)
-        # A pose bone's location is in its rest frame: world head = head + axes @ location.
+        # A pose bone's location is in its rest frame: head now = head + axes @ location.
         location = (positions[:, j] - np.array(bone.head_local)) @ axes
         for axis in range(3):
             curve = curves[(f'pose.bones["{name}"].location', axis)]
@@ -132,7 +170,6 @@ def keyframe_motion(rig, cage, names, context):
             curve.keyframe_points.foreach_set(
                 "co", np.column_stack([frames, location[:, axis]]).astype(np.float32).ravel())
             curve.update()
-    return int(frames[0]), int(frames[-1])
 
 
 def bake(obj, context, max_influences=0, keyframes=True):
@@ -162,6 +199,8 @@ def bake(obj, context, max_influences=0, keyframes=True):
     rest = rest_local.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
     size = float(np.linalg.norm(np.ptp(rest, axis=0)))
     names = bone_names(len(rest))
+    # Read before anything is written: each frame then costs what playback does.
+    motion = cage_motion(cage, context) if keyframes else None
 
     # All or nothing: what this adds is removed again on a failure, and the binding goes
     # last (its removal is all or nothing itself).
@@ -181,15 +220,7 @@ def bake(obj, context, max_influences=0, keyframes=True):
             follow = rig.pose.bones[name].constraints.new('COPY_LOCATION')
             follow.target, follow.subtarget = cage, name
 
-        bm = bmesh.new()
-        bm.from_mesh(obj.data)
-        layer = bm.verts.layers.deform.verify()
-        groups = [obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name) for name in names]
-        for vert, row in zip(bm.verts, weights):
-            for j in np.flatnonzero(row > 0.0):
-                vert[layer][groups[j].index] = float(row[j])
-        bm.to_mesh(obj.data)
-        bm.free()
+        write_weights(obj, names, weights)
 
         position = list(obj.modifiers).index(found.modifier)
         skin = obj.modifiers.new("Armature", 'ARMATURE')
@@ -197,14 +228,16 @@ def bake(obj, context, max_influences=0, keyframes=True):
         compat.move_modifier(obj, skin, position)
         if obj.parent is None:  # exporters (glTF) expect a skinned mesh under its armature
             obj.parent = rig  # the rig sits at the world origin: the mesh does not move
-        frames = keyframe_motion(rig, cage, names, context) if keyframes else None
+        if motion is not None:
+            keyframe_motion(rig, names, *motion)
 
         written = read_weights(obj, names)
         heads = np.array([rig.data.bones[name].head_local for name in names], dtype=np.float64)
         deviation = skinning.deviation(coordinates, rest, written, heads,
                                        compact.smooth_test_motion(rest))
         rig.data[BAKE_INFO] = {"deviation": deviation, "max_influences": int(max_influences),
-                               **({"frames": list(frames)} if frames else {})}
+                               **({"frames": [int(motion[0][0]), int(motion[0][-1])]}
+                                  if motion is not None else {})}
         bindings_module.remove(obj, [found])
     except Exception:
         obj.parent = parent

@@ -239,6 +239,28 @@ def test_a_failing_bake_to_bones_changes_nothing(gc, monkeypatch):
     assert mesh_state(obj)[1] == state[1] and gc.binding.binding(obj) is not None
 
 
+def test_undo_and_redo_of_bake_to_bones(gc):
+    """Ctrl+Z as in the UI (the step the UI pushes after an undoable operator is pushed
+    here explicitly): the binding is back and the rig gone; Ctrl+Shift+Z bakes again."""
+    preferences = bpy.context.preferences.edit
+    preferences.use_global_undo, preferences.undo_steps = True, 32
+    with bpy.context.temp_override(window=bpy.context.window_manager.windows[0]):
+        cage = add_icosphere_cage()
+        obj = add_sphere()
+        bind(obj, cage)
+        bpy.ops.ed.undo_push(message="Bind")
+        activate(obj)
+        assert bpy.ops.object.gencoords_bake_bones() == {'FINISHED'}
+        bpy.ops.ed.undo_push(message="Bake to Bones")
+        assert bpy.ops.ed.undo() == {'FINISHED'}
+        obj = bpy.data.objects["Mesh"]  # undo rebuilds IDs
+        assert gc.binding.binding(obj) is not None and obj.parent is None
+        assert "Mesh cage rig" not in bpy.data.objects and not obj.vertex_groups
+        assert bpy.ops.ed.redo() == {'FINISHED'}
+        obj = bpy.data.objects["Mesh"]
+        assert gc.binding.binding(obj) is None and obj.parent.name == "Mesh cage rig"
+
+
 class RecordingLayout:
     """Stands in for a menu's layout: records the operators drawn."""
 
