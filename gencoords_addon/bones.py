@@ -236,6 +236,8 @@ def bake(obj, context, max_influences=0, keyframes=True):
         deviation = skinning.deviation(coordinates, rest, written, heads,
                                        compact.smooth_test_motion(rest))
         rig.data[BAKE_INFO] = {"deviation": deviation, "max_influences": int(max_influences),
+                               "vertices_over_4": int(np.count_nonzero(
+                                   np.count_nonzero(written, axis=1) > 4)),
                                **({"frames": [int(motion[0][0]), int(motion[0][-1])]}
                                   if motion is not None else {})}
         bindings_module.remove(obj, [found])

@@ -306,11 +306,17 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             return {'CANCELLED'}
         except Exception as error:
             return _internal_error(self, error)
-        frames = rig.data[bones.BAKE_INFO].get("frames")
+        info = rig.data[bones.BAKE_INFO]
+        frames = info.get("frames")
         keyed = f", keyframed over frames {frames[0]} to {frames[1]}" if frames else ""
+        # Blender's glTF exporter cuts to 4 influences by default, with only a console warning.
+        over = (f"; {info['vertices_over_4']} vertices have more than 4 influences: glTF "
+                "export keeps 4 unless Skinning > Include All Bone Influences is ticked"
+                if info["vertices_over_4"] else "")
         self.report({'INFO'}, f"Baked '{obj.name}' to '{rig.name}' ({len(rig.data.bones)} "
                               f"bones{keyed}): deviation {deviation:.2e} of the cage size for "
-                              "the standard smooth cage motion, measured on the weights written")
+                              "the standard smooth cage motion, measured on the weights "
+                              f"written{over}")
         return {'FINISHED'}
 
 

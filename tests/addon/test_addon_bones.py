@@ -95,7 +95,7 @@ def assert_follows(obj, expected, tolerance):
 
 
 @pytest.mark.parametrize("influences", [0, 4])
-def test_bake_to_bones_deforms_like_the_binding(gc, influences):
+def test_bake_to_bones_deforms_like_the_binding(gc, influences, capfd):
     cage = add_icosphere_cage()
     obj = add_sphere()
     bind(obj, cage)
@@ -110,8 +110,13 @@ def test_bake_to_bones_deforms_like_the_binding(gc, influences):
     gap = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max()
     diagonal = np.linalg.norm(np.ptp(rest_cage, axis=0))
     reported = bake_info(obj)["deviation"]
+    assert f"to 'Mesh cage rig' (12 bones, keyframed over frames 1 to 250): deviation " \
+           f"{reported:.2e} of the cage size" in capfd.readouterr().out
+    over = bake_info(obj)["vertices_over_4"]
+    assert over == int(np.count_nonzero(np.count_nonzero(coordinates, axis=1) > 4)
+                       if influences == 0 else 0)
     if influences == 0:
-        assert gap < 1e-5 * diagonal and reported < 1e-6
+        assert gap < 1e-5 * diagonal and reported < 1e-6 and over > 0
     else:
         truncated = gc.core.skinning.truncate(coordinates, influences)
         expected = gc.core.compact.deviation(coordinates, truncated, np.eye(12), rest_cage, moved)
