@@ -36,7 +36,7 @@ endif
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-core build bench bench-core test-blender-matrix \
+.PHONY: setup test-tools demo test test-core build bench bench-core test-blender-matrix \
         setup-blender-matrix check-release clean distclean
 
 setup: $(STAMP)
@@ -51,13 +51,24 @@ else
 endif
 	touch $(STAMP)
 
+## The tools the tests run besides Python: the Khronos glTF-Validator (npm, the version
+## pinned in tests/tools/package-lock.json) checks the .glb a baked rig exports; without
+## it that test skips, and fails where CI is set.
+TOOLS_STAMP := tests/tools/node_modules/.installed
+
+test-tools: $(TOOLS_STAMP)
+
+$(TOOLS_STAMP): tests/tools/package.json tests/tools/package-lock.json
+	cd tests/tools && npm ci --no-audit --no-fund
+	touch $@
+
 ## The main job: a headless demo on a built-in default scene.
 demo: $(STAMP)
 	$(PY) scripts/demo.py
 
 ## The whole test suite (core, then the built extension installed into Blender; the
 ## tests build and validate the zip themselves with this Blender's tools).
-test: $(STAMP)
+test: $(STAMP) $(TOOLS_STAMP)
 	$(PY) -m pytest
 
 test-core: $(STAMP)
@@ -65,7 +76,7 @@ test-core: $(STAMP)
 
 ## The whole suite on every Blender of MATRIX, one after the other, each in its own
 ## virtual environment; prints pass/fail counts and wall time per version at the end.
-test-blender-matrix:
+test-blender-matrix: $(TOOLS_STAMP)
 	$(PYTHON) scripts/test_matrix.py $(MATRIX)
 
 setup-blender-matrix:

@@ -23,6 +23,10 @@ Operators, acting on the active mesh object (all undoable):
     bpy.ops.object.gencoords_show_field()  paint field ``field_vertex`` into the colour
                                            attribute "GenCoords Field" (FLOAT_COLOR, POINT)
     bpy.ops.object.gencoords_clear_field() remove that attribute
+    bpy.ops.object.gencoords_bake_bones(max_influences=0, keyframes=True)
+                                           replace the binding by an armature (a bone per
+                                           cage vertex) and vertex groups, keyframed over
+                                           the scene's frame range (also Object > Animation)
 
 Failures are reported as errors and change nothing; in background scripts ``bpy.ops``
 then raises RuntimeError with the message. The deformation is Blender's own evaluation
@@ -46,11 +50,13 @@ def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
     bpy.types.Object.gencoords = bpy.props.PointerProperty(type=GenCoordsSettings)
+    operators.MENU.append(operators.draw_menu)
     handlers.register()
 
 
 def unregister():
     handlers.unregister()
+    operators.MENU.remove(operators.draw_menu)
     del bpy.types.Object.gencoords
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

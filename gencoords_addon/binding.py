@@ -75,6 +75,12 @@ class Binding:
             return None
         return deformer.basis_attribute_names(self.key, self.info["slot_count"])
 
+    @property
+    def rest_cage(self):
+        """The cage at bind time ((n, 3) float32, the mesh's local space), as the deformer
+        keeps it; None when the node group lost it."""
+        return deformer.read_rest_cage(self.group, self.info["cage_vertex_count"])
+
     def coordinates(self, mesh):
         """The (k, n) float32 coordinates the mesh deforms with (compact: as reproduced
         by its slots and basis), or None when the bind data is missing."""

@@ -1,121 +1,258 @@
 """Bake to bones: turn a binding into an armature that game engines and exporters know.
 
-One bone per cage vertex, held on its vertex by a Copy Location constraint (so the cage
-still drives the rig), the coordinates as the mesh's vertex groups, and an Armature
+One bone per cage vertex, resting where that vertex was at Bind (the binding keeps the
+bind-time cage) and held on its vertex by a Copy Location constraint (so the cage still
+drives the rig in Blender), the coordinates as the mesh's vertex groups, and an Armature
 modifier in place of the GenCoords one. Linear blend skinning with bones that only
 translate and weights that sum to one is the same displacement form,
-``P + sum_j w_j (C_j - R_j)``, so keeping every weight is exact; game engines take 4 or
-8 influences per vertex, and then the largest are kept and renormalised, and the
-deviation for the standard smooth cage motion is measured and reported.
+``P + sum_j w_j (C_j - R_j)`` (``core.skinning``), so keeping every weight is exact;
+game engines take 4 or 8 influences per vertex, and then the largest are kept and
+renormalised. Vertex groups hold weights from 0 to 1 only, so negative coordinates are
+refused. The deviation reported is measured on the weights and bone positions read back
+from what was written, under the standard smooth cage motion.
+
+Exporters do not evaluate constraints (Blender's glTF exporter writes no animation for
+a rig driven only by them), so the bones' motion is also keyframed over the scene's
+frame range.
 """
 
 import bmesh
 import bpy
 import numpy as np
 
-from ..core import compact
+from ..core import compact, skinning
 from . import binding as bindings_module
+from . import compat, mesh_io
+from .properties import KIND_ITEMS, enum_label
 
 BONE_PREFIX = "GenCoords "
+BAKE_INFO = "gencoords_bake"  # ID property of the rig's armature: the bake's figures
 
 
-def truncate(coordinates, max_influences):
-    """The ``max_influences`` largest weights of each row, renormalised (0: all kept).
+def bone_names(count):
+    return [f"{BONE_PREFIX}{j}" for j in range(count)]
 
-    Parameters
-    ----------
-    coordinates : (k, n) float
-    max_influences : int
+
+def negative_message(obj, found, count, smallest):
+    kind = enum_label(KIND_ITEMS, found.info["kind"].upper())
+    compact_note = (" (this binding uses Compact storage, which reproduces coordinates "
+                    "approximately: Storage Exact may help)"
+                    if found.info.get("storage") == 'COMPACT' else "")
+    return (f"Cannot bake '{obj.name}' to bones: {count} of its {kind} coordinates are "
+            f"negative (down to {smallest:.3g}){compact_note}, and vertex-group weights "
+            "cannot be (Blender clamps them to 0 to 1). Bind with Type Wachspress, or Mean "
+            "Value with a convex cage (Make Cage makes one): these are never negative "
+            "inside the cage; then Bake to Bones")
+
+
+def read_weights(obj, names):
+    """The weights of the vertex groups ``names`` of ``obj``, as Blender stores them.
 
     Returns
     -------
-    weights : (k, n) float64
-        Zero outside each row's kept columns; rows sum to one.
+    weights : (k, len(names)) float64
     """
-    weights = np.asarray(coordinates, dtype=np.float64)
-    if not max_influences or max_influences >= weights.shape[1]:
-        return weights.copy()
-    kept = np.argpartition(-weights, max_influences - 1, axis=1)[:, :max_influences]
-    rows = np.arange(len(weights))[:, None]
-    truncated = np.zeros_like(weights)
-    truncated[rows, kept] = weights[rows, kept]
-    return truncated / truncated.sum(axis=1, keepdims=True)
+    columns = {obj.vertex_groups[name].index: j for j, name in enumerate(names)
+               if name in obj.vertex_groups}
+    weights = np.zeros((len(obj.data.vertices), len(names)))
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(obj.data)
+        layer = bm.verts.layers.deform.active
+        if layer is None:
+            return weights
+        for vert in bm.verts:
+            for group, weight in vert[layer].items():
+                j = columns.get(group)
+                if j is not None:
+                    weights[vert.index, j] = weight
+    finally:
+        bm.free()
+    return weights
 
 
-def bake(obj, context, max_influences=0):
+def write_weights(obj, names, weights):
+    """Set the vertex groups ``names`` of ``obj`` (made as needed) to the positive
+    entries of ``weights`` ((k, len(names))); Blender clamps them to [0, 1]."""
+    groups = [(obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name)).index
+              for name in names]
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(obj.data)
+        layer = bm.verts.layers.deform.verify()
+        bm.verts.ensure_lookup_table()
+        rows, columns = np.nonzero(weights > 0.0)
+        values = weights[rows, columns].tolist()
+        group_of = [groups[j] for j in columns.tolist()]
+        deform = None
+        last = -1
+        for i, group, value in zip(rows.tolist(), group_of, values):
+            if i != last:
+                deform, last = bm.verts[i][layer], i
+            deform[group] = value
+        bm.to_mesh(obj.data)
+    finally:
+        bm.free()
+
+
+def evaluated_world_positions(obj, depsgraph):
+    """``obj``'s evaluated vertices in world space ((n, 3) float64)."""
+    with mesh_io.evaluated_mesh(obj, depsgraph) as mesh:
+        local = mesh_io.read_positions(mesh).astype(np.float64)
+    world = np.array(obj.evaluated_get(depsgraph).matrix_world, dtype=np.float64)
+    return local @ world[:3, :3].T + world[:3, 3]
+
+
+def _mode_set(rig, mode):
+    # object.mode_set acts on the context's object (which a script's temp_override may
+    # have made the mesh) and Edit Mode's toggle on the view layer's active object: both
+    # are the rig for the call, the caller's active object afterwards.
+    view_layer = bpy.context.view_layer
+    previous = view_layer.objects.active
+    view_layer.objects.active = rig
+    try:
+        with bpy.context.temp_override(object=rig, active_object=rig, selected_objects=[rig],
+                                       selected_editable_objects=[rig]):
+            bpy.ops.object.mode_set(mode=mode)
+    finally:
+        view_layer.objects.active = previous
+
+
+def add_bones(rig, names, heads, size):
+    """Give the armature of ``rig`` a bone resting at each of ``heads``."""
+    _mode_set(rig, 'EDIT')
+    try:
+        for name, head in zip(names, heads):
+            bone = rig.data.edit_bones.new(name)
+            bone.head, bone.tail = head, head + (0.0, 0.0, 0.05 * size)
+    finally:
+        _mode_set(rig, 'OBJECT')
+
+
+def cage_motion(cage, context):
+    """The evaluated cage in world space at each frame of the scene's range.
+
+    Returns
+    -------
+    frames : (f,) int
+    positions : (f, n, 3) float64
+    """
+    scene = context.scene
+    frames = np.arange(scene.frame_start, scene.frame_end + 1)
+    current = scene.frame_current, scene.frame_subframe
+    positions = []
+    try:
+        for frame in frames:
+            scene.frame_set(int(frame))
+            positions.append(evaluated_world_positions(cage, context.evaluated_depsgraph_get()))
+    finally:
+        scene.frame_set(current[0], subframe=current[1])
+    return frames, np.array(positions)
+
+
+def keyframe_motion(rig, names, frames, positions):
+    """Keyframe every bone at ``positions`` (``cage_motion``, the rig's space: the rig sits
+    at the world origin) at ``frames``, as the Copy Location constraints place it:
+    exporters read keyframes, not constraints."""
+    for name in names:  # creates the action and its curves, in all versions
+        rig.pose.bones[name].keyframe_insert("location", frame=float(frames[0]), group=name)
+    rig.animation_data.action.name = f"{rig.name} cage motion"
+    curves = {(curve.data_path, curve.array_index): curve
+              for curve in compat.action_fcurves(rig)}
+    for j, name in enumerate(names):
+        bone = rig.data.bones[name]
+        axes = np.array(bone.matrix_local.to_3x3(), dtype=np.float64)
+        # A pose bone's location is in its rest frame: head now = head + axes @ location.
+        location = (positions[:, j] - np.array(bone.head_local)) @ axes
+        for axis in range(3):
+            curve = curves[(f'pose.bones["{name}"].location', axis)]
+            curve.keyframe_points.add(len(frames) - 1)
+            curve.keyframe_points.foreach_set(
+                "co", np.column_stack([frames, location[:, axis]]).astype(np.float32).ravel())
+            curve.update()
+
+
+def bake(obj, context, max_influences=0, keyframes=True):
     """Replace the (first) binding of ``obj`` by an armature; returns (rig, deviation).
 
-    ``deviation`` is the largest distance, per cage diagonal, between the baked and the
-    exact deformation under the standard smooth cage motion (0 when every weight is kept).
+    ``deviation`` is the largest distance, per cage diagonal, between the skinned and the
+    exact deformation under the standard smooth cage motion, measured with the weights
+    and bone heads read back from the mesh's vertex groups and the rig.
     """
     found = bindings_module.binding(obj)
     cage = found.cage
     if cage is None:
         raise bindings_module.BindError("The binding's cage is missing: Bind again first")
     coordinates = found.coordinates(obj.data)
-    weights = truncate(coordinates, max_influences)
-    cage_world = np.array(cage.matrix_world, dtype=np.float64)
-    rest_cage = np.array([cage_world[:3, :3] @ v.co + cage_world[:3, 3]
-                          for v in cage.data.vertices])
-    moved = compact.smooth_test_motion(rest_cage)
-    deviation = compact.deviation(coordinates, weights, np.eye(len(rest_cage)), rest_cage, moved)
-    size = float(np.linalg.norm(np.ptp(rest_cage, axis=0)))
+    rest_local = found.rest_cage
+    if coordinates is None or rest_local is None \
+            or len(obj.data.vertices) != found.info["mesh_vertex_count"]:
+        raise bindings_module.BindError(f"The bind data of '{obj.name}' is missing or no "
+                                        "longer matches its vertices: Bind again")
+    weights = skinning.truncate(coordinates, max_influences)
+    negative, smallest = skinning.negative_weights(weights)
+    if negative:
+        raise bindings_module.BindError(negative_message(obj, found, negative, smallest))
+    # The rig sits at the world origin: the bones rest where the bind-time cage is seen
+    # from the mesh now (the deformer reads the cage relative to the mesh too).
+    world = np.array(obj.matrix_world, dtype=np.float64)
+    rest = rest_local.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+    size = float(np.linalg.norm(np.ptp(rest, axis=0)))
+    names = bone_names(len(rest))
+    # Read before anything is written: each frame then costs what playback does.
+    motion = cage_motion(cage, context) if keyframes else None
 
-    names = [f"{BONE_PREFIX}{j}" for j in range(len(rest_cage))]
     # All or nothing: what this adds is removed again on a failure, and the binding goes
     # last (its removal is all or nothing itself).
     had = {"cage": {g.name for g in cage.vertex_groups}, "mesh": {g.name for g in obj.vertex_groups}}
-    previous, parent = context.view_layer.objects.active, obj.parent
-    armature = rig = skin = None
+    parent = obj.parent
+    rig = skin = None
     try:
         for j, name in enumerate(names):  # the bones' targets: one cage vertex each
             group = cage.vertex_groups.get(name) or cage.vertex_groups.new(name=name)
             group.add([j], 1.0, 'REPLACE')
-        armature = bpy.data.armatures.new(f"{obj.name} cage rig")
-        rig = bpy.data.objects.new(f"{obj.name} cage rig", armature)
+        rig = bpy.data.objects.new(f"{obj.name} cage rig",
+                                   bpy.data.armatures.new(f"{obj.name} cage rig"))
         for collection in obj.users_collection:
             collection.objects.link(rig)
-        context.view_layer.objects.active = rig
-        bpy.ops.object.mode_set(mode='EDIT')
-        for name, head in zip(names, rest_cage):
-            bone = armature.edit_bones.new(name)
-            bone.head, bone.tail = head, head + (0.0, 0.0, 0.05 * size)
-        bpy.ops.object.mode_set(mode='OBJECT')
+        add_bones(rig, names, rest, size)
         for name in names:
             follow = rig.pose.bones[name].constraints.new('COPY_LOCATION')
             follow.target, follow.subtarget = cage, name
 
-        bm = bmesh.new()
-        bm.from_mesh(obj.data)
-        layer = bm.verts.layers.deform.verify()
-        groups = [obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name) for name in names]
-        for vert, row in zip(bm.verts, weights):
-            for j in np.flatnonzero(row):
-                vert[layer][groups[j].index] = float(row[j])
-        bm.to_mesh(obj.data)
-        bm.free()
+        write_weights(obj, names, weights)
 
         position = list(obj.modifiers).index(found.modifier)
         skin = obj.modifiers.new("Armature", 'ARMATURE')
         skin.object = rig
-        obj.modifiers.move(len(obj.modifiers) - 1, position)
+        compat.move_modifier(obj, skin, position)
         if obj.parent is None:  # exporters (glTF) expect a skinned mesh under its armature
             obj.parent = rig  # the rig sits at the world origin: the mesh does not move
+        if motion is not None:
+            keyframe_motion(rig, names, *motion)
+
+        written = read_weights(obj, names)
+        heads = np.array([rig.data.bones[name].head_local for name in names], dtype=np.float64)
+        deviation = skinning.deviation(coordinates, rest, written, heads,
+                                       compact.smooth_test_motion(rest))
+        rig.data[BAKE_INFO] = {"deviation": deviation, "max_influences": int(max_influences),
+                               "vertices_over_4": int(np.count_nonzero(
+                                   np.count_nonzero(written, axis=1) > 4)),
+                               **({"frames": [int(motion[0][0]), int(motion[0][-1])]}
+                                  if motion is not None else {})}
         bindings_module.remove(obj, [found])
     except Exception:
         obj.parent = parent
         if skin is not None:
             obj.modifiers.remove(skin)
         if rig is not None:
-            if rig.mode == 'EDIT':
-                bpy.ops.object.mode_set(mode='OBJECT')
+            armature, action = rig.data, rig.animation_data and rig.animation_data.action
             bpy.data.objects.remove(rig)
-        if armature is not None:
             bpy.data.armatures.remove(armature)
+            if action is not None:
+                bpy.data.actions.remove(action)
         for owner, kept in ((cage, had["cage"]), (obj, had["mesh"])):
             for group in [g for g in owner.vertex_groups if g.name in names and g.name not in kept]:
                 owner.vertex_groups.remove(group)
         raise
-    finally:
-        context.view_layer.objects.active = previous
     return rig, deviation

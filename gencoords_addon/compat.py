@@ -96,3 +96,13 @@ def move_modifier(obj, modifier, index):
     current = list(obj.modifiers).index(modifier)
     if current != index:
         obj.modifiers.move(current, index)
+
+
+def action_fcurves(obj):
+    """The F-curves of the action ``obj`` is animated by: layered actions (Blender 4.4
+    and later; ``Action.fcurves`` is gone in 5.0) keep them per slot in a channel bag."""
+    animation = obj.animation_data
+    action = animation.action
+    if getattr(action, "layers", None):
+        return action.layers[0].strips[0].channelbag(animation.action_slot).fcurves
+    return action.fcurves

@@ -475,3 +475,14 @@ def remove_unused_helpers():
         group = bpy.data.node_groups.get(name)
         if group is not None and group.users == 0:
             bpy.data.node_groups.remove(group)
+
+
+def read_rest_cage(group, count):
+    """The bind-time cage ``build_group`` keeps in ``group`` ((count, 3) float32, the
+    mesh's local space, as its Object Info node gives it), or None when it is not there."""
+    switches = [node for node in group.nodes
+                if node.bl_idname == 'GeometryNodeIndexSwitch' and node.data_type == 'VECTOR']
+    if len(switches) != 1 or len(switches[0].inputs) < count + 1:
+        return None
+    return np.array([socket.default_value[:] for socket in switches[0].inputs[1:count + 1]],
+                    dtype=np.float32).reshape(count, 3)

@@ -1,4 +1,5 @@
-"""Operators: Bind, Unbind, Show Coordinate and Clear Coordinate (all undoable).
+"""Operators: Bind, Unbind, Show Coordinate, Clear Coordinate, Make Cage and Bake to
+Bones (all undoable).
 
 Every operator either finishes or leaves the file as it found it: errors become a
 report saying what to do (in scripts, ``bpy.ops`` raises RuntimeError with it).
@@ -263,33 +264,70 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
 
 
 class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
-    """Replace the binding by an armature (a bone per cage vertex, following it) and
-    vertex groups holding the coordinates, for game engines and exporters"""
+    """Replace the binding by an armature (a bone per cage vertex, following it, keyframed
+    over the scene's frame range) and vertex groups holding the coordinates, for game
+    engines and exporters such as glTF"""
 
     bl_idname = "object.gencoords_bake_bones"
     bl_label = "Bake to Bones"
 
     max_influences: bpy.props.IntProperty(
         name="Max Influences", default=0, min=0, soft_max=8,
-        description="Weights kept per vertex, renormalised (game engines take 4 or 8); "
-                    "0 keeps all, which is exact")
+        description="Weights kept per vertex, renormalised (game engines take 4 or 8; "
+                    "three.js reads 4); 0 keeps all, which is exact")
+    keyframes: bpy.props.BoolProperty(
+        name="Keyframe Cage Motion", default=True,
+        description="Also keyframe the bones on the cage at every frame of the scene's "
+                    "range: exporters such as glTF write keyframes, not the constraints "
+                    "that make the bones follow the cage in Blender")
+
+    @classmethod
+    def poll(cls, context):
+        if not super().poll(context):
+            return False
+        if binding.binding(context.active_object) is None:
+            cls.poll_message_set(f"'{context.active_object.name}' is not bound: Bind it first")
+            return False
+        return True
+
+    def invoke(self, context, event):
+        """In the UI: ask for the options first."""
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
         obj = context.active_object
-        if binding.binding(obj) is None:
-            self.report({'ERROR'}, f"'{obj.name}' is not bound: Bind it first")
-            return {'CANCELLED'}
         try:
             with object_mode(context, obj):
-                rig, deviation = bones.bake(obj, context, self.max_influences)
+                rig, deviation = bones.bake(obj, context, self.max_influences, self.keyframes)
         except binding.BindError as error:
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
         except Exception as error:
             return _internal_error(self, error)
-        self.report({'INFO'}, f"Baked '{obj.name}' to '{rig.name}': deviation {deviation:.2e} "
-                              "of the cage size for the standard smooth cage motion")
+        info = rig.data[bones.BAKE_INFO]
+        frames = info.get("frames")
+        keyed = f", keyframed over frames {frames[0]} to {frames[1]}" if frames else ""
+        # Blender's glTF exporter cuts to 4 influences by default, with only a console warning.
+        over = (f"; {info['vertices_over_4']} vertices have more than 4 influences: glTF "
+                "export keeps 4 unless Skinning > Include All Bone Influences is ticked"
+                if info["vertices_over_4"] else "")
+        self.report({'INFO'}, f"Baked '{obj.name}' to '{rig.name}' ({len(rig.data.bones)} "
+                              f"bones{keyed}): deviation {deviation:.2e} of the cage size for "
+                              "the standard smooth cage motion, measured on the weights "
+                              f"written{over}")
         return {'FINISHED'}
+
+
+def draw_menu(self, context):
+    """Object > Animation, beside Bake Action (F3 search finds it there too)."""
+    self.layout.separator()
+    self.layout.operator_context = 'INVOKE_REGION_WIN'
+    self.layout.operator(OBJECT_OT_gencoords_bake_bones.bl_idname, icon='ARMATURE_DATA')
+
+
+MENU = bpy.types.VIEW3D_MT_object_animation
 
 
 CLASSES = (

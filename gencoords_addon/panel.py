@@ -62,6 +62,8 @@ def draw_settings(layout, obj, width=None):
             box.label(text=line, icon=icon if number == 0 else 'BLANK1')
 
     if bound:
+        # For game engines and exporters; its options (influences, keyframes) in a dialog.
+        layout.operator("object.gencoords_bake_bones", icon='ARMATURE_DATA')
         field = layout.column()
         field.label(text="Coordinate field of a cage vertex:")
         field.prop(settings, "field_vertex", text="Vertex")  # the heading says which

@@ -17,7 +17,7 @@ session.prepare()  # before bpy is imported: Blender reads its user folder then
 import blender_scenes as scenes  # noqa: E402
 import bpy  # noqa: E402
 from blender_scenes import arrays  # noqa: E402
-from core import compact  # noqa: E402
+from core import compact, skinning  # noqa: E402
 
 REPEATS = 7
 
@@ -85,10 +85,9 @@ def bake_deviation(subdivisions, influences):
     cage = scenes.add_icosphere_cage(subdivisions)
     found = bind(mesh, cage, storage="EXACT")
     coordinates = found.coordinates(mesh.data)
-    bones = session.addon_module("bones")
     rest = arrays.read_positions(cage.data)
     moved = compact.smooth_test_motion(rest)
-    return [compact.deviation(coordinates, bones.truncate(coordinates, count), np.eye(len(rest)),
+    return [compact.deviation(coordinates, skinning.truncate(coordinates, count), np.eye(len(rest)),
                               rest, moved) for count in influences]
 
 

@@ -640,25 +640,6 @@ def test_a_failing_unbind_of_two_bindings_changes_nothing(gc, monkeypatch):
     np.testing.assert_allclose(evaluated_positions(obj), rest + (1.0, 0.0, 0.0), atol=1e-5)
 
 
-def test_a_failing_bake_to_bones_changes_nothing(gc, monkeypatch):
-    cage = add_icosphere_cage()
-    obj = add_sphere()
-    bind(obj, cage)
-    state, modifiers = mesh_state(obj), [m.name for m in obj.modifiers]
-    objects, armatures = set(bpy.data.objects.keys()), set(bpy.data.armatures.keys())
-
-    def broken(obj, bindings):
-        raise RuntimeError("injected fault")
-    monkeypatch.setattr(gc.binding, "remove", broken)  # the last step of the bake
-    activate(obj)
-    with pytest.raises(RuntimeError, match="injected fault"):
-        bpy.ops.object.gencoords_bake_bones()
-    assert set(bpy.data.objects.keys()) == objects and set(bpy.data.armatures.keys()) == armatures
-    assert [m.name for m in obj.modifiers] == modifiers and obj.parent is None
-    assert not obj.vertex_groups and not cage.vertex_groups
-    assert mesh_state(obj)[1] == state[1] and gc.binding.binding(obj) is not None
-
-
 @pytest.mark.parametrize("shape", ["suzanne", "long thin"])
 def test_make_cage_encloses_the_mesh_with_a_convex_cage(gc, shape):
     if shape == "suzanne":
@@ -683,70 +664,3 @@ def test_make_cage_encloses_the_mesh_with_a_convex_cage(gc, shape):
     where = gc.core.point_locations(mesh_world, cage_world, triangles, tolerance=1e-6)
     assert (where == gc.core.INSIDE).all()
     assert bind(obj, cage, kind="WACHSPRESS") == {'FINISHED'}
-
-
-@pytest.mark.parametrize("influences", [0, 4])
-def test_bake_to_bones_deforms_like_the_binding(gc, influences):
-    cage = add_icosphere_cage()
-    obj = add_sphere()
-    bind(obj, cage)
-    coordinates = coordinates_of(gc, obj)
-    activate(obj)
-    assert bpy.ops.object.gencoords_bake_bones(max_influences=influences) == {'FINISHED'}
-    assert [m.type for m in obj.modifiers] == ['ARMATURE'] and not gc.binding.bindings(obj)
-    rest_cage = read_positions(cage.data).astype(np.float64)
-    moved = gc.core.compact.smooth_test_motion(rest_cage)
-    write_positions(cage.data, moved)
-    exact = read_positions(obj.data) + coordinates @ (moved - rest_cage)
-    gap = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max()
-    diagonal = np.linalg.norm(np.ptp(rest_cage, axis=0))
-    if influences == 0:
-        assert gap < 1e-5 * diagonal
-    else:
-        truncated = gc.bones.truncate(coordinates, influences)
-        expected = gc.core.compact.deviation(coordinates, truncated, np.eye(12), rest_cage, moved)
-        assert gap / diagonal == pytest.approx(expected, rel=1e-3, abs=1e-6)
-        assert (np.count_nonzero(truncated, axis=1) <= 4).all()
-
-
-def test_a_baked_rig_round_trips_through_gltf(gc, tmp_path):
-    """Export with Blender's glTF exporter, import, pose the imported bones like the cage
-    moves: the imported skin deforms like the original within the reported deviation."""
-    cage = add_icosphere_cage()
-    obj = add_sphere()
-    bind(obj, cage)
-    coordinates = coordinates_of(gc, obj)
-    activate(obj)
-    assert bpy.ops.object.gencoords_bake_bones(max_influences=4) == {'FINISHED'}
-    rig = bpy.data.objects["Mesh cage rig"]
-    rest_cage = read_positions(cage.data).astype(np.float64)
-    displacement = gc.core.compact.smooth_test_motion(rest_cage) - rest_cage
-    truncated = gc.bones.truncate(coordinates, 4)
-    rest = read_positions(obj.data).astype(np.float64)
-    expected = rest + truncated @ displacement
-    for other in bpy.context.view_layer.objects:
-        other.select_set(other in (obj, rig))
-    blend, imported_blend = str(tmp_path / "baked.blend"), str(tmp_path / "imported.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
-    # In a fresh process: after Blender's glTF exporter or importer has run, bpy 4.2.x
-    # (pip module, Linux; 4.2.0 after the import, 4.2.23 after the export) dies with
-    # SIGSEGV at interpreter exit, which would take the whole test run with it.
-    report = report_of(run_blender_script("blender_gltf_round_trip.py", blend,
-                                          tmp_path / "baked.glb", imported_blend,
-                                          survive_exit_bug=True))
-    assert report == {"exported": ["FINISHED"], "selected": ["Mesh", "Mesh cage rig"],
-                      "imported": ["FINISHED"]}
-    bpy.ops.wm.open_mainfile(filepath=imported_blend)
-    imported_rig = bpy.data.objects["Mesh cage rig"]
-    imported = bpy.data.objects["Mesh"]
-    assert imported.parent == imported_rig
-    # glTF splits vertices along seams: match each imported vertex to its original.
-    imported_rest = apply_matrix(imported.matrix_world, evaluated_positions(imported))
-    match = np.linalg.norm(imported_rest[:, None] - rest[None], axis=2).argmin(axis=1)
-    assert np.linalg.norm(imported_rest - rest[match], axis=1).max() < 1e-5
-    for j, move in enumerate(displacement):  # in armature space: whatever the bone axes
-        bone = imported_rig.pose.bones[f"GenCoords {j}"]
-        bone.matrix = Matrix.Translation(move) @ bone.bone.matrix_local
-        bpy.context.view_layer.update()
-    world = apply_matrix(imported.matrix_world, evaluated_positions(imported))
-    np.testing.assert_allclose(world, expected[match], atol=1e-4)

@@ -1,0 +1,114 @@
+"""Skinning weights from coordinates: linear blend skinning with translating bones.
+
+A bone per cage vertex j, resting at ``heads[j]`` and moved to the cage vertex ``C_j``,
+translates the points it weighs by ``C_j - heads[j]``. Linear blend skinning (as
+Blender's Armature modifier and glTF runtimes evaluate it, rows normalised by their sum)
+then moves point i by
+
+    sum_j w_ij (C_j - heads_j) / sum_j w_ij,
+
+which is the coordinates' own ``sum_j c_ij (C_j - R_j)`` when ``w = c`` and the bones
+rest on the bind-time cage ``R``. Skinning weights cannot be negative (Blender clamps
+vertex-group weights to [0, 1]) and game engines keep 4 or 8 per vertex, so
+:func:`deviation` measures what the weights actually written give against the exact
+deformation.
+"""
+
+import numpy as np
+
+# Coordinates more negative than this cannot become skinning weights; less negative ones
+# (float32 rounding, compact storage's reproduction) are clamped to 0 by the vertex
+# groups, and the deviation that makes is measured.
+NEGATIVE_TOLERANCE = 1e-5
+
+
+def truncate(coordinates, max_influences):
+    """The ``max_influences`` largest weights of each row, renormalised (0: all kept).
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+    max_influences : int
+
+    Returns
+    -------
+    weights : (k, n) float64
+        Zero outside each row's kept columns; rows sum to one.
+    """
+    weights = np.asarray(coordinates, dtype=np.float64)
+    if not max_influences or max_influences >= weights.shape[1]:
+        return weights.copy()
+    kept = np.argpartition(-weights, max_influences - 1, axis=1)[:, :max_influences]
+    rows = np.arange(len(weights))[:, None]
+    truncated = np.zeros_like(weights)
+    truncated[rows, kept] = weights[rows, kept]
+    return truncated / truncated.sum(axis=1, keepdims=True)
+
+
+def negative_weights(weights, tolerance=NEGATIVE_TOLERANCE):
+    """How many weights are below ``-tolerance``, and the smallest weight.
+
+    Parameters
+    ----------
+    weights : (k, n) float
+
+    Returns
+    -------
+    count : int
+    smallest : float
+        The minimum of ``weights`` (0.0 when empty).
+    """
+    weights = np.asarray(weights)
+    if weights.size == 0:
+        return 0, 0.0
+    return int(np.count_nonzero(weights < -tolerance)), float(weights.min())
+
+
+def skin(weights, heads, moved):
+    """Displacements linear blend skinning gives for bones moved from ``heads`` to ``moved``.
+
+    Parameters
+    ----------
+    weights : (k, n) float
+        Non-negative; each row is normalised by its sum (rows summing to 0 stay put).
+    heads, moved : (n, N) float
+        The bones' rest and current positions.
+
+    Returns
+    -------
+    displacement : (k, N) float64
+    """
+    weights = np.asarray(weights, dtype=np.float64)
+    total = weights.sum(axis=1, keepdims=True)
+    normalised = np.divide(weights, total, out=np.zeros_like(weights), where=total > 0.0)
+    return normalised @ (np.asarray(moved, dtype=np.float64) - np.asarray(heads, dtype=np.float64))
+
+
+def deviation(coordinates, rest, weights, heads, moved):
+    """Largest distance between the exact and the skinned deformation, per cage diagonal.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+        The exact coordinates of k points.
+    rest : (n, N) float
+        The cage the coordinates were computed in.
+    weights : (k, n) float
+        The skinning weights (as written, e.g. read back from vertex groups).
+    heads : (n, N) float
+        The bones' rest positions (as written), in the same frame as ``rest``.
+    moved : (n, N) float
+        The cage (and bones) after a motion.
+
+    Returns
+    -------
+    deviation : float
+        ``max_i |c_i (moved - rest) - skin(w, heads, moved)_i| / |diagonal of rest|``.
+    """
+    rest = np.asarray(rest, dtype=np.float64)
+    if len(coordinates) == 0:
+        return 0.0
+    exact = np.asarray(coordinates, dtype=np.float64) @ (np.asarray(moved, dtype=np.float64) - rest)
+    skinned = skin(weights, heads, moved)
+    diagonal = np.linalg.norm(np.ptp(rest, axis=0))
+    return float(np.linalg.norm(exact - skinned, axis=1).max() / diagonal)

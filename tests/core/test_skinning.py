@@ -1,0 +1,65 @@
+"""Skinning weights from coordinates (core.skinning): what Bake to Bones writes."""
+
+import numpy as np
+import pytest
+
+import core
+from core import compact, skinning
+from polytopes import random_convex_polytope, random_interior_points
+
+
+@pytest.fixture
+def cage():
+    rng = np.random.default_rng(4)
+    vertices, faces = random_convex_polytope(rng, 3, 14)
+    points = random_interior_points(rng, vertices, 60)
+    return vertices, faces, points
+
+
+def test_all_weights_on_the_bind_time_cage_skin_exactly(cage):
+    vertices, faces, points = cage
+    coordinates = core.coordinates(points, vertices, faces, kind="mean_value")
+    moved = compact.smooth_test_motion(vertices)
+    assert skinning.deviation(coordinates, vertices, coordinates, vertices, moved) < 1e-12
+    np.testing.assert_allclose(points + skinning.skin(coordinates, vertices, moved),
+                               coordinates @ moved, atol=1e-12)
+
+
+def test_bones_resting_elsewhere_than_the_bind_time_cage_deviate(cage):
+    """Issue 19 item 1: bones on the cage as it is now, not as it was at Bind."""
+    vertices, faces, points = cage
+    coordinates = core.coordinates(points, vertices, faces, kind="mean_value")
+    edited = compact.smooth_test_motion(vertices)
+    moved = edited + 0.1
+    assert skinning.deviation(coordinates, vertices, coordinates, edited, moved) > 0.05
+
+
+def test_truncation_keeps_the_largest_weights_renormalised(cage):
+    vertices, faces, points = cage
+    coordinates = core.coordinates(points, vertices, faces, kind="wachspress")
+    weights = skinning.truncate(coordinates, 4)
+    assert (np.count_nonzero(weights, axis=1) <= 4).all()
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0)
+    largest = np.sort(np.argsort(-coordinates, axis=1)[:, :4], axis=1)
+    kept = np.sort(np.argsort(-weights, axis=1)[:, :4], axis=1)
+    np.testing.assert_array_equal(kept, largest)
+    np.testing.assert_array_equal(skinning.truncate(coordinates, 0), coordinates)
+    moved = compact.smooth_test_motion(vertices)
+    assert skinning.deviation(coordinates, vertices, weights, vertices, moved) == pytest.approx(
+        compact.deviation(coordinates, weights, np.eye(len(vertices)), vertices, moved))
+
+
+def test_negative_weights_are_counted_beyond_the_tolerance():
+    weights = np.array([[0.5, 0.6, -0.1], [1.0, 0.0, -1e-7], [0.2, 0.8, 0.0]])
+    assert skinning.negative_weights(weights) == (1, pytest.approx(-0.1))
+    assert skinning.negative_weights(np.zeros((0, 3))) == (0, 0.0)
+
+
+def test_clamped_weights_skin_as_blender_normalises_them(cage):
+    """Vertex groups clamp negative weights to 0; Blender's Armature modifier divides by
+    the row sum, and so does ``skin``; rows with no weight stay put."""
+    vertices, _, _ = cage
+    weights = np.array([[0.6, 0.6] + [0.0] * 12, [0.0] * 14])
+    moved = vertices + np.arange(14)[:, None]
+    displacement = skinning.skin(weights, vertices, moved)
+    np.testing.assert_allclose(displacement, [[0.5, 0.5, 0.5], [0.0, 0.0, 0.0]])
