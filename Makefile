@@ -58,9 +58,11 @@ TOOLS_STAMP := tests/tools/node_modules/.installed
 
 test-tools: $(TOOLS_STAMP)
 
+# Without npm (a machine with Python alone) the validator's test skips, except in CI.
 $(TOOLS_STAMP): tests/tools/package.json tests/tools/package-lock.json
-	cd tests/tools && npm ci --no-audit --no-fund
-	touch $@
+	@if command -v npm >/dev/null 2>&1 || [ -n "$$CI" ]; then \
+	    cd tests/tools && npm ci --no-audit --no-fund && touch node_modules/.installed; \
+	else echo "npm not found: the glTF-Validator test will skip (install Node.js to run it)"; fi
 
 ## The main job: a headless demo on a built-in default scene.
 demo: $(STAMP)
