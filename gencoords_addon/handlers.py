@@ -1,5 +1,13 @@
-"""Auto Rebind: bind again when the artist leaves Edit Mode after adding or deleting
-vertices of a bound mesh. The only handler: the deformation itself needs none."""
+"""The one depsgraph handler (the deformation itself needs none): Auto Rebind, which
+binds again when the artist leaves Edit Mode after adding or deleting vertices of a
+bound mesh, and the housekeeping after the artist's Delete and Apply.
+
+A cage the artist deletes (X, the outliner) leaves every collection but lives on through
+the modifier input and the Cage setting, which would keep it driving the mesh. As with
+Mesh Deform, the modifier then lets go of it: the mesh is passed through unchanged, the
+panel says which cage was deleted, and the orphaned cage is purged like any other. Ctrl+Z
+of the Delete brings back the state before it, pointers and all.
+"""
 
 import functools
 import traceback
@@ -35,8 +43,27 @@ def _rebind(obj):
         print(f"GenCoords: Auto Rebind of '{obj.name}' failed: {error}")
 
 
+def release_deleted_cages():
+    """Let go of deleted cages (see the module's docstring and ``binding.follow_cage``)
+    and clear the Cage settings holding them. Returns the names of the cages let go of."""
+    released = set()
+    for obj in bpy.data.objects:
+        if obj.library is not None:
+            continue
+        for found in binding.bindings(obj):
+            name = binding.follow_cage(obj, found)
+            if name is not None:
+                released.add(name)
+        settings = getattr(obj, "gencoords", None)
+        if settings is not None and binding.is_deleted(settings.cage):
+            settings.cage = None
+    return released
+
+
 @_never_raise
 def on_depsgraph_update(scene, depsgraph):
+    release_deleted_cages()
+    binding.remove_orphaned_groups()
     for obj in scene.objects:
         if obj.type != 'MESH' or not obj.gencoords.auto_rebind:
             continue
