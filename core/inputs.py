@@ -132,7 +132,7 @@ def _vertices(value, context, name="vertices"):
         raise CageError("bad_faces", f"{name} must have shape (n, N) with N >= 2, "
                                      f"got {array.shape}")
     rows, dimension = array.shape
-    if rows in (2, 3) and rows <= dimension:  # too few for a cage of either reading
+    if rows in (2, 3) and rows < dimension:  # too few vertices for that many dimensions
         raise CageError("transposed", f"{name} must have shape (n, N), one row per vertex: got "
                                       f"{array.shape}, {rows} vertices of a {dimension}D cage "
                                       f"(which needs at least {dimension + 1}); the vertices "
