@@ -206,6 +206,9 @@ def check_inputs(obj):
         raise BindError(f"'{obj.name}' cannot be its own cage: choose another mesh object")
     if cage.type != 'MESH':
         raise BindError(f"The cage '{cage.name}' must be a mesh object")
+    if is_deleted(cage):
+        raise BindError(f"The cage '{cage.name}' was deleted: pick another cage for "
+                        f"'{obj.name}' (GenCoords panel > Cage)")
     if _drives(obj, cage):
         raise BindError(f"'{cage.name}' is itself bound to '{obj.name}': a mesh and its cage "
                         "cannot drive each other")

@@ -59,10 +59,14 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
     bl_idname = "object.gencoords_bind"
     bl_label = "Bind"
 
+    # The Replace Binding question's OK calls execute(), which would block the window:
+    # it hands over to a second, modal Bind, told not to ask again.
+    replace_asked: bpy.props.BoolProperty(
+        name="Replace Asked", options={'HIDDEN', 'SKIP_SAVE'},
+        description="Set while the Replace Binding question is shown")
     replace_confirmed: bpy.props.BoolProperty(
         name="Replace Confirmed", options={'HIDDEN', 'SKIP_SAVE'},
-        description="The artist confirmed replacing the existing binding (set by the "
-                    "Replace Binding question, which then hands over to the modal Bind)")
+        description="The artist already confirmed replacing the binding: do not ask again")
 
     def _start(self, context):
         obj = context.active_object
@@ -86,9 +90,9 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
 
     def execute(self, context):
         """Run to the end: scripts and background mode (progress printed there)."""
-        if self.replace_confirmed and interactive(context):
-            # OK in the Replace Binding question calls execute: bind as invoke does, with
-            # progress and Esc. This call ends here, so that only that Bind is an undo step.
+        if self.replace_asked and not self.replace_confirmed and interactive(context):
+            # OK in the Replace Binding question: bind as invoke does, with progress and
+            # Esc. This call ends here (nothing changed, no undo step of its own).
             bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', replace_confirmed=True)
             return {'CANCELLED'}
         try:
@@ -116,7 +120,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             return self.execute(context)
         obj = context.active_object
         if not self.replace_confirmed and binding.binding(obj, obj.gencoords.cage) is not None:
-            self.replace_confirmed = True  # OK runs execute(), which comes back here
+            self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
             return context.window_manager.invoke_confirm(
                 self, event, title="Replace Binding",
                 message=f"'{obj.name}' is already bound to '{obj.gencoords.cage.name}': "

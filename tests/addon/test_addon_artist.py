@@ -230,3 +230,92 @@ def test_slots_show_only_where_the_storage_is_compact(gc):
     obj.gencoords.storage = 'AUTO'
     obj.gencoords.cage = None  # not bound to the picked cage: Automatic may go compact
     assert ("prop", "compact_size") in drawn_panel(obj)
+
+
+class WindowStandIn:
+    """What a window gives a modal operator (absent headless, where 'INVOKE_DEFAULT'
+    runs execute: bpy's window has no event state), recording what the operator does."""
+
+    def __init__(self):
+        self.calls = []
+
+    def __getattr__(self, name):
+        def record(*args, **kwargs):
+            self.calls.append(name)
+            return {'RUNNING_MODAL'} if name == "invoke_confirm" else name
+        return record
+
+
+class ContextStandIn:
+    """``bpy.context`` with a window manager and workspace that record calls."""
+
+    def __init__(self, window_manager):
+        self.window_manager = self.workspace = window_manager
+        self.window = "window"
+
+    def __getattr__(self, name):
+        return getattr(bpy.context, name)
+
+
+def bind_operator_stand_in(operators):
+    """The Bind operator's own methods on a plain object (Blender operators cannot be
+    made outside a call), with its properties and reports."""
+    methods = ("execute", "invoke", "modal", "_start", "_finish", "_stop")
+    cls = operators.OBJECT_OT_gencoords_bind
+    stand_in = type("BindStandIn", (), {name: cls.__dict__[name] for name in methods})()
+    stand_in.replace_asked = stand_in.replace_confirmed = False
+    stand_in.reports = []
+    stand_in.report = lambda kind, text: stand_in.reports.append(text)
+    return stand_in
+
+
+def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkeypatch):
+    """The invoke -> question -> OK -> execute -> modal chain, with stand-ins for the
+    window (a real window is needed to see the question, the progress and Esc)."""
+    import importlib
+
+    from types import SimpleNamespace
+
+    operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.operators")
+    obj, cage = bound(gc)
+    earlier = gc.binding.binding(obj).key
+    activate(obj)
+    monkeypatch.setattr(operators, "interactive", lambda context: True)
+    window_manager = WindowStandIn()
+    context = ContextStandIn(window_manager)
+
+    asking = bind_operator_stand_in(operators)
+    assert asking.invoke(context, None) == {'RUNNING_MODAL'}  # the question is shown
+    assert window_manager.calls == ["invoke_confirm"] and asking.replace_asked
+    handed_over = []
+    fake_ops = SimpleNamespace(object=SimpleNamespace(
+        gencoords_bind=lambda *args, **kwargs: handed_over.append((args, kwargs))))
+    with monkeypatch.context() as patch:  # bpy.ops itself: only for this call
+        patch.setattr(operators.bpy, "ops", fake_ops)
+        assert asking.execute(context) == {'CANCELLED'}  # OK: execute only hands over
+    assert handed_over == [(('INVOKE_DEFAULT',), {"replace_confirmed": True})]
+    assert gc.binding.binding(obj).key == earlier
+
+    running = bind_operator_stand_in(operators)
+    running.replace_confirmed = True  # as the handed-over call is made
+    assert running.invoke(context, None) == {'RUNNING_MODAL'}  # no second question
+    assert "invoke_confirm" not in window_manager.calls[1:]
+    assert {"event_timer_add", "progress_begin", "modal_handler_add"} <= set(window_manager.calls)
+    assert gc.binding.binding(obj).key == earlier  # nothing written before the job ends
+    timer = SimpleNamespace(type='TIMER')
+    result = {'RUNNING_MODAL'}
+    while result == {'RUNNING_MODAL'}:
+        result = running.modal(context, timer)
+    assert result == {'FINISHED'}
+    assert "progress_update" in window_manager.calls and "progress_end" in window_manager.calls
+    assert gc.binding.binding(obj).key != earlier
+    assert [m.name for m in obj.modifiers] == ["GenCoords"]
+    assert running.reports[-1].startswith("Bound 'Mesh' (114 vertices) to 'Cage'")
+
+    escaped = bind_operator_stand_in(operators)  # Esc during a confirmed Rebind
+    escaped.replace_confirmed = True
+    latest = gc.binding.binding(obj).key
+    assert escaped.invoke(context, None) == {'RUNNING_MODAL'}
+    assert escaped.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
+    assert gc.binding.binding(obj).key == latest
+    assert escaped.reports == ["Bind cancelled: nothing was changed"]
