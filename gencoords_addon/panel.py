@@ -28,7 +28,8 @@ def draw_settings(layout, obj, width=None):
     column.prop(settings, "cage")
     if settings.cage is None:  # a button of its own: a bare icon beside the field cut its name
         for mesh in meshes_driven_by(obj):  # Make Cage on a cage is rarely what is meant
-            column.label(text=f"This is the cage of '{mesh.name}'", icon='INFO')
+            for number, line in enumerate(wrapped(f"This is the cage of '{mesh.name}'", width)):
+                column.label(text=line, icon='INFO' if number == 0 else 'BLANK1')
         column.operator("object.gencoords_make_cage", icon='MESH_ICOSPHERE')
     else:
         # Artists keep cages out of the way: as wires or bounds, or hidden (still driving).

@@ -49,8 +49,9 @@ def test_deleting_the_cage_with_x_passes_the_mesh_through_and_the_cage_can_be_pu
     path = tmp_path / "deleted cage.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     bpy.ops.wm.open_mainfile(filepath=str(path))
+    assert "Cage" not in bpy.data.objects  # nothing held it: not even written
     bpy.data.orphans_purge(do_recursive=True)
-    assert "Cage" not in bpy.data.objects
+    assert "Cage" not in bpy.data.objects and "Icosphere" not in bpy.data.meshes
     obj = bpy.data.objects["Mesh"]
     assert fault_text(gc, obj) == DELETED
     np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
