@@ -18,6 +18,7 @@ from bpy.app.handlers import persistent
 from . import binding
 
 _was_editing = set()  # Object.session_uid of bound meshes seen in Edit Mode
+_cage_names = {}  # Object.session_uid -> name, of the bound cages at the last housekeeping
 
 
 def _never_raise(handler):
@@ -47,6 +48,7 @@ def release_deleted_cages():
     """Let go of deleted cages (see the module's docstring and ``binding.follow_cage``)
     and clear the Cage settings holding them. Returns the names of the cages let go of."""
     released = set()
+    _cage_names.clear()
     for obj in bpy.data.objects:
         if obj.library is not None:
             continue
@@ -54,23 +56,33 @@ def release_deleted_cages():
             name = binding.follow_cage(obj, found)
             if name is not None:
                 released.add(name)
+            cage = found.cage
+            if cage is not None:
+                _cage_names[cage.session_uid] = cage.name
         settings = getattr(obj, "gencoords", None)
         if settings is not None and binding.is_deleted(settings.cage):
             settings.cage = None
     return released
 
 
-def _hierarchy_changed(depsgraph):
-    """Whether objects may have been deleted, unlinked or had modifiers applied in this
-    update: Blender then updates a scene or collection too, which a drag does not (the
-    housekeeping scans every object: 35 ms for 10,000)."""
-    return any(isinstance(update.id, (bpy.types.Collection, bpy.types.Scene))
-               for update in depsgraph.updates)
+def _housekeeping_needed(depsgraph):
+    """Whether this update may have deleted or unlinked objects, applied or added a
+    binding's modifier (Blender then updates a scene, collection or node group too, which
+    a drag does not) or renamed a cage: the housekeeping scans every object (35 ms for
+    10,000), too much for every drag."""
+    for update in depsgraph.updates:
+        changed = update.id.original
+        if isinstance(changed, (bpy.types.Collection, bpy.types.Scene, bpy.types.NodeTree)):
+            return True
+        if isinstance(changed, bpy.types.Object) \
+                and _cage_names.get(changed.session_uid, changed.name) != changed.name:
+            return True
+    return False
 
 
 @_never_raise
 def on_depsgraph_update(scene, depsgraph):
-    if _hierarchy_changed(depsgraph):
+    if _housekeeping_needed(depsgraph):
         release_deleted_cages()
         binding.remove_orphaned_groups()
     for obj in scene.objects:
@@ -97,3 +109,4 @@ def unregister():
     if on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
         bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
     _was_editing.clear()
+    _cage_names.clear()
