@@ -114,7 +114,7 @@ def bindings(obj):
     return found
 
 
-def binding(obj, cage=None, missing_cage=False):
+def binding(obj, cage=None, *, missing_cage=False):
     """The first binding of ``obj`` (to ``cage`` when given; with ``missing_cage``, to
     no cage: it was deleted), or None."""
     if missing_cage:
@@ -314,7 +314,8 @@ class BindJob:
         flat_axes = zero_scale_axes(self.cage.evaluated_get(depsgraph).matrix_world)
         if flat_axes:
             raise BindError(f"The cage object '{self.cage.name}' is scaled to zero on its "
-                            f"{' and '.join(flat_axes)} axis (or its parent is): give it a "
+                            f"{' and '.join(flat_axes)} axis{'es' if len(flat_axes) > 1 else ''} "
+                            "(or its parent is): give it a "
                             "non-zero Scale (Object Properties > Transform), then Bind")
         self.triangle_faces = geometry.triangle_faces
         self.rest_cage = capture_rest_cage(obj, self.cage, context)
@@ -451,7 +452,7 @@ class BindJob:
         obj, result = self.obj, self.result
         # The binding to this cage, else one whose cage is gone: Bind after picking
         # another cage replaces it.
-        earlier = binding(obj, self.cage) or binding(obj, None, missing_cage=True)
+        earlier = binding(obj, self.cage) or binding(obj, missing_cage=True)
         others = bindings(obj)
         key = result.info["key"]
         names = deformer.slot_attribute_names(key, result.info["slot_count"])

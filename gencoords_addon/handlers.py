@@ -2,11 +2,13 @@
 binds again when the artist leaves Edit Mode after adding or deleting vertices of a
 bound mesh, and the housekeeping after the artist's Delete and Apply.
 
-A cage the artist deletes (X, the outliner) leaves every collection but lives on through
-the modifier input and the Cage setting, which would keep it driving the mesh. As with
-Mesh Deform, the modifier then lets go of it: the mesh is passed through unchanged, the
-panel says which cage was deleted, and the orphaned cage is purged like any other. Ctrl+Z
-of the Delete brings back the state before it, pointers and all.
+Blender's Delete of a bound cage (X, the outliner) either clears the references to it,
+without re-evaluating the mesh (which keeps its last deformation), or, where it keeps
+the object for its other users, unlinks it from every collection, and the modifier input
+and the Cage setting would keep it alive and driving the mesh. Either way, as with Mesh
+Deform, the binding lets go of it: the mesh is passed through unchanged, the panel says
+which cage was deleted, and the orphaned cage is neither saved nor kept by a purge.
+Ctrl+Z of the Delete brings back the state before it, references and all.
 """
 
 import functools

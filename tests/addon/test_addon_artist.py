@@ -152,13 +152,15 @@ def test_a_bound_cage_losing_all_its_faces_is_reported(gc):
     np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
 
 
-@pytest.mark.parametrize("axis", [0, 2])
-def test_a_cage_object_scaled_to_zero_is_told_so(gc, axis):
+@pytest.mark.parametrize(("axes", "said"), [((2,), "Z axis"), ((0, 1), "X and Y axes")])
+def test_a_cage_object_scaled_to_zero_is_told_so(gc, axes, said):
     cage = add_cube_cage()
-    cage.scale[axis] = 0.0
+    cage.rotation_euler = (0.3, 0.2, 0.1)  # the axes are the object's own
+    for axis in axes:
+        cage.scale[axis] = 0.0
     assert_bind_refused(add_sphere(), cage, re.escape(
-        f"The cage object 'Cage' is scaled to zero on its {'XYZ'[axis]} axis (or its parent "
-        "is): give it a non-zero Scale (Object Properties > Transform), then Bind"))
+        f"The cage object 'Cage' is scaled to zero on its {said} (or its parent is): give "
+        "it a non-zero Scale (Object Properties > Transform), then Bind"))
 
 
 def test_a_flat_cage_mesh_is_told_it_encloses_no_volume(gc):
