@@ -314,7 +314,7 @@ class BindJob:
         flat_axes = zero_scale_axes(self.cage.evaluated_get(depsgraph).matrix_world)
         if flat_axes:
             raise BindError(f"The cage object '{self.cage.name}' is scaled to zero on its "
-                            f"{' and '.join(flat_axes)} axis{'es' if len(flat_axes) > 1 else ''} "
+                            f"{' and '.join(flat_axes)} {'axes' if len(flat_axes) > 1 else 'axis'} "
                             "(or its parent is): give it a "
                             "non-zero Scale (Object Properties > Transform), then Bind")
         self.triangle_faces = geometry.triangle_faces
