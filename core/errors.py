@@ -17,7 +17,8 @@ class CageError(ValueError):
         One of ``"non_finite"``, ``"too_few_vertices"``, ``"bad_faces"``,
         ``"loose_vertices"``, ``"duplicate_vertices"``, ``"degenerate_facet"``, ``"open"``,
         ``"non_manifold"``, ``"inconsistent_orientation"``, ``"inward"``,
-        ``"non_convex"``, ``"scale"`` (a size float64 cannot compute with).
+        ``"non_convex"``, ``"scale"`` (a size float64 cannot compute with), ``"flat"``
+        (every vertex in one hyperplane), ``"transposed"`` (vertices given as (N, n)).
     faces : tuple of int
         Indices of the facets concerned (may be empty).
     vertices : tuple of int

@@ -131,6 +131,12 @@ def _vertices(value, context, name="vertices"):
     if array.ndim != 2 or array.shape[1] < 2:  # too few vertices for a cage: validate_cage
         raise CageError("bad_faces", f"{name} must have shape (n, N) with N >= 2, "
                                      f"got {array.shape}")
+    rows, dimension = array.shape
+    if rows in (2, 3) and rows < dimension:  # too few vertices for that many dimensions
+        raise CageError("transposed", f"{name} must have shape (n, N), one row per vertex: got "
+                                      f"{array.shape}, {rows} vertices of a {dimension}D cage "
+                                      f"(which needs at least {dimension + 1}); the vertices "
+                                      f"look transposed: pass {name}.T, shape {array.shape[::-1]}")
     first, count = _first_bad_row(array)
     if first is not None:
         raise CageError("non_finite", f"cage vertex {first} has a non-finite coordinate "
@@ -412,6 +418,16 @@ def _check_reach(context):
                          "the formulas would overflow there")
 
 
+def _call_error(function, kwargs, error):
+    """Python's message for arguments ``function`` does not take, with the likely fix."""
+    name = function.__qualname__
+    message = f"{name}(): {error}"
+    if "tolerance" in kwargs and name.startswith("Cage."):
+        message += ("; the tolerance belongs to the cage, whose checks and point locations "
+                    "it sets: Cage(vertices, faces, tolerance=...)")
+    return message
+
+
 def checked(function):
     """Decorator: check and convert ``function``'s arguments by name (see :data:`CHECKS`)."""
     signature = inspect.signature(function)
@@ -423,7 +439,10 @@ def checked(function):
 
     @functools.wraps(function)
     def wrapper(*args, **kwargs):
-        bound = signature.bind(*args, **kwargs)
+        try:
+            bound = signature.bind(*args, **kwargs)
+        except TypeError as error:
+            raise TypeError(_call_error(function, kwargs, error)) from None
         bound.apply_defaults()
         context = _Context(function)
         for name in order:

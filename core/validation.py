@@ -56,6 +56,22 @@ def _check_duplicates(vertices, tolerance):
                                                   "(Merge by Distance)", vertices=[a, b])
 
 
+def _check_volume(vertices, size, tolerance):
+    # All vertices in one hyperplane (an object scaled to zero on an axis) enclose nothing;
+    # said before the coincident vertices such a cage usually also has.
+    centred = vertices - vertices.mean(axis=0)
+    thinnest = np.linalg.svd(centred, full_matrices=False)[2][-1]  # least-variance direction
+    heights = centred @ thinnest
+    thickness = float(heights.max() - heights.min())
+    if thickness <= tolerance * size:
+        dimension = vertices.shape[1]
+        shape = {2: "line", 3: "plane"}.get(dimension, "hyperplane")
+        content = {2: "area", 3: "volume"}.get(dimension, "volume")
+        raise CageError("flat", f"the cage is flat: all its vertices lie in one {shape} "
+                                f"(thickness {thickness / size:.3g} of its size), so it encloses no "
+                                f"{content}; give it extent in every direction")
+
+
 def _check_manifold(cage):
     topology = cage.topology
     uses = topology.ridge_use_count
@@ -163,6 +179,7 @@ def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):
     vertices, faces = _check_arrays(vertices, faces)
     cage = prepare_cage(vertices, faces)
     absolute = tolerance * cage.size
+    _check_volume(cage.vertices, cage.size, tolerance)
     _check_duplicates(cage.vertices, absolute)
     _check_manifold(cage)
     _check_facets(cage, tolerance)

@@ -49,7 +49,9 @@ CLASSES = (GenCoordsSettings, *operators.CLASSES, *panel.CLASSES)
 def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
-    bpy.types.Object.gencoords = bpy.props.PointerProperty(type=GenCoordsSettings)
+    bpy.types.Object.gencoords = bpy.props.PointerProperty(
+        type=GenCoordsSettings, name="GenCoords",
+        description="GenCoords cage deformation settings of this object (read when binding)")
     operators.MENU.append(operators.draw_menu)
     handlers.register()
 

@@ -30,6 +30,8 @@ FLOAT32_TOLERANCE = core.tolerances.FLOAT32
 METADATA = "gencoords"  # ID property of the binding's node group
 FORMAT = 2  # bind data layout; data of another number read as "Bind again"
 MODIFIER_NAME = "GenCoords"
+CAGE_NAME = "cage_name"  # METADATA key: the cage's name, kept up to date while it exists
+DELETED_CAGE = "deleted_cage"  # METADATA key: the name of the cage, once it is gone
 # Exact storage while its per-evaluation cost and node group stay moderate: k x n
 # multiply-adds (about 1.5 ns each on two cores) and a node per three cage vertices.
 EXACT_MAX_PRODUCT = 8_000_000
@@ -64,6 +66,11 @@ class Binding:
     def cage(self):
         """The cage object the modifier reads (None when it was deleted)."""
         return compat.get_modifier_input(self.modifier, deformer.CAGE)
+
+    @property
+    def deleted_cage(self):
+        """Name of the cage deleted while bound (see ``follow_cage``), or None."""
+        return self.info.get(DELETED_CAGE) if self.cage is None else None
 
     @property
     def slot_names(self):
@@ -113,10 +120,63 @@ def bindings(obj):
     return found
 
 
-def binding(obj, cage=None):
-    """The first binding of ``obj`` (to ``cage`` when given), or None."""
-    found = [b for b in bindings(obj) if cage is None or b.cage == cage]
+def binding(obj, cage=None, *, missing_cage=False):
+    """The first binding of ``obj`` (to ``cage`` when given; with ``missing_cage``, to
+    no cage: it was deleted), or None."""
+    if missing_cage:
+        found = [b for b in bindings(obj) if b.cage is None]
+    else:
+        found = [b for b in bindings(obj) if cage is None or b.cage == cage]
     return found[0] if found else None
+
+
+def is_deleted(obj):
+    """Whether the local object ``obj`` was deleted by the artist yet lives on, held by a
+    modifier input or a setting: it is in no collection of any scene."""
+    return obj is not None and obj.library is None and not obj.users_collection
+
+
+def follow_cage(obj, found):
+    """Keep the binding ``found`` of ``obj`` in step with its cage object: let go of a
+    cage the artist deleted (unlinked from every collection but still held: the deformer
+    then passes the mesh through), note the cage's name while it lives and, once it is
+    gone, which cage that was (``Binding.deleted_cage``, for the panel).
+
+    Returns the name of a cage found gone just now, else None.
+    """
+    cage = found.cage
+    if is_deleted(cage):
+        compat.set_modifier_input(found.modifier, deformer.CAGE, None)
+        cage = None
+    metadata = found.group[METADATA]
+    if cage is not None:
+        if found.info.get(CAGE_NAME) != cage.name:  # renamed since Bind
+            metadata[CAGE_NAME] = found.info[CAGE_NAME] = cage.name
+        return None
+    if DELETED_CAGE in found.info or CAGE_NAME not in found.info:
+        return None
+    metadata[DELETED_CAGE] = found.info[DELETED_CAGE] = found.info[CAGE_NAME]
+    # Blender's Delete clears the input without re-evaluating the mesh, which then
+    # shows the last deformation until something else changes.
+    obj.update_tag()
+    return found.info[CAGE_NAME]
+
+
+def remove_orphaned_groups():
+    """Delete binding node groups nothing uses any more (left by Apply of the modifier),
+    then the helper groups only they used."""
+    orphans = [group for group in bpy.data.node_groups
+               if group.users == 0 and group.library is None and METADATA in group]
+    for group in orphans:
+        bpy.data.node_groups.remove(group)
+    if orphans:
+        deformer.remove_unused_helpers()
+
+
+def meshes_driven_by(cage):
+    """The objects with a binding to ``cage``, in ``bpy.data`` order."""
+    return [obj for obj in bpy.data.objects
+            if obj.type == 'MESH' and any(found.cage == cage for found in bindings(obj))]
 
 
 def _drives(obj, cage):
@@ -152,11 +212,22 @@ def check_inputs(obj):
         raise BindError(f"'{obj.name}' cannot be its own cage: choose another mesh object")
     if cage.type != 'MESH':
         raise BindError(f"The cage '{cage.name}' must be a mesh object")
+    if is_deleted(cage):
+        raise BindError(f"The cage '{cage.name}' was deleted: pick another cage for "
+                        f"'{obj.name}' (GenCoords panel > Cage)")
     if _drives(obj, cage):
         raise BindError(f"'{cage.name}' is itself bound to '{obj.name}': a mesh and its cage "
                         "cannot drive each other")
     if len(obj.data.vertices) == 0:
         raise BindError(f"'{obj.name}' has no vertices to bind")
+
+
+def zero_scale_axes(matrix):
+    """The local axes ('X', 'Y', 'Z') an object matrix (4x4) scales to (nearly) nothing,
+    which flattens the object: a list, empty for a usable matrix."""
+    lengths = np.linalg.norm(np.array(matrix, dtype=np.float64)[:3, :3], axis=0)
+    return [axis for axis, length in zip("XYZ", lengths)
+            if not length > FLOAT32_TOLERANCE * lengths.max()]
 
 
 def choose_storage(setting, mesh_vertices, cage_vertices, compact_size):
@@ -246,6 +317,12 @@ class BindJob:
         if len(geometry.triangles) == 0:
             raise BindError(f"The cage '{self.cage.name}' has no faces: it must be a closed "
                             "surface around the mesh (add faces, e.g. Mesh > Convex Hull)")
+        flat_axes = zero_scale_axes(self.cage.evaluated_get(depsgraph).matrix_world)
+        if flat_axes:
+            raise BindError(f"The cage object '{self.cage.name}' is scaled to zero on its "
+                            f"{' and '.join(flat_axes)} {'axes' if len(flat_axes) > 1 else 'axis'} "
+                            "(or its parent is): give it a "
+                            "non-zero Scale (Object Properties > Transform), then Bind")
         self.triangle_faces = geometry.triangle_faces
         self.rest_cage = capture_rest_cage(obj, self.cage, context)
         if len(self.rest_cage) != len(geometry.positions):
@@ -270,7 +347,7 @@ class BindJob:
             "format": FORMAT, "kind": self.kind, "outside": self.outside,
             "storage": self.storage, "cage_vertex_count": cage_count,
             "mesh_vertex_count": count, "cage_faces_hash": geometry.faces_hash,
-            "cage_non_triangles": geometry.non_triangles,
+            "cage_non_triangles": geometry.non_triangles, CAGE_NAME: self.cage.name,
         }
         if self.gamma is not None:  # ID properties hold no None
             self.info["gamma"] = self.gamma
@@ -379,7 +456,9 @@ class BindJob:
         everything this call added is removed again and the error raised.
         """
         obj, result = self.obj, self.result
-        earlier = binding(obj, self.cage)
+        # The binding to this cage, else one whose cage is gone: Bind after picking
+        # another cage replaces it.
+        earlier = binding(obj, self.cage) or binding(obj, missing_cage=True)
         others = bindings(obj)
         key = result.info["key"]
         names = deformer.slot_attribute_names(key, result.info["slot_count"])
@@ -413,7 +492,9 @@ class BindJob:
             deformer.remove_slots(obj.data, key)
             raise
         if earlier is not None:
+            name = earlier.modifier.name
             remove(obj, [earlier])
+            modifier.name = name  # the new one was "GenCoords.001" beside it: Rebind keeps the name
         return binding(obj, self.cage)
 
 

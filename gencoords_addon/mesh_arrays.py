@@ -23,7 +23,9 @@ def read_positions(mesh, out=None):
     ``out``: a float32 buffer of 3k numbers to fill (no allocation, for timings).
     """
     flat = np.empty(len(mesh.vertices) * 3, dtype=np.float32) if out is None else out
-    mesh.attributes[POSITION].data.foreach_get("vector", flat)
+    attribute = mesh.attributes.get(POSITION)
+    if attribute is not None:  # a mesh without vertices has no "position" attribute
+        attribute.data.foreach_get("vector", flat)
     return flat.reshape(-1, 3)
 
 

@@ -51,8 +51,11 @@ def _face_sizes(mesh):
 def _corner_vertices(mesh):
     corners = np.empty(len(mesh.loops), dtype=np.int64)
     # Blender's own storage of ``loops[i].vertex_index``: one block copy, where reading
-    # through ``mesh.loops`` costs 8 times as much.
-    mesh.attributes[CORNER_VERTEX].data.foreach_get("value", corners)
+    # through ``mesh.loops`` costs 8 times as much. A mesh without faces has no corners
+    # and no such attribute.
+    attribute = mesh.attributes.get(CORNER_VERTEX)
+    if attribute is not None:
+        attribute.data.foreach_get("value", corners)
     return corners
 
 

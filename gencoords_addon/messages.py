@@ -8,6 +8,8 @@ CAGE_PROBLEMS = {
     "too_few_vertices": "needs at least 4 vertices enclosing a volume",
     "bad_faces": "has faces with invalid vertex indices",
     "loose_vertices": "has vertices that belong to no face: use Mesh > Clean Up > Delete Loose",
+    "flat": "is flat (all its vertices lie in one plane) and encloses no volume: give it "
+            "depth, e.g. Extrude the faces or use Mesh > Convex Hull on a solid",
     "duplicate_vertices": "has vertices at the same position: use Mesh > Clean Up > "
                           "Merge by Distance",
     "degenerate_facet": "has faces of zero area: use Mesh > Clean Up > Degenerate Dissolve",

@@ -41,6 +41,11 @@ def object_mode(context, obj):
             bpy.ops.object.mode_set(mode='EDIT')
 
 
+def interactive(context):
+    """Whether an operator runs in a window that processes events (progress, Esc)."""
+    return not bpy.app.background and context.window is not None
+
+
 def _internal_error(operator, error, changed="nothing was changed"):
     traceback.print_exc()
     operator.report({'ERROR'}, f"GenCoords internal error, {changed} (details in the "
@@ -54,6 +59,15 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
 
     bl_idname = "object.gencoords_bind"
     bl_label = "Bind"
+
+    # The Replace Binding question's OK calls execute(), which would block the window:
+    # it hands over to a second, modal Bind, told not to ask again.
+    replace_asked: bpy.props.BoolProperty(
+        name="Replace Asked", options={'HIDDEN', 'SKIP_SAVE'},
+        description="Set while the Replace Binding question is shown")
+    replace_confirmed: bpy.props.BoolProperty(
+        name="Replace Confirmed", options={'HIDDEN', 'SKIP_SAVE'},
+        description="The artist already confirmed replacing the binding: do not ask again")
 
     def _start(self, context):
         obj = context.active_object
@@ -77,6 +91,11 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
 
     def execute(self, context):
         """Run to the end: scripts and background mode (progress printed there)."""
+        if self.replace_asked and not self.replace_confirmed and interactive(context):
+            # OK in the Replace Binding question: bind as invoke does, with progress and
+            # Esc. This call ends here (nothing changed, no undo step of its own).
+            bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', replace_confirmed=True)
+            return {'CANCELLED'}
         try:
             if not self._start(context):
                 return {'CANCELLED'}
@@ -98,10 +117,11 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
     def invoke(self, context, event):
         """In the UI: compute between events, with a progress bar; Esc cancels. Binding a
         cage the mesh is already bound to asks before replacing that binding."""
-        if bpy.app.background or context.window is None:
+        if not interactive(context):
             return self.execute(context)
         obj = context.active_object
-        if binding.binding(obj, obj.gencoords.cage) is not None:  # OK runs execute()
+        if not self.replace_confirmed and binding.binding(obj, obj.gencoords.cage) is not None:
+            self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
             return context.window_manager.invoke_confirm(
                 self, event, title="Replace Binding",
                 message=f"'{obj.name}' is already bound to '{obj.gencoords.cage.name}': "

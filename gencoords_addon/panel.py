@@ -5,7 +5,7 @@ import textwrap
 
 import bpy
 
-from .binding import binding, bindings
+from .binding import binding, bindings, meshes_driven_by
 from .status import status_lines
 from .visualise import field_range
 
@@ -27,6 +27,9 @@ def draw_settings(layout, obj, width=None):
     column = layout.column()
     column.prop(settings, "cage")
     if settings.cage is None:  # a button of its own: a bare icon beside the field cut its name
+        for mesh in meshes_driven_by(obj):  # Make Cage on a cage is rarely what is meant
+            for number, line in enumerate(wrapped(f"This is the cage of '{mesh.name}'", width)):
+                column.label(text=line, icon='INFO' if number == 0 else 'BLANK1')
         column.operator("object.gencoords_make_cage", icon='MESH_ICOSPHERE')
     else:
         # Artists keep cages out of the way: as wires or bounds, or hidden (still driving).
@@ -36,7 +39,10 @@ def draw_settings(layout, obj, width=None):
         column.prop(settings, "gamma")
     column.prop(settings, "outside")
     column.prop(settings, "storage")
-    if settings.storage != 'EXACT':
+    picked = binding(obj, settings.cage) if settings.cage is not None else None
+    resolved = settings.storage if settings.storage != 'AUTO' or picked is None \
+        else picked.info.get("storage")
+    if resolved != 'EXACT':  # Slots only matter to compact storage
         column.prop(settings, "compact_size", text="Slots")
     column.prop(settings, "auto_rebind")
 

@@ -23,6 +23,9 @@ def deformation_problem(obj, found, depsgraph=None):
         return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
                 "Bind again or Unbind")
     cage = found.cage
+    if cage is None and found.deleted_cage is not None:
+        return (f"The cage '{found.deleted_cage}' was deleted: the mesh is not deformed; "
+                "pick another cage and Bind, or Unbind")
     if cage is None:
         return ("The cage was deleted or cleared: the mesh is not deformed; pick a cage "
                 "and Bind again, or Unbind")
@@ -72,8 +75,13 @@ def binding_lines(obj, found, depsgraph=None):
     if info.get("format") != binding.FORMAT:
         return lines
     cage = found.cage
-    cage_name = cage.name if cage is not None else "(missing)"
-    lines.append((f"Bound to '{cage_name}' (modifier '{found.modifier.name}')", 'LINKED'))
+    if cage is not None:
+        bound_to = f"Bound to '{cage.name}'"
+    elif found.deleted_cage is not None:
+        bound_to = f"Was bound to '{found.deleted_cage}' (deleted)"
+    else:
+        bound_to = "Bound to a missing cage"
+    lines.append((f"{bound_to} (modifier '{found.modifier.name}')", 'LINKED'))
     kind_label = enum_label(KIND_ITEMS, info['kind'].upper())
     if "gamma" in info:
         kind_label += f" (gamma {info['gamma']:g})"

@@ -163,7 +163,7 @@ def test_deleting_the_cage_passes_the_mesh_through_and_unbind_restores(gc):
     assert not np.array_equal(evaluated_positions(obj), read_positions(obj.data))
     bpy.data.objects.remove(cage)
     update()
-    assert "The cage was deleted or cleared" in fault_text(gc, obj)
+    assert "The cage 'Cage' was deleted: the mesh is not deformed" in fault_text(gc, obj)
     assert_passed_through_and_unbind_restores(obj)
 
 

@@ -1,5 +1,7 @@
 """Every cage error names what is wrong and where; mean value handles non-convex cages."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -180,3 +182,44 @@ def test_validate_cage_accepts_a_good_cage_and_returns_it():
     vertices, faces = icosphere(2)
     cage = core.validate_cage(vertices, faces)
     assert cage.size > 0 and len(cage.topology.ridges) == 3 * len(faces) // 2
+
+
+def test_a_flat_cage_is_called_flat_not_coincident():
+    vertices, faces = icosphere()
+    with pytest.raises(core.CageError) as error:
+        core.Cage(vertices * (1.0, 1.0, 0.0), faces)  # an object scaled to zero on Z
+    assert error.value.problem == "flat"
+    assert "the cage is flat: all its vertices lie in one plane" in str(error.value)
+    assert "coincide" not in str(error.value)
+
+
+def test_a_cage_flat_within_its_tolerance_is_flat_and_a_thin_one_is_a_volume():
+    vertices, faces = icosphere()
+    size = np.linalg.norm(np.ptp(vertices, axis=0))
+    with pytest.raises(core.CageError) as error:  # 1e-7 of its size thick, tolerance 1e-6
+        core.Cage(vertices * (1.0, 1.0, 0.5e-7 * size), faces, tolerance=1e-6)
+    assert error.value.problem == "flat"
+    assert re.search(r"thickness 1\.\d+e-07 of its size", str(error.value))  # of the flat cage's size
+    assert core.Cage(vertices * (1.0, 1.0, 1e-2), faces, tolerance=1e-6).convex
+
+
+def test_transposed_vertices_are_said_to_look_transposed():
+    vertices, faces = icosphere()
+    with pytest.raises(core.CageError) as error:
+        core.Cage(vertices.T, faces)
+    assert error.value.problem == "transposed"
+    message = str(error.value)
+    assert f"got (3, {len(vertices)})" in message and "look transposed: pass vertices.T" in message
+    assert "faces must be" not in message
+
+
+def test_a_tolerance_passed_to_a_cage_method_says_where_it_belongs():
+    vertices, faces = icosphere()
+    cage = core.Cage(vertices, faces)
+    with pytest.raises(TypeError, match=r"Cage\.coordinates\(\): .*unexpected keyword argument "
+                                        r"'tolerance'; the tolerance belongs to the cage.*"
+                                        r"Cage\(vertices, faces, tolerance=\.\.\.\)"):
+        cage.coordinates(np.zeros((1, 3)), tolerance=1e-6)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'tolernce'") as error:
+        cage.coordinates(np.zeros((1, 3)), tolernce=1e-6)
+    assert "belongs to the cage" not in str(error.value)

@@ -1,0 +1,324 @@
+"""The artist's own doors: Delete (X) on the cage, Ctrl+Z, Rebind through the UI's
+invoke path, Apply, and the panel's hints; and the cages an artist or a script makes by
+accident (no faces, scaled to zero)."""
+
+import re
+
+import bpy
+import numpy as np
+import pytest
+
+from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere, bind,
+                           evaluated_positions, mesh_state, read_positions, update,
+                           write_positions)
+from test_addon_errors import assert_bind_refused, bound, fault_text
+
+DELETED = "The cage 'Cage' was deleted: the mesh is not deformed; pick another cage and Bind, or Unbind"
+
+
+def delete_as_the_artist(obj):
+    """Select only ``obj`` and press X (``object.delete``), in the window's context."""
+    activate(obj)
+    window = bpy.context.window_manager.windows[0]
+    with bpy.context.temp_override(window=window, selected_objects=[obj], active_object=obj,
+                                   object=obj):
+        assert bpy.ops.object.delete() == {'FINISHED'}
+    update()  # the depsgraph update after an operator, which runs the add-on's handler
+
+
+def assert_follows(obj, cage, factor=1.2):
+    """Scaling the cage scales the mesh (about the origin, where both are centred)."""
+    rest = read_positions(obj.data).copy()
+    write_positions(cage.data, read_positions(cage.data) * factor)
+    np.testing.assert_allclose(evaluated_positions(obj), rest * factor, atol=1e-5)
+
+
+def test_deleting_the_cage_with_x_passes_the_mesh_through_and_the_cage_can_be_purged(gc, tmp_path):
+    obj, cage = bound(gc)
+    write_positions(cage.data, read_positions(cage.data) * 1.2)
+    assert not np.array_equal(evaluated_positions(obj), read_positions(obj.data))
+    delete_as_the_artist(cage)
+    assert "Cage" not in bpy.context.scene.objects
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+    assert fault_text(gc, obj) == DELETED
+    assert ("Was bound to 'Cage' (deleted) (modifier 'GenCoords')", 'LINKED') in \
+        gc.status.status_lines(obj)
+    assert obj.gencoords.cage is None  # nothing of ours holds the cage any more
+    assert bpy.data.objects["Cage"].users == 0
+
+    path = tmp_path / "deleted cage.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    assert "Cage" not in bpy.data.objects  # nothing held it: not even written
+    bpy.data.orphans_purge(do_recursive=True)
+    assert "Cage" not in bpy.data.objects and "Icosphere" not in bpy.data.meshes
+    obj = bpy.data.objects["Mesh"]
+    assert fault_text(gc, obj) == DELETED
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+    activate(obj)
+    assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+    assert not obj.modifiers and not gc.binding.bindings(obj)
+
+
+def test_undo_of_deleting_the_cage_brings_it_back_driving_the_mesh(gc):
+    """Ctrl+Z as in the UI (see test_undo_and_redo_of_bind_and_unbind): the step the UI
+    pushes after Delete is pushed here explicitly."""
+    preferences = bpy.context.preferences.edit
+    preferences.use_global_undo, preferences.undo_steps = True, 32
+    with bpy.context.temp_override(window=bpy.context.window_manager.windows[0]):
+        obj, cage = bound(gc)
+        bpy.ops.ed.undo_push(message="Bind")
+        delete_as_the_artist(cage)
+        bpy.ops.ed.undo_push(message="Delete")
+        assert fault_text(gc, obj) == DELETED
+
+        assert bpy.ops.ed.undo() == {'FINISHED'}
+        update()
+        obj, cage = bpy.data.objects["Mesh"], bpy.data.objects["Cage"]  # undo rebuilds IDs
+        assert cage.name in bpy.context.scene.objects
+        assert obj.gencoords.cage == cage and gc.binding.binding(obj).cage == cage
+        assert fault_text(gc, obj) == ""
+        assert_follows(obj, cage)
+
+        assert bpy.ops.ed.redo() == {'FINISHED'}
+        update()
+        obj = bpy.data.objects["Mesh"]
+        assert fault_text(gc, obj) == DELETED
+        np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+
+
+def test_a_cage_unlinked_from_every_collection_is_let_go_of(gc):
+    """Where Delete only unlinks the cage (Blender does when the object has other real
+    users) it would live on through the modifier and the Cage setting."""
+    obj, cage = bound(gc)
+    extra = bpy.data.collections.new("Extra")
+    bpy.context.scene.collection.children.link(extra)
+    extra.objects.link(cage)
+    bpy.context.collection.objects.unlink(cage)  # still in "Extra": not deleted
+    update()
+    assert gc.binding.binding(obj).cage == cage and fault_text(gc, obj) == ""
+    assert_follows(obj, cage)
+    extra.objects.unlink(cage)
+    update()
+    assert fault_text(gc, obj) == DELETED
+    assert gc.binding.binding(obj).cage is None and obj.gencoords.cage is None
+    assert cage.users == 0
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+
+
+def test_bind_to_another_cage_replaces_the_binding_whose_cage_was_deleted(gc):
+    obj, cage = bound(gc)
+    delete_as_the_artist(cage)
+    other = add_icosphere_cage(radius=2.5, name="Other")
+    assert bind(obj, other) == {'FINISHED'}
+    assert [m.name for m in obj.modifiers] == ["GenCoords"]
+    assert len(gc.binding.bindings(obj)) == 1 and fault_text(gc, obj) == ""
+    assert_follows(obj, other)
+
+
+def test_renaming_the_cage_then_deleting_it_names_it(gc):
+    obj, cage = bound(gc)
+    cage.name = "Renamed"
+    update()
+    bpy.data.objects.remove(cage)  # a script's removal: every pointer cleared at once
+    update()
+    assert fault_text(gc, obj) == DELETED.replace("'Cage'", "'Renamed'")
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+
+
+def empty_object(name, vertices=(), edges=()):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(list(vertices), list(edges), [])
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.collection.objects.link(obj)
+    return obj
+
+
+@pytest.mark.parametrize("what", ["vertices", "edges", "nothing"])
+def test_a_cage_made_without_faces_by_from_pydata_is_refused(gc, what):
+    corners = [(x, y, z) for x in (-3, 3) for y in (-3, 3) for z in (-3, 3)]
+    vertices = corners if what != "nothing" else []
+    edges = [(0, 1), (1, 3), (3, 2), (2, 0)] if what == "edges" else []
+    cage = empty_object("Loose", vertices, edges)
+    assert_bind_refused(add_sphere(), cage, re.escape(
+        "The cage 'Loose' has no faces: it must be a closed surface around the mesh"))
+
+
+def test_a_bound_cage_losing_all_its_faces_is_reported(gc):
+    obj, cage = bound(gc)
+    cage.data.clear_geometry()
+    update()
+    assert "The cage 'Cage' now has 0 vertices (bound with 12)" in fault_text(gc, obj)
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+
+
+@pytest.mark.parametrize(("axes", "said"), [((2,), "Z axis"), ((0, 1), "X and Y axes")])
+def test_a_cage_object_scaled_to_zero_is_told_so(gc, axes, said):
+    cage = add_cube_cage()
+    cage.rotation_euler = (0.3, 0.2, 0.1)  # the axes are the object's own
+    for axis in axes:
+        cage.scale[axis] = 0.0
+    assert_bind_refused(add_sphere(), cage, re.escape(
+        f"The cage object 'Cage' is scaled to zero on its {said} (or its parent is): give "
+        "it a non-zero Scale (Object Properties > Transform), then Bind"))
+
+
+def test_a_flat_cage_mesh_is_told_it_encloses_no_volume(gc):
+    cage = add_icosphere_cage()
+    write_positions(cage.data, read_positions(cage.data) * (1.0, 1.0, 0.0))
+    assert_bind_refused(add_sphere(), cage, re.escape(
+        "Cage 'Cage' is flat (all its vertices lie in one plane) and encloses no volume"))
+
+
+def test_rebind_keeps_the_modifier_name_and_the_invoke_path_binds(gc):
+    """Headless, 'INVOKE_DEFAULT' runs execute (no window to confirm in or to show
+    progress): the Replace Binding question and the modal job need a real window."""
+    obj, cage = bound(gc)
+    keys = {gc.binding.binding(obj).key}
+    for _ in range(3):
+        activate(obj)
+        assert bpy.ops.object.gencoords_bind('INVOKE_DEFAULT') == {'FINISHED'}
+        keys.add(gc.binding.binding(obj).key)
+        assert [m.name for m in obj.modifiers] == ["GenCoords"]
+    assert len(keys) == 4  # each Rebind replaced the binding
+    assert_follows(obj, cage)
+
+
+def test_apply_leaves_no_node_group_behind(gc):
+    obj, cage = bound(gc)
+    assert any(group.get("gencoords") for group in bpy.data.node_groups)
+    activate(obj)
+    assert bpy.ops.object.modifier_apply(modifier="GenCoords") == {'FINISHED'}
+    update()
+    assert not bpy.data.node_groups  # the binding's group and the helpers it used
+    assert mesh_state(obj)[1] == sorted(a.name for a in obj.data.attributes)
+
+
+def test_object_settings_are_described(gc):
+    prop = bpy.types.Object.bl_rna.properties["gencoords"]
+    assert prop.description and "GenCoords" in prop.description
+    for prop in bpy.types.Object.bl_rna.properties["gencoords"].fixed_type.properties:
+        if prop.identifier != "rna_type":
+            assert prop.description, prop.identifier
+
+
+def drawn_panel(obj):
+    import importlib
+
+    from test_addon_package import RecordingLayout
+
+    panel = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.panel")
+    drawn = []
+    panel.draw_settings(RecordingLayout(drawn), obj)
+    return drawn
+
+
+def test_the_panel_of_a_cage_says_whose_cage_it_is(gc):
+    obj, cage = bound(gc)
+    drawn = drawn_panel(cage)
+    hint = drawn.index(("label", "This is the cage of 'Mesh'"))
+    assert drawn[hint + 1] == ("operator", "object.gencoords_make_cage")
+    assert not any("cage of" in str(item) for item in drawn_panel(add_sphere(name="Other")))
+
+
+def test_slots_show_only_where_the_storage_is_compact(gc):
+    obj, cage = bound(gc)
+    assert gc.binding.binding(obj).info["storage"] == 'EXACT'
+    assert obj.gencoords.storage == 'AUTO'  # resolved to exact: the Slots do nothing
+    assert ("prop", "compact_size") not in drawn_panel(obj)
+    obj.gencoords.storage = 'COMPACT'
+    assert ("prop", "compact_size") in drawn_panel(obj)
+    obj.gencoords.storage = 'EXACT'
+    assert ("prop", "compact_size") not in drawn_panel(obj)
+    obj.gencoords.storage = 'AUTO'
+    obj.gencoords.cage = None  # not bound to the picked cage: Automatic may go compact
+    assert ("prop", "compact_size") in drawn_panel(obj)
+
+
+class WindowStandIn:
+    """What a window gives a modal operator (absent headless, where 'INVOKE_DEFAULT'
+    runs execute: bpy's window has no event state), recording what the operator does."""
+
+    def __init__(self):
+        self.calls = []
+
+    def __getattr__(self, name):
+        def record(*args, **kwargs):
+            self.calls.append(name)
+            return {'RUNNING_MODAL'} if name == "invoke_confirm" else name
+        return record
+
+
+class ContextStandIn:
+    """``bpy.context`` with a window manager and workspace that record calls."""
+
+    def __init__(self, window_manager):
+        self.window_manager = self.workspace = window_manager
+        self.window = "window"
+
+    def __getattr__(self, name):
+        return getattr(bpy.context, name)
+
+
+def bind_operator_stand_in(operators):
+    """The Bind operator's own methods on a plain object (Blender operators cannot be
+    made outside a call), with its properties and reports."""
+    methods = ("execute", "invoke", "modal", "_start", "_finish", "_stop")
+    cls = operators.OBJECT_OT_gencoords_bind
+    stand_in = type("BindStandIn", (), {name: cls.__dict__[name] for name in methods})()
+    stand_in.replace_asked = stand_in.replace_confirmed = False
+    stand_in.reports = []
+    stand_in.report = lambda kind, text: stand_in.reports.append(text)
+    return stand_in
+
+
+def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkeypatch):
+    """The invoke -> question -> OK -> execute -> modal chain, with stand-ins for the
+    window (a real window is needed to see the question, the progress and Esc)."""
+    import importlib
+
+    from types import SimpleNamespace
+
+    operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.operators")
+    obj, cage = bound(gc)
+    earlier = gc.binding.binding(obj).key
+    activate(obj)
+    monkeypatch.setattr(operators, "interactive", lambda context: True)
+    window_manager = WindowStandIn()
+    context = ContextStandIn(window_manager)
+
+    asking = bind_operator_stand_in(operators)
+    assert asking.invoke(context, None) == {'RUNNING_MODAL'}  # the question is shown
+    assert window_manager.calls == ["invoke_confirm"] and asking.replace_asked
+    handed_over = []
+    fake_ops = SimpleNamespace(object=SimpleNamespace(
+        gencoords_bind=lambda *args, **kwargs: handed_over.append((args, kwargs))))
+    with monkeypatch.context() as patch:  # bpy.ops itself: only for this call
+        patch.setattr(operators.bpy, "ops", fake_ops)
+        assert asking.execute(context) == {'CANCELLED'}  # OK: execute only hands over
+    assert handed_over == [(('INVOKE_DEFAULT',), {"replace_confirmed": True})]
+    assert gc.binding.binding(obj).key == earlier
+
+    running = bind_operator_stand_in(operators)
+    running.replace_confirmed = True  # as the handed-over call is made
+    assert running.invoke(context, None) == {'RUNNING_MODAL'}  # no second question
+    assert "invoke_confirm" not in window_manager.calls[1:]
+    assert {"event_timer_add", "progress_begin", "modal_handler_add"} <= set(window_manager.calls)
+    assert gc.binding.binding(obj).key == earlier  # nothing written before the job ends
+    timer = SimpleNamespace(type='TIMER')
+    result = {'RUNNING_MODAL'}
+    while result == {'RUNNING_MODAL'}:
+        result = running.modal(context, timer)
+    assert result == {'FINISHED'}
+    assert "progress_update" in window_manager.calls and "progress_end" in window_manager.calls
+    assert gc.binding.binding(obj).key != earlier
+    assert [m.name for m in obj.modifiers] == ["GenCoords"]
+    assert running.reports[-1].startswith("Bound 'Mesh' (114 vertices) to 'Cage'")
+
+    escaped = bind_operator_stand_in(operators)  # Esc during a confirmed Rebind
+    escaped.replace_confirmed = True
+    latest = gc.binding.binding(obj).key
+    assert escaped.invoke(context, None) == {'RUNNING_MODAL'}
+    assert escaped.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
+    assert gc.binding.binding(obj).key == latest
+    assert escaped.reports == ["Bind cancelled: nothing was changed"]
