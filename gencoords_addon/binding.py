@@ -389,9 +389,9 @@ class BindJob:
                 written = yield from self._compute_slots(cage, workers)
             else:
                 self.storage_choice = (
-                    f"Automatic: compact, {slot_count} slots (deviation {short_number(worst)}, "
-                    f"over {target}: exact would take {exact_bytes / 1e9:.1f} GB; choose "
-                    "Exact to store it anyway)")
+                    f"Automatic: compact, {slot_count} slots (deviation {short_number(worst)} "
+                    f"> {target}; exact would take {exact_bytes / 1e9:.1f} GB: choose Exact "
+                    "for it)")
         # How this kind behaves in this cage, away from the mesh's own vertices (the
         # summary covers those): positivity and well-definedness on a sample.
         report = core.coordinate_report(self.cage_vertices, self.triangles, self.kind, gamma=self.gamma,

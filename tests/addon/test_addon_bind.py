@@ -183,9 +183,9 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     assert info["storage"] == 'COMPACT' and info["slot_count"] == slots
     worst = short(max(info["deviation_smooth"], info["deviation_drag"]))
     assert info["storage_choice"] == (
-        f"Automatic: compact, {slots} slots (deviation {worst}, over 1e-3: exact would take "
-        f"{info['mesh_vertex_count'] * 3 * -(-cage_count // 3) * 4 / 1e9:.1f} GB; choose "
-        "Exact to store it anyway)")
+        f"Automatic: compact, {slots} slots (deviation {worst} > 1e-3; exact would take "
+        f"{info['mesh_vertex_count'] * 3 * -(-cage_count // 3) * 4 / 1e9:.1f} GB: choose "
+        "Exact for it)")
     # The compact form Automatic turned down would have missed: 36 slots deviate.
     obj.gencoords.storage, obj.gencoords.compact_size = 'COMPACT', 36
     activate(obj)
