@@ -138,16 +138,14 @@ def deviations_in_blender(gc, obj, cage, vertex):
     return found
 
 
-@pytest.mark.parametrize("levels", [2])
-def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(gc, monkeypatch,
-                                                                               levels):
+def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(gc, monkeypatch):
     """Issue 19.4: around a subdivided Suzanne, Make Cage's irregular cage needs nearly all
     its vertices as compact slots, so Automatic stores exactly and says why; what Blender
     then deforms is within 1e-3 of the cage diagonal of exact mean value coordinates."""
     # The measuring path starts at 8 million coordinates (Suzanne with 4 subdivisions
     # in this cage): a smaller Suzanne takes it from 0 to keep the test fast.
     monkeypatch.setattr(gc.binding, "EXACT_MAX_PRODUCT", 0)
-    obj = add_subdivided_suzanne(levels)
+    obj = add_subdivided_suzanne(2)  # 7958 vertices
     activate(obj)
     with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
         assert bpy.ops.object.gencoords_make_cage(target_vertices=100) == {'FINISHED'}
@@ -223,6 +221,9 @@ def test_automatic_storage_chooses_compact_where_few_slots_suffice(gc, monkeypat
     assert smooth < 1e-3 and drag < 1e-3
     assert smooth == pytest.approx(info["deviation_smooth"], rel=1e-2, abs=2e-6)
     assert drag == pytest.approx(info["deviation_drag"], rel=1e-2, abs=2e-6)
+    # It is the worst: other dragged cage vertices deviate less.
+    for other in (0, 57, 161):
+        assert deviations_in_blender(gc, obj, cage, other)[1] <= drag + 2e-6
 
 
 def test_coordinates_are_computed_in_world_space(gc):
