@@ -187,9 +187,9 @@ def stored_bytes(mesh_vertices, slot_count, compact_storage):
     return stored * (2 if compact_storage else 1)
 
 
-def short_number(value):
-    """``4e-4`` for 0.0004: deviations in the panel's few characters."""
-    return f"{value:.0e}".replace("e-0", "e-").replace("e+0", "e")
+def short_number(value, digits=2):
+    """``9.6e-4`` for 0.00096 (``digits`` significant): deviations in few characters."""
+    return f"{value:.{digits - 1}e}".replace("e-0", "e-").replace("e+0", "e")
 
 
 CAPTURE_GROUP = ".GenCoords capture"
@@ -360,7 +360,7 @@ class BindJob:
                 needed = f"all {cage_count}" if size is None else f"{size} of the {cage_count}"
                 self.storage = 'EXACT'
                 self.storage_choice = (f"Automatic: exact (compact would need {needed} slots "
-                                       f"for {short_number(AUTO_DEVIATION)})")
+                                       f"for {short_number(AUTO_DEVIATION, 1)})")
                 return
             size = saving[-1]
         # Compact: its line waits for the deviations measured on every vertex.
@@ -374,7 +374,7 @@ class BindJob:
             self._choose_by_measuring(cage)
         written = yield from self._compute_slots(cage, workers)
         if self.measured and self.storage == 'COMPACT':
-            slot_count, target = self.basis.shape[1], short_number(AUTO_DEVIATION)
+            slot_count, target = self.basis.shape[1], short_number(AUTO_DEVIATION, 1)
             worst = max(written["deviation_smooth"], written["deviation_drag"])
             exact_bytes = stored_bytes(count, cage_count, False)
             if worst < AUTO_DEVIATION:

@@ -107,7 +107,7 @@ def test_automatic_storage_is_exact_for_moderate_sizes_and_measures_beyond(gc):
 
 
 def short(value):
-    return f"{value:.0e}".replace("e-0", "e-")
+    return f"{value:.1e}".replace("e-0", "e-")
 
 
 def add_subdivided_suzanne(levels):
