@@ -14,13 +14,21 @@ linear precision, so an affine cage motion moves every point by the same affine 
 and the broad bends and twists a coarse cage is made for. A sharp drag of one cage
 vertex deviates: :func:`deviation` measures it for any motion. The same form with
 ``basis = I`` is the exact one.
+
+How far the compact form is from the exact one depends on the cage and on where the
+points lie: :func:`residual_deviations` measures the standard smooth motion and the worst
+single-vertex drag exactly from the coordinates' residual ``W - slots @ basis.T``, and
+:func:`smallest_size` finds the fewest basis vectors that keep both under a target.
 """
 
 import numpy as np
 
 from . import tolerances
 
-__all__ = ["motion_basis", "smooth_test_motion", "vertex_drag_motion", "deviation"]
+__all__ = ["motion_basis", "smooth_test_motion", "vertex_drag_motion", "deviation",
+           "residual_deviations", "smallest_size", "DRAG_FRACTION"]
+
+DRAG_FRACTION = 0.1  # the dragged cage vertex moves this fraction of the cage's diagonal
 
 
 def _edges(faces):
@@ -102,7 +110,7 @@ def smooth_test_motion(vertices):
     return moved
 
 
-def vertex_drag_motion(vertices, index=0, fraction=0.1):
+def vertex_drag_motion(vertices, index=0, fraction=DRAG_FRACTION):
     """One cage vertex dragged outward by ``fraction`` of the cage's diagonal.
 
     Parameters
@@ -149,3 +157,76 @@ def deviation(coordinates, slots, basis, rest, moved):
         return 0.0
     diagonal = np.linalg.norm(np.ptp(rest, axis=0))
     return float(np.linalg.norm(exact - compact, axis=1).max() / diagonal)
+
+
+def residual_deviations(residual, rest, fraction=DRAG_FRACTION):
+    """Deviations of a reproduction of coordinates, for the standard motions, per diagonal.
+
+    Parameters
+    ----------
+    residual : (k, n) float
+        Exact coordinates minus their reproduction (``W - slots @ basis.T``, with the
+        slots and basis as stored).
+    rest : (n, N) float
+        The cage at rest (N = 3 for the smooth motion).
+    fraction : float
+        How far the dragged vertex moves, of the cage's diagonal.
+
+    Returns
+    -------
+    smooth : float
+        ``max_i |residual_i D| / diagonal`` for ``D`` the :func:`smooth_test_motion`.
+    drag : (n,) float
+        Per cage vertex j, the deviation when j alone is dragged by ``fraction`` of the
+        diagonal (in any direction): ``fraction * max_i |residual_ij|``. Exact and cheap,
+        so the worst vertex is found without moving each one.
+    """
+    rest = np.asarray(rest, dtype=np.float64)
+    residual = np.asarray(residual, dtype=np.float64)
+    if len(residual) == 0:
+        return 0.0, np.zeros(len(rest))
+    diagonal = np.linalg.norm(np.ptp(rest, axis=0))
+    smooth = np.linalg.norm(residual @ (smooth_test_motion(rest) - rest), axis=1).max() / diagonal
+    largest = np.maximum(residual.max(axis=0), -residual.min(axis=0))  # no |residual| copy
+    return float(smooth), fraction * largest
+
+
+def smallest_size(coordinates, basis, rest, target, sizes):
+    """The fewest leading basis vectors that keep both standard deviations under ``target``.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+        Exact coordinates of sample points.
+    basis : (n, m) float
+        Orthonormal columns in order of use (:func:`motion_basis` with size m).
+    rest : (n, 3) float
+        The cage at rest.
+    target : float
+        Largest deviation allowed, of the cage's diagonal.
+    sizes : increasing sequence of int
+        Candidate sizes, each at most m.
+
+    Returns
+    -------
+    size : int or None
+        The first of ``sizes`` whose smooth and worst drag deviations (on the sample, in
+        float64) are both below ``target``; None if none is.
+    smooth, drag : float
+        Those deviations at ``size`` (at the last size when None).
+    """
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    basis = np.asarray(basis, dtype=np.float64)
+    projections = coordinates @ basis  # (k, m)
+    residual, used = coordinates.copy(), 0
+    smooth, drag = np.inf, np.inf
+    for size in sizes:
+        # Truncating to more columns removes their part from the residual: the whole
+        # sweep costs one k x m x n product, whatever the number of candidates.
+        residual -= projections[:, used:size] @ basis[:, used:size].T
+        used = size
+        smooth, drag_per_vertex = residual_deviations(residual, rest)
+        drag = float(drag_per_vertex.max(initial=0.0))
+        if smooth < target and drag < target:
+            return size, smooth, drag
+    return None, smooth, drag

@@ -32,17 +32,28 @@ FORMAT = 2  # bind data layout; data of another number read as "Bind again"
 MODIFIER_NAME = "GenCoords"
 CAGE_NAME = "cage_name"  # METADATA key: the cage's name, kept up to date while it exists
 DELETED_CAGE = "deleted_cage"  # METADATA key: the name of the cage, once it is gone
-# Exact storage while its per-evaluation cost and node group stay moderate: k x n
-# multiply-adds (about 1.5 ns each on two cores) and a node per three cage vertices.
+# Automatic storage is exact without measuring while its per-evaluation cost and node
+# group stay moderate: k x n multiply-adds (about 1.5 ns each on two cores) and a node
+# per three cage vertices.
 EXACT_MAX_PRODUCT = 8_000_000
 EXACT_MAX_CAGE_VERTICES = 400
+# Beyond, it measures: compact with the fewest slots that keep both standard deviations
+# (core.compact: smooth motion, worst single-vertex drag) under AUTO_DEVIATION of the
+# cage's diagonal, else exact. Slots are chosen on a sample of the mesh with
+# AUTO_SAMPLE_MARGIN to spare for the vertices it skipped; after Bind the deviations are
+# measured on every vertex, and compact that still misses goes exact.
+AUTO_DEVIATION = 1e-3
+AUTO_SAMPLE_MARGIN = 0.8
+# Exact storage Automatic still chooses when compact deviates more: attribute bytes (a
+# million vertices x 642 cage vertices, 2.6 GB, stay compact and the panel says so).
+AUTO_EXACT_MAX_BYTES = 2**31
 # Coordinates computed per chunk of points: progress and cancel granularity, and the
 # bound on the dense float64 block a chunk makes (points x cage vertices).
 CHUNK_ENTRIES = 4_000_000  # per worker process
 # Worker processes for the core (None: the core's choice for the whole job, all cores
 # for a long Bind; 1: compute in Blender's own process).
 WORKERS = None
-DEVIATION_SAMPLES = 2000  # mesh vertices the compact form's deviation is measured on
+DEVIATION_SAMPLES = 2000  # mesh vertices Automatic chooses compact storage's slots on
 REPORT_SAMPLES = 1000  # points inside the cage core.coordinate_report examines at Bind
 
 
@@ -231,10 +242,11 @@ def zero_scale_axes(matrix):
 
 
 def choose_storage(setting, mesh_vertices, cage_vertices, compact_size):
-    """'EXACT' or 'COMPACT' for the Storage setting ``setting`` ('AUTO' decides by cost).
+    """'EXACT', 'COMPACT' or 'AUTO' (measure at Bind) for the Storage setting ``setting``.
 
     Compact storage keeps its basis on the mesh's first n points and needs more cage
-    vertices than slots to save anything, so small meshes and cages are always exact.
+    vertices than slots to save anything, so small meshes and cages are always exact;
+    Automatic is exact while exact storage is cheap, and measures beyond.
     """
     if mesh_vertices < cage_vertices or cage_vertices <= compact_size:
         return 'EXACT'
@@ -242,7 +254,19 @@ def choose_storage(setting, mesh_vertices, cage_vertices, compact_size):
         return setting
     small = (mesh_vertices * cage_vertices <= EXACT_MAX_PRODUCT
              and cage_vertices <= EXACT_MAX_CAGE_VERTICES)
-    return 'EXACT' if small else 'COMPACT'
+    return 'EXACT' if small else 'AUTO'
+
+
+def stored_bytes(mesh_vertices, slot_count, compact_storage):
+    """Bytes of the bind data's attributes: three float32 slots per vector attribute (the
+    last one padded), and compact storage's basis in as many attributes again."""
+    stored = mesh_vertices * 3 * -(-slot_count // 3) * 4
+    return stored * (2 if compact_storage else 1)
+
+
+def short_number(value, digits=2):
+    """``9.6e-4`` for 0.00096 (``digits`` significant): deviations in few characters."""
+    return f"{value:.{digits - 1}e}".replace("e-0", "e-").replace("e+0", "e")
 
 
 CAPTURE_GROUP = ".GenCoords capture"
@@ -339,6 +363,14 @@ class BindJob:
         self.triangles = geometry.triangles
         count, cage_count = len(self.points), len(self.cage_vertices)
         self.storage = choose_storage(settings.storage, count, cage_count, settings.compact_size)
+        self.storage_choice = None  # why, in the panel's words (set where there is a why)
+        self.measured = self.storage == 'AUTO'
+        if settings.storage != 'EXACT' and self.storage == 'EXACT':
+            small = count < cage_count or cage_count <= settings.compact_size
+            why = ("compact saves nothing with this few vertices" if small else
+                   f"{count} x {cage_count} coordinates: cheap enough to store them all")
+            label = "Automatic: exact" if settings.storage == 'AUTO' else "Exact, not compact"
+            self.storage_choice = f"{label} ({why})"
         self.basis = None
         if self.storage == 'COMPACT':
             self.basis = compact.motion_basis(self.cage_vertices, self.triangles,
@@ -373,67 +405,127 @@ class BindJob:
         return messages.core_error(self.cage.name, error, self.kind_label, len(self.points),
                                    self.triangle_faces)
 
+    def _coordinates(self, cage, points, workers, locations=None):
+        """The core's coordinates of ``points`` ((k, n) float64), its errors as BindError."""
+        try:
+            coordinates = cage.coordinates(points, kind=self.kind, outside=self.outside,
+                                           locations=locations, workers=workers,
+                                           gamma=self.gamma)
+        except core.OutsideCageError:
+            raise BindError(self._outside_message(cage)) from None
+        except ValueError as error:  # every other core error is a ValueError
+            raise BindError(self._core_message(error)) from None
+        except core.WorkerError as error:
+            raise BindError(f"Bind's worker processes failed ({error}); try again, or bind "
+                            "with fewer vertices at a time") from None
+        if not np.isfinite(coordinates).all():
+            raise BindError(f"Binding to '{self.cage.name}' gave undefined coordinates: "
+                            "check the cage for tiny or overlapping faces")
+        return coordinates
+
+    def _choose_by_measuring(self, cage):
+        """Automatic storage beyond the cheap sizes: compact with the fewest slots (a
+        multiple of three: an attribute holds three) that keep both deviations under the
+        target on a sample of the mesh, or exact when compact needs more than half the
+        cage's vertices (its slots and basis then take as much as exact storage) and
+        exact storage fits AUTO_EXACT_MAX_BYTES; when it does not, compact with that half."""
+        count, cage_count = len(self.points), len(self.cage_vertices)
+        sample = self.points[::max(1, count // DEVIATION_SAMPLES)]
+        coordinates = self._coordinates(cage, sample, None)
+        basis = compact.motion_basis(self.cage_vertices, self.triangles, cage_count)
+        sizes = [size for size in range(3, cage_count, 3) if size > self.cage_vertices.shape[1]]
+        size, _, _ = compact.smallest_size(coordinates, basis, self.cage_vertices,
+                                           AUTO_DEVIATION * AUTO_SAMPLE_MARGIN, sizes)
+        saving = [each for each in sizes if each <= cage_count // 2]
+        if size is None or size > cage_count // 2:
+            exact_bytes = stored_bytes(count, cage_count, False)
+            if exact_bytes <= AUTO_EXACT_MAX_BYTES or not saving:
+                needed = f"all {cage_count}" if size is None else f"{size} of the {cage_count}"
+                self.storage = 'EXACT'
+                self.storage_choice = (f"Automatic: exact (compact would need {needed} slots "
+                                       f"for {short_number(AUTO_DEVIATION, 1)})")
+                return
+            size = saving[-1]
+        # Compact: its line waits for the deviations measured on every vertex.
+        self.storage, self.basis = 'COMPACT', basis[:, :size]
+
     def _compute(self, cage):
+        count, cage_count = len(self.points), len(self.cage_vertices)
+        # Workers are chosen once for the whole job; each call gives every one a chunk.
+        workers = cage.suggested_workers(count) if WORKERS is None else WORKERS
+        if self.storage == 'AUTO':
+            self._choose_by_measuring(cage)
+        written = yield from self._compute_slots(cage, workers)
+        if self.measured and self.storage == 'COMPACT':
+            slot_count, target = self.basis.shape[1], short_number(AUTO_DEVIATION, 1)
+            worst = max(written["deviation_smooth"], written["deviation_drag"])
+            exact_bytes = stored_bytes(count, cage_count, False)
+            if worst < AUTO_DEVIATION:
+                self.storage_choice = (f"Automatic: compact, {slot_count} slots "
+                                       f"(deviation {short_number(worst)} < {target})")
+            elif exact_bytes <= AUTO_EXACT_MAX_BYTES:
+                # The sample missed where compact deviates most: exact after all.
+                self.storage_choice = (f"Automatic: exact (compact with {slot_count} "
+                                       f"slots deviated {short_number(worst)} on the whole "
+                                       "mesh)")
+                self.storage, self.basis = 'EXACT', None
+                written = yield from self._compute_slots(cage, workers)
+            else:
+                self.storage_choice = (
+                    f"Automatic: compact, {slot_count} slots (deviation {short_number(worst)} "
+                    f"> {target}; exact would take {exact_bytes / 1e9:.1f} GB: choose Exact "
+                    "for it)")
+        # How this kind behaves in this cage, away from the mesh's own vertices (the
+        # summary covers those): positivity and well-definedness on a sample.
+        report = core.coordinate_report(self.cage_vertices, self.triangles, self.kind, gamma=self.gamma,
+                                        samples=REPORT_SAMPLES, tolerance=FLOAT32_TOLERANCE)
+        slot_count = written.pop("slot_count")
+        slots, locations = written.pop("slots"), written.pop("locations")
+        self.info.update(
+            storage=self.storage, slot_count=slot_count, key=secrets.token_hex(3),
+            report=report.headline,
+            points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
+            points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
+            nbytes=int(stored_bytes(count, slot_count, self.basis is not None)),
+            bind_seconds=time.perf_counter() - self.started, **written)
+        if self.storage_choice is not None:
+            self.info["storage_choice"] = self.storage_choice
+        self.result = BindResult(self.storage, slots, self.basis, self.rest_cage, self.info)
+
+    def _compute_slots(self, cage, workers):
+        """Compute the slots in ``self.storage`` chunk by chunk, yielding the fraction done;
+        returns them with the figures measured on them, as they will be written: the
+        deviations from the exact coordinates (slots and basis in float32) on every vertex."""
         count, cage_count = len(self.points), len(self.cage_vertices)
         slot_count = cage_count if self.basis is None else self.basis.shape[1]
         slots = np.empty((count, slot_count), dtype=np.float32)
         locations = np.empty(count, dtype=np.int8)
-        stride = max(1, count // DEVIATION_SAMPLES)
-        samples, sample_slots = [], []
+        stored_basis = (None if self.basis is None else  # as written: float32
+                        self.basis.astype(np.float32).astype(np.float64))
         smallest, negative, affine_error = np.inf, 0, 0.0
-        # Workers are chosen once for the whole job; each call gives every one a chunk.
-        workers = cage.suggested_workers(count) if WORKERS is None else WORKERS
+        smooth, drag = 0.0, np.zeros(cage_count)
         chunk = max(1, CHUNK_ENTRIES * workers // cage_count)
         for start in range(0, count, chunk):
             rows = slice(start, min(start + chunk, count))
-            try:
-                coordinates = cage.coordinates(self.points[rows], kind=self.kind, outside=self.outside,
-                                               locations=locations[rows], workers=workers,
-                                               gamma=self.gamma)
-            except core.OutsideCageError:
-                raise BindError(self._outside_message(cage)) from None
-            except ValueError as error:  # every other core error is a ValueError
-                raise BindError(self._core_message(error)) from None
-            except core.WorkerError as error:
-                raise BindError(f"Bind's worker processes failed ({error}); try again, or bind "
-                                "with fewer vertices at a time") from None
-            if not np.isfinite(coordinates).all():
-                raise BindError(f"Binding to '{self.cage.name}' gave undefined coordinates: "
-                                "check the cage for tiny or overlapping faces")
+            coordinates = self._coordinates(cage, self.points[rows], workers, locations[rows])
             summary = core.coordinate_summary(coordinates)
             smallest = min(smallest, summary["min"])
             negative += summary["negative_points"]
             affine_error = max(affine_error, summary["max_affine_error"])
             slots[rows] = coordinates if self.basis is None else coordinates @ self.basis
-            picked = np.arange(-start % stride, rows.stop - start, stride)
-            samples.append(coordinates[picked])
-            sample_slots.append(slots[rows][picked])
-            del coordinates  # with workers, shared memory: freed before the next chunk's
+            reproduced = (slots[rows].astype(np.float64) if stored_basis is None else
+                          slots[rows] @ stored_basis.T)
+            residual = np.subtract(coordinates, reproduced, out=reproduced)
+            chunk_smooth, chunk_drag = compact.residual_deviations(residual, self.cage_vertices)
+            smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
+            # With workers, shared memory: freed before the next chunk's.
+            del coordinates, reproduced, residual
             yield rows.stop / count
-
-        deviation = {"deviation_smooth": 0.0, "deviation_drag": 0.0}
-        if self.basis is not None:
-            sample, sample_slot = np.concatenate(samples), np.concatenate(sample_slots)
-            for name, moved in (("deviation_smooth", compact.smooth_test_motion(self.cage_vertices)),
-                                ("deviation_drag", compact.vertex_drag_motion(self.cage_vertices))):
-                deviation[name] = compact.deviation(sample, sample_slot, self.basis,
-                                                    self.cage_vertices, moved)
-        # How this kind behaves in this cage, away from the mesh's own vertices (the
-        # summary above covers those): positivity and well-definedness on a sample.
-        report = core.coordinate_report(self.cage_vertices, self.triangles, self.kind, gamma=self.gamma,
-                                        samples=REPORT_SAMPLES, tolerance=FLOAT32_TOLERANCE)
-        # What the mesh stores: three slots per vector attribute (the last one padded),
-        # and compact storage's basis in as many attributes again.
-        stored = count * 3 * -(-slot_count // 3) * 4
-        nbytes = stored * (1 if self.basis is None else 2)
-        self.info.update(
-            slot_count=slot_count, key=secrets.token_hex(3), report=report.headline,
-            points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
-            points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
-            min_coordinate=float(smallest), negative_points=int(negative),
-            max_affine_error=float(affine_error), nbytes=int(nbytes),
-            bind_seconds=time.perf_counter() - self.started, **deviation)
-        self.result = BindResult(self.storage, slots, self.basis, self.rest_cage, self.info)
+        return {"slot_count": slot_count, "slots": slots, "locations": locations,
+                "min_coordinate": float(smallest), "negative_points": int(negative),
+                "max_affine_error": float(affine_error), "deviation_smooth": float(smooth),
+                "deviation_drag": float(drag.max(initial=0.0)),
+                "deviation_drag_vertex": int(np.argmax(drag))}
 
     def _outside_message(self, cage):
         where = cage.point_locations(self.points)

@@ -30,7 +30,8 @@ def enum_label(items, identifier):
 STORAGE_ITEMS = (
     ("AUTO", "Automatic",
      "Exact while its cost is moderate (mesh vertices x cage vertices up to 8 million, "
-     "cages up to 400 vertices), Compact beyond"),
+     "cages up to 400 vertices); beyond, Compact with the fewest slots that keep the "
+     "deviation under 1e-3 of the cage diagonal, measured at Bind, else Exact"),
     ("EXACT", "Exact",
      "Every coordinate of every vertex: the deformation is exact to float32 rounding"),
     ("COMPACT", "Compact",
@@ -76,7 +77,7 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
     compact_size: bpy.props.IntProperty(
         name="Compact Slots", default=36, min=4, soft_max=96, options=set(),
         description="Numbers per vertex in Compact storage: more follow sharper cage "
-                    "edits, fewer evaluate faster",
+                    "edits, fewer evaluate faster (Automatic measures how many it needs)",
     )
     auto_rebind: bpy.props.BoolProperty(
         name="Auto Rebind", default=False, options=set(),

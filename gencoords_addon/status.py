@@ -94,9 +94,13 @@ def binding_lines(obj, found, depsgraph=None):
     storage = enum_label(STORAGE_ITEMS, info["storage"])
     lines.append((f"Storage: {storage}, {info['slot_count']} per vertex, "
                   f"{info['nbytes'] / 2**20:.1f} MB", 'DISK_DRIVE'))
-    if info["storage"] == 'COMPACT':
+    if "storage_choice" in info:  # what Automatic chose and why
+        lines.append((info["storage_choice"], 'INFO'))
+    if info["storage"] == 'COMPACT':  # measured on every vertex, as written
+        worst = info.get("deviation_drag_vertex")  # absent from earlier versions' binds
+        drag = "vertex drag" if worst is None else f"drag of cage vertex {worst}"
         lines.append((f"Deviation: {info['deviation_smooth']:.1e} (smooth), "
-                      f"{info['deviation_drag']:.1e} (vertex drag) of the cage size", 'INFO'))
+                      f"{info['deviation_drag']:.1e} ({drag}) of the cage diagonal", 'INFO'))
     lines.append((f"Bind time: {info['bind_seconds']:.2f} s", 'TIME'))
     if info["negative_points"]:
         lines.append((f"Smallest coordinate {info['min_coordinate']:.4g}: negative at "

@@ -1,9 +1,13 @@
 """The artist controls' figures (part of ``make bench``): what Strength and a vertex-group
-Mask cost per evaluation, how long Make Cage takes and how many vertices it makes, and how
-far Bake to Bones deviates with 4, 8 or all influences per vertex.
+Mask cost per evaluation, how long Make Cage takes and how many vertices it makes, how
+far Bake to Bones deviates with 4, 8 or all influences per vertex, and what Automatic
+storage chooses on Suzanne with 4 subdivisions in Make Cage's cage and in an icosphere
+cage, with the deviations Blender's deformed mesh shows from exact mean value coordinates.
 
-Usage: bench_artist.py [--million]   (--million adds the strength and mask timing on a
-999,547-vertex sphere in a 642-vertex cage, compact storage: a few minutes to bind)
+Usage: bench_artist.py [--million] [--storage-only]   (--million adds the strength and
+mask timing on a 999,547-vertex sphere in a 642-vertex cage, compact storage: a few
+minutes to bind, and the storage table's Automatic row on it; --storage-only runs only
+the storage table)
 """
 
 import argparse
@@ -17,7 +21,7 @@ session.prepare()  # before bpy is imported: Blender reads its user folder then
 import blender_scenes as scenes  # noqa: E402
 import bpy  # noqa: E402
 from blender_scenes import arrays  # noqa: E402
-from core import compact, skinning  # noqa: E402
+from core import Cage, compact, skinning  # noqa: E402
 
 REPEATS = 7
 
@@ -91,11 +95,91 @@ def bake_deviation(subdivisions, influences):
                               rest, moved) for count in influences]
 
 
+def deviations_in_blender(mesh, cage, dragged):
+    """What the evaluated mesh shows, per cage diagonal, against exact mean value
+    coordinates (the core's, float64): the largest distance after the standard smooth
+    cage motion and after dragging cage vertex ``dragged`` by a tenth of the diagonal."""
+    rest_cage = arrays.read_positions(cage.data).astype(np.float64)
+    rest = arrays.read_positions(mesh.data).astype(np.float64)
+    motions = [compact.smooth_test_motion(rest_cage),
+               compact.vertex_drag_motion(rest_cage, dragged)]
+    cage.data.calc_loop_triangles()
+    triangles = np.array([t.vertices[:] for t in cage.data.loop_triangles])
+    exact = [rest.copy() for _ in motions]
+    with Cage(rest_cage, triangles, tolerance=1e-6) as exact_cage:
+        for start in range(0, len(rest), 20_000):  # a chunk at a time: 642 cage vertices
+            rows = slice(start, start + 20_000)
+            coordinates = exact_cage.coordinates(rest[rows])
+            for moved, target in zip(motions, exact):
+                target[rows] += coordinates @ (moved - rest_cage)
+    diagonal = scenes.cage_size(rest_cage)
+    found = []
+    for moved, target in zip(motions, exact):
+        arrays.write_positions(cage.data, moved)
+        bpy.context.view_layer.update()
+        found.append(np.linalg.norm(arrays.evaluated_positions(mesh) - target, axis=1).max()
+                     / diagonal)
+    arrays.write_positions(cage.data, rest_cage)
+    return found
+
+
+def storage_figures(level, cage_kind, storage):
+    """Bind Suzanne with ``level`` subdivisions (None: the million-vertex sphere) in Make
+    Cage's 100-vertex cage (``cage_kind`` "make cage") or a 642-vertex icosphere
+    ("icosphere") with ``storage`` ('AUTO' or 'COMPACT:<slots>'); returns the row of the
+    storage table."""
+    scenes.reset_scene()
+    mesh = scenes.add_benchmark_mesh(level)
+    scenes.make_active(mesh)
+    if cage_kind == "make cage":
+        with session.quiet():
+            bpy.ops.object.gencoords_make_cage(target_vertices=100)
+        cage = mesh.gencoords.cage
+    else:
+        cage = scenes.add_icosphere_cage(4)
+    setting, _, slots = storage.partition(":")
+    if slots:
+        mesh.gencoords.compact_size = int(slots)
+    start = time.perf_counter()
+    info = bind(mesh, cage, storage=setting).info
+    seconds = time.perf_counter() - start
+    smooth, drag = deviations_in_blender(mesh, cage, info["deviation_drag_vertex"])
+    return {"mesh": len(mesh.data.vertices), "cage": f"{cage_kind}, {len(cage.data.vertices)}",
+            "setting": storage.lower(), "chose": f"{info['storage'].lower()} {info['slot_count']}",
+            "why": info.get("storage_choice", "-"), "bind": seconds,
+            "reported": (info["deviation_smooth"], info["deviation_drag"]),
+            "blender": (smooth, drag), "evaluation": evaluation_ms(mesh, cage),
+            "megabytes": info["nbytes"] / 2**20}
+
+
+def print_storage_table(million=False):
+    print("\nStorage: what Automatic chooses, and the deviation from exact mean value "
+          "coordinates (of the cage diagonal) for the standard smooth motion / the worst "
+          "dragged cage vertex (a tenth of the diagonal): as Bind reports it (measured on every "
+          "vertex, as stored) and as Blender deforms the mesh (read back after moving the cage)")
+    print("| mesh | cage | Storage | chose | panel says | bind | reported | in Blender "
+          "| evaluation | bind data |")
+    print("|---:|---|---|---|---|---:|---|---|---:|---:|")
+    rows = [(4, "make cage", "AUTO"), (4, "make cage", "COMPACT:36"), (4, "icosphere", "AUTO"),
+            (4, "icosphere", "COMPACT:36")]
+    for level, cage_kind, storage in rows + ([(None, "icosphere", "AUTO")] if million else []):
+        row = storage_figures(level, cage_kind, storage)
+        print(f"| {row['mesh']} | {row['cage']} | {row['setting']} | {row['chose']} | "
+              f"{row['why']} | {row['bind']:.1f} s | "
+              + " / ".join(f"{value:.1e}" for value in row["reported"]) + " | "
+              + " / ".join(f"{value:.1e}" for value in row["blender"])
+              + f" | {row['evaluation']:.1f} ms | {row['megabytes']:.0f} MB |", flush=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--million", action="store_true")
+    parser.add_argument("--storage-only", action="store_true")
     args = parser.parse_args()
     session.install_extension()
+    if args.storage_only:
+        print_storage_table(args.million)
+        return
     print(f"Blender {bpy.app.version_string}; ms per evaluation after a cage edit "
           f"(median of {REPEATS}), reading the positions included")
     print("\nStrength and Mask:")
@@ -119,6 +203,7 @@ def main():
         row = bake_deviation(subdivisions, influences)
         print(f"| {scenes.ICOSPHERE_VERTICES[subdivisions]} | "
               + " | ".join(f"{value:.1e}" for value in row) + " |", flush=True)
+    print_storage_table(args.million)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,8 @@ Metrics, measured the same way for every method:
   kept MB    resident memory after the bind minus before it: what the binding retains.
   .blend MB  size of an uncompressed .blend holding just that bound scene.
   deviation  compact storage: its own measured deviation from exact coordinates for the
-             standard smooth cage motion / one dragged cage vertex (of the cage diagonal).
+             standard smooth cage motion / the worst single dragged cage vertex (of the
+             cage diagonal; measured at Bind on every vertex, as stored).
   affine     max distance, relative to the cage's bounding-box diagonal, between the
              deformed mesh and the exact image of the rest mesh under an affine map
              applied to every cage vertex (exact coordinates reproduce it exactly).
@@ -138,8 +139,8 @@ def bind_mesh_deform(mesh, cage, precision):
 
 
 def bind_gencoords(mesh, cage, kind, storage):
-    """GenCoords bound with ``kind`` and ``storage`` ('EXACT', 'COMPACT' or 'COMPACT:<slots>');
-    returns the bind wall time."""
+    """GenCoords bound with ``kind`` and ``storage`` ('EXACT', 'COMPACT', 'COMPACT:<slots>'
+    or 'AUTO'); returns the bind wall time."""
     storage, _, slots = storage.partition(":")
     mesh.gencoords.cage = cage
     mesh.gencoords.kind = kind.upper()
@@ -298,7 +299,8 @@ def main():
                             "compact against Mesh Deform precision 5")
     parser.add_argument("--kinds", nargs="+", choices=scenes.KINDS, default=list(scenes.KINDS))
     parser.add_argument("--storages", nargs="+", default=["EXACT", "COMPACT"],
-                        help="EXACT, COMPACT (36 slots) or COMPACT:<slots>; --million "
+                        help="EXACT, COMPACT (36 slots), COMPACT:<slots> or AUTO (what "
+                             "Automatic chooses, measured at Bind); --million "
                              "default: COMPACT:12 COMPACT:24 COMPACT:36 (the trade-off)")
     parser.add_argument("--precisions", nargs="+", type=int, default=None,
                         help="Mesh Deform precisions on every scene (5 is the reference "
