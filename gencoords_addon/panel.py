@@ -39,10 +39,7 @@ def draw_settings(layout, obj, width=None):
         column.prop(settings, "gamma")
     column.prop(settings, "outside")
     column.prop(settings, "storage")
-    picked = binding(obj, settings.cage) if settings.cage is not None else None
-    resolved = settings.storage if settings.storage != 'AUTO' or picked is None \
-        else picked.info.get("storage")
-    if resolved != 'EXACT':  # Slots only matter to compact storage
+    if settings.storage == 'COMPACT':  # Automatic picks its own slots, by measuring
         column.prop(settings, "compact_size", text="Slots")
     column.prop(settings, "auto_rebind")
 

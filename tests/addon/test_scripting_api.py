@@ -33,7 +33,8 @@ def test_results_say_what_bind_chose_and_measured(pipeline):
     # Automatic chose exact for this small mesh; the setting 'AUTO' is never reported.
     assert (exact["kind"], exact["gamma"], exact["outside"]) == ('MEAN_VALUE', None, 'RAISE')
     assert (exact["storage"], exact["slot_count"]) == ('EXACT', 42)
-    assert exact["deviation_smooth"] == exact["deviation_drag"] == 0.0
+    # exact storage deviates by its float32 rounding alone
+    assert 0.0 <= exact["deviation_smooth"] < 1e-6 and 0.0 <= exact["deviation_drag"] < 1e-6
     assert (compact["kind"], compact["outside"]) == ('WACHSPRESS', 'PROJECT')
     assert (compact["storage"], compact["slot_count"]) == ('COMPACT', 12)
     # 12 of 42 slots cannot reproduce a dragged vertex: a real, reported deviation.
