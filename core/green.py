@@ -93,7 +93,15 @@ def green_chunk_size(cage):
     return max(1, _CHUNK_PAIRS // len(cage.topology.faces))
 
 
-def _edge_integrals(a, b, length):
+def _dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a, b):
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _edge_integrals(a, b, ra, rb, length):
     """``integral over the edge [a, b] of 1/|xi - x| ds`` for offsets a = v_a - x, b = v_b - x.
 
     ``log((R_a + R_b + L) / (R_a + R_b - L))``, with ``R_a + R_b - L`` computed without
@@ -103,21 +111,21 @@ def _edge_integrals(a, b, length):
 
     Parameters
     ----------
-    a, b : (m, k, 3) float
+    a, b : (3, m, k) float
+        Components first.
+    ra, rb : (m, k) float
+        Their norms.
     length : (m, 1) float
 
     Returns
     -------
     integrals : (m, k) float
     """
-    ra, rb = np.linalg.norm(a, axis=2), np.linalg.norm(b, axis=2)
-    dot = np.einsum("mkc,mkc->mk", a, b)
+    dot = _dot(a, b)
     product = ra * rb
-    beside = np.cross(a, b - a)
-    gap = np.where(dot < 0.0, np.einsum("mkc,mkc->mk", beside, beside) / np.maximum(product - dot, tolerances.TINY),
-                   product + dot)
-    total = ra + rb
-    shortfall = np.maximum(2.0 * gap / (total + length), tolerances.TINY)  # R_a + R_b - L
+    beside = _cross(a, b - a)
+    gap = np.where(dot < 0.0, _dot(beside, beside) / np.maximum(product - dot, tolerances.TINY), product + dot)
+    shortfall = np.maximum(2.0 * gap / (ra + rb + length), tolerances.TINY)  # R_a + R_b - L
     return np.log1p(2.0 * length / shortfall)
 
 
@@ -143,18 +151,19 @@ def _face_integrals(terms, corners, x):
     edge_integral : (3, m, k) float
         Integral of 1/|xi - x| along each edge.
     """
-    offsets = corners[:, :, None, :] - x[None, None, :, :]  # (m, 3, k, 3)
-    e0, e1, e2 = offsets[:, 0], offsets[:, 1], offsets[:, 2]
-    r0, r1, r2 = (np.linalg.norm(e, axis=2) for e in (e0, e1, e2))
-    dot = lambda u, v: np.einsum("mkc,mkc->mk", u, v)  # noqa: E731
+    # Components first: every product below runs on long contiguous (m, k) rows.
+    offsets = [corners[:, corner, :].T[:, :, None] - x.T[:, None, :] for corner in range(3)]  # 3 x (3, m, k)
+    norms = [np.sqrt(_dot(e, e)) for e in offsets]
+    e0, e1, e2 = offsets
+    r0, r1, r2 = norms
     # Van Oosterom and Strackee: tan(omega / 2) = det / denominator.
-    denominator = r0 * r1 * r2 + dot(e0, e1) * r2 + dot(e0, e2) * r1 + dot(e1, e2) * r0
-    solid_angle = 2.0 * np.arctan2(dot(e0, np.cross(e1, e2)), denominator)
-    height = np.einsum("mc,mkc->mk", terms.unit_normals, e0)
-    edge_distance = np.stack([np.einsum("mc,mkc->mk", terms.edge_normals[i], offsets[:, (i + 1) % 3])
+    denominator = r0 * r1 * r2 + _dot(e0, e1) * r2 + _dot(e0, e2) * r1 + _dot(e1, e2) * r0
+    solid_angle = 2.0 * np.arctan2(_dot(e0, _cross(e1, e2)), denominator)
+    height = _dot(terms.unit_normals.T[:, :, None], e0)
+    edge_distance = np.stack([_dot(terms.edge_normals[i].T[:, :, None], offsets[(i + 1) % 3]) for i in range(3)])
+    edge_integral = np.stack([_edge_integrals(offsets[(i + 1) % 3], offsets[(i + 2) % 3], norms[(i + 1) % 3],
+                                              norms[(i + 2) % 3], terms.edge_lengths[i][:, None])
                               for i in range(3)])
-    edge_integral = np.stack([_edge_integrals(offsets[:, (i + 1) % 3], offsets[:, (i + 2) % 3],
-                                              terms.edge_lengths[i][:, None]) for i in range(3)])
     return solid_angle, height, edge_distance, edge_integral
 
 
