@@ -182,28 +182,7 @@ def _combine(cage, terms, solid_angle, height, edge_distance, edge_integral):
     return phi.T, psi.T
 
 
-def _snap_to_boundary_faces(cage, terms, barycentric, absolute):
-    """Boundary points as vertex weights (rows of linear coordinates), with weights of
-    vertices closer than ``absolute`` to the point's edge or face dropped, so that a
-    point within the tolerance of an edge or vertex is on it: (b, n) float."""
-    faces = cage.topology.faces
-    weights = barycentric.copy()
-    on = weights > 0.0
-    # A face holding every vertex of the support (the nearest face of the projection).
-    holds = (on[:, faces].sum(axis=2) == on.sum(axis=1)[:, None])
-    face = np.argmax(holds, axis=1)
-    longest = terms.edge_lengths.max(axis=0)[face]  # bounds each vertex's distance to the rest
-    slot_weights = np.take_along_axis(weights, faces[face], axis=1)
-    # The largest weight stays (the point is at most a third of an edge from its vertex).
-    drop = (slot_weights * longest[:, None] <= absolute) & (slot_weights < slot_weights.max(axis=1, keepdims=True))
-    slot_weights[drop] = 0.0
-    slot_weights /= slot_weights.sum(axis=1, keepdims=True)
-    weights[...] = 0.0
-    np.put_along_axis(weights, faces[face], slot_weights, axis=1)
-    return weights
-
-
-def _boundary_limits(cage, terms, barycentric, absolute):
+def _boundary_limits(cage, terms, weights):
     """The interior limits of phi and psi at boundary points given by vertex weights.
 
     The single-layer psi is continuous across the surface: its formula at the point is
@@ -212,13 +191,22 @@ def _boundary_limits(cage, terms, barycentric, absolute):
     depend on the direction of approach, but the hat functions of the point's support
     agree on them, and the sum of every face's solid angle is 4 pi inside: those faces
     together contribute the hat values times ``4 pi - sum of the other faces' angles``.
+    A point within rounding of an edge but not on it needs no snapping: the neighbour
+    face's angle is then some angle, and its own face's share makes up the sum while
+    the hat functions of both agree there (continuous across the edge).
+
+    Parameters
+    ----------
+    weights : (b, n) float
+        The boundary points as vertex weights (linear coordinates in their face, edge
+        or vertex: :func:`core.boundary.locate`'s limits); the vertices with non-zero
+        weight are the support.
 
     Returns
     -------
     phi : (b, n) float
     psi : (b, m) float
     """
-    weights = _snap_to_boundary_faces(cage, terms, barycentric, absolute)
     x = weights @ cage.vertices
     faces = cage.topology.faces
     on = weights > 0.0
@@ -275,7 +263,7 @@ def green_rows(cage, terms, points, convex, absolute, outside, phi_out, psi_out)
         on = np.concatenate([on, np.flatnonzero(outside_rows)])
         limit = np.concatenate([limit, projected])
     if len(on):
-        phi[on], psi[on] = _boundary_limits(cage, terms, limit, absolute)
+        phi[on], psi[on] = _boundary_limits(cage, terms, limit)
     phi_out[...] = phi
     psi_out[...] = to_world(psi, cage.scale, 1, "psi")
     return where

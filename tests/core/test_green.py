@@ -171,7 +171,9 @@ def test_boundary_points_get_the_limit_from_inside(name):
     vertices, faces = CAGES[name]
     normals = unit_normals(vertices, faces)
     scale = size(vertices)
-    cases = ([0.2, 0.3, 0.5], [0.5, 0.5, 0.0], [0.0, 0.25, 0.75], [1.0, 0.0, 0.0])
+    # In the face, on an edge, at a vertex, and within the tolerance of an edge and a vertex.
+    cases = ([0.2, 0.3, 0.5], [0.5, 0.5, 0.0], [0.0, 0.25, 0.75], [1.0, 0.0, 0.0],
+             [0.5, 0.5 - 1e-12, 1e-12], [1.0 - 2e-12, 1e-12, 1e-12])
     for face in (0, len(faces) // 2, len(faces) - 1):
         on = np.array([np.array(b) @ vertices[faces[face]] for b in cases])
         # On the face, within the tolerance outside, and 1e-7 of the size inside.
