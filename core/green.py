@@ -65,6 +65,8 @@ class GreenTerms:
     hat_gradients : (3, m) float
         ``edge_lengths / (2 area)``: the hat function of vertex i is this times the
         distance to the opposite edge's line.
+    ridge_lengths : (r, 1) float
+        Length of each edge of ``cage.topology.ridges``.
     """
 
     unit_normals: np.ndarray
@@ -72,6 +74,7 @@ class GreenTerms:
     edge_normals: np.ndarray
     edge_cosines: np.ndarray
     hat_gradients: np.ndarray
+    ridge_lengths: np.ndarray
 
 
 def green_terms(cage):
@@ -85,7 +88,9 @@ def green_terms(cage):
     # Counter-clockwise seen from the outward normal: edge x normal points out of the triangle.
     edge_normals = np.cross(edges, unit_normals[None]) / lengths[..., None]
     cosines = np.einsum("imc,jmc->ijm", edge_normals, edge_normals)
-    return GreenTerms(unit_normals, lengths, edge_normals, cosines, lengths / doubled_area[None])
+    ends = cage.vertices[cage.topology.ridges]
+    ridge_lengths = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)[:, None]
+    return GreenTerms(unit_normals, lengths, edge_normals, cosines, lengths / doubled_area[None], ridge_lengths)
 
 
 def green_chunk_size(cage):
@@ -129,14 +134,13 @@ def _edge_integrals(a, b, ra, rb, length):
     return np.log1p(2.0 * length / shortfall)
 
 
-def _face_integrals(terms, corners, x):
+def _face_integrals(cage, terms, x):
     """Per (face, point) pieces of the closed form.
 
     Parameters
     ----------
+    cage : core.construction.PreparedCage
     terms : GreenTerms
-    corners : (m, 3, 3) float
-        The faces' vertices, in the frame.
     x : (k, 3) float
         Points, in the frame.
 
@@ -151,19 +155,23 @@ def _face_integrals(terms, corners, x):
     edge_integral : (3, m, k) float
         Integral of 1/|xi - x| along each edge.
     """
-    # Components first: every product below runs on long contiguous (m, k) rows.
-    offsets = [corners[:, corner, :].T[:, :, None] - x.T[:, None, :] for corner in range(3)]  # 3 x (3, m, k)
-    norms = [np.sqrt(_dot(e, e)) for e in offsets]
+    # Components first: every product below runs on long contiguous (m, k) rows. Offsets
+    # and distances once per vertex, edge integrals once per edge (each serves two faces).
+    vertex_offsets = cage.vertices.T[:, :, None] - x.T[:, None, :]  # (3, n, k)
+    vertex_distances = np.sqrt(_dot(vertex_offsets, vertex_offsets))  # (n, k)
+    faces = cage.topology.faces
+    offsets = [vertex_offsets[:, faces[:, corner]] for corner in range(3)]  # 3 x (3, m, k)
     e0, e1, e2 = offsets
-    r0, r1, r2 = norms
+    r0, r1, r2 = (vertex_distances[faces[:, corner]] for corner in range(3))
     # Van Oosterom and Strackee: tan(omega / 2) = det / denominator.
     denominator = r0 * r1 * r2 + _dot(e0, e1) * r2 + _dot(e0, e2) * r1 + _dot(e1, e2) * r0
     solid_angle = 2.0 * np.arctan2(_dot(e0, _cross(e1, e2)), denominator)
     height = _dot(terms.unit_normals.T[:, :, None], e0)
     edge_distance = np.stack([_dot(terms.edge_normals[i].T[:, :, None], offsets[(i + 1) % 3]) for i in range(3)])
-    edge_integral = np.stack([_edge_integrals(offsets[(i + 1) % 3], offsets[(i + 2) % 3], norms[(i + 1) % 3],
-                                              norms[(i + 2) % 3], terms.edge_lengths[i][:, None])
-                              for i in range(3)])
+    ends = cage.topology.ridges
+    per_edge = _edge_integrals(vertex_offsets[:, ends[:, 0]], vertex_offsets[:, ends[:, 1]],
+                               vertex_distances[ends[:, 0]], vertex_distances[ends[:, 1]], terms.ridge_lengths)
+    edge_integral = per_edge[cage.topology.facet_ridges.T]  # (3, m, k): slot i's edge is opposite vertex i
     return solid_angle, height, edge_distance, edge_integral
 
 
@@ -211,7 +219,7 @@ def _boundary_limits(cage, terms, weights):
     faces = cage.topology.faces
     on = weights > 0.0
     touching = (on[:, faces].sum(axis=2) == on.sum(axis=1)[:, None]).T  # (m, b)
-    solid_angle, height, edge_distance, edge_integral = _face_integrals(terms, cage.facet_corners(), x)
+    solid_angle, height, edge_distance, edge_integral = _face_integrals(cage, terms, x)
     height = np.where(touching, 0.0, height)
     remaining = _FOUR_PI - np.where(touching, 0.0, solid_angle).sum(axis=0)
     share = remaining / touching.sum(axis=0)
@@ -255,7 +263,7 @@ def green_rows(cage, terms, points, convex, absolute, outside, phi_out, psi_out)
     phi = np.empty((len(points), len(cage.vertices)))
     psi = np.empty((len(points), len(cage.topology.faces)))
     if len(inside):
-        pieces = _face_integrals(terms, cage.facet_corners(), cage.local(points[inside]))
+        pieces = _face_integrals(cage, terms, cage.local(points[inside]))
         phi[inside], psi[inside] = _combine(cage, terms, *pieces)
     on = np.flatnonzero(where == BOUNDARY)
     if outside == "project" and outside_rows.any():
