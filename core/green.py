@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import tolerances
-from .boundary import BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances
+from .boundary import BOUNDARY, INSIDE, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances
 from .construction import facet_determinants, sum_rows
 from .errors import CageError, OutsideCageError
 from .inputs import _finite, checked, real_array
@@ -255,15 +255,30 @@ def green_rows(cage, terms, points, convex, absolute, outside, phi_out, psi_out)
         1 inside, 0 on the boundary, -1 outside.
     """
     distance = plane_distances(cage, facet_determinants(cage, points))
-    where, limit = locate(cage, points, distance, absolute, convex)
+    pieces = None
+    if convex:
+        where, limit = locate(cage, points, distance, absolute, convex)
+    else:
+        # The winding number is the faces' solid angles over 4 pi, which the formula
+        # needs anyway; only points within the tolerance of a face's plane go through
+        # the locator (its winding numbers and nearest faces).
+        pieces = _face_integrals(cage, terms, cage.local(points))
+        where = np.where(pieces[0].sum(axis=0) < 0.5 * _FOUR_PI, OUTSIDE, INSIDE).astype(np.int8)
+        near = (np.abs(distance) <= absolute).any(axis=1)
+        limit = np.zeros((0, len(cage.vertices)))
+        if near.any():
+            where[near], limit = locate(cage, points[near], distance[near], absolute, convex)
     outside_rows = where == OUTSIDE
     if outside == "raise" and outside_rows.any():
         return where
-    inside = np.flatnonzero(where == 1)
+    inside = np.flatnonzero(where == INSIDE)
     phi = np.empty((len(points), len(cage.vertices)))
     psi = np.empty((len(points), len(cage.topology.faces)))
     if len(inside):
-        pieces = _face_integrals(cage, terms, cage.local(points[inside]))
+        if pieces is None:
+            pieces = _face_integrals(cage, terms, cage.local(points[inside]))
+        else:
+            pieces = [piece[..., inside] for piece in pieces]
         phi[inside], psi[inside] = _combine(cage, terms, *pieces)
     on = np.flatnonzero(where == BOUNDARY)
     if outside == "project" and outside_rows.any():

@@ -218,11 +218,14 @@ def test_float32_output_and_chunks_give_the_same_rows():
     cage = validate_cage(vertices, faces, convex=False)
     terms = green_terms(cage)
     assert green_chunk_size(cage) < len(points)
-    out_phi, out_psi = np.empty_like(phi), np.empty_like(psi)
-    for rows in (slice(0, 77), slice(77, 200)):
-        where = green_rows(cage, terms, points[rows], True, 1e-9 * cage.size, "raise", out_phi[rows], out_psi[rows])
-        assert (where == core.INSIDE).all()
-    assert np.abs(out_phi - phi).max() < 1e-15 and np.abs(out_psi - psi).max() < 1e-15
+    # Both location paths (a convex cage's plane distances, others' winding numbers).
+    for convex in (True, False):
+        out_phi, out_psi = np.empty_like(phi), np.empty_like(psi)
+        for rows in (slice(0, 77), slice(77, 200)):
+            where = green_rows(cage, terms, points[rows], convex, 1e-9 * cage.size, "raise", out_phi[rows],
+                               out_psi[rows])
+            assert (where == core.INSIDE).all()
+        assert np.abs(out_phi - phi).max() < 1e-15 and np.abs(out_psi - psi).max() < 1e-15
 
 
 def test_green_keeps_triangle_angles_better_than_mean_value_under_a_stretch():
