@@ -65,8 +65,10 @@ class GreenTerms:
     hat_gradients : (3, m) float
         ``edge_lengths / (2 area)``: the hat function of vertex i is this times the
         distance to the opposite edge's line.
+    ridge_vectors : (3, r, 1) float
+        Each edge of ``cage.topology.ridges``, from its first vertex to its second.
     ridge_lengths : (r, 1) float
-        Length of each edge of ``cage.topology.ridges``.
+        Their lengths.
     """
 
     unit_normals: np.ndarray
@@ -74,6 +76,7 @@ class GreenTerms:
     edge_normals: np.ndarray
     edge_cosines: np.ndarray
     hat_gradients: np.ndarray
+    ridge_vectors: np.ndarray
     ridge_lengths: np.ndarray
 
 
@@ -89,8 +92,9 @@ def green_terms(cage):
     edge_normals = np.cross(edges, unit_normals[None]) / lengths[..., None]
     cosines = np.einsum("imc,jmc->ijm", edge_normals, edge_normals)
     ends = cage.vertices[cage.topology.ridges]
-    ridge_lengths = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)[:, None]
-    return GreenTerms(unit_normals, lengths, edge_normals, cosines, lengths / doubled_area[None], ridge_lengths)
+    ridge_vectors = ends[:, 1] - ends[:, 0]
+    return GreenTerms(unit_normals, lengths, edge_normals, cosines, lengths / doubled_area[None],
+                      ridge_vectors.T[:, :, None], np.linalg.norm(ridge_vectors, axis=1)[:, None])
 
 
 def green_chunk_size(cage):
@@ -106,7 +110,7 @@ def _cross(a, b):
     return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
-def _edge_integrals(a, b, ra, rb, length):
+def _edge_integrals(a, b, ra, rb, edge, length):
     """``integral over the edge [a, b] of 1/|xi - x| ds`` for offsets a = v_a - x, b = v_b - x.
 
     ``log((R_a + R_b + L) / (R_a + R_b - L))``, with ``R_a + R_b - L`` computed without
@@ -120,6 +124,8 @@ def _edge_integrals(a, b, ra, rb, length):
         Components first.
     ra, rb : (m, k) float
         Their norms.
+    edge : (3, m, 1) float
+        ``b - a`` (the edge vector: exact, no rounding of the offsets).
     length : (m, 1) float
 
     Returns
@@ -128,7 +134,7 @@ def _edge_integrals(a, b, ra, rb, length):
     """
     dot = _dot(a, b)
     product = ra * rb
-    beside = _cross(a, b - a)
+    beside = _cross(a, edge)
     gap = np.where(dot < 0.0, _dot(beside, beside) / np.maximum(product - dot, tolerances.TINY), product + dot)
     shortfall = np.maximum(2.0 * gap / (ra + rb + length), tolerances.TINY)  # R_a + R_b - L
     return np.log1p(2.0 * length / shortfall)
@@ -170,7 +176,8 @@ def _face_integrals(cage, terms, x):
     edge_distance = np.stack([_dot(terms.edge_normals[i].T[:, :, None], offsets[(i + 1) % 3]) for i in range(3)])
     ends = cage.topology.ridges
     per_edge = _edge_integrals(vertex_offsets[:, ends[:, 0]], vertex_offsets[:, ends[:, 1]],
-                               vertex_distances[ends[:, 0]], vertex_distances[ends[:, 1]], terms.ridge_lengths)
+                               vertex_distances[ends[:, 0]], vertex_distances[ends[:, 1]], terms.ridge_vectors,
+                               terms.ridge_lengths)
     edge_integral = per_edge[cage.topology.facet_ridges.T]  # (3, m, k): slot i's edge is opposite vertex i
     return solid_angle, height, edge_distance, edge_integral
 
@@ -181,9 +188,11 @@ def _combine(cage, terms, solid_angle, height, edge_distance, edge_integral):
     4 pi psi_j = sum_e d_e I_e - h omega;
     4 pi phi (slot i of face j) = (L_i / 2A) (d_i omega + h sum_e (m_i . m_e) I_e).
     """
-    psi = (np.einsum("emk,emk->mk", edge_distance, edge_integral) - height * solid_angle) / _FOUR_PI
-    along = np.einsum("iem,emk->imk", terms.edge_cosines, edge_integral)
-    slot_values = terms.hat_gradients[..., None] * (edge_distance * solid_angle[None] + height[None] * along)
+    psi = (_dot(edge_distance, edge_integral) - height * solid_angle) / _FOUR_PI
+    cosines = terms.edge_cosines[..., None]  # (3, 3, m, 1)
+    slot_values = np.stack([terms.hat_gradients[i][:, None] * (
+        edge_distance[i] * solid_angle + height * (cosines[i, 0] * edge_integral[0] + cosines[i, 1] * edge_integral[1]
+                                                   + cosines[i, 2] * edge_integral[2])) for i in range(3)])
     faces = len(terms.unit_normals)
     rows = np.concatenate([slot_values.reshape(3 * faces, -1), np.zeros((1, slot_values.shape[2]))])
     phi = sum_rows(rows, cage.topology.vertex_slots) / _FOUR_PI  # (n, k)
