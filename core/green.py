@@ -351,11 +351,9 @@ def green_coordinates(points, vertices, faces, outside="raise", tolerance=DEFAUL
     psi = np.empty((count, len(cage.topology.faces)), dtype=dtype)
     locations = np.empty(count, dtype=np.int8)
     chunk = green_chunk_size(cage)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for start in range(0, count, chunk):
-            rows = slice(start, min(start + chunk, count))
-            locations[rows] = green_rows(cage, terms, points[rows], convex, absolute, outside,
-                                         phi[rows], psi[rows])
+    for start in range(0, count, chunk):
+        rows = slice(start, min(start + chunk, count))
+        locations[rows] = green_rows(cage, terms, points[rows], convex, absolute, outside, phi[rows], psi[rows])
     if outside == "raise" and (locations == OUTSIDE).any():
         raise GreenOutsideError(np.flatnonzero(locations == OUTSIDE), count)
     return phi, psi
