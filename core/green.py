@@ -120,17 +120,17 @@ def _edge_integrals(a, b, ra, rb, edge, length):
 
     Parameters
     ----------
-    a, b : (3, m, k) float
-        Components first.
-    ra, rb : (m, k) float
+    a, b : (3, r, k) float
+        Offsets of the r edges' ends, components first.
+    ra, rb : (r, k) float
         Their norms.
-    edge : (3, m, 1) float
-        ``b - a`` (the edge vector: exact, no rounding of the offsets).
-    length : (m, 1) float
+    edge : (3, r, 1) float
+        ``b - a``, the edge vector (from the vertices: no rounding of the offsets in it).
+    length : (r, 1) float
 
     Returns
     -------
-    integrals : (m, k) float
+    integrals : (r, k) float
     """
     dot = _dot(a, b)
     product = ra * rb
