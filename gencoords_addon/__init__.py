@@ -24,6 +24,11 @@ Operators, acting on the active mesh object (all undoable):
                                            attribute "GenCoords Field" (FLOAT_COLOR, POINT)
     bpy.ops.object.gencoords_clear_field() remove that attribute
 
+Preferences (Edit > Preferences > Add-ons > GenCoords): Worker Processes, 'AUTO'
+(default), 'BLENDER' (1: compute in Blender's own process) or 'FIXED' (``worker_count``);
+where worker processes fail, Bind and Make Cage compute in Blender instead and report
+it as a warning.
+
 Failures are reported as errors and change nothing; in background scripts ``bpy.ops``
 then raises RuntimeError with the message. The deformation is Blender's own evaluation
 of the modifier: no handler runs at playback or render, and a file opened without the
@@ -34,9 +39,10 @@ status lines; ``gencoords_addon.binding.binding(obj)`` the binding and its figur
 import bpy
 
 from . import handlers, operators, panel
+from .preferences import GenCoordsPreferences
 from .properties import GenCoordsSettings
 
-CLASSES = (GenCoordsSettings, *operators.CLASSES, *panel.CLASSES)
+CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *panel.CLASSES)
 
 
 def register():

@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import core
 from ..core import compact
-from . import compat, deformer, mesh_io, messages
+from . import compat, deformer, mesh_io, messages, preferences
 from .properties import KIND_ITEMS, core_name, enum_label
 
 # Blender stores positions as float32: a flat cage face after Apply Rotation, or a mesh
@@ -37,9 +37,6 @@ EXACT_MAX_CAGE_VERTICES = 400
 # Coordinates computed per chunk of points: progress and cancel granularity, and the
 # bound on the dense float64 block a chunk makes (points x cage vertices).
 CHUNK_ENTRIES = 4_000_000  # per worker process
-# Worker processes for the core (None: the core's choice for the whole job, all cores
-# for a long Bind; 1: compute in Blender's own process).
-WORKERS = None
 DEVIATION_SAMPLES = 2000  # mesh vertices the compact form's deviation is measured on
 REPORT_SAMPLES = 1000  # points inside the cage core.coordinate_report examines at Bind
 
@@ -229,6 +226,10 @@ class BindJob:
         self.gamma = float(settings.gamma) if core.KIND_TABLE[core.KINDS.index(self.kind)].parameter else None
         self.outside = core_name(settings.outside)
         self.kind_label = enum_label(KIND_ITEMS, settings.kind)
+        # Worker processes (None: the core's choice for the whole job; 1: in Blender).
+        self.workers = preferences.worker_count(context)
+        # Set when the workers failed and Blender computed instead: what to tell the artist.
+        self.worker_failure = None
         depsgraph = context.evaluated_depsgraph_get()
         rest = mesh_io.read_positions(obj.data).astype(np.float64)
         undefined = np.flatnonzero(~np.isfinite(rest).all(axis=1))
@@ -299,21 +300,22 @@ class BindJob:
         samples, sample_slots = [], []
         smallest, negative, affine_error = np.inf, 0, 0.0
         # Workers are chosen once for the whole job; each call gives every one a chunk.
-        workers = cage.suggested_workers(count) if WORKERS is None else WORKERS
-        chunk = max(1, CHUNK_ENTRIES * workers // cage_count)
-        for start in range(0, count, chunk):
+        workers = cage.suggested_workers(count) if self.workers is None else self.workers
+        start = 0
+        while start < count:
+            chunk = max(1, CHUNK_ENTRIES * workers // cage_count)
             rows = slice(start, min(start + chunk, count))
             try:
-                coordinates = cage.coordinates(self.points[rows], kind=self.kind, outside=self.outside,
-                                               locations=locations[rows], workers=workers,
-                                               gamma=self.gamma)
+                coordinates, failure = preferences.in_workers_or_blender(
+                    lambda workers: cage.coordinates(self.points[rows], kind=self.kind, outside=self.outside,
+                                                     locations=locations[rows], workers=workers,
+                                                     gamma=self.gamma), workers)
             except core.OutsideCageError:
                 raise BindError(self._outside_message(cage)) from None
             except ValueError as error:  # every other core error is a ValueError
                 raise BindError(self._core_message(error)) from None
-            except core.WorkerError as error:
-                raise BindError(f"Bind's worker processes failed ({error}); try again, or bind "
-                                "with fewer vertices at a time") from None
+            if failure is not None:  # the rest of the job in Blender too
+                self.worker_failure, workers = failure, 1
             if not np.isfinite(coordinates).all():
                 raise BindError(f"Binding to '{self.cage.name}' gave undefined coordinates: "
                                 "check the cage for tiny or overlapping faces")
@@ -326,7 +328,8 @@ class BindJob:
             samples.append(coordinates[picked])
             sample_slots.append(slots[rows][picked])
             del coordinates  # with workers, shared memory: freed before the next chunk's
-            yield rows.stop / count
+            start = rows.stop
+            yield start / count
 
         deviation = {"deviation_smooth": 0.0, "deviation_drag": 0.0}
         if self.basis is not None:
