@@ -47,7 +47,7 @@ import numpy as np
 from .errors import WorkerError, WorkerWarning
 
 __all__ = ["available_cores", "python_executable", "interpreter_candidates", "dispatch_units",
-           "WorkerPool", "SharedArrays", "shared_layout", "sweep_stale_files", "computed_here_instead", "serve"]
+           "WorkerPool", "SharedArrays", "shared_layout", "shared_files", "sweep_stale_files", "computed_here_instead", "serve"]
 
 # A worker gets this many dispatch units at a time: one computing, one queued, so it
 # never waits on the parent.
@@ -274,19 +274,26 @@ def sweep_stale_files():
     file is tried, and the OS refuses those that a living process holds.
     """
     removed = []
-    for folder in (_RAM_FOLDER, tempfile.gettempdir()):
-        for path in glob.glob(os.path.join(glob.escape(folder), f"{_PREFIX}*{_SUFFIX}")):
-            owner = _owner(path)
-            if owner == os.getpid():
-                continue
-            if os.name != "nt" and (owner is None or _alive(owner)):
-                continue
-            try:
-                os.unlink(path)
-            except OSError:  # in use (Windows), or another sweep was first
-                continue
-            removed.append(path)
+    for path in shared_files():
+        owner = _owner(path)
+        if owner == os.getpid():
+            continue
+        if os.name != "nt" and (owner is None or _alive(owner)):
+            continue
+        try:
+            os.unlink(path)
+        except OSError:  # in use (Windows), or another sweep was first
+            continue
+        removed.append(path)
     return removed
+
+
+def shared_files(owner=None):
+    """The shared files in the folders they are made in, of every process or of the
+    process id ``owner``: list of str."""
+    pattern = f"{_PREFIX}*{_SUFFIX}" if owner is None else f"{_PREFIX}{int(owner)}-*{_SUFFIX}"
+    return [path for folder in (_RAM_FOLDER, tempfile.gettempdir())
+            for path in glob.glob(os.path.join(glob.escape(folder), pattern))]
 
 
 def _owner(path):
@@ -402,7 +409,8 @@ class WorkerPool:
         if process.poll() is not None:
             self._stderr_readers[index].join(timeout=1.0)  # its last words
         said = "".join(list(self._stderr[index])).strip()
-        return WorkerError(f"worker process {process.pid} ended unexpectedly (exit status {status})"
+        return WorkerError(f"worker process {process.pid} ended unexpectedly (exit status {status}; "
+                           "try again, or pass workers=1 to compute in this process)"
                            + (f", saying:\n{said}" if said else ""))
 
     def _send(self, index, message):

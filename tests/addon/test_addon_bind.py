@@ -1,7 +1,5 @@
 """Binding and the native deformer, driven through the operators as a script would."""
 
-import os
-
 import bpy
 import numpy as np
 import pytest

@@ -3,9 +3,7 @@ and workers that cannot start (Bind then computes in Blender and says so)."""
 
 import importlib.util
 import gc as garbage
-import glob
 import os
-import tempfile
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -114,12 +112,6 @@ def test_bind_in_worker_processes_stores_what_one_process_computes(gc, monkeypat
     assert len(worker_processes.started) == 2 and not worker_processes.live()
 
 
-def shared_files():
-    """This process's shared files, wherever they are."""
-    mine = f"gencoords-{os.getpid()}-*.shared"
-    return glob.glob(os.path.join("/dev/shm", mine)) + glob.glob(os.path.join(tempfile.gettempdir(), mine))
-
-
 @pytest.mark.parametrize("workers", [None, 2])
 def test_bind_under_windows_semantics_leaves_nothing_behind(gc, monkeypatch, tmp_path, workers_preference,
                                                             worker_processes, workers):
@@ -139,7 +131,7 @@ def test_bind_under_windows_semantics_leaves_nothing_behind(gc, monkeypatch, tmp
     assert len(worker_processes.started) == 2
     np.testing.assert_allclose(coordinates_of(gc, obj), alone, rtol=0, atol=1e-6)
     garbage.collect()
-    assert not shared_files()
+    assert not gc.core.parallel.shared_files(os.getpid())
 
 
 @pytest.mark.parametrize("workers", [None, 2])
@@ -167,7 +159,7 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
     assert "No module named 'numpy'" in said  # the cause, in the console
     assert said.count("No module named 'numpy'") == 1  # one try: the rest of the Bind in Blender
     assert "Bound 'Mesh'" in said and "1: Compute in Blender" in said
-    assert not shared_files()
+    assert not gc.core.parallel.shared_files(os.getpid())
 
 
 def test_make_cage_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, capfd, workers_preference):

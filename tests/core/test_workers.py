@@ -1,6 +1,5 @@
 """Worker processes: the same numbers as one process, and nothing left behind."""
 
-import glob
 import os
 import tempfile
 
@@ -15,8 +14,7 @@ from polytopes import icosphere, random_convex_polytope, random_interior_points
 
 def shared_files():
     """This process's shared files (other processes' runs may have theirs)."""
-    mine = f"gencoords-{os.getpid()}-*.shared"
-    return set(glob.glob(os.path.join("/dev/shm", mine)) + glob.glob(os.path.join(tempfile.gettempdir(), mine)))
+    return set(core.parallel.shared_files(os.getpid()))
 
 
 @pytest.fixture

@@ -2,7 +2,6 @@
 process and in every worker: ``simulated_os``), and workers that cannot start."""
 
 import gc
-import glob
 import os
 import subprocess
 import sys
@@ -21,9 +20,8 @@ from polytopes import random_convex_polytope, random_interior_points
 
 
 def shared_files():
-    """This process's shared files, wherever they are."""
-    mine = f"gencoords-{os.getpid()}-*.shared"
-    return set(glob.glob(os.path.join("/dev/shm", mine)) + glob.glob(os.path.join(tempfile.gettempdir(), mine)))
+    """This process's shared files (other processes' runs may have theirs)."""
+    return set(core.parallel.shared_files(os.getpid()))
 
 
 @pytest.fixture
@@ -51,6 +49,7 @@ def automatic_two(monkeypatch):
 def test_the_simulation_refuses_what_windows_refuses(monkeypatch, tmp_path):
     simulated_os.simulate(monkeypatch, "windows", tmp_path)
     assert not hasattr(os, "posix_fallocate") and not hasattr(os, "statvfs")
+    assert core.parallel.available_cores() == os.cpu_count()  # no sched_getaffinity
     shared = core.parallel.SharedArrays({"result": ((10, 4), np.float64)})
     assert shared.path.startswith(tempfile.gettempdir())  # no /dev/shm
     with pytest.raises(PermissionError):
