@@ -387,8 +387,10 @@ class WorkerPool:
                 self._send(index, ("cage", np.asarray(vertices, np.float64), np.asarray(faces, np.int64)))
             for _ in range(count):
                 self._receive()  # "ready": each started, imported numpy and prepared the cage
-        except (OSError, WorkerError) as error:  # could not start, or died at once
+        except BaseException as error:
             self.close()
+            if not isinstance(error, (OSError, WorkerError)):  # a cancel (KeyboardInterrupt)
+                raise
             raise WorkerError(f"worker processes could not start with {command[0]!r} (pass workers=1 "
                               f"to compute in this process): {error}") from error
         # Stop the workers whatever happens to the pool (garbage, interpreter exit).
