@@ -196,7 +196,7 @@ def test_stale_files_of_dead_processes_are_swept_when_workers_start(cage_and_poi
     try:
         stale = os.path.join(folder, f"gencoords-{ended.pid}-test.shared")
         kept = [os.path.join(folder, f"gencoords-{living.pid}-test.shared"),
-                os.path.join(folder, "gencoords-unknownowner.shared")]
+                os.path.join(folder, f"gencoords-noowner{os.getpid()}.shared")]  # an older name
         for path in [stale, *kept]:
             open(path, "wb").close()
         core.coordinates(points, vertices, faces, workers=2)
