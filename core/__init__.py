@@ -16,7 +16,7 @@ from .cage import Cage
 from .barycentric import (OUTSIDE_MODES, coordinates, needs_convex, point_locations, ridge_scalars,
                           ridge_scalars_from_surface, weights)
 from .deformation import coordinate_summary, deform, field_colors, field_range
-from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
+from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError, WorkerWarning
 from .completeness import floater_matrix, floater_scalars
 from .floater import floater_from_ridge_scalars, floater_weights, ridge_scalars_from_floater
 from .generating_surfaces import CONVEX_ONLY_KINDS, KIND_TABLE, KINDS
@@ -31,6 +31,6 @@ __all__ = [
     "floater_weights", "floater_matrix", "ridge_scalars_from_floater", "floater_from_ridge_scalars",
     "floater_scalars", "point_locations", "validate_cage", "needs_convex", "deform",
     "field_colors", "field_range", "coordinate_summary", "triangulate_quads", "orient_facets_outward",
-    "CageError", "OutsideCageError", "WorkerError", "AccuracyWarning", "KINDS", "KIND_TABLE",
+    "CageError", "OutsideCageError", "WorkerError", "WorkerWarning", "AccuracyWarning", "KINDS", "KIND_TABLE",
     "coordinate_report", "CoordinateReport", "CONVEX_ONLY_KINDS", "OUTSIDE_MODES", "DEFAULT_TOLERANCE", "INSIDE", "BOUNDARY", "OUTSIDE",
 ]

@@ -17,7 +17,8 @@ from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
 from .evaluation import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
 from .generating_surfaces import CONVEX_ONLY_KINDS, kind_parameter, named_ridge_scalars
 from .inputs import OUTSIDE_MODES, checked
-from .parallel import SharedArrays, WorkerPool, available_cores, dispatch_units, python_executable
+from .parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead, dispatch_units,
+                       python_executable)
 from .units import length_degree, to_world
 from .validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
 
@@ -59,7 +60,9 @@ class Cage:
     -----
     A cage that has computed with ``workers > 1`` keeps its worker processes for the
     next call; ``close()`` (or ``with core.Cage(...) as cage:``) stops them, as does
-    garbage collection and interpreter exit.
+    garbage collection and interpreter exit. Where automatic workers (``workers=None``)
+    cannot start or fail, the call is computed in this process with a
+    :class:`core.WorkerWarning`, and so are this cage's later automatic calls.
     """
 
     def __init__(self, vertices, faces, tolerance=DEFAULT_TOLERANCE):
@@ -71,6 +74,7 @@ class Cage:
         self._violation = convexity_violation(self._prepared, tolerance)
         self._terms = None
         self._pool = None
+        self._workers_failed = False  # automatic counts then stay in this process
 
     @property
     def dimension(self):
@@ -133,8 +137,10 @@ class Cage:
         workers : int or None
             Processes to compute in. ``1``: this process only. ``None``: as many as
             the cores this process may use, for calls long enough to repay starting
-            them (about half a second of work per worker), else this process. The
-            result is bitwise the same whatever the number.
+            them (about half a second of work per worker), else this process; where
+            they cannot start or fail, this process (a :class:`core.WorkerWarning`;
+            an explicit count raises :class:`core.WorkerError` instead). The result
+            is bitwise the same whatever the number.
 
         Returns
         -------
@@ -178,8 +184,11 @@ class Cage:
         count = self._worker_count(workers, len(points), len(self.faces) // 4 + 1)
         if count > 1:
             job = dict(chunk=chunk, absolute=absolute, convex=self.convex, outside="extrapolate")
-            self._run_in_workers(points, job, chunk, None, count, locations, None)
-            return locations
+            try:
+                self._run_in_workers(points, job, chunk, None, count, locations, None)
+                return locations
+            except WorkerError as error:
+                self._fall_back_or_raise(workers, error)
         for start in range(0, len(points), chunk):
             rows = slice(start, start + chunk)
             locations[rows] = locate_rows(self._prepared, points[rows], absolute, self.convex)
@@ -197,6 +206,8 @@ class Cage:
     def _worker_count(self, workers, count, pairs_per_point):
         if workers is not None:
             return workers
+        if self._workers_failed:
+            return 1
         if self._pool is not None and not self._pool.closed:
             return self._pool.size
         wanted = max(1, min(available_cores(), count * pairs_per_point // _PAIRS_PER_WORKER))
@@ -217,10 +228,15 @@ class Cage:
         chunk = chunk_size(cage)
         job = dict(kind=kind, gamma=gamma, outside=outside, normalise=normalise, convex=self.convex,
                    absolute=self.tolerance * cage.size, chunk=chunk)
-        workers = self._worker_count(workers, count, len(cage.topology.faces))
-        if workers > 1:
-            result, location = self._run_in_workers(points, job, chunk, progress, workers, None, dtype)
-        else:
+        chosen = self._worker_count(workers, count, len(cage.topology.faces))
+        in_workers = chosen > 1
+        if in_workers:
+            try:
+                result, location = self._run_in_workers(points, job, chunk, progress, chosen, None, dtype)
+            except WorkerError as error:
+                self._fall_back_or_raise(workers, error)
+                in_workers = False
+        if not in_workers:  # progress starts again from 0 after a fall-back
             result = np.empty((count, len(cage.vertices)), dtype=dtype)
             location = np.empty(count, dtype=np.int8)
             keep_freed_memory_for_reuse()
@@ -239,6 +255,15 @@ class Cage:
         if outside == "raise" and (location == OUTSIDE).any():
             raise OutsideCageError(np.flatnonzero(location == OUTSIDE), count)
         return result, location
+
+    def _fall_back_or_raise(self, workers, error):
+        """After a WorkerError: raise it for an explicit count; for an automatic one warn,
+        and compute this call and the later automatic ones in this process."""
+        if workers is not None:
+            raise error
+        self.close()
+        self._workers_failed = True
+        computed_here_instead(error)
 
     def _warn_if_flat_extrapolation(self, points, result, where):
         """AccuracyWarning when mean value extrapolation outside a near-flat cage lost accuracy.

@@ -5,7 +5,7 @@ attributes let a front end (the Blender add-on) phrase its own message or select
 offending elements.
 """
 
-__all__ = ["CageError", "OutsideCageError", "WorkerError", "AccuracyWarning"]
+__all__ = ["CageError", "OutsideCageError", "WorkerError", "AccuracyWarning", "WorkerWarning"]
 
 
 class CageError(ValueError):
@@ -62,7 +62,17 @@ class OutsideCageError(ValueError):
 
 
 class WorkerError(RuntimeError):
-    """A worker process could not start, failed or was killed (its message says which).
+    """A worker process could not start, failed or was killed (its message says which and
+    what to do). Raised only for an explicit ``workers=N``; with ``workers=None`` the call
+    is computed in the calling process instead, with a :class:`WorkerWarning`.
 
     The call that used it has stopped its other workers and removed its shared memory.
+    """
+
+
+class WorkerWarning(UserWarning):
+    """Worker processes could not start or failed, so the call was computed in the
+    calling process instead (the message says why). The result is the same; a
+    :class:`core.Cage` that warned computes its later automatic calls in-process too.
+    ``warnings.simplefilter("ignore", WorkerWarning)`` silences it.
     """

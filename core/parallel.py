@@ -8,32 +8,46 @@ needs bpy is never imported, and no ``multiprocessing`` start method re-runs the
 caller's script.
 
 Data crosses in shared memory, never pickled: a call's points, locations and result
-live in one memory-mapped file (in ``/dev/shm`` where there is one), mapped by the
-parent and by every worker; the file's name is removed as soon as the workers have
-mapped it, so nothing is left behind whatever happens next. Commands and replies are
-small pickles on the workers' stdin and stdout.
+live in one memory-mapped file (in ``/dev/shm`` where there is one, else the temporary
+folder), named ``gencoords-<parent pid>-<random>.shared``, mapped by the parent and by
+every worker. Nothing is left behind on any OS: where a mapped file can be removed
+(Linux, macOS) its name goes as soon as the workers have mapped it; where it cannot
+(Windows refuses while any process holds it open or mapped) the workers release it at
+the end of every call, and it goes once the parent's last view of it is gone. A file
+a crash left behind (its owner dead, or on Windows no longer in use) is swept when the
+next pool starts (:func:`sweep_stale_files`). Commands and replies are small pickles
+on the workers' stdin and stdout.
+
+Test seam: where the environment variable ``GENCOORDS_WORKER_PRELUDE`` names a Python
+file, every worker runs it before serving (the tests simulate Windows' and macOS'
+semantics in the workers with it); nothing else reads it.
 
 A worker keeps its prepared cage between calls (a :class:`core.Cage` owns its pool).
 It computes whole chunks of :func:`core.evaluation.chunk_size` points, the same chunks
 as one process, so the result is bitwise the same as ``workers=1``.
 """
 
+import collections
+import glob
+import math
 import mmap
 import os
 import pickle
 import queue
+import shutil
 import subprocess
 import sys
 import tempfile
 import threading
+import warnings
 import weakref
 
 import numpy as np
 
-from .errors import WorkerError
+from .errors import WorkerError, WorkerWarning
 
-__all__ = ["available_cores", "python_executable", "dispatch_units", "WorkerPool", "SharedArrays",
-           "serve"]
+__all__ = ["available_cores", "python_executable", "interpreter_candidates", "dispatch_units",
+           "WorkerPool", "SharedArrays", "shared_layout", "shared_files", "sweep_stale_files", "computed_here_instead", "serve"]
 
 # A worker gets this many dispatch units at a time: one computing, one queued, so it
 # never waits on the parent.
@@ -45,8 +59,19 @@ _UNITS_IN_FLIGHT = 2
 _UNITS_PER_WORKER = 8
 _UNIT_SHARE = 0.5
 _STOP_SECONDS = 5.0
-_BOOT = ("import sys; sys.path.insert(0, sys.argv[1]); "
+PRELUDE_VARIABLE = "GENCOORDS_WORKER_PRELUDE"
+_BOOT = ("import sys, os; sys.path.insert(0, sys.argv[1]); "
+         f"prelude = os.environ.get({PRELUDE_VARIABLE!r}); "
+         "prelude and __import__('runpy').run_path(prelude); "
          "import importlib; importlib.import_module(sys.argv[2] + '.parallel').serve()")
+_PREFIX = "gencoords-"
+_SUFFIX = ".shared"
+_RAM_FOLDER = "/dev/shm"
+# No console window per worker on Windows (Blender has none to share when started
+# from its icon); 0 elsewhere.
+_CREATION_FLAGS = getattr(subprocess, "CREATE_NO_WINDOW", 0)
+_STDERR_KEPT = 40  # lines of a worker's stderr quoted when it dies
+_ZEROS = 1 << 22  # bytes written at a time where space is reserved by writing zeros
 # BLAS threads in every worker would oversubscribe the cores the workers already use.
 _SINGLE_THREADED = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS",
                                            "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")}
@@ -65,19 +90,32 @@ def python_executable():
 
     ``sys.executable``, which Blender (2.91 and later) sets to the Python it bundles;
     where it is missing or is not a Python (some embedding programs leave it unset or
-    point it at themselves), the interpreter under ``sys.prefix``.
+    point it at themselves), the first of :func:`interpreter_candidates` that exists.
     """
     name = os.path.basename(sys.executable or "").lower()
     if name.startswith("python"):
         return sys.executable
-    version = f"{sys.version_info.major}.{sys.version_info.minor}"
-    for candidate in (os.path.join(sys.prefix, "bin", f"python{version}"),
-                      os.path.join(sys.prefix, "bin", "python3"), os.path.join(sys.prefix, "python.exe"),
-                      os.path.join(sys.prefix, "bin", "python.exe")):
+    for candidate in interpreter_candidates(sys.prefix, sys.version_info, os.name == "nt"):
         if os.path.isfile(candidate):
             return candidate
     raise WorkerError(f"no Python interpreter found to start worker processes (sys.executable is "
-                      f"{sys.executable!r}); pass workers=1")
+                      f"{sys.executable!r}, none under {sys.prefix!r}); pass workers=1 to compute "
+                      "in this process")
+
+
+def interpreter_candidates(prefix, version, windows):
+    """Where a Python installation rooted at ``sys.prefix`` keeps its interpreter, most
+    specific first: list of str.
+
+    Blender's bundled Python (``<version>/python/bin/python3.11`` on Linux and macOS,
+    ``<version>\\python\\bin\\python.exe`` on Windows), a venv (``bin/python3``;
+    ``Scripts\\python.exe`` on Windows) and a plain installation (``bin/python3``;
+    ``python.exe`` at the top on Windows).
+    """
+    if windows:
+        return [os.path.join(prefix, folder, "python.exe") for folder in ("bin", "Scripts", "")]
+    names = (f"python{version[0]}.{version[1]}", f"python{version[0]}", "python")
+    return [os.path.join(prefix, "bin", name) for name in names]
 
 
 def dispatch_units(count, chunk, workers):
@@ -116,64 +154,108 @@ class SharedArrays:
         Views of the mapping; they keep it alive after this object is gone.
     layout : dict of name -> (offset, shape, dtype string)
         What a worker needs to map the same arrays (:func:`attach`).
+    path : str
+        The file, ``gencoords-<this process's id>-<random>.shared``.
     reserved_by_writers : tuple of str
         Arrays whose memory the writers reserve, row by row, before writing them
         (:func:`reserve_rows`); they come last in ``specs``. Empty where the file is not
-        in /dev/shm (then it is reserved whole, here).
+        in /dev/shm or the OS has no ``posix_fallocate`` (then it is reserved whole, here).
+
+    Raises
+    ------
+    WorkerError
+        No room for the file (its message says how much is needed where).
     """
 
     def __init__(self, specs, reserved_by_writers=()):
-        self.layout, offset = {}, 0
-        for name, (shape, dtype) in specs.items():
-            dtype = np.dtype(dtype)
-            self.layout[name] = (offset, tuple(shape), dtype.str)
-            offset += -(-int(np.prod(shape)) * dtype.itemsize // 64) * 64  # cache-line aligned
-        size = max(offset, 1)
+        self.layout, size = shared_layout(specs)
+        self.path = self._mapping = self._removal = None
         # RAM (/dev/shm) where it has room, else the temporary folder (page cache). Space
         # is reserved before anything is written: a full tmpfs (containers give it 64 MB)
-        # would otherwise kill the writers with SIGBUS halfway through. Reserving zeroes
-        # the memory (45 ms for a 205 MB result, with the workers waiting): in /dev/shm
-        # the writers reserve their own rows as they go (:func:`reserve_rows`).
-        folders = ("/dev/shm", None) if os.access("/dev/shm", os.W_OK) else (None,)
-        can_reserve = hasattr(os, "posix_fallocate")
+        # or disk would otherwise kill the writers with SIGBUS halfway through. Reserving
+        # zeroes the memory (45 ms for a 205 MB result, with the workers waiting): in
+        # /dev/shm the writers reserve their own rows as they go (:func:`reserve_rows`).
+        folders = (_RAM_FOLDER, tempfile.gettempdir()) if os.access(_RAM_FOLDER, os.W_OK) \
+            else (tempfile.gettempdir(),)
         for folder in folders:
-            descriptor, self.path = tempfile.mkstemp(prefix="gencoords-", suffix=".shared", dir=folder)
+            in_ram = folder == _RAM_FOLDER
+            deferred = tuple(reserved_by_writers) if in_ram and hasattr(os, "posix_fallocate") else ()
+            upfront = min((self.layout[name][0] for name in deferred), default=size)
             try:
-                if folder is not None and _free_bytes(folder) < size:
-                    raise OSError(f"{folder} has less than {size / 2**20:.0f} MB free")
-                deferred = tuple(reserved_by_writers) if folder is not None and can_reserve else ()
-                upfront = min((self.layout[name][0] for name in deferred), default=size)
-                os.ftruncate(descriptor, size)
-                if can_reserve and upfront:
-                    os.posix_fallocate(descriptor, 0, upfront)
-                self._mapping = mmap.mmap(descriptor, size)
+                free = _free_bytes(folder)
+                if free < size:
+                    raise OSError(f"{free / 2**20:.0f} MB free")
+                self._mapping, self.path = _mapped_file(folder, size, upfront)
                 self.reserved_by_writers = deferred
                 break
             except OSError as error:
-                self.remove()
-                if folder is None:
-                    raise WorkerError(f"no room for {size / 2**20:.0f} MB of shared results "
-                                      f"({error}); pass workers=1") from error
-            except BaseException:
-                self.remove()
-                raise
-            finally:
-                os.close(descriptor)
+                if not in_ram:
+                    raise WorkerError(f"no room for {size / 2**20:.0f} MB of shared results in "
+                                      f"{folder} ({error}): free some disk space, or pass workers=1 "
+                                      "to compute in this process") from error
         self.arrays = _views(self._mapping, self.layout)
 
     def remove(self):
-        """Remove the file's name (mappings stay valid until unmapped)."""
+        """Remove the file's name: now where the OS allows it (a mapped file's name can go
+        on Linux and macOS; the mappings stay valid), else (Windows, while any process
+        holds it open or mapped) once this process's last view of it is gone."""
         try:
             os.unlink(self.path)
         except FileNotFoundError:
             pass
-        except PermissionError:  # Windows cannot remove a mapped file: once unmapped
-            weakref.finalize(self._mapping, _remove_quietly, self.path)
+        except PermissionError:
+            if self._removal is None:
+                # Runs after the mapping is unmapped (mmap clears weak references last).
+                self._removal = weakref.finalize(self._mapping, _remove_quietly, self.path)
+
+
+def shared_layout(specs):
+    """Where :class:`SharedArrays` puts ``specs`` (dict of name -> (shape, dtype)):
+    (layout as its attribute, file size in bytes)."""
+    layout, offset = {}, 0
+    for name, (shape, dtype) in specs.items():
+        dtype = np.dtype(dtype)
+        # Python ints: numpy 1.x on Windows multiplies in 32 bits (np.prod, np.int32 shapes).
+        shape = tuple(int(length) for length in shape)
+        layout[name] = (offset, shape, dtype.str)
+        offset += -(-math.prod(shape) * dtype.itemsize // 64) * 64  # cache-line aligned
+    return layout, max(offset, 1)
+
+
+def _mapped_file(folder, size, upfront):
+    """A new shared file of ``size`` bytes in ``folder``, its first ``upfront`` bytes
+    reserved, mapped: (mmap, path). Nothing is left behind on a failure."""
+    descriptor, path = tempfile.mkstemp(prefix=f"{_PREFIX}{os.getpid()}-", suffix=_SUFFIX, dir=folder)
+    try:
+        os.ftruncate(descriptor, size)
+        _reserve(descriptor, 0, upfront)
+        mapping = mmap.mmap(descriptor, size)
+    except BaseException:
+        os.close(descriptor)  # first: Windows refuses to remove an open file
+        _remove_quietly(path)
+        raise
+    os.close(descriptor)  # the mapping keeps the file
+    return mapping, path
+
+
+def _reserve(descriptor, offset, length):
+    """Allocate ``length`` bytes of the file from ``offset``, so that writing them through
+    a mapping cannot fail (SIGBUS) for want of space; OSError where there is no room."""
+    if length <= 0:
+        return
+    if hasattr(os, "posix_fallocate"):  # Linux
+        os.posix_fallocate(descriptor, offset, length)
+    elif os.name != "nt":  # macOS: ftruncate made a sparse file; zeros written are allocated
+        zeros = memoryview(bytes(min(_ZEROS, length)))
+        os.lseek(descriptor, offset, os.SEEK_SET)
+        end = offset + length
+        while offset < end:
+            offset += os.write(descriptor, zeros[:end - offset])
+    # Windows: ftruncate (SetEndOfFile) allocated the clusters, or failed for want of them.
 
 
 def _free_bytes(folder):
-    status = os.statvfs(folder)
-    return status.f_bavail * status.f_frsize
+    return shutil.disk_usage(folder).free
 
 
 def _remove_quietly(path):
@@ -183,8 +265,55 @@ def _remove_quietly(path):
         pass
 
 
+def sweep_stale_files():
+    """Remove the shared files of processes that ended without removing them (a crash,
+    a kill, Windows at exit): list of the paths removed.
+
+    A file's owner is the process id in its name. Linux and macOS: its files go once
+    that process is gone. Windows (where asking a process id could signal it): every
+    file is tried, and the OS refuses those that a living process holds.
+    """
+    removed = []
+    for path in shared_files():
+        owner = _owner(path)
+        if owner == os.getpid():
+            continue
+        if os.name != "nt" and (owner is None or _alive(owner)):
+            continue
+        try:
+            os.unlink(path)
+        except OSError:  # in use (Windows), or another sweep was first
+            continue
+        removed.append(path)
+    return removed
+
+
+def shared_files(owner=None):
+    """The shared files in the folders they are made in, of every process or of the
+    process id ``owner``: list of str."""
+    pattern = f"{_PREFIX}*{_SUFFIX}" if owner is None else f"{_PREFIX}{int(owner)}-*{_SUFFIX}"
+    return [path for folder in (_RAM_FOLDER, tempfile.gettempdir())
+            for path in glob.glob(os.path.join(glob.escape(folder), pattern))]
+
+
+def _owner(path):
+    """The process id in a shared file's name, or None (a name without one)."""
+    field = os.path.basename(path)[len(_PREFIX):].split("-", 1)[0]
+    return int(field) if field.isdigit() else None
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)  # POSIX: no signal, only the check
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process
+        return True
+    return True
+
+
 def _views(mapping, layout):
-    return {name: np.frombuffer(mapping, dtype=np.dtype(dtype), count=int(np.prod(shape)),
+    return {name: np.frombuffer(mapping, dtype=np.dtype(dtype), count=math.prod(shape),
                                 offset=offset).reshape(shape)
             for name, (offset, shape, dtype) in layout.items()}
 
@@ -192,7 +321,7 @@ def _views(mapping, layout):
 def attach(path, layout):
     """A worker's views of a parent's :class:`SharedArrays`: (dict of name -> ndarray,
     an open file descriptor for :func:`reserve_rows`, closed by the caller)."""
-    descriptor = os.open(path, os.O_RDWR)
+    descriptor = os.open(path, os.O_RDWR | getattr(os, "O_BINARY", 0))
     try:
         return _views(mmap.mmap(descriptor, 0), layout), descriptor
     except BaseException:
@@ -205,13 +334,20 @@ def reserve_rows(descriptor, layout, names, start, stop):
     /dev/shm then raises WorkerError here instead of killing the writer with SIGBUS."""
     for name in names:
         offset, shape, dtype = layout[name]
-        row_bytes = int(np.prod(shape[1:])) * np.dtype(dtype).itemsize
+        row_bytes = math.prod(shape[1:]) * np.dtype(dtype).itemsize
         if stop > start and row_bytes:
             try:
-                os.posix_fallocate(descriptor, offset + start * row_bytes, (stop - start) * row_bytes)
+                _reserve(descriptor, offset + start * row_bytes, (stop - start) * row_bytes)
             except OSError as error:
                 raise WorkerError(f"could not reserve shared memory for the result ({error}); "
                                   "/dev/shm may be full: free some of it, or pass workers=1") from error
+
+
+def computed_here_instead(error):
+    """Warn (:class:`WorkerWarning`) that worker processes failed with ``error`` and the
+    call is computed in this process instead."""
+    warnings.warn(f"worker processes failed, computing in this process instead: {error}",
+                  WorkerWarning, stacklevel=3)
 
 
 class WorkerPool:
@@ -227,25 +363,36 @@ class WorkerPool:
     """
 
     def __init__(self, vertices, faces, count):
+        sweep_stale_files()
         package_folder = os.path.dirname(os.path.abspath(__file__))
         command = [python_executable(), "-c", _BOOT, os.path.dirname(package_folder),
                    os.path.basename(package_folder)]
         environment = dict(os.environ, **_SINGLE_THREADED)
         self._replies = queue.Queue()
-        self._processes = []
+        self._processes, self._stderr, self._stderr_readers = [], [], []
         self._closed = False
         try:
             for index in range(count):
+                # stderr is kept to quote when a worker dies, not printed in the artist's console.
                 process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                           env=environment)
+                                           stderr=subprocess.PIPE, env=environment,
+                                           creationflags=_CREATION_FLAGS)
                 self._processes.append(process)
-                threading.Thread(target=_read_replies, args=(index, process.stdout, self._replies),
-                                 daemon=True).start()
+                self._stderr.append(collections.deque(maxlen=_STDERR_KEPT))
+                for target, args in ((_read_replies, (index, process.stdout, self._replies)),
+                                     (_read_lines, (process.stderr, self._stderr[index]))):
+                    thread = threading.Thread(target=target, args=args, daemon=True)
+                    thread.start()
+                self._stderr_readers.append(thread)
                 self._send(index, ("cage", np.asarray(vertices, np.float64), np.asarray(faces, np.int64)))
-        except (OSError, WorkerError) as error:  # could not start, or died at once
+            for _ in range(count):
+                self._receive()  # "ready": each started, imported numpy and prepared the cage
+        except BaseException as error:
             self.close()
-            raise WorkerError(f"could not start worker processes with {command[0]!r}: {error}; "
-                              "pass workers=1 to compute in this process") from error
+            if not isinstance(error, (OSError, WorkerError)):  # a cancel (KeyboardInterrupt)
+                raise
+            raise WorkerError(f"worker processes could not start with {command[0]!r} (pass workers=1 "
+                              f"to compute in this process): {error}") from error
         # Stop the workers whatever happens to the pool (garbage, interpreter exit).
         self._finalizer = weakref.finalize(self, _stop_processes, list(self._processes))
 
@@ -258,6 +405,16 @@ class WorkerPool:
         """Whether the workers are stopped (after close(), a failure or a cancel): bool."""
         return self._closed
 
+    def _ended(self, index, status):
+        """The WorkerError for worker ``index`` gone with exit ``status``, quoting its stderr."""
+        process = self._processes[index]
+        if process.poll() is not None:
+            self._stderr_readers[index].join(timeout=1.0)  # its last words
+        said = "".join(list(self._stderr[index])).strip()
+        return WorkerError(f"worker process {process.pid} ended unexpectedly (exit status {status}; "
+                           "try again, or pass workers=1 to compute in this process)"
+                           + (f", saying:\n{said}" if said else ""))
+
     def _send(self, index, message):
         process = self._processes[index]
         try:
@@ -268,8 +425,7 @@ class WorkerPool:
                 status = process.wait(timeout=_STOP_SECONDS)
             except subprocess.TimeoutExpired:
                 status = "unknown"
-            raise WorkerError(f"worker process {process.pid} ended unexpectedly (exit status "
-                              f"{status})") from error
+            raise self._ended(index, status) from error
 
     def _receive(self):
         """The next reply; raises WorkerError for a failed or vanished worker."""
@@ -279,15 +435,12 @@ class WorkerPool:
             except queue.Empty:
                 for index, process in enumerate(self._processes):
                     if process.poll() is not None:
-                        raise WorkerError(f"worker process {process.pid} ended unexpectedly "
-                                          f"(exit status {process.returncode})")
+                        raise self._ended(index, process.returncode)
                 continue
             if reply[0] == "error":
                 raise WorkerError(f"worker process {self._processes[index].pid} failed:\n{reply[1]}")
             if reply[0] == "closed":
-                status = self._processes[index].wait()
-                raise WorkerError(f"worker process {self._processes[index].pid} ended unexpectedly "
-                                  f"(exit status {status})")
+                raise self._ended(index, self._processes[index].wait())
             return index, reply
 
     def run(self, shared, job, units, progress=None, stop_early=None):
@@ -316,7 +469,7 @@ class WorkerPool:
                 self._send(index, ("map", shared.path, shared.layout, shared.reserved_by_writers, job))
             for _ in range(self.size):
                 self._receive()  # "mapped"
-            shared.remove()
+            shared.remove()  # Linux, macOS: gone now, whatever happens next
             pending = list(reversed(units))
             busy = [0] * self.size
             locate_only = False
@@ -338,10 +491,23 @@ class WorkerPool:
                 if progress is not None:
                     progress(done)
         except BaseException:
-            self.close()
+            self.close()  # stopped workers hold nothing
             raise
         finally:
+            if not self._closed:
+                self._release()
             shared.remove()
+
+    def _release(self):
+        """Have the workers unmap the call's shared file (Windows removes it only once no
+        process holds it); a worker failing to closes the pool (a dead one holds nothing)."""
+        try:
+            for index in range(self.size):
+                self._send(index, ("release",))
+            for _ in range(self.size):
+                self._receive()  # "released"
+        except WorkerError:
+            self.close()
 
     def close(self):
         """Stop the workers (idempotent)."""
@@ -365,8 +531,17 @@ def _stop_processes(processes):
         except subprocess.TimeoutExpired:  # busy with a unit nobody wants any more
             process.kill()
             process.wait()
-        if process.stdout is not None:
-            process.stdout.close()
+        for pipe in (process.stdout, process.stderr):
+            if pipe is not None:
+                pipe.close()
+
+
+def _read_lines(pipe, lines):
+    try:
+        for line in pipe:
+            lines.append(line.decode(errors="replace"))
+    except (OSError, ValueError):
+        pass
 
 
 def _read_replies(index, pipe, replies):
@@ -402,6 +577,7 @@ def serve():
             if command[0] == "cage":
                 cage = prepare_cage(command[1], command[2])
                 terms = evaluation_terms(cage)
+                reply("ready")
             elif command[0] == "map":
                 if descriptor is not None:
                     os.close(descriptor)
@@ -409,6 +585,11 @@ def serve():
                 path, layout, reserved, job = command[1:]
                 arrays, descriptor = attach(path, layout)
                 reply("mapped")
+            elif command[0] == "release":  # the parent removes the file after this
+                if descriptor is not None:
+                    os.close(descriptor)
+                arrays = descriptor = None  # the last views: unmapped
+                reply("released")
             elif command[0] == "rows":
                 start, stop, locate_only = command[1:]
                 reserve_rows(descriptor, layout, reserved, start, stop)

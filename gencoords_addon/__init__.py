@@ -28,6 +28,11 @@ Operators, acting on the active mesh object (all undoable):
                                            cage vertex) and vertex groups, keyframed over
                                            the scene's frame range (also Object > Animation)
 
+Preferences (Edit > Preferences > Add-ons > GenCoords): Worker Processes, 'AUTO'
+(default), 'BLENDER' (1: compute in Blender's own process) or 'FIXED' (``worker_count``);
+where worker processes fail, Bind and Make Cage compute in Blender instead and report
+it as a warning.
+
 Failures are reported as errors and change nothing; in background scripts ``bpy.ops``
 then raises RuntimeError with the message. The deformation is Blender's own evaluation
 of the modifier: no handler runs at playback or render, and a file opened without the
@@ -41,9 +46,10 @@ import bpy
 
 from . import handlers, operators, panel
 from .api import BindingResult, binding_result, binding_results  # noqa: F401 (public)
+from .preferences import GenCoordsPreferences
 from .properties import GenCoordsSettings
 
-CLASSES = (GenCoordsSettings, *operators.CLASSES, *panel.CLASSES)
+CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *panel.CLASSES)
 
 
 def register():

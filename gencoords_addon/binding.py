@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import core
 from ..core import compact
-from . import compat, deformer, mesh_io, messages
+from . import compat, deformer, mesh_io, messages, preferences
 from .properties import KIND_ITEMS, core_name, enum_label
 
 # Blender stores positions as float32: a flat cage face after Apply Rotation, or a mesh
@@ -50,9 +50,6 @@ AUTO_EXACT_MAX_BYTES = 2**31
 # Coordinates computed per chunk of points: progress and cancel granularity, and the
 # bound on the dense float64 block a chunk makes (points x cage vertices).
 CHUNK_ENTRIES = 4_000_000  # per worker process
-# Worker processes for the core (None: the core's choice for the whole job, all cores
-# for a long Bind; 1: compute in Blender's own process).
-WORKERS = None
 DEVIATION_SAMPLES = 2000  # mesh vertices Automatic chooses compact storage's slots on
 REPORT_SAMPLES = 1000  # points inside the cage core.coordinate_report examines at Bind
 
@@ -330,6 +327,10 @@ class BindJob:
         self.gamma = float(settings.gamma) if core.KIND_TABLE[core.KINDS.index(self.kind)].parameter else None
         self.outside = core_name(settings.outside)
         self.kind_label = enum_label(KIND_ITEMS, settings.kind)
+        # Worker processes (None: the core's choice for the whole job; 1: in Blender).
+        self.workers = preferences.worker_count(context)
+        # Set when the workers failed and Blender computed instead: what to tell the artist.
+        self.worker_failure = None
         depsgraph = context.evaluated_depsgraph_get()
         rest = mesh_io.read_positions(obj.data).astype(np.float64)
         undefined = np.flatnonzero(~np.isfinite(rest).all(axis=1))
@@ -407,17 +408,19 @@ class BindJob:
 
     def _coordinates(self, cage, points, workers, locations=None):
         """The core's coordinates of ``points`` ((k, n) float64), its errors as BindError."""
+        if self.worker_failure is not None:  # they failed once: the rest in Blender too
+            workers = 1
         try:
-            coordinates = cage.coordinates(points, kind=self.kind, outside=self.outside,
-                                           locations=locations, workers=workers,
-                                           gamma=self.gamma)
+            coordinates, failure = preferences.in_workers_or_blender(
+                lambda count: cage.coordinates(points, kind=self.kind, outside=self.outside,
+                                               locations=locations, workers=count,
+                                               gamma=self.gamma), workers)
         except core.OutsideCageError:
             raise BindError(self._outside_message(cage)) from None
         except ValueError as error:  # every other core error is a ValueError
             raise BindError(self._core_message(error)) from None
-        except core.WorkerError as error:
-            raise BindError(f"Bind's worker processes failed ({error}); try again, or bind "
-                            "with fewer vertices at a time") from None
+        if failure is not None:
+            self.worker_failure = failure
         if not np.isfinite(coordinates).all():
             raise BindError(f"Binding to '{self.cage.name}' gave undefined coordinates: "
                             "check the cage for tiny or overlapping faces")
@@ -452,7 +455,7 @@ class BindJob:
     def _compute(self, cage):
         count, cage_count = len(self.points), len(self.cage_vertices)
         # Workers are chosen once for the whole job; each call gives every one a chunk.
-        workers = cage.suggested_workers(count) if WORKERS is None else WORKERS
+        workers = cage.suggested_workers(count) if self.workers is None else self.workers
         if self.storage == 'AUTO':
             self._choose_by_measuring(cage)
         written = yield from self._compute_slots(cage, workers)

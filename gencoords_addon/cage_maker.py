@@ -12,7 +12,7 @@ import numpy as np
 
 from .. import core
 from ..core import enclosing
-from . import mesh_io
+from . import mesh_io, preferences
 from .binding import FLOAT32_TOLERANCE
 
 
@@ -85,7 +85,9 @@ def make_cage_geometry(points, target_vertices, margin):
 
 
 def make_cage(obj, context, target_vertices=100, margin=0.05):
-    """Add a cage object around the mesh object ``obj`` and pick it as its cage."""
+    """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
+    None or what to say about worker processes that failed, see
+    :func:`preferences.in_workers_or_blender`)."""
     depsgraph = context.evaluated_depsgraph_get()
     with mesh_io.evaluated_mesh(obj, depsgraph) as evaluated:
         local = mesh_io.read_positions(evaluated).astype(np.float64)
@@ -94,7 +96,9 @@ def make_cage(obj, context, target_vertices=100, margin=0.05):
     world = np.array(obj.matrix_world, dtype=np.float64)
     points = local @ world[:3, :3].T + world[:3, 3]
     stored, triangles = make_cage_geometry(points, target_vertices, margin)
-    outside = core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE)
+    outside, worker_failure = preferences.in_workers_or_blender(
+        lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
+                                             workers=workers), preferences.worker_count(context))
     if (outside == core.OUTSIDE).any():
         raise CageError(f"{int((outside == core.OUTSIDE).sum())} vertices of '{obj.name}' "
                         "ended outside the cage: raise the margin")
@@ -113,4 +117,4 @@ def make_cage(obj, context, target_vertices=100, margin=0.05):
             bpy.data.objects.remove(cage)
         bpy.data.meshes.remove(mesh)
         raise
-    return cage
+    return cage, worker_failure

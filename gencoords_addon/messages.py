@@ -58,3 +58,11 @@ def core_error(cage_name, error, kind_label, total, triangle_faces):
 def _first_indices(indices, shown=5):
     text = ", ".join(str(i) for i in indices[:shown])
     return text + ", ..." if len(indices) > shown else text
+
+
+def worker_fallback():
+    """What to say when worker processes failed (their error goes to the system console)
+    and Blender computed instead."""
+    return ("worker processes failed, so GenCoords computed in Blender instead (the same "
+            "result, slower; the cause is in the system console). If this repeats, set "
+            "Preferences > Add-ons > GenCoords > Worker Processes to '1: Compute in Blender'")

@@ -84,9 +84,12 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         with object_mode(context, job.obj):
             job.commit()
         info = job.result.info
-        self.report({'INFO'}, f"Bound '{job.obj.name}' ({info['mesh_vertex_count']} vertices) "
-                              f"to '{job.cage.name}' in {info['bind_seconds']:.2f} s "
-                              f"({info['storage'].lower()} storage)")
+        headline = (f"Bound '{job.obj.name}' ({info['mesh_vertex_count']} vertices) to "
+                    f"'{job.cage.name}' in {info['bind_seconds']:.2f} s ({info['storage'].lower()} storage)")
+        if job.worker_failure is None:
+            self.report({'INFO'}, headline)
+        else:
+            self.report({'WARNING'}, f"{headline}; {job.worker_failure}")
         return {'FINISHED'}
 
     def execute(self, context):
@@ -165,8 +168,9 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             self._stop(context)
             return _internal_error(self, error)
         context.window_manager.progress_update(fraction)
+        in_blender = "" if self._job.worker_failure is None else ", in Blender: worker processes failed"
         context.workspace.status_text_set(
-            f"GenCoords: binding '{self._job.obj.name}' {fraction:.0%} (Esc to cancel)")
+            f"GenCoords: binding '{self._job.obj.name}' {fraction:.0%}{in_blender} (Esc to cancel)")
         return {'RUNNING_MODAL'}
 
 
@@ -272,14 +276,18 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         obj = context.active_object
         try:
             with object_mode(context, obj):
-                cage = cage_maker.make_cage(obj, context, self.target_vertices, self.margin)
+                cage, worker_failure = cage_maker.make_cage(obj, context, self.target_vertices,
+                                                            self.margin)
         except cage_maker.CageError as error:
             self.report({'ERROR'}, f"Cannot make a cage: {error}")
             return {'CANCELLED'}
         except Exception as error:
             return _internal_error(self, error)
-        self.report({'INFO'}, f"Made '{cage.name}' ({len(cage.data.vertices)} vertices) "
-                              f"around '{obj.name}'")
+        made = f"Made '{cage.name}' ({len(cage.data.vertices)} vertices) around '{obj.name}'"
+        if worker_failure is None:
+            self.report({'INFO'}, made)
+        else:
+            self.report({'WARNING'}, f"{made}; {worker_failure}")
         return {'FINISHED'}
 
 

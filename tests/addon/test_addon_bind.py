@@ -1,8 +1,5 @@
 """Binding and the native deformer, driven through the operators as a script would."""
 
-import glob
-import os
-
 import bpy
 import numpy as np
 import pytest
@@ -526,46 +523,6 @@ def test_power_coordinates_bind_with_the_artists_gamma_and_report_positivity(gc)
     assert "Gamma" in {p.identifier.title() for p in third.gencoords.bl_rna.properties}
 
 
-def worker_processes():
-    """Live core worker processes started by this process (Linux /proc)."""
-    found = []
-    for status in glob.glob("/proc/[0-9]*/status"):
-        try:
-            with open(status) as file:
-                parent = next(line for line in file if line.startswith("PPid:")).split()[1]
-            with open(status.replace("status", "cmdline"), "rb") as file:
-                command = file.read()
-        except (OSError, StopIteration):
-            continue
-        if int(parent) == os.getpid() and b".parallel').serve()" in command:
-            found.append(status)
-    return found
-
-
-@pytest.mark.parametrize("workers", [1, 2])
-def test_bind_computes_in_chunks_and_a_cancel_changes_nothing(gc, monkeypatch, workers):
-    cage = add_icosphere_cage()
-    obj = add_subdivided_sphere(levels=2)
-    obj.gencoords.cage = cage
-    before = mesh_state(obj)
-    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 3000)  # 250 points a chunk per worker
-    monkeypatch.setattr(gc.binding, "WORKERS", workers)
-    activate(obj)
-    job = gc.binding.BindJob(obj, bpy.context)
-    steps = job.steps()
-    fractions = [next(steps) for _ in range(3)]
-    assert fractions == sorted(fractions) and fractions[-1] < 1.0
-    assert len(worker_processes()) == (workers if workers > 1 else 0)
-    steps.close()  # what Esc does
-    assert not worker_processes()
-    assert mesh_state(obj)[1] == before[1] and not obj.modifiers
-    assert not [g for g in bpy.data.node_groups if "GenCoords" in g.name]
-    job = gc.binding.BindJob(obj, bpy.context)
-    assert list(job.steps())[-1] == 1.0
-    job.commit()
-    assert gc.binding.binding(obj) is not None
-
-
 def test_a_failure_while_committing_leaves_the_earlier_binding(gc, monkeypatch):
     cage = add_icosphere_cage()
     obj = add_sphere()
@@ -600,24 +557,6 @@ def test_a_failure_in_the_middle_of_the_compute_changes_nothing(gc, monkeypatch)
     with pytest.raises(RuntimeError, match="injected fault"):
         bind(obj, cage)
     assert mesh_state(obj)[1] == before[1] and not obj.modifiers
-
-
-def test_bind_in_worker_processes_stores_what_one_process_computes(gc, monkeypatch):
-    # The workers run the installed extension's core (not bpy) in fresh interpreters.
-    # One mesh bound twice: two meshes could differ in vertex order (threaded mesh
-    # operators in 5.2 give no order guarantee).
-    cage = add_icosphere_cage()
-    obj = add_subdivided_sphere(levels=2)
-    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 5000)
-    monkeypatch.setattr(gc.binding, "WORKERS", 1)
-    bind(obj, cage)
-    alone = coordinates_of(gc, obj)
-    monkeypatch.setattr(gc.binding, "WORKERS", 2)
-    bind(obj, cage)
-    # Calls of twice the rows (a chunk per worker): equal to rounding, not bitwise (the
-    # core's own tests hold the same chunks bitwise).
-    np.testing.assert_allclose(coordinates_of(gc, obj), alone, rtol=0, atol=1e-6)
-    assert not worker_processes()
 
 
 def test_auto_rebind_binds_again_on_leaving_edit_mode(gc):

@@ -1,0 +1,151 @@
+"""Windows' and macOS' semantics on Linux, in the test process and in every worker.
+
+``simulate(monkeypatch, system, holds)`` patches this process (undone by ``monkeypatch``)
+and sets environment variables so that every worker started afterwards runs this file
+first (``core.parallel.PRELUDE_VARIABLE``, the core's one test seam) and patches itself
+the same way. Simulated, for ``system``:
+
+- ``"macos"`` and ``"windows"``: no ``os.posix_fallocate``, ``os.sched_getaffinity``,
+  ``os.statvfs`` (``shutil.disk_usage`` still works, as it does there), no ``/dev/shm``.
+- ``"windows"`` also: removing a ``gencoords-*.shared`` file raises PermissionError while
+  any living process holds it open (``os.open``) or mapped (``mmap.mmap``). Holds are
+  marker files in the folder ``holds``, one per open descriptor or mapping, named with
+  the holder's process id, so that every process sees every other's (no ``/proc``); a
+  dead process's holds are void, as Windows closes its handles.
+
+``broken_start(monkeypatch)`` makes every worker die at start-up the way an interpreter
+without numpy does.
+"""
+
+import itertools
+import os
+import sys
+
+SYSTEM_VARIABLE = "GENCOORDS_SIMULATED_OS"
+HOLDS_VARIABLE = "GENCOORDS_SIMULATED_HOLDS"
+BROKEN_VARIABLE = "GENCOORDS_SIMULATED_BROKEN_START"
+PRELUDE_VARIABLE = "GENCOORDS_WORKER_PRELUDE"  # core.parallel.PRELUDE_VARIABLE
+
+
+class _Plain:
+    """monkeypatch's setattr/delattr for a worker, where nothing needs undoing."""
+
+    setattr = staticmethod(setattr)
+    delattr = staticmethod(delattr)
+
+
+def simulate(monkeypatch, system, holds):
+    monkeypatch.setenv(PRELUDE_VARIABLE, os.path.abspath(__file__))
+    monkeypatch.setenv(SYSTEM_VARIABLE, system)
+    monkeypatch.setenv(HOLDS_VARIABLE, str(holds))
+    _apply(monkeypatch, system, str(holds))
+
+
+def broken_start(monkeypatch):
+    monkeypatch.setenv(PRELUDE_VARIABLE, os.path.abspath(__file__))
+    monkeypatch.setenv(BROKEN_VARIABLE, "1")
+
+
+def _apply(patch, system, holds):
+    import shutil
+
+    real_statvfs, real_access = os.statvfs, os.access
+
+    def disk_usage(path):  # what shutil gives on Windows and macOS, without os.statvfs
+        status = real_statvfs(path)
+        return shutil._ntuple_diskusage(status.f_blocks * status.f_frsize,
+                                        (status.f_blocks - status.f_bfree) * status.f_frsize,
+                                        status.f_bavail * status.f_frsize)
+
+    def access(path, mode, **options):
+        if os.fspath(path).startswith("/dev/shm"):
+            return False
+        return real_access(path, mode, **options)
+
+    for name in ("posix_fallocate", "sched_getaffinity", "statvfs"):
+        patch.delattr(os, name)
+    patch.setattr(shutil, "disk_usage", disk_usage)
+    patch.setattr(os, "access", access)
+    if system == "windows":
+        _refuse_removing_held_files(patch, holds)
+
+
+def _shared(path):
+    name = os.path.basename(os.fspath(path))
+    return name.startswith("gencoords-") and name.endswith(".shared")
+
+
+def _refuse_removing_held_files(patch, holds):
+    import mmap
+
+    real_open, real_close, real_unlink, real_mmap = os.open, os.close, os.unlink, mmap.mmap
+    counter = itertools.count()
+    descriptors = {}  # open descriptor -> (path, its hold)
+
+    def hold(path):
+        marker = os.path.join(holds, f"{os.path.basename(path)}.{os.getpid()}.{next(counter)}")
+        real_close(real_open(marker, os.O_CREAT | os.O_WRONLY))
+        return marker
+
+    def let_go(marker):
+        try:
+            real_unlink(marker)
+        except FileNotFoundError:
+            pass
+
+    def held(path):
+        prefix = os.path.basename(path) + "."
+        for marker in os.listdir(holds):
+            if marker.startswith(prefix):
+                holder = int(marker[len(prefix):].split(".")[0])
+                try:
+                    os.kill(holder, 0)
+                    return True
+                except ProcessLookupError:
+                    pass  # the OS closed a dead process's handles
+        return False
+
+    def open_(path, flags, mode=0o777, *, dir_fd=None):
+        descriptor = real_open(path, flags, mode, dir_fd=dir_fd)
+        if _shared(path):
+            descriptors[descriptor] = (os.fspath(path), hold(path))
+        return descriptor
+
+    def close(descriptor):
+        entry = descriptors.pop(descriptor, None)
+        real_close(descriptor)
+        if entry is not None:
+            let_go(entry[1])
+
+    def unlink(path, *, dir_fd=None):
+        if _shared(path) and held(os.fspath(path)):
+            raise PermissionError(13, "The process cannot access the file because it is being "
+                                      "used by another process (simulated Windows)", os.fspath(path))
+        real_unlink(path, dir_fd=dir_fd)
+
+    class Mapping(real_mmap):
+        # Let go in __del__, which runs before weak references are cleared: a real mmap
+        # unmaps before its weak references' callbacks run.
+        def __new__(cls, fileno, length, *args, **options):
+            mapping = super().__new__(cls, fileno, length, *args, **options)
+            mapping.hold = hold(descriptors[fileno][0]) if fileno in descriptors else None
+            return mapping
+
+        def __del__(self):
+            if self.hold is not None:
+                let_go(self.hold)
+
+    patch.setattr(os, "open", open_)
+    patch.setattr(os, "close", close)
+    patch.setattr(os, "unlink", unlink)
+    patch.setattr(os, "remove", unlink)
+    patch.setattr(mmap, "mmap", Mapping)
+
+
+if __name__ == "<run_path>":  # a worker's prelude
+    if os.environ.get(BROKEN_VARIABLE):
+        sys.stderr.write("Traceback (most recent call last):\n"
+                         "ModuleNotFoundError: No module named 'numpy' (simulated)\n")
+        sys.exit(1)
+    if os.environ.get(SYSTEM_VARIABLE):
+        _apply(_Plain, os.environ[SYSTEM_VARIABLE], os.environ[HOLDS_VARIABLE])

@@ -1,0 +1,234 @@
+"""Worker processes under Windows' and macOS' semantics (simulated on Linux, in the test
+process and in every worker: ``simulated_os``), and workers that cannot start."""
+
+import gc
+import os
+import subprocess
+import sys
+import tempfile
+import warnings
+
+import numpy as np
+import pytest
+
+import core
+import core.cage
+import core.evaluation
+import core.parallel
+import simulated_os
+from polytopes import random_convex_polytope, random_interior_points
+
+
+def shared_files():
+    """This process's shared files (other processes' runs may have theirs)."""
+    return set(core.parallel.shared_files(os.getpid()))
+
+
+@pytest.fixture
+def cage_and_points(monkeypatch):
+    monkeypatch.setattr(core.evaluation, "_CHUNK_PAIRS", 2000)  # many units for few points
+    rng = np.random.default_rng(5)
+    vertices, faces = random_convex_polytope(rng, 3, 30)
+    return vertices, faces, random_interior_points(rng, vertices, 800)
+
+
+@pytest.fixture(params=["windows", "macos"])
+def system(request, monkeypatch, tmp_path):
+    assert not shared_files()
+    simulated_os.simulate(monkeypatch, request.param, tmp_path)
+    return request.param
+
+
+@pytest.fixture
+def automatic_two(monkeypatch):
+    """``workers=None`` chooses two workers for these small calls."""
+    monkeypatch.setattr(core.cage, "_PAIRS_PER_WORKER", 1)
+    monkeypatch.setattr(core.cage, "available_cores", lambda: 2)
+
+
+def test_the_simulation_refuses_what_windows_refuses(monkeypatch, tmp_path):
+    simulated_os.simulate(monkeypatch, "windows", tmp_path)
+    assert not hasattr(os, "posix_fallocate") and not hasattr(os, "statvfs")
+    assert core.parallel.available_cores() == os.cpu_count()  # no sched_getaffinity
+    shared = core.parallel.SharedArrays({"result": ((10, 4), np.float64)})
+    assert shared.path.startswith(tempfile.gettempdir())  # no /dev/shm
+    with pytest.raises(PermissionError):
+        os.unlink(shared.path)  # mapped here
+    shared.remove()
+    assert os.path.exists(shared.path)
+    del shared.arrays
+    del shared
+    gc.collect()
+    assert not shared_files()  # removed once the last view was gone
+
+
+def test_workers_leave_nothing_behind_and_give_the_same_numbers(system, cage_and_points):
+    vertices, faces, points = cage_and_points
+    expected = core.coordinates(points, vertices, faces, workers=1)
+    np.testing.assert_array_equal(core.coordinates(points, vertices, faces, workers=2), expected)
+    gc.collect()
+    assert not shared_files()
+    # A kept cage: its workers hold nothing between calls, so each call's file goes as
+    # soon as its result does (the files piled up while the workers kept them mapped).
+    with core.Cage(vertices, faces) as cage:
+        for _ in range(3):
+            result = cage.coordinates(points, workers=2)
+            np.testing.assert_array_equal(result, expected)
+            assert len(shared_files()) <= 1  # only the live result's, on Windows
+            del result
+            gc.collect()
+            assert not shared_files()
+        assert not cage._pool.closed
+
+
+def test_a_killed_worker_or_a_cancel_leaves_nothing_behind(system, cage_and_points):
+    vertices, faces, points = cage_and_points
+    cage = core.Cage(vertices, faces)
+    cage.coordinates(points[:50], workers=2)
+    processes = list(cage._pool._processes)
+
+    def kill_one(fraction):
+        processes[0].kill()
+
+    with pytest.raises(core.WorkerError, match="ended unexpectedly"):
+        cage.coordinates(points, workers=2, progress=kill_one)
+
+    def cancel(fraction):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        cage.coordinates(points, workers=2, progress=cancel)
+    cage.close()
+    gc.collect()
+    assert not shared_files()
+
+
+def test_space_is_reserved_before_the_workers_write(system):
+    # No posix_fallocate: a sparse file would kill the writers with SIGBUS on a full disk.
+    shared = core.parallel.SharedArrays({"points": ((1000, 3), np.float64), "result": ((1000, 40), np.float32)},
+                                        reserved_by_writers=("result",))
+    assert shared.reserved_by_writers == ()  # reserved whole, here
+    size = core.parallel.shared_layout({"points": ((1000, 3), np.float64),
+                                        "result": ((1000, 40), np.float32)})[1]
+    assert os.stat(shared.path).st_blocks * 512 >= size
+    shared.remove()
+
+
+def test_a_full_disk_is_a_worker_error_and_leaves_nothing(system, monkeypatch, cage_and_points, automatic_two):
+    vertices, faces, points = cage_and_points
+
+    def full(descriptor, offset, length):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(core.parallel, "_reserve", full)
+    with pytest.raises(core.WorkerError, match="free some disk space"):
+        core.coordinates(points, vertices, faces, workers=2)
+    assert not shared_files()
+    with pytest.warns(core.WorkerWarning, match="No space left"):
+        result = core.coordinates(points, vertices, faces)
+    np.testing.assert_array_equal(result, core.coordinates(points, vertices, faces, workers=1))
+    monkeypatch.setattr(core.parallel, "_free_bytes", lambda folder: 0)
+    with pytest.raises(core.WorkerError, match="no room for"):
+        core.coordinates(points, vertices, faces, workers=2)
+    assert not shared_files()
+
+
+def test_workers_that_cannot_start_fall_back_to_this_process(monkeypatch, cage_and_points, automatic_two):
+    # An interpreter without numpy (or a crash at start-up): automatic counts compute
+    # here with a warning that quotes the worker; an explicit count raises.
+    vertices, faces, points = cage_and_points
+    expected = core.coordinates(points, vertices, faces, workers=1)
+    simulated_os.broken_start(monkeypatch)
+    with pytest.warns(core.WorkerWarning, match="No module named 'numpy'"):
+        np.testing.assert_array_equal(core.coordinates(points, vertices, faces), expected)
+    with pytest.warns(core.WorkerWarning, match="could not start"):
+        np.testing.assert_array_equal(core.point_locations(points, vertices, faces),
+                                      core.point_locations(points, vertices, faces, workers=1))
+    with pytest.raises(core.WorkerError, match="could not start.*pass workers=1"):
+        core.coordinates(points, vertices, faces, workers=2)
+    # A kept cage warns once, then computes its automatic calls here.
+    with core.Cage(vertices, faces) as cage:
+        with pytest.warns(core.WorkerWarning):
+            cage.coordinates(points)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            np.testing.assert_array_equal(cage.coordinates(points), expected)
+        assert cage._pool is None
+    assert not shared_files()
+
+
+def test_an_interpreter_the_os_refuses_to_run_falls_back(monkeypatch, tmp_path, cage_and_points, automatic_two):
+    # An antivirus blocking the interpreter: starting it raises OSError.
+    vertices, faces, points = cage_and_points
+    blocked = tmp_path / "python.exe"
+    blocked.write_text("")
+    blocked.chmod(0o600)
+    monkeypatch.setattr(core.parallel, "python_executable", lambda: str(blocked))
+    with pytest.warns(core.WorkerWarning, match="could not start"):
+        result = core.coordinates(points, vertices, faces)
+    np.testing.assert_array_equal(result, core.coordinates(points, vertices, faces, workers=1))
+    with pytest.raises(core.WorkerError, match="could not start"):
+        core.coordinates(points, vertices, faces, workers=2)
+
+
+def test_a_worker_dying_mid_call_falls_back_for_automatic_counts(cage_and_points, automatic_two):
+    vertices, faces, points = cage_and_points
+    cage = core.Cage(vertices, faces)
+    cage.coordinates(points[:400])
+    processes = list(cage._pool._processes)
+
+    def kill_one(fraction):
+        processes[0].kill()
+
+    with pytest.warns(core.WorkerWarning, match="ended unexpectedly"):
+        result = cage.coordinates(points, progress=kill_one)
+    np.testing.assert_array_equal(result, cage.coordinates(points, workers=1))
+    assert all(process.poll() is not None for process in processes)
+    cage.close()
+
+
+def test_stale_files_of_dead_processes_are_swept_when_workers_start(cage_and_points):
+    vertices, faces, points = cage_and_points
+    ended = subprocess.Popen([sys.executable, "-c", "pass"])
+    ended.wait()
+    living = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    folder = tempfile.gettempdir()
+    try:
+        stale = os.path.join(folder, f"gencoords-{ended.pid}-test.shared")
+        kept = [os.path.join(folder, f"gencoords-{living.pid}-test.shared"),
+                os.path.join(folder, f"gencoords-noowner{os.getpid()}.shared")]  # an older name
+        for path in [stale, *kept]:
+            open(path, "wb").close()
+        core.coordinates(points, vertices, faces, workers=2)
+        assert not os.path.exists(stale)
+        assert all(os.path.exists(path) for path in kept)
+    finally:
+        living.kill()
+        living.wait()
+        for path in kept:
+            os.unlink(path)
+
+
+@pytest.mark.parametrize("windows, layout, expected", [
+    (False, ["bin/python3.11", "bin/python3"], "bin/python3.11"),  # Blender on Linux and macOS
+    (False, ["bin/python3", "bin/python"], "bin/python3"),  # a venv
+    (True, ["bin/python.exe"], "bin/python.exe"),  # Blender on Windows
+    (True, ["Scripts/python.exe"], "Scripts/python.exe"),  # a venv on Windows
+    (True, ["python.exe"], "python.exe"),  # python.org on Windows
+])
+def test_the_interpreter_is_found_in_every_layout(tmp_path, windows, layout, expected):
+    for name in layout:
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text("")
+    candidates = core.parallel.interpreter_candidates(str(tmp_path), (3, 11), windows)
+    found = next(path for path in candidates if os.path.isfile(path))
+    assert os.path.normpath(found) == os.path.normpath(tmp_path / expected)
+
+
+def test_sizes_are_64_bit_whatever_the_shapes_integer_type():
+    # numpy 1.x on Windows multiplies np.int32 lengths (and np.prod) in 32 bits.
+    layout, size = core.parallel.shared_layout({"points": ((np.int32(60000), np.int32(3)), np.float64),
+                                                "result": ((np.int32(60000), np.int32(50000)), np.float64)})
+    assert size >= 60000 * 50000 * 8 > 2**31
+    assert layout["result"][1] == (60000, 50000) and type(layout["result"][1][0]) is int
+
