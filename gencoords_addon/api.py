@@ -2,7 +2,7 @@
 
 Reached as ``bl_ext.user_default.gencoords.binding_result`` (the extension's package
 re-exports it). Nothing is computed here: every figure is the one Bind measured and
-stored with the binding (the metadata of its node group, ``binding.METADATA``), the same
+stored with the binding (the metadata of its node group, ``bind_layout.METADATA``), the same
 the panel shows (``status.py``), so a script and an artist read the same numbers.
 """
 
@@ -10,6 +10,7 @@ from dataclasses import dataclass, field, fields
 from types import MappingProxyType
 from typing import Mapping
 
+from . import bind_layout as _layout
 from . import binding as _binding
 
 # Stored as the core's names ('mean_value'); given as the ``obj.gencoords`` enum
@@ -54,7 +55,7 @@ class BindingResult:
     @property
     def is_current(self):
         """Whether the bind data is this extension's format (else: Bind again)."""
-        return self.format == _binding.FORMAT
+        return self.format == _layout.FORMAT
 
 
 _STORED_FIELDS = tuple(f.name for f in fields(BindingResult)

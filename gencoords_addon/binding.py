@@ -14,24 +14,23 @@ carries ``METADATA`` (see ``Binding``).
 import secrets
 import time
 from dataclasses import dataclass
+from typing import Optional
 
 import bpy
 import numpy as np
 
 from .. import core
 from ..core import compact
-from . import compat, deformer, mesh_io, messages, preferences
-from .properties import KIND_ITEMS, core_name, enum_label
+from . import compat, deformer, mesh_arrays, mesh_io, messages, preferences
+from .bind_layout import (CAGE_NAME, DELETED_CAGE, FORMAT, METADATA, basis_attribute_names,
+                          slot_attribute_names)
+from .enums import core_name, kind_label, kind_parameter
 
 # Blender stores positions as float32: a flat cage face after Apply Rotation, or a mesh
 # vertex on the cage surface, is exact only to ~1e-7 of the cage's size, which the
 # core's float64 default would call non-convex or outside.
 FLOAT32_TOLERANCE = core.tolerances.FLOAT32
-METADATA = "gencoords"  # ID property of the binding's node group
-FORMAT = 2  # bind data layout; data of another number read as "Bind again"
 MODIFIER_NAME = "GenCoords"
-CAGE_NAME = "cage_name"  # METADATA key: the cage's name, kept up to date while it exists
-DELETED_CAGE = "deleted_cage"  # METADATA key: the name of the cage, once it is gone
 # Automatic storage is exact without measuring while its per-evaluation cost and node
 # group stay moderate: k x n multiply-adds (about 1.5 ns each on two cores) and a node
 # per three cage vertices.
@@ -82,13 +81,13 @@ class Binding:
 
     @property
     def slot_names(self):
-        return deformer.slot_attribute_names(self.key, self.info["slot_count"])
+        return slot_attribute_names(self.key, self.info["slot_count"])
 
     @property
     def basis_names(self):
         if self.info["storage"] != 'COMPACT':
             return None
-        return deformer.basis_attribute_names(self.key, self.info["slot_count"])
+        return basis_attribute_names(self.key, self.info["slot_count"])
 
     @property
     def rest_cage(self):
@@ -99,21 +98,21 @@ class Binding:
     def coordinates(self, mesh):
         """The (k, n) float32 coordinates the mesh deforms with (compact: as reproduced
         by its slots and basis), or None when the bind data is missing."""
-        slots = deformer.read_triples(mesh, self.slot_names, self.info["slot_count"])
+        slots = mesh_arrays.read_triples(mesh, self.slot_names, self.info["slot_count"])
         if slots is None or self.basis_names is None:
             return slots
-        basis = deformer.read_triples(mesh, self.basis_names, self.info["slot_count"])
+        basis = mesh_arrays.read_triples(mesh, self.basis_names, self.info["slot_count"])
         count = self.info["cage_vertex_count"]
         return None if basis is None else slots @ basis[:count].T
 
     def coordinate_column(self, mesh, cage_vertex):
         """Every mesh vertex's coordinate for ``cage_vertex`` ((k,) float32), or None."""
-        slots = deformer.read_triples(mesh, self.slot_names, self.info["slot_count"])
+        slots = mesh_arrays.read_triples(mesh, self.slot_names, self.info["slot_count"])
         if slots is None:
             return None
         if self.basis_names is None:
             return slots[:, cage_vertex]
-        basis = deformer.read_triples(mesh, self.basis_names, self.info["slot_count"])
+        basis = mesh_arrays.read_triples(mesh, self.basis_names, self.info["slot_count"])
         return None if basis is None else slots @ basis[cage_vertex]
 
 
@@ -276,20 +275,9 @@ def capture_rest_cage(obj, cage, context):
     evaluation; reading it through the same node (a temporary modifier last in the
     stack) makes the difference exactly zero at rest, so the mesh is unchanged bitwise.
     """
-    group = bpy.data.node_groups.new(CAPTURE_GROUP, 'GeometryNodeTree')
+    group = deformer.build_capture_group(CAPTURE_GROUP)
     modifier = None
     try:
-        group.interface.new_socket(deformer.GEOMETRY, in_out='INPUT',
-                                   socket_type='NodeSocketGeometry')
-        group.interface.new_socket(deformer.CAGE, in_out='INPUT', socket_type='NodeSocketObject')
-        group.interface.new_socket(deformer.GEOMETRY, in_out='OUTPUT',
-                                   socket_type='NodeSocketGeometry')
-        group_input = group.nodes.new('NodeGroupInput')
-        info = group.nodes.new('GeometryNodeObjectInfo')
-        info.transform_space = 'RELATIVE'
-        group_output = group.nodes.new('NodeGroupOutput')
-        group.links.new(group_input.outputs[deformer.CAGE], info.inputs["Object"])
-        group.links.new(info.outputs["Geometry"], group_output.inputs[deformer.GEOMETRY])
         modifier = obj.modifiers.new("GenCoords capture", 'NODES')
         modifier.node_group = group
         modifier.show_in_editmode = True
@@ -313,24 +301,65 @@ class BindResult:
     info: dict  # METADATA
 
 
+@dataclass(frozen=True)
+class BindSettings:
+    """The settings one Bind uses, read once when it starts: editing the panel while a
+    modal Bind computes changes nothing in it."""
+
+    cage: bpy.types.Object
+    kind: str  # the core's name, e.g. 'mean_value'
+    gamma: Optional[float]  # the kind's parameter; None for kinds without one
+    outside: str  # the core's name, e.g. 'raise'
+    storage: str  # the Storage setting: 'AUTO', 'EXACT' or 'COMPACT'
+    compact_size: int
+    kind_label: str  # the kind's user-facing name, for messages
+
+    @classmethod
+    def of(cls, obj):
+        """A snapshot of ``obj.gencoords``."""
+        settings = obj.gencoords
+        has_gamma = kind_parameter(settings.kind) == "gamma"
+        return cls(cage=settings.cage, kind=core_name(settings.kind),
+                   gamma=float(settings.gamma) if has_gamma else None,
+                   outside=core_name(settings.outside), storage=settings.storage,
+                   compact_size=int(settings.compact_size),
+                   kind_label=kind_label(settings.kind))
+
+
 class BindJob:
     """One Bind of ``obj`` to its chosen cage: read and checked on creation (BindError),
-    computed by ``steps()``, written by ``commit()``."""
+    computed by ``steps()``, written by ``commit()``. It reads the object's settings once,
+    on creation (``self.settings``, a ``BindSettings``)."""
 
     def __init__(self, obj, context):
         started = time.perf_counter()
         check_inputs(obj)
         self.obj = obj
-        settings = obj.gencoords
-        self.cage = settings.cage
-        self.kind = core_name(settings.kind)
-        self.gamma = float(settings.gamma) if core.KIND_TABLE[core.KINDS.index(self.kind)].parameter else None
-        self.outside = core_name(settings.outside)
-        self.kind_label = enum_label(KIND_ITEMS, settings.kind)
+        self.settings = settings = BindSettings.of(obj)
+        self.cage, self.kind, self.gamma = settings.cage, settings.kind, settings.gamma
+        self.outside, self.kind_label = settings.outside, settings.kind_label
         # Worker processes (None: the core's choice for the whole job; 1: in Blender).
         self.workers = preferences.worker_count(context)
         # Set when the workers failed and Blender computed instead: what to tell the artist.
         self.worker_failure = None
+        geometry = self._read_scene(context)
+        self._choose_storage()
+        self.info = {
+            "format": FORMAT, "kind": self.kind, "outside": self.outside,
+            "storage": self.storage, "cage_vertex_count": len(self.cage_vertices),
+            "mesh_vertex_count": len(self.points), "cage_faces_hash": geometry.faces_hash,
+            "cage_non_triangles": geometry.non_triangles, CAGE_NAME: self.cage.name,
+        }
+        if self.gamma is not None:  # ID properties hold no None
+            self.info["gamma"] = self.gamma
+        self.started = started
+        self.result = None
+
+    def _read_scene(self, context):
+        """Read the mesh and the cage (world space, checked): sets ``points``,
+        ``cage_vertices``, ``triangles``, ``triangle_faces`` and ``rest_cage``; returns
+        the cage's ``mesh_io`` geometry."""
+        obj = self.obj
         depsgraph = context.evaluated_depsgraph_get()
         rest = mesh_io.read_positions(obj.data).astype(np.float64)
         undefined = np.flatnonzero(~np.isfinite(rest).all(axis=1))
@@ -362,6 +391,12 @@ class BindJob:
                             "infinite) positions, or an object has zero scale: fix them, "
                             "then Bind")
         self.triangles = geometry.triangles
+        return geometry
+
+    def _choose_storage(self):
+        """Set ``storage`` (AUTO: measure in ``steps``), ``storage_choice``, ``measured``
+        and, for compact storage, ``basis``."""
+        settings = self.settings
         count, cage_count = len(self.points), len(self.cage_vertices)
         self.storage = choose_storage(settings.storage, count, cage_count, settings.compact_size)
         self.storage_choice = None  # why, in the panel's words (set where there is a why)
@@ -376,16 +411,6 @@ class BindJob:
         if self.storage == 'COMPACT':
             self.basis = compact.motion_basis(self.cage_vertices, self.triangles,
                                               min(settings.compact_size, cage_count))
-        self.info = {
-            "format": FORMAT, "kind": self.kind, "outside": self.outside,
-            "storage": self.storage, "cage_vertex_count": cage_count,
-            "mesh_vertex_count": count, "cage_faces_hash": geometry.faces_hash,
-            "cage_non_triangles": geometry.non_triangles, CAGE_NAME: self.cage.name,
-        }
-        if self.gamma is not None:  # ID properties hold no None
-            self.info["gamma"] = self.gamma
-        self.started = started
-        self.result = None
 
     def steps(self):
         """Compute the bind data chunk by chunk, yielding the fraction done (0 to 1).
@@ -556,18 +581,18 @@ class BindJob:
         earlier = binding(obj, self.cage) or binding(obj, missing_cage=True)
         others = bindings(obj)
         key = result.info["key"]
-        names = deformer.slot_attribute_names(key, result.info["slot_count"])
+        names = slot_attribute_names(key, result.info["slot_count"])
         basis_names = None
         if result.basis is not None:
-            basis_names = deformer.basis_attribute_names(key, result.info["slot_count"])
+            basis_names = basis_attribute_names(key, result.info["slot_count"])
         group = modifier = None
         try:
             group = deformer.build_group(f"GenCoords: {obj.name} in {self.cage.name}", key,
                                          result.rest_cage, result.info["mesh_vertex_count"],
                                          result.info["slot_count"], basis_names)
-            deformer.write_triples(obj.data, names, result.slots)
+            mesh_arrays.write_triples(obj.data, names, result.slots)
             if basis_names is not None:
-                deformer.write_triples(obj.data, basis_names, result.basis)
+                mesh_arrays.write_triples(obj.data, basis_names, result.basis)
             modifier = obj.modifiers.new(MODIFIER_NAME, 'NODES')
             modifier.node_group = group
             modifier.show_in_editmode = True

@@ -23,7 +23,7 @@ import numpy as np
 from ..core import compact, skinning
 from . import binding as bindings_module
 from . import compat, mesh_io
-from .properties import KIND_ITEMS, enum_label
+from .enums import kind_label
 
 BONE_PREFIX = "GenCoords "
 BAKE_INFO = "gencoords_bake"  # ID property of the rig's armature: the bake's figures
@@ -34,7 +34,7 @@ def bone_names(count):
 
 
 def negative_message(obj, found, count, smallest):
-    kind = enum_label(KIND_ITEMS, found.info["kind"].upper())
+    kind = kind_label(found.info["kind"])
     compact_note = (" (this binding uses Compact storage, which reproduces coordinates "
                     "approximately: Storage Exact may help)"
                     if found.info.get("storage") == 'COMPACT' else "")
@@ -179,25 +179,8 @@ def bake(obj, context, max_influences=0, keyframes=True):
     exact deformation under the standard smooth cage motion, measured with the weights
     and bone heads read back from the mesh's vertex groups and the rig.
     """
-    found = bindings_module.binding(obj)
+    found, coordinates, weights, rest = _bake_inputs(obj, max_influences)
     cage = found.cage
-    if cage is None:
-        raise bindings_module.BindError("The binding's cage is missing: Bind again first")
-    coordinates = found.coordinates(obj.data)
-    rest_local = found.rest_cage
-    if coordinates is None or rest_local is None \
-            or len(obj.data.vertices) != found.info["mesh_vertex_count"]:
-        raise bindings_module.BindError(f"The bind data of '{obj.name}' is missing or no "
-                                        "longer matches its vertices: Bind again")
-    weights = skinning.truncate(coordinates, max_influences)
-    negative, smallest = skinning.negative_weights(weights)
-    if negative:
-        raise bindings_module.BindError(negative_message(obj, found, negative, smallest))
-    # The rig sits at the world origin: the bones rest where the bind-time cage is seen
-    # from the mesh now (the deformer reads the cage relative to the mesh too).
-    world = np.array(obj.matrix_world, dtype=np.float64)
-    rest = rest_local.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
-    size = float(np.linalg.norm(np.ptp(rest, axis=0)))
     names = bone_names(len(rest))
     # Read before anything is written: each frame then costs what playback does.
     motion = cage_motion(cage, context) if keyframes else None
@@ -215,13 +198,8 @@ def bake(obj, context, max_influences=0, keyframes=True):
                                    bpy.data.armatures.new(f"{obj.name} cage rig"))
         for collection in obj.users_collection:
             collection.objects.link(rig)
-        add_bones(rig, names, rest, size)
-        for name in names:
-            follow = rig.pose.bones[name].constraints.new('COPY_LOCATION')
-            follow.target, follow.subtarget = cage, name
-
+        _add_following_bones(rig, cage, names, rest)
         write_weights(obj, names, weights)
-
         position = list(obj.modifiers).index(found.modifier)
         skin = obj.modifiers.new("Armature", 'ARMATURE')
         skin.object = rig
@@ -245,14 +223,53 @@ def bake(obj, context, max_influences=0, keyframes=True):
         obj.parent = parent
         if skin is not None:
             obj.modifiers.remove(skin)
-        if rig is not None:
-            armature, action = rig.data, rig.animation_data and rig.animation_data.action
-            bpy.data.objects.remove(rig)
-            bpy.data.armatures.remove(armature)
-            if action is not None:
-                bpy.data.actions.remove(action)
+        _remove_rig(rig)
         for owner, kept in ((cage, had["cage"]), (obj, had["mesh"])):
             for group in [g for g in owner.vertex_groups if g.name in names and g.name not in kept]:
                 owner.vertex_groups.remove(group)
         raise
     return rig, deviation
+
+
+def _bake_inputs(obj, max_influences):
+    """The binding of ``obj`` a bake replaces, its coordinates ((k, n) float32), the
+    bone weights ((k, n), truncated to ``max_influences``) and the rest cage ((n, 3)
+    float64, world space as seen from the mesh now); BindError when it cannot be baked."""
+    found = bindings_module.binding(obj)
+    if found.cage is None:
+        raise bindings_module.BindError("The binding's cage is missing: Bind again first")
+    coordinates = found.coordinates(obj.data)
+    rest_local = found.rest_cage
+    if coordinates is None or rest_local is None \
+            or len(obj.data.vertices) != found.info["mesh_vertex_count"]:
+        raise bindings_module.BindError(f"The bind data of '{obj.name}' is missing or no "
+                                        "longer matches its vertices: Bind again")
+    weights = skinning.truncate(coordinates, max_influences)
+    negative, smallest = skinning.negative_weights(weights)
+    if negative:
+        raise bindings_module.BindError(negative_message(obj, found, negative, smallest))
+    # The rig sits at the world origin: the bones rest where the bind-time cage is seen
+    # from the mesh now (the deformer reads the cage relative to the mesh too).
+    world = np.array(obj.matrix_world, dtype=np.float64)
+    rest = rest_local.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+    return found, coordinates, weights, rest
+
+
+def _add_following_bones(rig, cage, names, rest):
+    """Bones ``names`` in ``rig`` at ``rest`` ((n, 3) float64), each following its cage
+    vertex (the cage's vertex group of its name)."""
+    add_bones(rig, names, rest, float(np.linalg.norm(np.ptp(rest, axis=0))))
+    for name in names:
+        follow = rig.pose.bones[name].constraints.new('COPY_LOCATION')
+        follow.target, follow.subtarget = cage, name
+
+
+def _remove_rig(rig):
+    """Delete ``rig`` (None: nothing), its armature and its action."""
+    if rig is None:
+        return
+    armature, action = rig.data, rig.animation_data and rig.animation_data.action
+    bpy.data.objects.remove(rig)
+    bpy.data.armatures.remove(armature)
+    if action is not None:
+        bpy.data.actions.remove(action)

@@ -30,47 +30,61 @@ import bpy
 import numpy as np
 
 from . import compat
+from .bind_layout import (ATTRIBUTE_PREFIX, PARKED_PREFIX, attribute_prefix,  # noqa: F401
+                          basis_attribute_names, slot_attribute_names)
 
 GEOMETRY = "Geometry"
 CAGE = "Cage"
 STRENGTH = "Strength"
 MASK = "Mask"
 INVERT = "Invert Mask"
-ATTRIBUTE_PREFIX = ".gencoords_"  # a leading dot keeps them out of the attribute lists
-# Slot attributes an Unbind in progress has taken away (hidden: the leading dot).
-PARKED_PREFIX = ".unbinding"
 LANE_NAMES = ("gencoords_lane_x", "gencoords_lane_y", "gencoords_lane_z")
 DISPLACEMENT = "gencoords_displacement"  # on the cage's copy inside the group
 AXES = "XYZ"
+COLUMN_WIDTH, ROW_HEIGHT = 220.0, 160.0
 
-
-def attribute_prefix(key):
-    """Prefix of the slot attributes of the binding ``key`` (unique per binding)."""
-    return f"{ATTRIBUTE_PREFIX}{key}_"
-
-
-def slot_attribute_names(key, slot_count):
-    """Names of the vector attributes holding three slots each, in slot order."""
-    return [f"{attribute_prefix(key)}{t}" for t in range(-(-slot_count // 3))]
-
-
-def basis_attribute_names(key, slot_count):
-    """Names of the vector attributes holding compact storage's basis, three columns each."""
-    return [f"{attribute_prefix(key)}basis{t}" for t in range(-(-slot_count // 3))]
-
+# The binding's group reads left to right, one column per stage (``build_group``);
+# compact storage's lanes use the lane columns for its basis copy and sums.
+DEFORMER_COLUMNS = (
+    "input",  # the modifier's inputs
+    "cage",  # Object Info, the cage's index and positions
+    "rest",  # the bind-time cage, kept in the group
+    "displacement",  # cage now minus at rest, stored on the cage
+    "lane_index",  # per triple of slots: which cage vertices
+    "lane_gather",  # their displacements
+    "lane_split",  # ... split into axes
+    "lane_join",  # ... joined into lanes
+    "lane_store",  # ... stored on a point cloud
+    "lane_read",  # ... read back per triple
+    "accumulate",  # slots times lanes, in chains
+    "chain_sum",  # the chains added up pairwise
+    "offset",  # each mesh vertex's displacement, the mask, the guard's sizes
+    "apply",  # strength and Set Position
+    "guard_compare",  # is the result meaningful?
+    "guard_and",
+    "guard_switch",  # ... else pass the mesh through
+    "strip",  # remove the bind data's attributes from the output
+    "output",
+)
+# Helper groups: input, read, combine, output.
+HELPER_COLUMNS = ("input", "read", "combine", "output")
+# The rest-cage capture: the deformer's Object Info node, alone.
+CAPTURE_COLUMNS = ("input", "cage", "output")
 
 class _Builder:
     """Adds nodes in columns (so the group reads left to right) and links them."""
 
-    def __init__(self, group):
+    def __init__(self, group, columns):
         self.group = group
+        self.columns = columns  # stage names, left to right
         self.rows = {}
 
     def add(self, node_type, column, **settings):
+        """A new node in the column of the stage ``column``, below the ones already there."""
         node = self.group.nodes.new(node_type)
         row = self.rows.get(column, 0)
         self.rows[column] = row + 1
-        node.location = (220.0 * column, -160.0 * row)
+        node.location = (COLUMN_WIDTH * self.columns.index(column), -ROW_HEIGHT * row)
         for name, value in settings.items():
             setattr(node, name, value)
         return node
@@ -165,14 +179,37 @@ SUMS = ("Sum X", "Sum Y", "Sum Z")
 LANES = ("Lane X", "Lane Y", "Lane Z")
 
 
-def _new_group(name, inputs, outputs, description):
+def _new_group(name, inputs, outputs, description, columns=HELPER_COLUMNS):
+    """A new node group with sockets ``inputs`` and ``outputs`` ((name, socket type)
+    pairs), its builder, and its Group Input and Group Output nodes (first and last
+    columns)."""
     group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
     group.description = description
     for sockets, in_out in ((inputs, 'INPUT'), (outputs, 'OUTPUT')):
         for socket_name, socket_type in sockets:
             group.interface.new_socket(socket_name, in_out=in_out, socket_type=socket_type)
-    build = _Builder(group)
-    return group, build, build.add('NodeGroupInput', 0), build.add('NodeGroupOutput', 3)
+    build = _Builder(group, columns)
+    return (group, build, build.add('NodeGroupInput', columns[0]),
+            build.add('NodeGroupOutput', columns[-1]))
+
+
+def build_capture_group(name):
+    """A node group outputting its Cage input's geometry as the deformer's Object Info
+    node gives it (relative to the modified object): ``binding.capture_rest_cage``
+    reads the rest cage through it."""
+    group, build, group_input, group_output = _new_group(
+        name, [(GEOMETRY, 'NodeSocketGeometry'), (CAGE, 'NodeSocketObject')],
+        [(GEOMETRY, 'NodeSocketGeometry')], "GenCoords: the cage as the deformer sees it",
+        CAPTURE_COLUMNS)
+    build.link(_cage_info(build, group_input), group_output.inputs[GEOMETRY])
+    return group
+
+
+def _cage_info(build, group_input):
+    """The cage's geometry in the modified object's space (Object Info, relative)."""
+    info = build.add('GeometryNodeObjectInfo', "cage", transform_space='RELATIVE')
+    build.link(group_input.outputs[CAGE], info.inputs["Object"])
+    return info.outputs["Geometry"]
 
 
 def _accumulate_group():
@@ -188,10 +225,10 @@ def _accumulate_group():
     group, build, group_input, group_output = _new_group(
         ACCUMULATE_GROUP, [("Name", 'NodeSocketString'), *((n, vector) for n in LANES + SUMS)],
         [(n, vector) for n in SUMS], "GenCoords: adds three slots' share of the displacement")
-    slots = build.add('GeometryNodeInputNamedAttribute', 1, data_type='FLOAT_VECTOR')
+    slots = build.add('GeometryNodeInputNamedAttribute', "read", data_type='FLOAT_VECTOR')
     build.link(group_input.outputs["Name"], slots.inputs["Name"])
     for lane, total in zip(LANES, SUMS):
-        build.link(build.math(2, 'MULTIPLY_ADD', slots.outputs["Attribute"],
+        build.link(build.math("combine", 'MULTIPLY_ADD', slots.outputs["Attribute"],
                               group_input.outputs[lane], group_input.outputs[total]),
                    group_output.inputs[total])
     return group
@@ -206,8 +243,8 @@ def _cloud_lanes_group():
         CLOUD_LANES_GROUP, [("Cloud", 'NodeSocketGeometry'), ("Triple", 'NodeSocketInt')],
         [(n, 'NodeSocketVector') for n in LANES], "GenCoords: one triple's cage displacements")
     for lane, name in zip(LANES, LANE_NAMES):
-        build.link(build.sample_index(2, group_input.outputs["Cloud"],
-                                      build.named_attribute(1, name),
+        build.link(build.sample_index("combine", group_input.outputs["Cloud"],
+                                      build.named_attribute("read", name),
                                       group_input.outputs["Triple"]),
                    group_output.inputs[lane])
     return group
@@ -216,26 +253,27 @@ def _cloud_lanes_group():
 def _exact_lanes(build, cage, displacement, slot_count):
     """Per triple t, its three lanes: (D_3t.c, D_3t+1.c, D_3t+2.c) for axes c."""
     triples = -(-slot_count // 3)
-    cloud = build.add('GeometryNodePoints', 3)
+    cloud = build.add('GeometryNodePoints', "lane_index")
     cloud.inputs["Count"].default_value = triples
-    index = build.add('GeometryNodeInputIndex', 2).outputs[0]
+    index = build.add('GeometryNodeInputIndex', "lane_index").outputs[0]
     parts = []
     for offset in range(3):
-        cage_vertex = build.math(3, 'MULTIPLY_ADD', index, 3.0, float(offset), vector=False)
-        sampled = build.sample_index(4, cage, displacement, cage_vertex)
-        separate = build.add('ShaderNodeSeparateXYZ', 5)
+        cage_vertex = build.math("lane_index", 'MULTIPLY_ADD', index, 3.0, float(offset),
+                                 vector=False)
+        sampled = build.sample_index("lane_gather", cage, displacement, cage_vertex)
+        separate = build.add('ShaderNodeSeparateXYZ', "lane_split")
         build.link(sampled, separate.inputs[0])
         parts.append(separate.outputs)
     geometry = cloud.outputs[0]
     for axis, name in enumerate(LANE_NAMES):
-        combine = build.add('ShaderNodeCombineXYZ', 6)
+        combine = build.add('ShaderNodeCombineXYZ', "lane_join")
         for offset in range(3):
             build.link(parts[offset][axis], combine.inputs[offset])
-        geometry = build.store(7, geometry, name, combine.outputs[0])
+        geometry = build.store("lane_store", geometry, name, combine.outputs[0])
     helper = _cloud_lanes_group()
     lanes = []
     for t in range(triples):
-        node = build.add('GeometryNodeGroup', 8, node_tree=helper)
+        node = build.add('GeometryNodeGroup', "lane_read", node_tree=helper)
         build.link(geometry, node.inputs["Cloud"])
         node.inputs["Triple"].default_value = t
         lanes.append([node.outputs[lane] for lane in LANES])
@@ -248,14 +286,16 @@ def _compact_lanes(build, mesh, cage, displacement, basis_names):
     The basis is stored like the slots, on the mesh's first n points (compact storage
     needs a mesh with at least as many vertices as the cage).
     """
-    index = build.add('GeometryNodeInputIndex', 2).outputs[0]
+    index = build.add('GeometryNodeInputIndex', "lane_index").outputs[0]
     for name in basis_names:  # copied onto the cage once, read by three sums each
-        cage = build.store(5, cage, name, build.sample_index(4, mesh, build.named_attribute(4, name),
-                                                             index))
-    separate = build.add('ShaderNodeSeparateXYZ', 4)
+        basis = build.sample_index("lane_gather", mesh,
+                                   build.named_attribute("lane_gather", name), index)
+        cage = build.store("lane_split", cage, name, basis)
+    separate = build.add('ShaderNodeSeparateXYZ', "lane_gather")
     build.link(displacement, separate.inputs[0])
-    return [[build.statistic_sum(7, cage, build.scale(6, build.named_attribute(5, name),
-                                                      separate.outputs[axis]))
+    return [[build.statistic_sum("lane_store", cage,
+                                 build.scale("lane_join", build.named_attribute("lane_split", name),
+                                             separate.outputs[axis]))
              for axis in range(3)] for name in basis_names]
 
 
@@ -273,7 +313,7 @@ def _weighted_sums(build, slot_names, lanes):
     for start in range(0, len(slot_names), CHAIN):
         sums = None
         for name, lane in zip(slot_names[start:start + CHAIN], lanes[start:start + CHAIN]):
-            node = build.add('GeometryNodeGroup', 9, node_tree=helper)
+            node = build.add('GeometryNodeGroup', "accumulate", node_tree=helper)
             node.inputs["Name"].default_value = name
             for socket, value in zip(LANES, lane):
                 build.link(value, node.inputs[socket])
@@ -283,7 +323,7 @@ def _weighted_sums(build, slot_names, lanes):
             sums = [node.outputs[socket] for socket in SUMS]
         partial.append(sums)
     while len(partial) > 1:
-        pairs = [[build.math(10, 'ADD', a, b) for a, b in zip(left, right)]
+        pairs = [[build.math("chain_sum", 'ADD', a, b) for a, b in zip(left, right)]
                  for left, right in zip(partial[::2], partial[1::2])]
         partial = pairs + partial[len(pairs) * 2:]
     return partial[0]
@@ -291,6 +331,10 @@ def _weighted_sums(build, slot_names, lanes):
 
 def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None):
     """A new node group deforming a mesh of ``mesh_vertex_count`` vertices.
+
+    Built in stages that pass sockets along, each in its own columns
+    (``DEFORMER_COLUMNS``): the interface, the cage's displacement, the lanes, the
+    weighted sums, the masked offset, the guard and the attribute stripping.
 
     Parameters
     ----------
@@ -310,11 +354,33 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
         points (``basis_attribute_names``); None for exact storage.
     """
     rest_cage = np.asarray(rest_cage, dtype=np.float32)
-    count = len(rest_cage)
     group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
     group.description = ("GenCoords cage deformation: moves the mesh with its cage "
                          "(bind data in the mesh's point attributes)")
-    interface = group.interface
+    _deformer_interface(group.interface)
+    build = _Builder(group, DEFORMER_COLUMNS)
+    group_input = build.add('NodeGroupInput', "input")
+    mesh = group_input.outputs[GEOMETRY]
+    cage, displacement = _cage_displacement(build, group_input, rest_cage)
+    if basis_names is None:
+        lanes = _exact_lanes(build, cage, displacement, slot_count)
+    else:
+        lanes = _compact_lanes(build, mesh, cage, displacement, basis_names)
+    accumulated = _weighted_sums(build, slot_attribute_names(key, slot_count), lanes)
+    moved = _moved_mesh(build, group_input, _offset(build, accumulated))
+    usable = _usable(build, mesh, cage, displacement, len(rest_cage), mesh_vertex_count)
+    switch = build.add('GeometryNodeSwitch', "guard_switch", input_type='GEOMETRY')
+    build.link(usable, switch.inputs["Switch"])
+    build.link(mesh, switch.inputs["False"])
+    build.link(moved, switch.inputs["True"])
+    output = _strip_attributes(build, switch.outputs[0], key,
+                               slot_attribute_names(key, slot_count) + (basis_names or []))
+    build.link(output, build.add('NodeGroupOutput', "output").inputs[GEOMETRY])
+    return group
+
+
+def _deformer_interface(interface):
+    """The modifier's inputs and output."""
     interface.new_socket(GEOMETRY, in_out='INPUT', socket_type='NodeSocketGeometry')
     cage_socket = interface.new_socket(CAGE, in_out='INPUT', socket_type='NodeSocketObject')
     cage_socket.description = "The cage the mesh was bound to"
@@ -328,99 +394,82 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
     invert = interface.new_socket(INVERT, in_out='INPUT', socket_type='NodeSocketBool')
     invert.description = "Deform where the mask is 0 instead of where it is 1"
     interface.new_socket(GEOMETRY, in_out='OUTPUT', socket_type='NodeSocketGeometry')
-    build = _Builder(group)
-    group_input = build.add('NodeGroupInput', 0)
-    mesh = group_input.outputs[GEOMETRY]
 
-    info = build.add('GeometryNodeObjectInfo', 1, transform_space='RELATIVE')
-    build.link(group_input.outputs[CAGE], info.inputs["Object"])
-    cage = info.outputs["Geometry"]
-    cage_index = build.add('GeometryNodeInputIndex', 1).outputs[0]
-    position = build.add('GeometryNodeInputPosition', 1).outputs[0]
-    rest = build.index_switch(2, cage_index, rest_cage.tolist())
+
+def _cage_displacement(build, group_input, rest_cage):
+    """The cage with ``DISPLACEMENT`` (now minus at rest) stored on its points, and that
+    attribute's field."""
+    cage = _cage_info(build, group_input)
+    cage_index = build.add('GeometryNodeInputIndex', "cage").outputs[0]
+    position = build.add('GeometryNodeInputPosition', "cage").outputs[0]
+    rest = build.index_switch("rest", cage_index, rest_cage.tolist())
     # Stored once: every consumer of a field evaluates it again, and the Index Switch
     # over n constants costs n^2 per evaluation.
-    cage = build.store(3, cage, DISPLACEMENT, build.math(3, 'SUBTRACT', position, rest))
-    displacement = build.named_attribute(3, DISPLACEMENT)
+    cage = build.store("displacement", cage, DISPLACEMENT,
+                       build.math("displacement", 'SUBTRACT', position, rest))
+    return cage, build.named_attribute("displacement", DISPLACEMENT)
 
-    if basis_names is None:
-        lanes = _exact_lanes(build, cage, displacement, slot_count)
-    else:
-        lanes = _compact_lanes(build, mesh, cage, displacement, basis_names)
-    accumulated = _weighted_sums(build, slot_attribute_names(key, slot_count), lanes)
-    offset = build.add('ShaderNodeCombineXYZ', 11)
+
+def _offset(build, accumulated):
+    """Each mesh vertex's displacement: the sum of each axis' three partial sums."""
+    offset = build.add('ShaderNodeCombineXYZ', "offset")
     for axis in range(3):
-        total = build.add('ShaderNodeVectorMath', 11, operation='DOT_PRODUCT')
+        total = build.add('ShaderNodeVectorMath', "offset", operation='DOT_PRODUCT')
         build.link(accumulated[axis], total.inputs[0])
         total.inputs[1].default_value = (1.0, 1.0, 1.0)
         build.link(total.outputs["Value"], offset.inputs[axis])
-    # P + strength * mask * offset, the mask inverted on request (1 - mask).
-    inverted = build.math(11, 'SUBTRACT', 1.0, group_input.outputs[MASK], vector=False)
-    pick = build.add('GeometryNodeSwitch', 11, input_type='FLOAT')
+    return offset.outputs[0]
+
+
+def _moved_mesh(build, group_input, offset):
+    """P + strength * mask * offset, the mask inverted on request (1 - mask)."""
+    mask = group_input.outputs[MASK]
+    inverted = build.math("offset", 'SUBTRACT', 1.0, mask, vector=False)
+    pick = build.add('GeometryNodeSwitch', "offset", input_type='FLOAT')
     build.link(group_input.outputs[INVERT], pick.inputs["Switch"])
-    build.link(group_input.outputs[MASK], pick.inputs["False"])
+    build.link(mask, pick.inputs["False"])
     build.link(inverted, pick.inputs["True"])
-    factor = build.math(12, 'MULTIPLY', group_input.outputs[STRENGTH], pick.outputs[0],
+    factor = build.math("apply", 'MULTIPLY', group_input.outputs[STRENGTH], pick.outputs[0],
                         vector=False)
-    moved = build.add('GeometryNodeSetPosition', 12)
-    build.link(mesh, moved.inputs["Geometry"])
-    build.link(build.scale(12, offset.outputs[0], factor), moved.inputs["Offset"])
+    moved = build.add('GeometryNodeSetPosition', "apply")
+    build.link(group_input.outputs[GEOMETRY], moved.inputs["Geometry"])
+    build.link(build.scale("apply", offset, factor), moved.inputs["Offset"])
+    return moved.outputs[0]
 
-    # Deform only when the result is meaningful; otherwise pass the mesh through.
-    cage_size = build.add('GeometryNodeAttributeDomainSize', 11, component='MESH')
+
+def _usable(build, mesh, cage, displacement, cage_vertex_count, mesh_vertex_count):
+    """Whether deforming is meaningful: the cage and the mesh have their bind-time
+    vertex counts and the cage's displacement is finite."""
+    cage_size = build.add('GeometryNodeAttributeDomainSize', "offset", component='MESH')
     build.link(cage, cage_size.inputs[0])
-    mesh_size = build.add('GeometryNodeAttributeDomainSize', 11, component='MESH')
+    mesh_size = build.add('GeometryNodeAttributeDomainSize', "offset", component='MESH')
     build.link(mesh, mesh_size.inputs[0])
-    total = build.statistic_sum(11, cage, displacement)
+    total = build.statistic_sum("offset", cage, displacement)
     # NaN and infinity are the only values for which x - x is not zero.
-    finite = build.compare(12, 'FLOAT', build.math(12, 'LENGTH',
-                                                   build.math(12, 'SUBTRACT', total, total)), 0.0)
-    usable = build.both(13, build.both(13, build.compare(12, 'INT', cage_size.outputs[0], count),
-                                       build.compare(12, 'INT', mesh_size.outputs[0],
-                                                     mesh_vertex_count)), finite)
-    switch = build.add('GeometryNodeSwitch', 14, input_type='GEOMETRY')
-    build.link(usable, switch.inputs["Switch"])
-    build.link(mesh, switch.inputs["False"])
-    build.link(moved.outputs[0], switch.inputs["True"])
+    difference = build.math("guard_compare", 'SUBTRACT', total, total)
+    finite = build.compare("guard_compare", 'FLOAT',
+                           build.math("guard_compare", 'LENGTH', difference), 0.0)
+    counts = build.both("guard_and",
+                        build.compare("guard_compare", 'INT', cage_size.outputs[0],
+                                      cage_vertex_count),
+                        build.compare("guard_compare", 'INT', mesh_size.outputs[0],
+                                      mesh_vertex_count))
+    return build.both("guard_and", counts, finite)
 
-    output = switch.outputs[0]
-    remove = build.add('GeometryNodeRemoveAttribute', 15)
-    build.link(output, remove.inputs["Geometry"])
+
+def _strip_attributes(build, geometry, key, names):
+    """``geometry`` without the binding's attributes (``names``, or by wildcard)."""
+    remove = build.add('GeometryNodeRemoveAttribute', "strip")
+    build.link(geometry, remove.inputs["Geometry"])
     if compat.set_wildcard_removal(remove, attribute_prefix(key) + "*"):
-        output = remove.outputs[0]
-    else:  # no wildcard: one removal per attribute
-        group.nodes.remove(remove)
-        for name_t in slot_attribute_names(key, slot_count) + (basis_names or []):
-            remove = build.add('GeometryNodeRemoveAttribute', 15)
-            remove.inputs["Name"].default_value = name_t
-            build.link(output, remove.inputs["Geometry"])
-            output = remove.outputs[0]
-    group_output = build.add('NodeGroupOutput', 16)
-    build.link(output, group_output.inputs[GEOMETRY])
-    return group
-
-
-def write_triples(mesh, names, values):
-    """Store the columns of ``values`` ((rows, s) float, rows <= the mesh's vertex count)
-    three at a time as the vector point attributes ``names`` (zeros beyond ``rows``)."""
-    packed = np.zeros((len(mesh.vertices), 3 * len(names)), dtype=np.float32)
-    packed[:len(values), :values.shape[1]] = values
-    for t, name in enumerate(names):
-        attribute = mesh.attributes.new(name, 'FLOAT_VECTOR', 'POINT')
-        attribute.data.foreach_set("vector", np.ascontiguousarray(packed[:, 3 * t:3 * t + 3]).ravel())
-
-
-def read_triples(mesh, names, slot_count):
-    """The first ``slot_count`` columns stored by ``write_triples`` (None when missing)."""
-    result = np.empty((len(mesh.vertices), 3 * len(names)), dtype=np.float32)
-    flat = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    for t, name in enumerate(names):
-        attribute = mesh.attributes.get(name)
-        if attribute is None or attribute.data_type != 'FLOAT_VECTOR' or attribute.domain != 'POINT':
-            return None
-        attribute.data.foreach_get("vector", flat)
-        result[:, 3 * t:3 * t + 3] = flat.reshape(-1, 3)
-    return result[:, :slot_count]
+        return remove.outputs[0]
+    build.group.nodes.remove(remove)  # no wildcard: one removal per attribute
+    for name in names:
+        remove = build.add('GeometryNodeRemoveAttribute', "strip")
+        remove.inputs["Name"].default_value = name
+        build.link(geometry, remove.inputs["Geometry"])
+        geometry = remove.outputs[0]
+    return geometry
 
 
 def remove_slots(mesh, key):

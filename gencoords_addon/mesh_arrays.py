@@ -7,14 +7,16 @@ object per vertex; the ``position`` attribute is the fastest path to vertex coor
 This module imports only ``bpy`` and ``numpy`` (no relative imports), so the scripts and
 the tests load this very file by path (``importlib.util.spec_from_file_location``): they also drive Blender without
 the extension installed, and their numbers then come from the same reader as the
-add-on's. The add-on itself uses ``read_positions``; the writer is for scripts and tests
-(Bind never writes positions).
+add-on's. The add-on reads positions, faces and its bind data's attributes here and
+writes its attributes here; ``write_positions`` is for scripts and tests (Bind never
+writes positions).
 """
 
 import bpy
 import numpy as np
 
 POSITION = "position"
+CORNER_VERTEX = ".corner_vert"  # internal attribute (leading dot), in Blender since 4.0
 
 
 def read_positions(mesh, out=None):
@@ -42,6 +44,76 @@ def read_loop_triangles(mesh):
     flat = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int64)
     mesh.loop_triangles.foreach_get("vertices", flat)
     return flat.reshape(-1, 3)
+
+
+def read_faces(mesh):
+    """Each face's first corner and corner count, and each corner's vertex.
+
+    Returns
+    -------
+    starts, sizes : (f,) int64
+    corners : (c,) int64
+    """
+    starts = np.empty(len(mesh.polygons), dtype=np.int64)
+    mesh.polygons.foreach_get("loop_start", starts)
+    return starts, read_face_sizes(mesh), read_corner_vertices(mesh)
+
+
+def read_face_sizes(mesh):
+    """Each face's corner count, (f,) int64."""
+    sizes = np.empty(len(mesh.polygons), dtype=np.int64)
+    mesh.polygons.foreach_get("loop_total", sizes)
+    return sizes
+
+
+def read_corner_vertices(mesh):
+    """Each corner's vertex, (c,) int64."""
+    corners = np.empty(len(mesh.loops), dtype=np.int64)
+    # Blender's own storage of ``loops[i].vertex_index``: one block copy, where reading
+    # through ``mesh.loops`` costs 8 times as much. A mesh without faces has no corners
+    # and no such attribute.
+    attribute = mesh.attributes.get(CORNER_VERTEX)
+    if attribute is not None:
+        attribute.data.foreach_get("value", corners)
+    return corners
+
+
+def read_loop_triangle_faces(mesh):
+    """Blender's triangulation (``read_loop_triangles``) and each triangle's face,
+    (m, 3) and (m,) int64."""
+    triangles = read_loop_triangles(mesh)
+    faces = np.empty(len(triangles), dtype=np.int64)
+    mesh.loop_triangles.foreach_get("polygon_index", faces)
+    return triangles, faces
+
+
+def write_triples(mesh, names, values):
+    """Store the columns of ``values`` ((rows, s) float, rows <= the mesh's vertex count)
+    three at a time as new vector point attributes ``names`` (zeros beyond ``rows``)."""
+    packed = np.zeros((len(mesh.vertices), 3 * len(names)), dtype=np.float32)
+    packed[:len(values), :values.shape[1]] = values
+    for t, name in enumerate(names):
+        attribute = mesh.attributes.new(name, 'FLOAT_VECTOR', 'POINT')
+        attribute.data.foreach_set("vector", np.ascontiguousarray(packed[:, 3 * t:3 * t + 3]).ravel())
+
+
+def read_triples(mesh, names, slot_count):
+    """The first ``slot_count`` columns stored by ``write_triples`` ((k, slot_count)
+    float32), or None when one is missing."""
+    result = np.empty((len(mesh.vertices), 3 * len(names)), dtype=np.float32)
+    flat = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    for t, name in enumerate(names):
+        attribute = mesh.attributes.get(name)
+        if attribute is None or attribute.data_type != 'FLOAT_VECTOR' or attribute.domain != 'POINT':
+            return None
+        attribute.data.foreach_get("vector", flat)
+        result[:, 3 * t:3 * t + 3] = flat.reshape(-1, 3)
+    return result[:, :slot_count]
+
+
+def write_point_colors(attribute, colors):
+    """Set a point color attribute to ``colors`` ((k, 4) float)."""
+    attribute.data.foreach_set("color", np.ascontiguousarray(colors, dtype=np.float32).reshape(-1))
 
 
 def evaluated_positions(obj, depsgraph=None, out=None):

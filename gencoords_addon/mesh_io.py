@@ -8,9 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import core
-from .mesh_arrays import read_positions
-
-CORNER_VERTEX = ".corner_vert"  # internal attribute (leading dot), in Blender since 4.0
+from .mesh_arrays import (read_corner_vertices, read_face_sizes, read_faces,
+                          read_loop_triangle_faces, read_positions)
 
 
 def read_triangles(mesh, positions):
@@ -26,42 +25,18 @@ def read_triangles(mesh, positions):
     faces : (m,) int64
         Index of the mesh face of each triangle (for messages the artist can act on).
     """
-    sizes = _face_sizes(mesh)
-    starts = np.empty(len(sizes), dtype=np.int64)
-    mesh.polygons.foreach_get("loop_start", starts)
-    corners = _corner_vertices(mesh)
-    loop_triangles = mesh.loop_triangles
-    blender = np.empty(len(loop_triangles) * 3, dtype=np.int64)
-    loop_triangles.foreach_get("vertices", blender)
-    blender_faces = np.empty(len(loop_triangles), dtype=np.int64)
-    loop_triangles.foreach_get("polygon_index", blender_faces)
+    starts, sizes, corners = read_faces(mesh)
+    blender, blender_faces = read_loop_triangle_faces(mesh)
     keep = sizes[blender_faces] != 4
     quads = np.flatnonzero(sizes == 4)
     quad_corners = corners[starts[quads, None] + np.arange(4)]
-    triangles = np.concatenate([blender.reshape(-1, 3)[keep], core.triangulate_quads(positions, quad_corners)])
+    triangles = np.concatenate([blender[keep], core.triangulate_quads(positions, quad_corners)])
     return triangles, np.concatenate([blender_faces[keep], np.repeat(quads, 2)])
-
-
-def _face_sizes(mesh):
-    sizes = np.empty(len(mesh.polygons), dtype=np.int64)
-    mesh.polygons.foreach_get("loop_total", sizes)
-    return sizes
-
-
-def _corner_vertices(mesh):
-    corners = np.empty(len(mesh.loops), dtype=np.int64)
-    # Blender's own storage of ``loops[i].vertex_index``: one block copy, where reading
-    # through ``mesh.loops`` costs 8 times as much. A mesh without faces has no corners
-    # and no such attribute.
-    attribute = mesh.attributes.get(CORNER_VERTEX)
-    if attribute is not None:
-        attribute.data.foreach_get("value", corners)
-    return corners
 
 
 def count_non_triangles(mesh):
     """Number of faces of ``mesh`` with more than three corners (quads and n-gons)."""
-    return int(np.count_nonzero(_face_sizes(mesh) != 3))
+    return int(np.count_nonzero(read_face_sizes(mesh) != 3))
 
 
 def faces_hash(mesh):
@@ -70,7 +45,7 @@ def faces_hash(mesh):
     Notices cage topology edits after binding without triangulating: it hashes the faces'
     corner counts and corner vertex indices, which Blender stores as they are.
     """
-    return hashlib.sha1(_face_sizes(mesh).tobytes() + _corner_vertices(mesh).tobytes()).hexdigest()[:16]
+    return hashlib.sha1(read_face_sizes(mesh).tobytes() + read_corner_vertices(mesh).tobytes()).hexdigest()[:16]
 
 
 @dataclass

@@ -7,6 +7,7 @@ import bpy
 
 from .binding import binding, bindings, meshes_driven_by
 from .status import status_lines
+from .enums import kind_parameter
 from .visualise import field_range
 
 
@@ -35,7 +36,7 @@ def draw_settings(layout, obj, width=None):
         # Artists keep cages out of the way: as wires or bounds, or hidden (still driving).
         column.prop(settings.cage, "display_type", text="Display")
     column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
-    if settings.kind == 'POWER':
+    if kind_parameter(settings.kind) == "gamma":
         column.prop(settings, "gamma")
     column.prop(settings, "outside")
     column.prop(settings, "storage")

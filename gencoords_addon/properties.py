@@ -2,42 +2,9 @@
 
 import bpy
 
-from .. import core
 from ..core.inputs import GAMMA_LIMIT
-
-# Enum identifiers are the core's names in upper case (see ``core_name``); the core's
-# table of kinds is the one list.
-KIND_ITEMS = tuple((kind.name.upper(), kind.label, kind.description) for kind in core.KIND_TABLE)
-OUTSIDE_ITEMS = (
-    ("RAISE", "Report Error", "Refuse to bind when mesh vertices lie outside the cage"),
-    ("PROJECT", "Project",
-     "Vertices outside the cage take the coordinates of the nearest point on its surface"),
-    ("EXTRAPOLATE", "Extrapolate",
-     "Evaluate the coordinate formula outside the cage too (may be unstable far away)"),
-)
-
-
-def core_name(identifier):
-    """The core's string for an enum identifier: 'MEAN_VALUE' -> 'mean_value'."""
-    return identifier.lower()
-
-
-def enum_label(items, identifier):
-    """The user-facing name of ``identifier`` in an ``*_ITEMS`` table."""
-    return next(name for key, name, _ in items if key == identifier)
-
-
-STORAGE_ITEMS = (
-    ("AUTO", "Automatic",
-     "Exact while its cost is moderate (mesh vertices x cage vertices up to 8 million, "
-     "cages up to 400 vertices); beyond, Compact with the fewest slots that keep the "
-     "deviation under 1e-3 of the cage diagonal, measured at Bind, else Exact"),
-    ("EXACT", "Exact",
-     "Every coordinate of every vertex: the deformation is exact to float32 rounding"),
-    ("COMPACT", "Compact",
-     "A few numbers per vertex: exact for affine and smooth cage motions, close for "
-     "others (the panel shows the deviation); for dense meshes and large cages"),
-)
+from . import visualise
+from .enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 
 
 def _is_cage_candidate(settings, obj):
@@ -45,7 +12,6 @@ def _is_cage_candidate(settings, obj):
 
 
 def _field_vertex_changed(settings, context):
-    from . import visualise  # it reads bindings, whose module reads these tables
     visualise.repaint_if_shown(settings.id_data)
 
 
@@ -56,7 +22,7 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
         description="Closed mesh around this object whose vertices drive it after binding",
     )
     kind: bpy.props.EnumProperty(
-        name="Coordinates", items=KIND_ITEMS, default="MEAN_VALUE", options=set(),
+        name="Coordinates", items=KIND_ITEMS, default=DEFAULT_KIND, options=set(),
         description="Generalized barycentric coordinates used to bind the mesh to the cage",
     )
     gamma: bpy.props.FloatProperty(

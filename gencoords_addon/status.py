@@ -7,7 +7,8 @@ import bpy
 import numpy as np
 
 from . import binding, mesh_io
-from .properties import KIND_ITEMS, STORAGE_ITEMS, enum_label
+from .bind_layout import FORMAT
+from .enums import STORAGE_ITEMS, enum_label, kind_label
 
 OUTSIDE_VERBS = {"project": "projected onto the cage", "extrapolate": "extrapolated"}
 
@@ -19,7 +20,7 @@ def deformation_problem(obj, found, depsgraph=None):
     this says them in words, and also notices cage face changes it cannot see.
     """
     info = found.info
-    if info.get("format") != binding.FORMAT:
+    if info.get("format") != FORMAT:
         return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
                 "Bind again or Unbind")
     cage = found.cage
@@ -72,7 +73,7 @@ def binding_lines(obj, found, depsgraph=None):
     if problem:
         lines.append((problem, 'ERROR'))
     info = found.info
-    if info.get("format") != binding.FORMAT:
+    if info.get("format") != FORMAT:
         return lines
     cage = found.cage
     if cage is not None:
@@ -82,10 +83,10 @@ def binding_lines(obj, found, depsgraph=None):
     else:
         bound_to = "Bound to a missing cage"
     lines.append((f"{bound_to} (modifier '{found.modifier.name}')", 'LINKED'))
-    kind_label = enum_label(KIND_ITEMS, info['kind'].upper())
+    kind_name = kind_label(info['kind'])
     if "gamma" in info:
-        kind_label += f" (gamma {info['gamma']:g})"
-    lines.append((f"Coordinates: {kind_label}", 'MOD_LATTICE'))
+        kind_name += f" (gamma {info['gamma']:g})"
+    lines.append((f"Coordinates: {kind_name}", 'MOD_LATTICE'))
     lines.append((f"Cage: {info['cage_vertex_count']} vertices", 'MESH_ICOSPHERE'))
     lines.append((f"Mesh: {info['mesh_vertex_count']} vertices", 'MESH_DATA'))
     if info["cage_non_triangles"]:

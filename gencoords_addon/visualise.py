@@ -5,6 +5,7 @@ import bpy
 
 from .. import core
 from . import binding
+from .mesh_arrays import write_point_colors
 
 FIELD_ATTRIBUTE = "GenCoords Field"
 # On the mesh data, beside the colours: (lowest, highest) of the field shown, from
@@ -45,7 +46,7 @@ def paint_field(obj):
         attribute = None
     if attribute is None:
         attribute = mesh.color_attributes.new(FIELD_ATTRIBUTE, kind[1], kind[0])
-    attribute.data.foreach_set("color", colors.reshape(-1))
+    write_point_colors(attribute, colors)
     mesh.color_attributes.active_color = attribute
     mesh[FIELD_RANGE] = core.field_range(values)
     mesh.update()

@@ -532,7 +532,7 @@ def test_a_failure_while_committing_leaves_the_earlier_binding(gc, monkeypatch):
 
     def broken(*args):
         raise MemoryError("injected")
-    monkeypatch.setattr(gc.deformer, "write_triples", broken)
+    monkeypatch.setattr(gc.mesh_arrays, "write_triples", broken)
     with pytest.raises(RuntimeError, match="nothing was changed"):
         bind(obj, cage, kind="WACHSPRESS")
     found = gc.binding.binding(obj)

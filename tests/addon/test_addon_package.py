@@ -1,5 +1,6 @@
 """The built zip: Blender's builder and validator accept it; it ships add-on and core only."""
 
+import ast
 import importlib
 import re
 import tomllib
@@ -107,3 +108,85 @@ def test_status_lines_wrap_to_the_panel_width_without_losing_words(gc):
     assert len(lines) > 1 and all(len(line) <= 30 for line in lines)
     assert " ".join(lines) == sentence
     assert panel.wrapped(sentence, None) == [sentence]
+
+
+ADDON = REPO / "gencoords_addon"
+
+
+def addon_trees():
+    """Every add-on module's name and syntax tree."""
+    return {path.stem: ast.parse(path.read_text(), str(path)) for path in sorted(ADDON.glob("*.py"))}
+
+
+def add_on_imports(tree, modules):
+    """The add-on modules ``tree`` imports, at any depth (inside functions too)."""
+    imported = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.level == 1:
+            if node.module is None:  # from . import a, b
+                imported |= {alias.name for alias in node.names if alias.name in modules}
+            elif node.module.split(".")[0] in modules:
+                imported.add(node.module.split(".")[0])
+    return imported
+
+
+def test_the_addon_modules_import_each_other_without_a_cycle():
+    trees = addon_trees()
+    graph = {name: add_on_imports(tree, trees) for name, tree in trees.items()}
+    assert graph["enums"] <= set() and graph["bind_layout"] <= set()  # the leaves
+    done, path = set(), []
+
+    def visit(name):
+        assert name not in path, f"import cycle: {' -> '.join(path[path.index(name):] + [name])}"
+        if name in done:
+            return
+        path.append(name)
+        for imported in sorted(graph[name]):
+            visit(imported)
+        path.pop()
+        done.add(name)
+    for name in graph:
+        visit(name)
+
+
+def code_lines(function, lines):
+    """Lines of ``function`` holding code: no blank, comment-only or docstring lines."""
+    body = function.body
+    docstring = set()
+    if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+            and isinstance(body[0].value.value, str):
+        docstring = set(range(body[0].lineno, body[0].end_lineno + 1))
+    return [number for number in range(function.lineno, function.end_lineno + 1)
+            if number not in docstring and lines[number - 1].strip()
+            and not lines[number - 1].strip().startswith("#")]
+
+
+def test_no_addon_function_is_longer_than_60_lines_of_code():
+    long = []
+    for path in sorted(ADDON.glob("*.py")):
+        lines = path.read_text().splitlines()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                count = len(code_lines(node, lines))
+                if count > 60:
+                    long.append(f"{path.name}:{node.name} ({count})")
+    assert not long
+
+
+def test_kind_ids_are_spelled_only_in_the_enum_module(addon):
+    spellings = {kind.name for kind in addon.core.KIND_TABLE}
+    spellings |= {name.upper() for name in spellings}
+    found = [f"{name}.py:{node.lineno} {node.value!r}" for name, tree in addon_trees().items()
+             if name != "enums" for node in ast.walk(tree)
+             if isinstance(node, ast.Constant) and node.value in spellings]
+    assert not found
+
+
+def test_mesh_arrays_are_read_and_written_in_one_module():
+    """``foreach_get``/``foreach_set`` on mesh data only in ``mesh_arrays`` (keyframes
+    are not mesh data)."""
+    found = [f"{name}.py:{node.lineno}" for name, tree in addon_trees().items()
+             if name != "mesh_arrays" for node in ast.walk(tree)
+             if isinstance(node, ast.Attribute) and node.attr in ("foreach_get", "foreach_set")
+             and not (isinstance(node.value, ast.Attribute) and node.value.attr == "keyframe_points")]
+    assert not found

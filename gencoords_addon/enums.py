@@ -1,0 +1,50 @@
+"""The settings' enum items and their labels: a leaf module (it imports nothing of the
+add-on), so the settings, the binding code and the panel all read the same tables.
+
+Kind identifiers are the core's names in upper case (``core_name``); the core's table of
+kinds (``core.KIND_TABLE``) is the one list of them.
+"""
+
+from .. import core
+
+KIND_ITEMS = tuple((kind.name.upper(), kind.label, kind.description) for kind in core.KIND_TABLE)
+DEFAULT_KIND = "MEAN_VALUE"
+OUTSIDE_ITEMS = (
+    ("RAISE", "Report Error", "Refuse to bind when mesh vertices lie outside the cage"),
+    ("PROJECT", "Project",
+     "Vertices outside the cage take the coordinates of the nearest point on its surface"),
+    ("EXTRAPOLATE", "Extrapolate",
+     "Evaluate the coordinate formula outside the cage too (may be unstable far away)"),
+)
+STORAGE_ITEMS = (
+    ("AUTO", "Automatic",
+     "Exact while its cost is moderate (mesh vertices x cage vertices up to 8 million, "
+     "cages up to 400 vertices); beyond, Compact with the fewest slots that keep the "
+     "deviation under 1e-3 of the cage diagonal, measured at Bind, else Exact"),
+    ("EXACT", "Exact",
+     "Every coordinate of every vertex: the deformation is exact to float32 rounding"),
+    ("COMPACT", "Compact",
+     "A few numbers per vertex: exact for affine and smooth cage motions, close for "
+     "others (the panel shows the deviation); for dense meshes and large cages"),
+)
+
+
+def core_name(identifier):
+    """The core's string for an enum identifier: 'MEAN_VALUE' -> 'mean_value'."""
+    return identifier.lower()
+
+
+def enum_label(items, identifier):
+    """The user-facing name of ``identifier`` in an ``*_ITEMS`` table."""
+    return next(name for key, name, _ in items if key == identifier)
+
+
+def kind_label(name):
+    """The user-facing name of a kind given by its core name ('mean_value') or its enum
+    identifier ('MEAN_VALUE')."""
+    return enum_label(KIND_ITEMS, name.upper())
+
+
+def kind_parameter(identifier):
+    """The name of the kind's parameter ('gamma' for the power family), or None."""
+    return core.KIND_TABLE[core.KINDS.index(core_name(identifier))].parameter
