@@ -22,8 +22,9 @@ import numpy as np
 from .. import core
 from ..core import compact
 from . import compat, deformer, mesh_arrays, mesh_io, messages, preferences
-from .bind_layout import (CAGE_NAME, DELETED_CAGE, FORMAT, METADATA, basis_attribute_names,
-                          slot_attribute_names)
+from .bind_layout import (CAGE_NAME, CAGE_VERTEX_COUNT, DELETED_CAGE, FORMAT, FORMAT_KEY, GAMMA,
+                          KEY, KIND, MESH_VERTEX_COUNT, METADATA, OUTSIDE, SLOT_COUNT, STORAGE,
+                          basis_attribute_names, slot_attribute_names)
 from .enums import core_name, kind_label, kind_parameter
 
 # Blender stores positions as float32: a flat cage face after Apply Rotation, or a mesh
@@ -67,7 +68,7 @@ class Binding:
 
     @property
     def key(self):
-        return self.info["key"]
+        return self.info[KEY]
 
     @property
     def cage(self):
@@ -81,38 +82,38 @@ class Binding:
 
     @property
     def slot_names(self):
-        return slot_attribute_names(self.key, self.info["slot_count"])
+        return slot_attribute_names(self.key, self.info[SLOT_COUNT])
 
     @property
     def basis_names(self):
-        if self.info["storage"] != 'COMPACT':
+        if self.info[STORAGE] != 'COMPACT':
             return None
-        return basis_attribute_names(self.key, self.info["slot_count"])
+        return basis_attribute_names(self.key, self.info[SLOT_COUNT])
 
     @property
     def rest_cage(self):
         """The cage at bind time ((n, 3) float32, the mesh's local space), as the deformer
         keeps it; None when the node group lost it."""
-        return deformer.read_rest_cage(self.group, self.info["cage_vertex_count"])
+        return deformer.read_rest_cage(self.group, self.info[CAGE_VERTEX_COUNT])
 
     def coordinates(self, mesh):
         """The (k, n) float32 coordinates the mesh deforms with (compact: as reproduced
         by its slots and basis), or None when the bind data is missing."""
-        slots = mesh_arrays.read_triples(mesh, self.slot_names, self.info["slot_count"])
+        slots = mesh_arrays.read_triples(mesh, self.slot_names, self.info[SLOT_COUNT])
         if slots is None or self.basis_names is None:
             return slots
-        basis = mesh_arrays.read_triples(mesh, self.basis_names, self.info["slot_count"])
-        count = self.info["cage_vertex_count"]
+        basis = mesh_arrays.read_triples(mesh, self.basis_names, self.info[SLOT_COUNT])
+        count = self.info[CAGE_VERTEX_COUNT]
         return None if basis is None else slots @ basis[:count].T
 
     def coordinate_column(self, mesh, cage_vertex):
         """Every mesh vertex's coordinate for ``cage_vertex`` ((k,) float32), or None."""
-        slots = mesh_arrays.read_triples(mesh, self.slot_names, self.info["slot_count"])
+        slots = mesh_arrays.read_triples(mesh, self.slot_names, self.info[SLOT_COUNT])
         if slots is None:
             return None
         if self.basis_names is None:
             return slots[:, cage_vertex]
-        basis = mesh_arrays.read_triples(mesh, self.basis_names, self.info["slot_count"])
+        basis = mesh_arrays.read_triples(mesh, self.basis_names, self.info[SLOT_COUNT])
         return None if basis is None else slots @ basis[cage_vertex]
 
 
@@ -345,13 +346,13 @@ class BindJob:
         geometry = self._read_scene(context)
         self._choose_storage()
         self.info = {
-            "format": FORMAT, "kind": self.kind, "outside": self.outside,
-            "storage": self.storage, "cage_vertex_count": len(self.cage_vertices),
-            "mesh_vertex_count": len(self.points), "cage_faces_hash": geometry.faces_hash,
+            FORMAT_KEY: FORMAT, KIND: self.kind, OUTSIDE: self.outside,
+            STORAGE: self.storage, CAGE_VERTEX_COUNT: len(self.cage_vertices),
+            MESH_VERTEX_COUNT: len(self.points), "cage_faces_hash": geometry.faces_hash,
             "cage_non_triangles": geometry.non_triangles, CAGE_NAME: self.cage.name,
         }
         if self.gamma is not None:  # ID properties hold no None
-            self.info["gamma"] = self.gamma
+            self.info[GAMMA] = self.gamma
         self.started = started
         self.result = None
 
@@ -509,8 +510,9 @@ class BindJob:
                                         samples=REPORT_SAMPLES, tolerance=FLOAT32_TOLERANCE)
         slot_count = written.pop("slot_count")
         slots, locations = written.pop("slots"), written.pop("locations")
+        self.info.update({STORAGE: self.storage, SLOT_COUNT: slot_count,
+                          KEY: secrets.token_hex(3)})
         self.info.update(
-            storage=self.storage, slot_count=slot_count, key=secrets.token_hex(3),
             report=report.headline,
             points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
             points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
@@ -580,16 +582,16 @@ class BindJob:
         # another cage replaces it.
         earlier = binding(obj, self.cage) or binding(obj, missing_cage=True)
         others = bindings(obj)
-        key = result.info["key"]
-        names = slot_attribute_names(key, result.info["slot_count"])
+        key = result.info[KEY]
+        names = slot_attribute_names(key, result.info[SLOT_COUNT])
         basis_names = None
         if result.basis is not None:
-            basis_names = basis_attribute_names(key, result.info["slot_count"])
+            basis_names = basis_attribute_names(key, result.info[SLOT_COUNT])
         group = modifier = None
         try:
             group = deformer.build_group(f"GenCoords: {obj.name} in {self.cage.name}", key,
-                                         result.rest_cage, result.info["mesh_vertex_count"],
-                                         result.info["slot_count"], basis_names)
+                                         result.rest_cage, result.info[MESH_VERTEX_COUNT],
+                                         result.info[SLOT_COUNT], basis_names)
             mesh_arrays.write_triples(obj.data, names, result.slots)
             if basis_names is not None:
                 mesh_arrays.write_triples(obj.data, basis_names, result.basis)

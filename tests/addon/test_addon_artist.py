@@ -322,3 +322,33 @@ def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkey
     assert escaped.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
     assert gc.binding.binding(obj).key == latest
     assert escaped.reports == ["Bind cancelled: nothing was changed"]
+
+
+def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeypatch):
+    """The artist starts Bind (progress bar), then changes the settings before it ends:
+    the binding is made with the settings of the moment Bind started."""
+    import importlib
+
+    from types import SimpleNamespace
+
+    operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.operators")
+    cage = add_icosphere_cage(subdivisions=2)
+    other = add_cube_cage(size=5.0, name="Other")
+    obj = add_sphere()
+    settings = obj.gencoords
+    settings.cage, settings.kind, settings.storage, settings.compact_size = cage, 'MEAN_VALUE', 'EXACT', 12
+    activate(obj)
+    monkeypatch.setattr(operators, "interactive", lambda context: True)
+    context = ContextStandIn(WindowStandIn())
+    running = bind_operator_stand_in(operators)
+    assert running.invoke(context, None) == {'RUNNING_MODAL'}
+    settings.cage, settings.kind, settings.gamma = other, 'POWER', 0.5
+    settings.outside, settings.storage, settings.compact_size = 'PROJECT', 'COMPACT', 6
+    result = {'RUNNING_MODAL'}
+    while result == {'RUNNING_MODAL'}:
+        result = running.modal(context, SimpleNamespace(type='TIMER'))
+    assert result == {'FINISHED'}
+    (found,) = gc.binding.bindings(obj)
+    assert found.cage == cage and found.info["kind"] == "mean_value" and "gamma" not in found.info
+    assert found.info["outside"] == "raise" and found.info["storage"] == 'EXACT'
+    assert found.info["slot_count"] == len(cage.data.vertices)
