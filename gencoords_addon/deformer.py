@@ -30,8 +30,7 @@ import bpy
 import numpy as np
 
 from . import compat
-from .bind_layout import (ATTRIBUTE_PREFIX, PARKED_PREFIX, attribute_prefix,  # noqa: F401
-                          basis_attribute_names, slot_attribute_names)
+from .bind_layout import PARKED_PREFIX, attribute_prefix, slot_attribute_names
 
 GEOMETRY = "Geometry"
 CAGE = "Cage"
@@ -70,6 +69,7 @@ DEFORMER_COLUMNS = (
 HELPER_COLUMNS = ("input", "read", "combine", "output")
 # The rest-cage capture: the deformer's Object Info node, alone.
 CAPTURE_COLUMNS = ("input", "cage", "output")
+
 
 class _Builder:
     """Adds nodes in columns (so the group reads left to right) and links them."""
@@ -351,7 +351,7 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
         s: n for exact storage, the basis size for compact storage.
     basis_names : list of str, optional
         Compact storage: the attributes holding the basis of cage motions on the first n
-        points (``basis_attribute_names``); None for exact storage.
+        points (``bind_layout.basis_attribute_names``); None for exact storage.
     """
     rest_cage = np.asarray(rest_cage, dtype=np.float32)
     group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
