@@ -287,7 +287,7 @@ def capture_rest_cage(obj, cage, context):
             return mesh_io.read_positions(captured).copy()
     finally:
         if modifier is not None:
-            obj.modifiers.remove(modifier)
+            compat.remove_nodes_modifier(obj, modifier)
         bpy.data.node_groups.remove(group)
 
 
@@ -608,7 +608,7 @@ class BindJob:
             group[METADATA] = result.info
         except Exception:
             if modifier is not None:
-                obj.modifiers.remove(modifier)
+                compat.remove_nodes_modifier(obj, modifier)
             if group is not None:
                 bpy.data.node_groups.remove(group)
             deformer.remove_slots(obj.data, key)
@@ -643,7 +643,7 @@ def remove(obj, bindings):
             parked[each.key] = deformer.park_slots(obj.data, each.key)
         for name, each in zip(names, bindings):
             group = each.group
-            obj.modifiers.remove(each.modifier)
+            compat.remove_nodes_modifier(obj, each.modifier)
             removed.append(name)
             deformer.drop_parked_slots(obj.data, parked[each.key])
             if group.users == 0:

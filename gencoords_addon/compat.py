@@ -49,6 +49,20 @@ def set_modifier_input_attribute(modifier, name, attribute):
     modifier.node_group.interface_update(bpy.context)
 
 
+def remove_nodes_modifier(obj, modifier):
+    """Remove the Geometry Nodes modifier ``modifier`` of ``obj``.
+
+    5.2 keeps a user of every object an input points at when the modifier is removed with
+    the input set (a deleted cage then lives on and is saved with the file): the object
+    inputs are cleared first.
+    """
+    if modifier.node_group is not None:
+        for item in modifier.node_group.interface.items_tree:
+            if getattr(item, "in_out", None) == 'INPUT' and item.socket_type == 'NodeSocketObject':
+                set_modifier_input(modifier, item.name, None)
+    obj.modifiers.remove(modifier)
+
+
 def get_modifier_input(modifier, name):
     """The value of the Geometry Nodes modifier input called ``name``."""
     item = _rna_input(modifier, name)

@@ -352,3 +352,14 @@ def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeyp
     assert found.cage == cage and found.info["kind"] == "mean_value" and "gamma" not in found.info
     assert found.info["outside"] == "raise" and found.info["storage"] == 'EXACT'
     assert found.info["slot_count"] == len(cage.data.vertices)
+
+
+def test_bind_and_unbind_leave_the_cage_with_the_users_it_had(gc):
+    """Blender 5.2 keeps a user of an object a removed modifier's input pointed at: the
+    capture at Bind and Unbind clear the inputs first, so a deleted cage can go."""
+    obj, cage = bound(gc)
+    activate(obj)
+    assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+    obj.gencoords.cage = None
+    update()
+    assert cage.users == 1  # its collection alone
