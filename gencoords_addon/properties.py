@@ -3,7 +3,7 @@
 import bpy
 
 from .. import core
-from ..core.inputs import GAMMA_LIMIT
+from ..core.base.inputs import GAMMA_LIMIT
 
 # Enum identifiers are the core's names in upper case (see ``core_name``); the core's
 # table of kinds is the one list.

@@ -24,10 +24,10 @@ from math import factorial
 import numpy as np
 
 from .boundary import plane_distances
-from .construction import facet_determinants, point_frame, sum_rows
-from .inputs import checked
-from .simplex import generalized_cross
-from .topology import gather_table
+from .general import facet_determinants, point_frame, sum_rows
+from ..base.inputs import checked
+from ..base.simplex import generalized_cross
+from ..base.topology import gather_table
 from .units import to_world
 from .validation import DEFAULT_TOLERANCE, validate_cage
 

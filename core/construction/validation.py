@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from . import tolerances
-from .construction import prepare_cage
-from .errors import CageError
-from .inputs import checked
+from ..base import tolerances
+from .general import prepare_cage
+from ..base.errors import CageError
+from ..base.inputs import checked
 
 __all__ = ["validate_cage", "convexity_violation", "non_convex_error", "DEFAULT_TOLERANCE"]
 

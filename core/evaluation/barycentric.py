@@ -7,12 +7,15 @@ with its worker processes); callers with several batches of points keep one inst
 import numpy as np
 
 from .cage import Cage, needs_convex
-from .inputs import OUTSIDE_MODES, checked
-from .numerical_surfaces import DEFAULT_LEVELS, geodesic_pieces, simplex_rule, surface_ridge_scalars
-from .validation import DEFAULT_TOLERANCE
+from ..base.inputs import OUTSIDE_MODES, checked
+from ..surfaces.numerical import DEFAULT_LEVELS, geodesic_pieces, simplex_rule, surface_ridge_scalars
+from ..base.topology import cage_topology
+from ..construction.general import construct_weights, point_frame
+from ..construction.units import to_world
+from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 
 __all__ = ["coordinates", "weights", "ridge_scalars", "ridge_scalars_from_surface", "point_locations",
-           "needs_convex", "OUTSIDE_MODES"]
+           "needs_convex", "OUTSIDE_MODES", "ridges", "weights_from_ridge_scalars"]
 # Entries of the (k, r, nodes, N) arrays of one chunk of ridge_scalars_from_surface.
 _SURFACE_CHUNK_ENTRIES = 1 << 22
 
@@ -193,3 +196,47 @@ def point_locations(points, vertices, faces, tolerance=DEFAULT_TOLERANCE, worker
     """
     with Cage(vertices, faces, tolerance) as cage:
         return cage.point_locations(points, workers=workers)
+
+
+@checked
+def ridges(faces):
+    """Ridges of a simplicial cage, in the order ridge-scalar columns use.
+
+    Parameters
+    ----------
+    faces : (m, N) int
+        Facets (2D: polygon edges, 3D: triangles).
+
+    Returns
+    -------
+    ridges : (r, N-1) int
+        Sorted vertex indices of each ridge (2D: one vertex, 3D: an edge), rows in
+        lexicographic order.
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    return cage_topology(faces, int(faces.max(initial=-1)) + 1).ridges
+
+
+@checked
+def weights_from_ridge_scalars(points, vertices, faces, d):
+    """The general construction for arbitrary ridge scalars (any generating surface).
+
+    Parameters
+    ----------
+    points : (k, N) float
+        Query points strictly inside the convex cage (elsewhere the formula is evaluated
+        as is: poles on facet hyperplanes give inf or NaN).
+    vertices : (n, N) float
+    faces : (m, N) int
+        Closed, outward-oriented simplicial facets of a convex cage.
+    d : (k, r) float
+        One scalar per (point, ridge), ridges ordered as :func:`core.ridges`.
+
+    Returns
+    -------
+    weights : (k, n) float
+        Homogeneous weights: ``sum_i w_i (v_i - x) = 0`` for every point.
+    """
+    cage = validate_cage(vertices, faces)
+    # Frame weights have length degree -1 for the same d (u = r . m / det E).
+    return to_world(construct_weights(cage, point_frame(cage, points), d.T).T, cage.scale, -1, "weights")

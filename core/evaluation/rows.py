@@ -10,13 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import tolerances
-from .boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances,
+from ..base import tolerances
+from ..construction.boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances,
                        plane_limit_coordinates)
-from .construction import construct_weights, facet_determinants, point_frame
-from .floater import FloaterTerms, floater_form_weights, floater_terms
-from .generating_surfaces import named_ridge_scalars, named_scaled_ridge_scalars
-from .polar_dual import PolarDualTerms, polar_dual_terms, wachspress_polar_weights
+from ..construction.general import construct_weights, facet_determinants, point_frame
+from ..construction.floater import FloaterTerms, floater_form_weights, floater_terms
+from ..surfaces.named import named_ridge_scalars, named_scaled_ridge_scalars
+from ..construction.polar_dual import PolarDualTerms, polar_dual_terms, wachspress_polar_weights
 
 __all__ = ["EvaluationTerms", "evaluation_terms", "chunk_size", "evaluate_rows", "locate_rows"]
 

@@ -20,7 +20,8 @@ import numpy as np
 
 from . import tolerances
 from .errors import CageError
-from .generating_surfaces import KINDS
+from .topology import cage_topology
+from ..surfaces.named import KINDS
 
 __all__ = ["checked", "CHECKS", "OUTSIDE_MODES", "check_tolerance", "real_array",
            "bounding_frame"]
@@ -257,7 +258,6 @@ def _convex(value, context):
 
 
 def _ridge_values(value, context, name):
-    from .topology import cage_topology  # topology's public function is itself @checked
 
     ridges = len(cage_topology(context.faces, context.vertex_count).ridges)
     array = np.atleast_2d(real_array(value, name))

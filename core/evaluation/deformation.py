@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from . import tolerances
-from .inputs import checked
+from ..base import tolerances
+from ..base.inputs import checked
 
 __all__ = ["deform", "field_colors", "field_range", "coordinate_summary"]
 

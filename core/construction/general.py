@@ -18,12 +18,12 @@ from functools import cached_property
 
 import numpy as np
 
-from .inputs import bounding_frame, checked
-from .simplex import generalized_cross
-from .topology import CageTopology, cage_topology
+from ..base.inputs import bounding_frame, checked
+from ..base.simplex import generalized_cross
+from ..base.topology import CageTopology, cage_topology
 
 __all__ = ["PreparedCage", "PointFrame", "prepare_cage", "point_frame", "facet_determinants",
-           "construct_weights", "weights_from_ridge_scalars"]
+           "construct_weights"]
 
 
 @dataclass(frozen=True)
@@ -384,31 +384,3 @@ def sum_rows(rows, table):
     for column in range(1, table.shape[1]):
         total += np.take(rows, table[:, column], axis=0)
     return total
-
-
-@checked
-def weights_from_ridge_scalars(points, vertices, faces, d):
-    """The general construction for arbitrary ridge scalars (any generating surface).
-
-    Parameters
-    ----------
-    points : (k, N) float
-        Query points strictly inside the convex cage (elsewhere the formula is evaluated
-        as is: poles on facet hyperplanes give inf or NaN).
-    vertices : (n, N) float
-    faces : (m, N) int
-        Closed, outward-oriented simplicial facets of a convex cage.
-    d : (k, r) float
-        One scalar per (point, ridge), ridges ordered as :func:`core.ridges`.
-
-    Returns
-    -------
-    weights : (k, n) float
-        Homogeneous weights: ``sum_i w_i (v_i - x) = 0`` for every point.
-    """
-    from .units import to_world
-    from .validation import validate_cage  # it prepares cages: imported late
-
-    cage = validate_cage(vertices, faces)
-    # Frame weights have length degree -1 for the same d (u = r . m / det E).
-    return to_world(construct_weights(cage, point_frame(cage, points), d.T).T, cage.scale, -1, "weights")

@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import tolerances
+from ..base import tolerances
 from .boundary import BOUNDARY, INSIDE, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances
-from .construction import facet_determinants, sum_rows
-from .errors import CageError, OutsideCageError
-from .inputs import _finite, checked, real_array
+from .general import facet_determinants, sum_rows
+from ..base.errors import CageError, OutsideCageError
+from ..base.inputs import _finite, checked, real_array
 from .units import to_world
 from .validation import DEFAULT_TOLERANCE, convexity_violation, validate_cage
 

@@ -16,6 +16,9 @@ from itertools import combinations
 
 import numpy as np
 
+from ..surfaces.named import named_ridge_scalars
+from .general import point_frame, prepare_cage
+
 __all__ = ["to_world", "length_degree"]
 
 
@@ -57,9 +60,6 @@ def length_degree(kind, dimension, gamma=None):
     Measured: d of a simplex around its centroid, at unit size and at size 2 (exact powers
     of two), so any homogeneous surface, whatever its formula, is converted right.
     """
-    from .construction import prepare_cage, point_frame
-    from .generating_surfaces import named_ridge_scalars
-
     simplex = np.vstack([np.zeros(dimension), np.eye(dimension)])
     facets = np.array(list(combinations(range(dimension + 1), dimension)))
     centre = simplex.mean(axis=0)[None]

@@ -11,9 +11,9 @@ from math import factorial
 
 import numpy as np
 
-from . import tolerances
+from ..base import tolerances
 from .floater import convex_cage_and_determinants, floater_term_values, floater_terms
-from .inputs import checked
+from ..base.inputs import checked
 from .units import to_world
 from .validation import DEFAULT_TOLERANCE
 

@@ -10,12 +10,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import tolerances
-from .boundary import INSIDE
-from .cage import Cage
-from .generating_surfaces import KIND_TABLE, kind_parameter
-from .inputs import checked
-from .validation import DEFAULT_TOLERANCE
+from ..base import tolerances
+from ..construction.boundary import INSIDE
+from ..evaluation.cage import Cage
+from ..surfaces.named import KIND_TABLE, kind_parameter
+from ..base.inputs import checked
+from ..construction.validation import DEFAULT_TOLERANCE
 
 __all__ = ["CoordinateReport", "coordinate_report", "interior_sample"]
 

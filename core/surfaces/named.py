@@ -17,7 +17,7 @@ from math import factorial
 
 import numpy as np
 
-from .numerical_surfaces import unit_sphere_ridge_scalars
+from .numerical import unit_sphere_ridge_scalars
 
 __all__ = ["Kind", "KIND_TABLE", "KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
            "kind_parameter", "mean_value", "discrete_harmonic_scaled", "wachspress_scaled",

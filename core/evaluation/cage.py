@@ -10,17 +10,17 @@ import warnings
 
 import numpy as np
 
-from . import tolerances
-from .boundary import BOUNDARY, OUTSIDE
-from .construction import point_frame
-from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
-from .evaluation import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
-from .generating_surfaces import CONVEX_ONLY_KINDS, kind_parameter, named_ridge_scalars
-from .inputs import OUTSIDE_MODES, checked
+from ..base import tolerances
+from ..construction.boundary import BOUNDARY, OUTSIDE
+from ..construction.general import point_frame
+from ..base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
+from .rows import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
+from ..surfaces.named import CONVEX_ONLY_KINDS, kind_parameter, named_ridge_scalars
+from ..base.inputs import OUTSIDE_MODES, checked
 from .parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead, dispatch_units,
                        python_executable)
-from .units import length_degree, to_world
-from .validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
+from ..construction.units import length_degree, to_world
+from ..construction.validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
 
 __all__ = ["Cage", "OUTSIDE_MODES", "needs_convex"]
 

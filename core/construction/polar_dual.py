@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .construction import sum_rows
-from .topology import gather_table
+from .general import sum_rows
+from ..base.topology import gather_table
 
 __all__ = ["PolarDualTerms", "polar_dual_terms", "wachspress_polar_weights"]
 

@@ -7,7 +7,7 @@ of an outside point (``outside="project"``).
 
 import numpy as np
 
-from .simplex import closest_points_on_simplices
+from ..base.simplex import closest_points_on_simplices
 
 __all__ = ["INSIDE", "BOUNDARY", "OUTSIDE", "plane_distances", "locate",
            "winding_numbers", "plane_limit_coordinates", "nearest_boundary_coordinates"]
