@@ -205,3 +205,32 @@ def test_pip_installs_the_core_as_gencoords_and_it_imports_from_another_folder(i
                                env=environment)
     assert completed.returncode == 0, completed.stderr
     assert completed.stdout.startswith("ok")
+
+
+def public_objects():
+    """(qualified name, object) of every function and class the public APIs list."""
+    import inspect
+
+    import gencoords
+    found = {}
+    for api in (gencoords, gencoords.advanced, gencoords.tools):
+        for name in api.__all__:
+            value = getattr(api, name)
+            if (inspect.isfunction(value) or inspect.isclass(value)) and not issubclass_of_exception(value):
+                found.setdefault(f"{api.__name__}.{name}", value)
+    return sorted(found.items())
+
+
+def issubclass_of_exception(value):
+    return isinstance(value, type) and issubclass(value, BaseException)
+
+
+@pytest.mark.parametrize("name, value", public_objects(), ids=[name for name, _ in public_objects()])
+def test_every_public_function_has_examples_that_run(name, value):
+    import doctest
+    assert "\n    Examples\n    --------\n" in (value.__doc__ or ""), f"{name}: no numpydoc Examples section"
+    test = doctest.DocTestParser().get_doctest(value.__doc__, {}, name, None, 0)
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    output = []
+    runner.run(test, out=output.append)
+    assert runner.failures == 0 and runner.tries > 0, "".join(output)

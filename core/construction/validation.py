@@ -175,6 +175,17 @@ def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):
     -------
     cage : PreparedCage
         The prepared cage, for reuse.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> cage = gencoords.advanced.validate_cage(square, edges)
+    >>> gencoords.advanced.validate_cage(square, edges[:, ::-1])
+    Traceback (most recent call last):
+    ...
+    gencoords.base.errors.CageError: ...
     """
     vertices, faces = _check_arrays(vertices, faces)
     cage = prepare_cage(vertices, faces)

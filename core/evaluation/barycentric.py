@@ -87,6 +87,19 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
     WorkerError
         A worker process could not start, failed or was killed (the others are stopped
         and the shared memory removed).
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> b = gencoords.coordinates([[0.5, 0.5], [0.25, 0.5]], square, edges, kind="wachspress")
+    >>> b.shape
+    (2, 4)
+    >>> print(b[0])
+    [0.25 0.25 0.25 0.25]
+    >>> bool(np.allclose(b @ square, [[0.5, 0.5], [0.25, 0.5]]))
+    True
     """
     with Cage(vertices, faces, tolerance) as cage:
         return cage.coordinates(points, kind=kind, outside=outside, progress=progress, dtype=dtype,
@@ -107,6 +120,17 @@ def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERA
     Returns
     -------
     weights : (k, n) float
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> w = gencoords.weights([[0.5, 0.5]], square, edges)
+    >>> w.shape
+    (1, 4)
+    >>> bool(np.allclose(w @ (square - [0.5, 0.5]), 0.0))  # sum_i w_i (v_i - x) = 0
+    True
     """
     with Cage(vertices, faces, tolerance) as cage:
         return cage.weights(points, kind=kind, workers=workers, gamma=gamma)
@@ -132,6 +156,15 @@ def ridge_scalars(points, vertices, faces, kind, gamma=None):
         Columns follow :func:`core.ridges` (2D: vertices, 3D: edges). A ridge through a
         point has no scalar there: NaN (or inf) in that entry; :func:`coordinates` takes
         the boundary limits instead.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> d = gencoords.advanced.ridge_scalars([[0.5, 0.5]], square, edges, "mean_value")
+    >>> d.shape  # (k, r): one scalar per point and ridge
+    (1, 4)
     """
     return Cage(vertices, faces).ridge_scalars(points, kind, gamma=gamma)
 
@@ -165,6 +198,17 @@ def ridge_scalars_from_surface(points, vertices, faces, radius, levels=DEFAULT_L
     -------
     d : (k, r) float
         Columns follow :func:`core.ridges`.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> unit_sphere = lambda points, directions: np.ones(directions.shape[:2])
+    >>> d = gencoords.advanced.ridge_scalars_from_surface([[0.5, 0.5]], square, edges, unit_sphere)
+    >>> exact = gencoords.advanced.ridge_scalars([[0.5, 0.5]], square, edges, "mean_value")
+    >>> bool(np.allclose(d, exact, rtol=1e-6))  # the unit sphere generates mean value coordinates
+    True
     """
     cage = Cage(vertices, faces)
     corners = cage.vertices[cage.topology_ridges]
@@ -193,6 +237,15 @@ def point_locations(points, vertices, faces, tolerance=DEFAULT_TOLERANCE, worker
     Returns
     -------
     locations : (k,) int8
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> where = gencoords.point_locations([[0.5, 0.5], [1.0, 0.5], [2.0, 0.5]], square, edges)
+    >>> [int(code) for code in where] == [gencoords.INSIDE, gencoords.BOUNDARY, gencoords.OUTSIDE]
+    True
     """
     with Cage(vertices, faces, tolerance) as cage:
         return cage.point_locations(points, workers=workers)
@@ -212,6 +265,14 @@ def ridges(faces):
     ridges : (r, N-1) int
         Sorted vertex indices of each ridge (2D: one vertex, 3D: an edge), rows in
         lexicographic order.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> print(gencoords.advanced.ridges(edges).ravel())  # 2D: a ridge is a vertex
+    [0 1 2 3]
     """
     faces = np.asarray(faces, dtype=np.int64)
     return cage_topology(faces, int(faces.max(initial=-1)) + 1).ridges
@@ -236,6 +297,16 @@ def weights_from_ridge_scalars(points, vertices, faces, d):
     -------
     weights : (k, n) float
         Homogeneous weights: ``sum_i w_i (v_i - x) = 0`` for every point.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> d = gencoords.advanced.ridge_scalars([[0.5, 0.5]], square, edges, "wachspress")
+    >>> w = gencoords.advanced.weights_from_ridge_scalars([[0.5, 0.5]], square, edges, d)
+    >>> print(w / w.sum(axis=1, keepdims=True))
+    [[0.25 0.25 0.25 0.25]]
     """
     cage = validate_cage(vertices, faces)
     # Frame weights have length degree -1 for the same d (u = r . m / det E).

@@ -32,7 +32,14 @@ _PAIRS_PER_WORKER = 16 << 20
 
 @checked
 def needs_convex(kind):
-    """Whether coordinates of ``kind`` require a convex cage (all but mean value)."""
+    """Whether coordinates of ``kind`` require a convex cage (all but mean value).
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> gencoords.needs_convex("wachspress"), gencoords.needs_convex("mean_value")
+    (True, False)
+    """
     return kind in CONVEX_ONLY_KINDS
 
 
@@ -63,6 +70,16 @@ class Cage:
     garbage collection and interpreter exit. Where automatic workers (``workers=None``)
     cannot start or fail, the call is computed in this process with a
     :class:`core.WorkerWarning`, and so are this cage's later automatic calls.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> with gencoords.Cage(square, edges) as cage:  # validated once, workers kept
+    ...     b = cage.coordinates([[0.5, 0.5]], kind="mean_value")
+    >>> print(b.round(3))
+    [[0.25 0.25 0.25 0.25]]
     """
 
     def __init__(self, vertices, faces, tolerance=DEFAULT_TOLERANCE):

@@ -46,6 +46,14 @@ class CoordinateReport:
     smallest_weight_sum_point : (N,) float
     linear_precision : float
         The worst ``|sum_i b_i v_i - x|``, relative to the cage's size.
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.shapes import octahedron
+    >>> report = gencoords.tools.coordinate_report(*octahedron(), "mean_value", samples=200)
+    >>> report.kind, report.points, report.smallest >= 0.0
+    ('mean_value', 200, True)
     """
 
     kind: str
@@ -134,6 +142,15 @@ def coordinate_report(vertices, faces, kind="mean_value", gamma=None, points=Non
     Returns
     -------
     CoordinateReport
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, faces = octahedron()
+    >>> report = gencoords.tools.coordinate_report(vertices, faces, "wachspress", samples=200)
+    >>> report.positive
+    True
     """
     with Cage(vertices, faces, tolerance) as cage:
         sample = interior_sample(cage, samples)
