@@ -23,7 +23,7 @@ def plane_distances(cage, facet_det):
     ----------
     cage : PreparedCage
     facet_det : (k, m) float
-        From :func:`core.construction.facet_determinants`.
+        From :func:`gencoords.construction.general.facet_determinants`.
 
     Returns
     -------

@@ -53,7 +53,7 @@ def floater_matrix(points, vertices, faces, tolerance=DEFAULT_TOLERANCE):
     Returns
     -------
     matrix : (k, n, r) float
-        ``weights[k] = matrix[k] @ c[k]``; ridges ordered as :func:`core.ridges`.
+        ``weights[k] = matrix[k] @ c[k]``; ridges ordered as :func:`gencoords.advanced.ridges`.
 
     Examples
     --------
@@ -86,7 +86,7 @@ def floater_scalars(point, vertices, faces, w, tolerance=DEFAULT_TOLERANCE):
     -------
     c : (r,) float
         The least-norm solution of ``floater_matrix(point) @ c = w``. Ridge scalars
-        follow from :func:`core.ridge_scalars_from_floater`.
+        follow from :func:`gencoords.advanced.ridge_scalars_from_floater`.
 
     Raises
     ------

@@ -53,7 +53,7 @@ class FloaterTerms:
         The vertex each per-ridge term belongs to (rows ``role * r + ridge``; roles p,
         q, then the ridge's vertices).
     vertex_terms : (n, w) int
-        Their gather table (:func:`core.topology.gather_table`) by vertex.
+        Their gather table (:func:`gencoords.base.topology.gather_table`) by vertex.
     """
 
     facets: np.ndarray
@@ -99,7 +99,7 @@ def floater_term_values(cage, terms, points, facet_det, scaled_scalars):
     terms : FloaterTerms
     points : (k, N) float
     facet_det : (m, k) float
-        ``det E_T`` of every facet (see :class:`~core.construction.PointFrame`).
+        ``det E_T`` of every facet (see :class:`~gencoords.construction.general.PointFrame`).
     scaled_scalars : (r, k) float
         ``N! c_R`` (equivalently ``d_R |m_R|``) per (ridge, point).
 
@@ -146,7 +146,7 @@ def convex_cage_and_determinants(points, vertices, faces, tolerance, what):
         first = ", ".join(str(i) for i in np.flatnonzero(near)[:5])
         raise ValueError(f"{what} has a pole on the cage's facet hyperplanes: {np.count_nonzero(near)} "
                          f"points lie within the tolerance ({tolerance:g} of the cage's size) of "
-                         f"one (first: {first}); use core.coordinates, which takes the boundary "
+                         f"one (first: {first}); use gencoords.coordinates, which takes the boundary "
                          "limit there, or points strictly inside")
     return cage, det.T
 

@@ -30,7 +30,7 @@ __all__ = ["PreparedCage", "PointFrame", "prepare_cage", "point_frame", "facet_d
 class PreparedCage:
     """A cage in its frame with everything the formulas need that depends only on it.
 
-    The internal, unvalidated form (:func:`prepare_cage`); :class:`core.Cage` is the
+    The internal, unvalidated form (:func:`prepare_cage`); :class:`gencoords.Cage` is the
     public one, validated and holding one of these.
 
     Attributes
@@ -92,7 +92,7 @@ class PreparedCage:
 
 
 def prepare_cage(vertices, faces, scale=None):
-    """Precompute a :class:`PreparedCage` (no validation; see :func:`core.validate_cage`).
+    """Precompute a :class:`PreparedCage` (no validation; see :func:`gencoords.advanced.validate_cage`).
 
     Parameters
     ----------
@@ -100,7 +100,7 @@ def prepare_cage(vertices, faces, scale=None):
     faces : (m, N) int
         Outward-oriented facets.
     scale : float, optional
-        The frame's unit; by default the power of two of :func:`core.inputs.bounding_frame`.
+        The frame's unit; by default the power of two of :func:`gencoords.base.inputs.bounding_frame`.
 
     Returns
     -------
@@ -368,7 +368,7 @@ def construct_weights(cage, frame, ridge_scalars, skip_facets=None):
 
 
 def sum_rows(rows, table):
-    """Per-owner sums of rows, by a :func:`core.topology.gather_table`.
+    """Per-owner sums of rows, by a :func:`gencoords.base.topology.gather_table`.
 
     Parameters
     ----------

@@ -18,7 +18,7 @@ def _first(mask):
 
 
 def _check_arrays(vertices, faces):
-    # Shapes, dtypes, finiteness and index range: core.inputs (validate_cage is @checked).
+    # Shapes, dtypes, finiteness and index range: gencoords.base.inputs (validate_cage is @checked).
     vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
     dim = vertices.shape[1]
     if len(vertices) < dim + 1:
@@ -168,7 +168,7 @@ def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):
     convex : bool
         Also require convexity (every kind but mean value).
     tolerance : float
-        Relative to the cage's bounding-box diagonal, in (0, 1e-3] (``core.tolerances``):
+        Relative to the cage's bounding-box diagonal, in (0, 1e-3] (``gencoords.base.tolerances``):
         coincident vertices, flat facets and convexity are judged to this precision.
 
     Returns

@@ -1,6 +1,6 @@
 """The public entry points: coordinates, weights, ridge scalars and locations of points.
 
-Each builds a :class:`core.Cage` for the call (validated, prepared, and stopped again
+Each builds a :class:`gencoords.Cage` for the call (validated, prepared, and stopped again
 with its worker processes); callers with several batches of points keep one instead.
 """
 
@@ -65,7 +65,7 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
         Python interpreters importing only this package and numpy (also inside
         Blender); results come back through shared memory and are bitwise the same
         whatever the number of workers. To compute several batches against one cage,
-        keep a :class:`core.Cage`: it validates once and keeps its workers.
+        keep a :class:`gencoords.Cage`: it validates once and keeps its workers.
 
     gamma : float, optional
         The power family's exponent (kind ``"power"`` only; default -0.5): the surface's
@@ -146,14 +146,14 @@ def ridge_scalars(points, vertices, faces, kind, gamma=None):
     vertices : (n, N) float
     faces : (m, N) int
     kind : str
-        One of :data:`core.KINDS`.
+        One of :data:`gencoords.advanced.KINDS`.
     gamma : float, optional
         For kind ``"power"`` (see :func:`coordinates`).
 
     Returns
     -------
     d : (k, r) float
-        Columns follow :func:`core.ridges` (2D: vertices, 3D: edges). A ridge through a
+        Columns follow :func:`gencoords.advanced.ridges` (2D: vertices, 3D: edges). A ridge through a
         point has no scalar there: NaN (or inf) in that entry; :func:`coordinates` takes
         the boundary limits instead.
 
@@ -197,7 +197,7 @@ def ridge_scalars_from_surface(points, vertices, faces, radius, levels=DEFAULT_L
     Returns
     -------
     d : (k, r) float
-        Columns follow :func:`core.ridges`.
+        Columns follow :func:`gencoords.advanced.ridges`.
 
     Examples
     --------
@@ -291,7 +291,7 @@ def weights_from_ridge_scalars(points, vertices, faces, d):
     faces : (m, N) int
         Closed, outward-oriented simplicial facets of a convex cage.
     d : (k, r) float
-        One scalar per (point, ridge), ridges ordered as :func:`core.ridges`.
+        One scalar per (point, ridge), ridges ordered as :func:`gencoords.advanced.ridges`.
 
     Returns
     -------

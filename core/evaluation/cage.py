@@ -1,6 +1,6 @@
 """A cage validated and prepared once, for any number of coordinate computations.
 
-``core.coordinates(points, vertices, faces, ...)`` and the other free functions build
+``gencoords.coordinates(points, vertices, faces, ...)`` and the other free functions build
 a :class:`Cage` per call; a caller with several batches of points (the add-on's Bind,
 an animation tool) keeps one, and with it everything that depends only on the cage:
 the validation, the per-facet and per-ridge polynomials, and the worker processes.
@@ -66,10 +66,10 @@ class Cage:
     Notes
     -----
     A cage that has computed with ``workers > 1`` keeps its worker processes for the
-    next call; ``close()`` (or ``with core.Cage(...) as cage:``) stops them, as does
+    next call; ``close()`` (or ``with gencoords.Cage(...) as cage:``) stops them, as does
     garbage collection and interpreter exit. Where automatic workers (``workers=None``)
     cannot start or fail, the call is computed in this process with a
-    :class:`core.WorkerWarning`, and so are this cage's later automatic calls.
+    :class:`gencoords.WorkerWarning`, and so are this cage's later automatic calls.
 
     Examples
     --------
@@ -105,7 +105,7 @@ class Cage:
 
     @property
     def topology_ridges(self):
-        """The ridges' vertex indices, as :func:`core.ridges`: (r, N-1) int."""
+        """The ridges' vertex indices, as :func:`gencoords.advanced.ridges`: (r, N-1) int."""
         return self._prepared.topology.ridges
 
     @property
@@ -144,19 +144,19 @@ class Cage:
     @checked
     def coordinates(self, points, kind="mean_value", outside="raise", progress=None,
                     dtype=np.float64, locations=None, workers=None, gamma=None):
-        """Generalized barycentric coordinates of points (see :func:`core.coordinates`).
+        """Generalized barycentric coordinates of points (see :func:`gencoords.coordinates`).
 
         Parameters
         ----------
         points : (k, N) float
         kind, outside, progress, dtype, locations
-            As :func:`core.coordinates`.
+            As :func:`gencoords.coordinates`.
         workers : int or None
             Processes to compute in. ``1``: this process only. ``None``: as many as
             the cores this process may use, for calls long enough to repay starting
             them (about half a second of work per worker), else this process; where
-            they cannot start or fail, this process (a :class:`core.WorkerWarning`;
-            an explicit count raises :class:`core.WorkerError` instead). The result
+            they cannot start or fail, this process (a :class:`gencoords.WorkerWarning`;
+            an explicit count raises :class:`gencoords.WorkerError` instead). The result
             is bitwise the same whatever the number.
 
         Returns
@@ -172,7 +172,7 @@ class Cage:
 
     @checked
     def weights(self, points, kind="mean_value", workers=None, gamma=None):
-        """Homogeneous weights of a named kind (see :func:`core.weights`): (k, n) float."""
+        """Homogeneous weights of a named kind (see :func:`gencoords.weights`): (k, n) float."""
         gamma = kind_parameter(kind, gamma)
         values, where = self._evaluate(points, kind, "extrapolate", False, None, np.dtype(np.float64),
                                        workers, gamma)
@@ -184,7 +184,7 @@ class Cage:
 
     @checked
     def ridge_scalars(self, points, kind, gamma=None):
-        """Ridge scalars d of a named generating surface (see :func:`core.ridge_scalars`):
+        """Ridge scalars d of a named generating surface (see :func:`gencoords.advanced.ridge_scalars`):
         (k, r) float."""
         gamma = kind_parameter(kind, gamma)
         d = named_ridge_scalars(kind, point_frame(self._prepared, points), gamma).T

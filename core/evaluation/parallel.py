@@ -22,8 +22,8 @@ Test seam: where the environment variable ``GENCOORDS_WORKER_PRELUDE`` names a P
 file, every worker runs it before serving (the tests simulate Windows' and macOS'
 semantics in the workers with it); nothing else reads it.
 
-A worker keeps its prepared cage between calls (a :class:`core.Cage` owns its pool).
-It computes whole chunks of :func:`core.evaluation.chunk_size` points, the same chunks
+A worker keeps its prepared cage between calls (a :class:`gencoords.Cage` owns its pool).
+It computes whole chunks of :func:`gencoords.evaluation.rows.chunk_size` points, the same chunks
 as one process, so the result is bitwise the same as ``workers=1``.
 """
 

@@ -46,7 +46,7 @@ def evaluation_terms(cage):
 
 
 def chunk_size(cage, locate_only=False, convex=True):
-    """Points per chunk for a prepared cage (:class:`core.construction.PreparedCage`): int."""
+    """Points per chunk for a prepared cage (:class:`gencoords.construction.general.PreparedCage`): int."""
     facets = len(cage.topology.faces)
     if locate_only and convex:
         return max(1, _LOCATE_CHUNK_PAIRS // facets)
@@ -81,7 +81,7 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
 
     Parameters
     ----------
-    cage : core.construction.PreparedCage
+    cage : gencoords.construction.general.PreparedCage
     terms : EvaluationTerms
         ``evaluation_terms(cage)``.
     points : (k, N) float

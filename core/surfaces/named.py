@@ -2,7 +2,7 @@
 
 d, shape (r, k) (ridges by points, the frame's layout), is the signed (N-1)-volume
 enclosed by x and the ridge projected onto the surface. Ridges have p = N-1 vertices;
-everything comes from a :class:`~core.construction.PointFrame`: the ridge's Gram matrix
+everything comes from a :class:`~gencoords.construction.general.PointFrame`: the ridge's Gram matrix
 of ``e = v - x`` and its generalized cross product, of norm ``|m_R|``.
 
 Floater's form of the construction takes ``d |m_R|`` (N! times Floater's c) instead. Some

@@ -20,7 +20,7 @@ from ..construction.validation import DEFAULT_TOLERANCE
 __all__ = ["CoordinateReport", "coordinate_report", "interior_sample"]
 
 # Points of the sample near each facet, at this fraction of the cage's size inside it.
-_NEAR_BOUNDARY = 1e-3
+_NEAR_BOUNDARY = tolerances.REPORT_NEAR_BOUNDARY
 
 
 @dataclass(frozen=True)
@@ -82,7 +82,7 @@ class CoordinateReport:
         sign = (f"positive (smallest {self.smallest:.2g})" if self.positive else
                 f"negative at {self.negative_points} of {self.points} points "
                 f"(down to {self.smallest:.2g})")
-        defined = ("well defined" if self.smallest_weight_sum > 1e-6 else
+        defined = ("well defined" if self.smallest_weight_sum > tolerances.WELL_DEFINED_WEIGHT_SUM else
                    f"nearly undefined somewhere (weight sum {self.smallest_weight_sum:.1g} of the weights)")
         return f"{label}: {sign}; {defined}; linear precision {self.linear_precision:.0e}"
 
@@ -131,7 +131,7 @@ def coordinate_report(vertices, faces, kind="mean_value", gamma=None, points=Non
     vertices : (n, N) float
     faces : (m, N) int
     kind : str
-        One of :data:`core.KINDS` (``gamma`` for ``"power"``).
+        One of :data:`gencoords.advanced.KINDS` (``gamma`` for ``"power"``).
     gamma : float, optional
     points : (k, N) float, optional
         Points examined besides the sample (those inside the cage).
