@@ -4,6 +4,7 @@ installs as ``gencoords`` and imports from any folder without Blender."""
 
 import ast
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -175,10 +176,16 @@ def test_the_public_api_is_small_and_every_sub_api_lists_its_names():
 def installed(tmp_path_factory):
     """The core installed by pip (no network: this venv's setuptools builds it) into a folder."""
     target = tmp_path_factory.mktemp("site")
+    # A copy of what the package is built from: pip builds in the source folder (build/,
+    # *.egg-info), which must not be the checkout other runs use at the same time.
+    source = tmp_path_factory.mktemp("source")
+    for name in ("pyproject.toml", "README.md", "LICENSE"):
+        shutil.copy2(REPO / name, source / name)
+    shutil.copytree(REPO / "core", source / "core", ignore=shutil.ignore_patterns("__pycache__"))
     completed = subprocess.run(
         [sys.executable, "-m", "pip", "install", "--quiet", "--no-build-isolation", "--no-deps",
-         "--no-index", "--target", str(target), str(REPO)],
-        capture_output=True, text=True, cwd=tmp_path_factory.mktemp("build"))
+         "--no-index", "--target", str(target), str(source)],
+        capture_output=True, text=True, cwd=source)
     assert completed.returncode == 0, completed.stderr
     return target
 
