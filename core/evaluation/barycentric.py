@@ -10,6 +10,7 @@ from .cage import Cage, needs_convex
 from ..base.inputs import OUTSIDE_MODES, checked
 from ..surfaces.numerical import DEFAULT_LEVELS, geodesic_pieces, simplex_rule, surface_ridge_scalars
 from ..base.topology import cage_topology
+from ..surfaces.named import MEAN_VALUE
 from ..construction.general import construct_weights, point_frame
 from ..construction.units import to_world
 from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
@@ -21,7 +22,7 @@ _SURFACE_CHUNK_ENTRIES = 1 << 22
 
 
 @checked
-def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
+def coordinates(points, vertices, faces, kind=MEAN_VALUE, outside="raise",
                 tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64, locations=None,
                 workers=None, gamma=None):
     """Generalized barycentric coordinates of points with respect to a cage.
@@ -107,7 +108,7 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
 
 
 @checked
-def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERANCE, workers=None,
+def weights(points, vertices, faces, kind=MEAN_VALUE, tolerance=DEFAULT_TOLERANCE, workers=None,
             gamma=None):
     """Homogeneous weights of a named kind: ``sum_i w_i (v_i - x) = 0``.
 

@@ -15,7 +15,7 @@ from ..construction.boundary import BOUNDARY, OUTSIDE
 from ..construction.general import point_frame
 from ..base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
 from .rows import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
-from ..surfaces.named import CONVEX_ONLY_KINDS, kind_parameter, named_ridge_scalars
+from ..surfaces.named import CONVEX_ONLY_KINDS, MEAN_VALUE, kind_parameter, named_ridge_scalars
 from ..base.inputs import OUTSIDE_MODES, checked
 from .parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead, dispatch_units,
                        python_executable)
@@ -142,7 +142,7 @@ class Cage:
     # -- the public computations -------------------------------------------------------
 
     @checked
-    def coordinates(self, points, kind="mean_value", outside="raise", progress=None,
+    def coordinates(self, points, kind=MEAN_VALUE, outside="raise", progress=None,
                     dtype=np.float64, locations=None, workers=None, gamma=None):
         """Generalized barycentric coordinates of points (see :func:`gencoords.coordinates`).
 
@@ -164,14 +164,14 @@ class Cage:
         coordinates : (k, n) dtype
         """
         result, where = self._evaluate(points, kind, outside, True, progress, dtype, workers, gamma)
-        if kind == "mean_value" and outside == "extrapolate":
+        if kind == MEAN_VALUE and outside == "extrapolate":
             self._warn_if_flat_extrapolation(points, result, where)
         if locations is not None:
             locations[...] = where
         return result
 
     @checked
-    def weights(self, points, kind="mean_value", workers=None, gamma=None):
+    def weights(self, points, kind=MEAN_VALUE, workers=None, gamma=None):
         """Homogeneous weights of a named kind (see :func:`gencoords.weights`): (k, n) float."""
         gamma = kind_parameter(kind, gamma)
         values, where = self._evaluate(points, kind, "extrapolate", False, None, np.dtype(np.float64),
@@ -297,7 +297,7 @@ class Cage:
             return
         factor = 1.0 + 1.0 / 3.0
         twin = Cage(self.vertices * factor, self.faces, self.tolerance)
-        again, _ = twin._evaluate(points[outside_rows] * factor, "mean_value", "extrapolate", True,
+        again, _ = twin._evaluate(points[outside_rows] * factor, MEAN_VALUE, "extrapolate", True,
                                   None, np.dtype(np.float64), 1)
         error = float(np.abs(again - result[outside_rows]).max())
         if error > tolerances.ACCURACY:

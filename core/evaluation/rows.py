@@ -15,7 +15,7 @@ from ..construction.boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary
                        plane_limit_coordinates)
 from ..construction.general import construct_weights, facet_determinants, point_frame
 from ..construction.floater import FloaterTerms, floater_form_weights, floater_terms
-from ..surfaces.named import named_ridge_scalars, named_scaled_ridge_scalars
+from ..surfaces.named import MEAN_VALUE, WACHSPRESS, named_ridge_scalars, named_scaled_ridge_scalars
 from ..construction.polar_dual import PolarDualTerms, polar_dual_terms, wachspress_polar_weights
 
 __all__ = ["EvaluationTerms", "evaluation_terms", "chunk_size", "evaluate_rows", "locate_rows"]
@@ -114,10 +114,10 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
     # to zero and their formula is 0/0: only the reciprocal-basis form can drop single
     # facets. Otherwise Floater's form, the same weights grouped by ridge (Prop. 9), is
     # cheaper, and Wachspress's closed form (2D, 3D) cheaper still.
-    skip = (np.abs(distance.T) <= absolute) if kind == "mean_value" else None
+    skip = (np.abs(distance.T) <= absolute) if kind == MEAN_VALUE else None
     if skip is not None and skip.any():
         values = construct_weights(cage, frame, named_ridge_scalars(kind, frame, gamma), skip).T
-    elif kind == "wachspress" and terms.polar_dual is not None:
+    elif kind == WACHSPRESS and terms.polar_dual is not None:
         values = wachspress_polar_weights(cage, terms.polar_dual, frame).T
     else:
         values = floater_form_weights(cage, terms.floater, points, frame.facet_det,

@@ -19,7 +19,7 @@ import numpy as np
 
 from .numerical import unit_sphere_ridge_scalars
 
-__all__ = ["Kind", "KIND_TABLE", "KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
+__all__ = ["Kind", "KIND_TABLE", "WACHSPRESS", "MEAN_VALUE", "KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
            "kind_parameter", "mean_value", "discrete_harmonic_scaled", "wachspress_scaled",
            "voronoi_scaled", "power_scaled",
            "power_dual", "power_dual_scaled", "power_dual_by_subsets"]
@@ -164,11 +164,14 @@ class Kind:
     parameter_default: float = None  # its value when not given
 
 
+# The kinds the evaluation treats specially (a faster form, the default), spelled once.
+WACHSPRESS, MEAN_VALUE = "wachspress", "mean_value"
+
 KIND_TABLE = (
-    Kind("wachspress", "Wachspress", "Smooth, positive and affine invariant; needs a convex "
+    Kind(WACHSPRESS, "Wachspress", "Smooth, positive and affine invariant; needs a convex "
          "cage", wachspress_scaled, "scaled", True, False),
     # Mean value coordinates stay well defined on non-convex closed cages (Ju et al. 2005).
-    Kind("mean_value", "Mean Value", "Smooth and positive inside convex cages; also works "
+    Kind(MEAN_VALUE, "Mean Value", "Smooth and positive inside convex cages; also works "
          "on non-convex closed cages", mean_value, "d", False, False),
     Kind("discrete_harmonic", "Discrete Harmonic", "Cotangent weights; needs a convex cage "
          "and can be negative", discrete_harmonic_scaled, "scaled", True, True),

@@ -13,7 +13,7 @@ import numpy as np
 from ..base import tolerances
 from ..construction.boundary import INSIDE
 from ..evaluation.cage import Cage
-from ..surfaces.named import KIND_TABLE, kind_parameter
+from ..surfaces.named import KIND_TABLE, MEAN_VALUE, kind_parameter
 from ..base.inputs import checked
 from ..construction.validation import DEFAULT_TOLERANCE
 
@@ -122,7 +122,7 @@ def interior_sample(cage, count, seed=0):
 
 
 @checked
-def coordinate_report(vertices, faces, kind="mean_value", gamma=None, points=None, samples=2000,
+def coordinate_report(vertices, faces, kind=MEAN_VALUE, gamma=None, points=None, samples=2000,
                       tolerance=DEFAULT_TOLERANCE):
     """Positivity, well-definedness and linear precision of a kind in a cage.
 
