@@ -19,7 +19,8 @@ import numpy as np
 
 from .numerical import unit_sphere_ridge_scalars
 
-__all__ = ["Kind", "KIND_TABLE", "WACHSPRESS", "MEAN_VALUE", "KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
+__all__ = ["Kind", "KIND_TABLE", "WACHSPRESS", "MEAN_VALUE", "KINDS", "CONVEX_ONLY_KINDS",
+           "named_ridge_scalars", "named_scaled_ridge_scalars",
            "kind_parameter", "mean_value", "discrete_harmonic_scaled", "wachspress_scaled",
            "voronoi_scaled", "power_scaled",
            "power_dual", "power_dual_scaled", "power_dual_by_subsets"]
