@@ -41,7 +41,7 @@ STAMP  := $(VENV)/.installed
 
 setup: $(STAMP)
 
-$(STAMP): $(REQUIREMENTS)
+$(STAMP): $(REQUIREMENTS) pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 ifeq ($(BLENDER),5.0.1)
@@ -49,6 +49,8 @@ ifeq ($(BLENDER),5.0.1)
 else
 	$(PY) -m pip install --quiet "bpy==$(BLENDER)" $(NUMPY) -r requirements-test.txt
 endif
+	# The core as `gencoords`, editable: tests, scripts and pipelines `import gencoords`.
+	$(PY) -m pip install --quiet --no-build-isolation --no-deps -e .
 	touch $(STAMP)
 
 ## The tools the tests run besides Python: the Khronos glTF-Validator (npm, the version

@@ -47,7 +47,7 @@ class BindingResult:
     deviation_drag: float
     points_outside: int  # mesh vertices outside the cage (projected or extrapolated)
     points_on_boundary: int
-    report: str | None  # core.coordinate_report's headline for this kind in this cage
+    report: str | None  # core.tools.coordinate_report's headline for this kind in this cage
     nbytes: int  # bytes of bind data stored on the mesh
     bind_seconds: float
     metadata: Mapping = field(default_factory=dict, compare=False, repr=False)

@@ -20,7 +20,7 @@ import bpy
 import numpy as np
 
 from .. import core
-from ..core import compact
+from ..core.tools import compact
 from . import compat, deformer, mesh_arrays, mesh_io, messages, preferences
 from .bind_layout import (CAGE_NAME, CAGE_VERTEX_COUNT, DELETED_CAGE, FORMAT, FORMAT_KEY, GAMMA,
                           KEY, KIND, MESH_VERTEX_COUNT, METADATA, OUTSIDE, SLOT_COUNT, STORAGE,
@@ -30,7 +30,7 @@ from .enums import core_name, kind_label, kind_parameter
 # Blender stores positions as float32: a flat cage face after Apply Rotation, or a mesh
 # vertex on the cage surface, is exact only to ~1e-7 of the cage's size, which the
 # core's float64 default would call non-convex or outside.
-FLOAT32_TOLERANCE = core.tolerances.FLOAT32
+FLOAT32_TOLERANCE = core.base.tolerances.FLOAT32
 MODIFIER_NAME = "GenCoords"
 # Automatic storage is exact without measuring while its per-evaluation cost and node
 # group stay moderate: k x n multiply-adds (about 1.5 ns each on two cores) and a node
@@ -38,7 +38,7 @@ MODIFIER_NAME = "GenCoords"
 EXACT_MAX_PRODUCT = 8_000_000
 EXACT_MAX_CAGE_VERTICES = 400
 # Beyond, it measures: compact with the fewest slots that keep both standard deviations
-# (core.compact: smooth motion, worst single-vertex drag) under AUTO_DEVIATION of the
+# (core.tools.compact: smooth motion, worst single-vertex drag) under AUTO_DEVIATION of the
 # cage's diagonal, else exact. Slots are chosen on a sample of the mesh with
 # AUTO_SAMPLE_MARGIN to spare for the vertices it skipped; after Bind the deviations are
 # measured on every vertex, and compact that still misses goes exact.
@@ -51,7 +51,7 @@ AUTO_EXACT_MAX_BYTES = 2**31
 # bound on the dense float64 block a chunk makes (points x cage vertices).
 CHUNK_ENTRIES = 4_000_000  # per worker process
 DEVIATION_SAMPLES = 2000  # mesh vertices Automatic chooses compact storage's slots on
-REPORT_SAMPLES = 1000  # points inside the cage core.coordinate_report examines at Bind
+REPORT_SAMPLES = 1000  # points inside the cage core.tools.coordinate_report examines at Bind
 
 
 class BindError(Exception):
@@ -506,7 +506,7 @@ class BindJob:
                     "for it)")
         # How this kind behaves in this cage, away from the mesh's own vertices (the
         # summary covers those): positivity and well-definedness on a sample.
-        report = core.coordinate_report(self.cage_vertices, self.triangles, self.kind, gamma=self.gamma,
+        report = core.tools.coordinate_report(self.cage_vertices, self.triangles, self.kind, gamma=self.gamma,
                                         samples=REPORT_SAMPLES, tolerance=FLOAT32_TOLERANCE)
         slot_count = written.pop("slot_count")
         slots, locations = written.pop("slots"), written.pop("locations")
@@ -538,7 +538,7 @@ class BindJob:
         for start in range(0, count, chunk):
             rows = slice(start, min(start + chunk, count))
             coordinates = self._coordinates(cage, self.points[rows], workers, locations[rows])
-            summary = core.coordinate_summary(coordinates)
+            summary = core.tools.coordinate_summary(coordinates)
             smallest = min(smallest, summary["min"])
             negative += summary["negative_points"]
             affine_error = max(affine_error, summary["max_affine_error"])

@@ -47,4 +47,4 @@ def kind_label(name):
 
 def kind_parameter(identifier):
     """The name of the kind's parameter ('gamma' for the power family), or None."""
-    return core.KIND_TABLE[core.KINDS.index(core_name(identifier))].parameter
+    return core.KIND_TABLE[core.advanced.KINDS.index(core_name(identifier))].parameter

@@ -2,7 +2,7 @@
 
 import bpy
 
-from ..core.inputs import GAMMA_LIMIT
+from ..core.base.inputs import GAMMA_LIMIT
 from . import visualise
 from .enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 

@@ -21,7 +21,8 @@ session.prepare()  # before bpy is imported: Blender reads its user folder then
 import blender_scenes as scenes  # noqa: E402
 import bpy  # noqa: E402
 from blender_scenes import arrays  # noqa: E402
-from core import Cage, compact, skinning  # noqa: E402
+from gencoords import Cage
+from gencoords.tools import compact, skinning  # noqa: E402
 
 REPEATS = 7
 

@@ -1,4 +1,4 @@
-"""Speed and memory of core.coordinates, beside an independent C++ implementation.
+"""Speed and memory of gencoords.coordinates, beside an independent C++ implementation.
 
 Cost is reported per (point x facet) on a 642-vertex icosphere cage (1280 triangles),
 beside CGAL's (C++, double, one thread, the cage prepared once) run in the same process
@@ -30,9 +30,9 @@ import tracemalloc  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-import core  # noqa: E402
-from core.parallel import available_cores  # noqa: E402
-from core.shapes import icosphere  # noqa: E402
+import gencoords  # noqa: E402
+from gencoords.evaluation.parallel import available_cores  # noqa: E402
+from gencoords.tools.shapes import icosphere  # noqa: E402
 
 # CGAL 6.2 on an earlier 2-core machine of this project (ns per point x facet), shown
 # for orientation when no CGAL binary is given; timings from another machine are not
@@ -76,8 +76,8 @@ def single_worker_table(vertices, faces, points, repeats, cgal=None):
     print(f"| kind | CGAL 6.2, 1 thread, ns ({source}) | ours, 1 worker, ns | CGAL / ours (same run) | "
           "max linear precision error | max difference from CGAL |")
     print("|---|---|---|---|---|---|")
-    with core.Cage(vertices, faces) as cage:
-        for kind in core.KINDS:
+    with gencoords.Cage(vertices, faces) as cage:
+        for kind in gencoords.advanced.KINDS:
             cage.coordinates(points[:200], kind=kind, workers=1)  # warm up
             seconds = best_time(lambda: cage.coordinates(points, kind=kind, workers=1), repeats)
             ns = seconds / pairs * 1e9
@@ -106,7 +106,7 @@ def independent_run(kind, count, repeats):
     """One of independent_rate's runs: prints its points per second."""
     vertices, faces = icosphere(3)
     points = interior_points(count, 0.95, seed=3)
-    with core.Cage(vertices, faces) as cage:
+    with gencoords.Cage(vertices, faces) as cage:
         cage.coordinates(points[:200], kind=kind, workers=1)
         print(len(points) / best_time(lambda: cage.coordinates(points, kind=kind, workers=1), repeats))
 
@@ -116,16 +116,16 @@ def workers_table(vertices, faces, points, repeats):
     independent processes."""
     cores = available_cores()
     counts = sorted({min(2 ** i, cores) for i in range(cores.bit_length() + 1)})
-    print(f"\nworkers: {len(points)} points per call, a kept core.Cage (workers started once, "
+    print(f"\nworkers: {len(points)} points per call, a kept gencoords.Cage (workers started once, "
           f"then reused); points per second and speed-up over one worker; last column: {cores} "
           "independent one-process runs at the same time (the machine's own ceiling)\n")
     print("| kind | " + " | ".join(f"{count} worker{'s' if count > 1 else ''}" for count in counts)
           + f" | {cores} independent |")
     print("|---|" + "---|" * (len(counts) + 1))
-    for kind in core.KINDS:
+    for kind in gencoords.advanced.KINDS:
         cells, single = [], None
         for count in counts:
-            with core.Cage(vertices, faces) as cage:
+            with gencoords.Cage(vertices, faces) as cage:
                 cage.coordinates(points[:4 * count], kind=kind, workers=count)  # start
                 seconds = best_time(lambda: cage.coordinates(points, kind=kind, workers=count), repeats)
             rate = len(points) / seconds
@@ -138,7 +138,7 @@ def workers_table(vertices, faces, points, repeats):
 
 def numerical_surfaces_table(repeats):
     """ns per (point x ridge) of ridge scalars: closed forms beside numerical integration."""
-    from core.shapes import cross_polytope, random_convex_polytope
+    from gencoords.tools.shapes import cross_polytope, random_convex_polytope
 
     print("\nridge scalars, ns per point x ridge: closed form beside the numerical integral "
           "(ridge_scalars_from_surface with the unit sphere, default levels)\n")
@@ -150,12 +150,12 @@ def numerical_surfaces_table(repeats):
              ("4D hull of 12 points", *random_convex_polytope(np.random.default_rng(1), 4, 12))]
     for name, vertices, faces in cages:
         points = 0.3 * (vertices.mean(axis=0) + np.random.default_rng(2).uniform(-0.2, 0.2, (40, vertices.shape[1])))
-        pairs = len(points) * len(core.ridges(faces))
-        closed = best_time(lambda: core.ridge_scalars(points, vertices, faces, "mean_value"), repeats)
-        numerical = best_time(lambda: core.ridge_scalars_from_surface(points, vertices, faces, sphere), 1)
-        coarse = best_time(lambda: core.ridge_scalars_from_surface(points, vertices, faces, sphere,
+        pairs = len(points) * len(gencoords.advanced.ridges(faces))
+        closed = best_time(lambda: gencoords.advanced.ridge_scalars(points, vertices, faces, "mean_value"), repeats)
+        numerical = best_time(lambda: gencoords.advanced.ridge_scalars_from_surface(points, vertices, faces, sphere), 1)
+        coarse = best_time(lambda: gencoords.advanced.ridge_scalars_from_surface(points, vertices, faces, sphere,
                                                                    levels=3), repeats)
-        print(f"| {name} | {len(core.ridges(faces))} | {closed / pairs * 1e9:.0f} | "
+        print(f"| {name} | {len(gencoords.advanced.ridges(faces))} | {closed / pairs * 1e9:.0f} | "
               f"{numerical / pairs * 1e9:,.0f} | {coarse / pairs * 1e9:,.0f} |")
 
 
@@ -163,7 +163,7 @@ def million(vertices, faces):
     """1M points, mean value, float32 result, all cores: wall time and peak memory."""
     points = interior_points(1_000_000, 0.95, seed=2)
     start = time.perf_counter()
-    result = core.coordinates(points, vertices, faces, kind="mean_value", dtype=np.float32)
+    result = gencoords.coordinates(points, vertices, faces, kind="mean_value", dtype=np.float32)
     seconds = time.perf_counter() - start
     parent = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
     child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 2**10
@@ -208,7 +208,7 @@ def main():
     many = interior_points(args.memory_points, 0.95, seed=1)
     tracemalloc.start()
     baseline = tracemalloc.get_traced_memory()[0]
-    result = core.coordinates(many, vertices, faces, kind="mean_value", workers=1)
+    result = gencoords.coordinates(many, vertices, faces, kind="mean_value", workers=1)
     peak = tracemalloc.get_traced_memory()[1] - baseline
     tracemalloc.stop()
     print(f"\npeak memory for {len(many)} points (mean value, one worker): {peak / 2**20:.0f} MB, of "

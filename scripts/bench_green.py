@@ -1,7 +1,7 @@
 """Green coordinates (core/green.py) beside mean value: cost and shape preservation.
 
 Cost per (point x face), one process, on a 642-vertex icosphere cage (1280 triangles),
-best of three, beside ``core.coordinates(kind="mean_value", workers=1)`` on the same
+best of three, beside ``gencoords.coordinates(kind="mean_value", workers=1)`` on the same
 points; then the issue's sanity figure: the vertices of a sphere's triangulation
 (radius 0.6, 642 vertices) inside a 42-vertex icosphere cage stretched 1.6x along x, the
 mean and worst change of its triangles' angles with each.
@@ -21,9 +21,9 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir))
-import core  # noqa: E402
-from core.green import green_coordinates, green_deform  # noqa: E402
-from core.shapes import icosphere  # noqa: E402
+import gencoords  # noqa: E402
+from gencoords.construction.green import green_coordinates, green_deform  # noqa: E402
+from gencoords.tools.shapes import icosphere  # noqa: E402
 
 
 def best_time(run, repeats=3):
@@ -54,7 +54,7 @@ def main():
     points *= (rng.uniform(0.0, 0.9, args.points) ** (1 / 3) / np.linalg.norm(points, axis=1))[:, None]
     pairs = len(points) * len(faces)
     green = best_time(lambda: green_coordinates(points, vertices, faces))
-    mean_value = best_time(lambda: core.coordinates(points, vertices, faces, kind="mean_value", workers=1))
+    mean_value = best_time(lambda: gencoords.coordinates(points, vertices, faces, kind="mean_value", workers=1))
     print(f"{len(points)} points, {len(vertices)}-vertex cage ({len(faces)} faces), one process:")
     print(f"  green      {green:.3f} s  {green / pairs * 1e9:6.1f} ns per (point x face)")
     print(f"  mean value {mean_value:.3f} s  {mean_value / pairs * 1e9:6.1f} ns per (point x face)"
@@ -66,7 +66,7 @@ def main():
     rest = triangle_angles(mesh_vertices, mesh_faces)
     phi, psi = green_coordinates(mesh_vertices, cage_vertices, cage_faces)
     by_green = green_deform(phi, psi, cage_vertices, stretched, cage_faces)
-    by_mean_value = core.coordinates(mesh_vertices, cage_vertices, cage_faces) @ stretched
+    by_mean_value = gencoords.coordinates(mesh_vertices, cage_vertices, cage_faces) @ stretched
     print("angle change under a 1.6x stretch along x, mean / worst (degrees):")
     for name, moved in (("green", by_green), ("mean value", by_mean_value)):
         change = np.abs(triangle_angles(moved, mesh_faces) - rest)

@@ -12,8 +12,8 @@ import importlib.util
 import bpy
 import numpy as np
 
-import core
-from core.construction import prepare_cage
+import gencoords
+from gencoords.construction.general import prepare_cage
 from blender_session import REPO
 from mathutils import Euler
 
@@ -40,8 +40,8 @@ ICOSPHERE_VERTICES = {2: 42, 3: 162, 4: 642}
 CAGE_RADIUS = 2.0
 
 # The parameter-free kinds (the power family has its own pictures: docs/POWER.md).
-KINDS = tuple(kind.name for kind in core.KIND_TABLE if kind.parameter is None)
-KIND_LABELS = {kind.name: kind.label for kind in core.KIND_TABLE}
+KINDS = tuple(kind.name for kind in gencoords.KIND_TABLE if kind.parameter is None)
+KIND_LABELS = {kind.name: kind.label for kind in gencoords.KIND_TABLE}
 
 
 # ------------------------------------------------------------------------------ scenes

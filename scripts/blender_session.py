@@ -23,7 +23,7 @@ DIST = REPO / "dist"
 
 
 def prepare():
-    """Make ``import core`` work from scripts/ and point Blender at a throw-away user
+    """Put the repository on ``sys.path`` (scripts/ load its files) and point Blender at a throw-away user
     folder (removed at exit). Call before ``import bpy``; returns the folder."""
     if str(REPO) not in sys.path:
         sys.path.insert(0, str(REPO))

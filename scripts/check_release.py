@@ -157,18 +157,18 @@ def workers_inside_blender(report):
     import numpy as np
 
     core = importlib.import_module(f"{PACKAGE}.core")
-    parallel = importlib.import_module(f"{PACKAGE}.core.parallel")
-    shapes = importlib.import_module(f"{PACKAGE}.core.shapes")
+    parallel = importlib.import_module(f"{PACKAGE}.core.evaluation.parallel")
+    shapes = importlib.import_module(f"{PACKAGE}.core.tools.shapes")
     vertices, faces = shapes.icosphere(2)
     points = np.random.default_rng(0).uniform(-0.5, 0.5, (5000, 3))
     report["sys.executable"] = sys.executable
     try:
         report["worker Python"] = parallel.python_executable()
-        with core.Cage(vertices, faces) as cage:
+        with gencoords.Cage(vertices, faces) as cage:
             alone = cage.coordinates(points, kind="mean_value", workers=1)
             spread = cage.coordinates(points, kind="mean_value", workers=2)
         report["core in 2 workers equals 1 process bitwise"] = bool(np.array_equal(alone, spread))
-    except core.WorkerError as error:
+    except gencoords.WorkerError as error:
         return [f"worker processes failed inside Blender: {error}"]
     return [] if np.array_equal(alone, spread) else ["workers differ from one process"]
 

@@ -29,8 +29,8 @@ import blender_pictures as pictures  # noqa: E402
 import blender_scenes as scenes  # noqa: E402
 import bpy  # noqa: E402
 from blender_scenes import arrays  # noqa: E402
-import core  # noqa: E402
-import core.shapes  # noqa: E402  (not imported by core itself)
+import gencoords  # noqa: E402
+import gencoords.tools.shapes  # noqa: E402  (not imported by core itself)
 
 ADDON_KINDS = {kind: kind.upper() for kind in scenes.KINDS}  # "mean_value" -> 'MEAN_VALUE'
 
@@ -120,7 +120,7 @@ def render_fields(path, segments=48):
     columns the octahedron with its cutting planes, then one panel per coordinate type.
 
     The three horizontal sections of each panel are drawn apart (exploded) so none hides
-    another; one grey scale per panel (``core.field_colors`` over all three sections).
+    another; one grey scale per panel (``gencoords.tools.field_colors`` over all three sections).
     Returns ``{(octahedron, kind): min coordinate of v}`` for the summary.
     """
     scene = scenes.reset_scene()
@@ -139,7 +139,7 @@ def render_fields(path, segments=48):
 
     minima = {}
     for row, regular in enumerate((True, False)):
-        vertices, faces = core.shapes.octahedron() if regular else core.shapes.irregular_octahedron()
+        vertices, faces = gencoords.tools.shapes.octahedron() if regular else gencoords.tools.shapes.irregular_octahedron()
         vertices = vertices - vertices.mean(axis=0)  # centre each panel's content
         top, bottom = vertices[:, 2].max(), vertices[:, 2].min()
         heights = (0.45 * top, 0.0, 0.45 * bottom)
@@ -168,9 +168,9 @@ def render_fields(path, segments=48):
         grids = [fan_grid(polygon, segments) for polygon in sections]
         points = np.concatenate([g[0] for g in grids])
         for col, kind in enumerate(scenes.KINDS, start=1):
-            values = core.coordinates(points, vertices, faces, kind=kind)[:, 0]
+            values = gencoords.coordinates(points, vertices, faces, kind=kind)[:, 0]
             minima[name, kind] = float(values.min())
-            colors = core.field_colors(values)
+            colors = gencoords.tools.field_colors(values)
             start = 0
             for level, (grid_points, grid_faces) in enumerate(grids):
                 drawn = grid_points.copy()

@@ -1,7 +1,7 @@
 """Where the power family's coordinates stay positive: a table over gamma and polytopes.
 
 For regular and irregular convex polytopes in 2D, 3D and 4D, the smallest coordinate
-of core.coordinate_report's interior sample (dense near the boundary) for each gamma,
+of gencoords.tools.coordinate_report's interior sample (dense near the boundary) for each gamma,
 and the range of gamma where none is negative. Figures for docs/POWER.md:
 
     .venv/bin/python scripts/power_positivity.py [--samples 3000] [--step 0.25]
@@ -17,8 +17,8 @@ import zlib
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-import core  # noqa: E402
-from core.shapes import (cross_polytope, icosphere, irregular_octahedron, octahedron,  # noqa: E402
+import gencoords  # noqa: E402
+from gencoords.tools.shapes import (cross_polytope, icosphere, irregular_octahedron, octahedron,  # noqa: E402
                          random_convex_polytope, regular_polygon)
 
 
@@ -37,7 +37,7 @@ def polytopes():
 
 def positive_ranges(gammas, smallest):
     """The runs of consecutive gammas whose smallest coordinate is >= 0, as text."""
-    positive = smallest >= -core.tolerances.NEGATIVE
+    positive = smallest >= -core.base.tolerances.NEGATIVE
     runs, start = [], None
     for index, flag in enumerate(list(positive) + [False]):
         if flag and start is None:
@@ -79,13 +79,13 @@ def field_picture(path, gammas=(-1.0, -0.5, 0.0, 0.5, 1.0, 2.0), pixels=220):
         grid = np.stack(np.meshgrid(low[0] - pad + axis * (high[0] - low[0] + 2 * pad),
                                     high[1] + pad - axis * (high[1] - low[1] + 2 * pad)), axis=-1)
         points = grid.reshape(-1, 2)
-        inside = core.point_locations(points, vertices, faces) == core.INSIDE
+        inside = gencoords.point_locations(points, vertices, faces) == gencoords.INSIDE
         marked = np.linalg.norm(points - vertices[0], axis=1) < 0.03 * (high - low).max()
         panels = []
         for gamma in gammas:
             image = np.ones((len(points), 3))
-            values = core.coordinates(points[inside], vertices, faces, kind="power", gamma=gamma)[:, 0]
-            image[inside] = core.field_colors(values)[:, :3]
+            values = gencoords.coordinates(points[inside], vertices, faces, kind="power", gamma=gamma)[:, 0]
+            image[inside] = gencoords.tools.field_colors(values)[:, :3]
             image[marked] = 0.0
             panels.append(image.reshape(pixels, pixels, 3))
             panels.append(np.ones((pixels, 6, 3)))
@@ -112,7 +112,7 @@ def main():
     print("| polytope | positive for gamma in | " + " | ".join(f"gamma {g:g}" for g in shown) + " |")
     print("|---|---|" + "---|" * len(shown))
     for name, vertices, faces in polytopes():
-        smallest = np.array([core.coordinate_report(vertices, faces, "power", gamma=float(g),
+        smallest = np.array([gencoords.tools.coordinate_report(vertices, faces, "power", gamma=float(g),
                                                     samples=args.samples).smallest for g in gammas])
         cells = [f"{smallest[list(gammas).index(g)]:.2g}" for g in shown]
         print(f"| {name} | {positive_ranges(gammas, smallest)} | " + " | ".join(cells) + " |")

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from mathutils import Matrix
 
-import core as core_table
+import gencoords as core_table
 from conftest import report_of, run_blender_script
 from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere,
                            add_subdivided_sphere, bind, evaluated_cage_positions,
@@ -80,7 +80,7 @@ def test_compact_storage_is_close_for_smooth_motions_and_reports_its_deviation(g
     assert "Storage: Compact, 24 per vertex" in text and "Deviation:" in text
 
     rest_cage = read_positions(cage.data).astype(np.float64)
-    moved = gc.core.compact.smooth_test_motion(rest_cage)
+    moved = gc.core.tools.compact.smooth_test_motion(rest_cage)
     write_positions(cage.data, moved)
     exact = gc.core.coordinates(read_positions(obj.data), rest_cage, triangles_of(cage))
     deviation = np.linalg.norm(evaluated_positions(obj) - exact @ moved, axis=1).max()
@@ -126,8 +126,8 @@ def deviations_in_blender(gc, obj, cage, vertex):
     exact = gc.core.coordinates(rest, rest_cage, triangles_of(cage), tolerance=1e-6)
     diagonal = np.linalg.norm(np.ptp(rest_cage, axis=0))
     found = []
-    for moved in (gc.core.compact.smooth_test_motion(rest_cage),
-                  gc.core.compact.vertex_drag_motion(rest_cage, vertex)):
+    for moved in (gc.core.tools.compact.smooth_test_motion(rest_cage),
+                  gc.core.tools.compact.vertex_drag_motion(rest_cage, vertex)):
         write_positions(cage.data, moved)
         gap = evaluated_positions(obj) - (rest + exact @ (moved - rest_cage))
         found.append(np.linalg.norm(gap, axis=1).max() / diagonal)
@@ -469,11 +469,11 @@ def test_show_coordinate_paints_the_core_field(gc):
     colors = np.empty(len(obj.data.vertices) * 4, dtype=np.float32)
     attribute.data.foreach_get("color", colors)
     coordinates = gc.binding.binding(obj).coordinates(obj.data)
-    np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.field_colors(coordinates[:, 3]))
-    assert gc.visualise.field_range(obj) == pytest.approx(gc.core.field_range(coordinates[:, 3]))
+    np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.tools.field_colors(coordinates[:, 3]))
+    assert gc.visualise.field_range(obj) == pytest.approx(gc.core.tools.field_range(coordinates[:, 3]))
     obj.gencoords.field_vertex = 5  # repaints while shown
     attribute.data.foreach_get("color", colors)
-    np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.field_colors(coordinates[:, 5]))
+    np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.tools.field_colors(coordinates[:, 5]))
     # The chosen cage vertex is marked, and the marker follows the cage.
     cage.location = (0.5, 0.0, 0.0)
     bpy.context.view_layer.update()
@@ -492,7 +492,7 @@ def test_status_reports_the_core_summary(gc):
     cage = add_icosphere_cage()
     obj = add_sphere()
     bind(obj, cage, kind="VORONOI")
-    summary = gc.core.coordinate_summary(coordinates_of(gc, obj))
+    summary = gc.core.tools.coordinate_summary(coordinates_of(gc, obj))
     info = gc.binding.binding(obj).info
     assert info["min_coordinate"] == pytest.approx(summary["min"], abs=1e-6)
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
@@ -719,7 +719,7 @@ def test_make_cage_encloses_the_mesh_with_a_convex_cage(gc, shape):
     assert cage is not None and 30 <= len(cage.data.vertices) <= 90
     cage_world = apply_matrix(cage.matrix_world, read_positions(cage.data).astype(np.float64))
     triangles = triangles_of(cage)
-    gc.core.validate_cage(cage_world, triangles, convex=True, tolerance=1e-6)
+    gc.core.advanced.validate_cage(cage_world, triangles, convex=True, tolerance=1e-6)
     mesh_world = apply_matrix(obj.matrix_world, read_positions(obj.data).astype(np.float64))
     where = gc.core.point_locations(mesh_world, cage_world, triangles, tolerance=1e-6)
     assert (where == gc.core.INSIDE).all()

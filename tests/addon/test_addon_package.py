@@ -130,49 +130,6 @@ def add_on_imports(tree, modules):
     return imported
 
 
-def test_the_addon_modules_import_each_other_without_a_cycle():
-    trees = addon_trees()
-    graph = {name: add_on_imports(tree, trees) for name, tree in trees.items()}
-    assert graph["enums"] <= set() and graph["bind_layout"] <= set()  # the leaves
-    done, path = set(), []
-
-    def visit(name):
-        assert name not in path, f"import cycle: {' -> '.join(path[path.index(name):] + [name])}"
-        if name in done:
-            return
-        path.append(name)
-        for imported in sorted(graph[name]):
-            visit(imported)
-        path.pop()
-        done.add(name)
-    for name in graph:
-        visit(name)
-
-
-def code_lines(function, lines):
-    """Lines of ``function`` holding code: no blank, comment-only or docstring lines."""
-    body = function.body
-    docstring = set()
-    if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
-            and isinstance(body[0].value.value, str):
-        docstring = set(range(body[0].lineno, body[0].end_lineno + 1))
-    return [number for number in range(function.lineno, function.end_lineno + 1)
-            if number not in docstring and lines[number - 1].strip()
-            and not lines[number - 1].strip().startswith("#")]
-
-
-def test_no_addon_function_is_longer_than_60_lines_of_code():
-    long = []
-    for path in sorted(ADDON.glob("*.py")):
-        lines = path.read_text().splitlines()
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-                count = len(code_lines(node, lines))
-                if count > 60:
-                    long.append(f"{path.name}:{node.name} ({count})")
-    assert not long
-
-
 def test_kind_ids_are_spelled_only_in_the_enum_module(addon):
     spellings = {kind.name for kind in addon.core.KIND_TABLE}
     spellings |= {name.upper() for name in spellings}

@@ -47,7 +47,7 @@ def worker_processes(gc, monkeypatch):
     """``.started``: the worker processes started during the test; ``.live()``: those
     still running (no /proc)."""
     started = []
-    start = gc.core.parallel.WorkerPool.__init__
+    start = gc.core.evaluation.parallel.WorkerPool.__init__
 
     def recording(pool, *args, **kwargs):
         try:
@@ -55,7 +55,7 @@ def worker_processes(gc, monkeypatch):
         finally:
             started.extend(pool._processes)
 
-    monkeypatch.setattr(gc.core.parallel.WorkerPool, "__init__", recording)
+    monkeypatch.setattr(gc.core.evaluation.parallel.WorkerPool, "__init__", recording)
     return SimpleNamespace(started=started,
                            live=lambda: [process for process in started if process.poll() is None])
 
@@ -124,14 +124,14 @@ def test_bind_under_windows_semantics_leaves_nothing_behind(gc, monkeypatch, tmp
     bind(obj, cage)
     alone = coordinates_of(gc, obj)
     workers_preference(workers)
-    monkeypatch.setattr(gc.core.cage, "_PAIRS_PER_WORKER", 1)  # workers even for this small Bind
-    monkeypatch.setattr(gc.core.cage, "available_cores", lambda: 2)
+    monkeypatch.setattr(gc.core.evaluation.cage, "_PAIRS_PER_WORKER", 1)  # workers even for this small Bind
+    monkeypatch.setattr(gc.core.evaluation.cage, "available_cores", lambda: 2)
     simulated_os.simulate(monkeypatch, "windows", tmp_path)
     assert bind(obj, cage) == {'FINISHED'}
     assert len(worker_processes.started) == 2
     np.testing.assert_allclose(coordinates_of(gc, obj), alone, rtol=0, atol=1e-6)
     garbage.collect()
-    assert not gc.core.parallel.shared_files(os.getpid())
+    assert not gc.core.evaluation.parallel.shared_files(os.getpid())
 
 
 @pytest.mark.parametrize("workers", [None, 2])
@@ -147,8 +147,8 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
     bind(obj, cage)
     alone = coordinates_of(gc, obj)
     workers_preference(workers)
-    monkeypatch.setattr(gc.core.cage, "_PAIRS_PER_WORKER", 1)  # workers even for this small Bind
-    monkeypatch.setattr(gc.core.cage, "available_cores", lambda: 2)
+    monkeypatch.setattr(gc.core.evaluation.cage, "_PAIRS_PER_WORKER", 1)  # workers even for this small Bind
+    monkeypatch.setattr(gc.core.evaluation.cage, "available_cores", lambda: 2)
     simulated_os.broken_start(monkeypatch)
     capfd.readouterr()
     assert bind(obj, cage) == {'FINISHED'}
@@ -159,7 +159,7 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
     assert "No module named 'numpy'" in said  # the cause, in the console
     assert said.count("No module named 'numpy'") == 1  # one try: the rest of the Bind in Blender
     assert "Bound 'Mesh'" in said and "1: Compute in Blender" in said
-    assert not gc.core.parallel.shared_files(os.getpid())
+    assert not gc.core.evaluation.parallel.shared_files(os.getpid())
 
 
 def test_make_cage_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, capfd, workers_preference):

@@ -12,7 +12,7 @@ from conftest import REPO
 sys.path.insert(0, str(REPO / "scripts"))
 import blender_scenes as scenes  # noqa: E402
 
-import core  # noqa: E402  (the repository's core: the demo's scene uses it by path)
+import gencoords  # noqa: E402  (the repository's core: the demo's scene uses it by path)
 
 
 def world_positions(obj):
@@ -35,7 +35,7 @@ def test_demo_cage_is_snug_around_the_mesh(demo_scene):
     assert len(points) == scenes.SUZANNE_VERTICES[2] and len(vertices) == scenes.ICOSPHERE_VERTICES[2]
 
     # Every vertex strictly inside: the demo binds with outside='RAISE'.
-    assert (core.point_locations(points, vertices, triangles) == core.INSIDE).all()
+    assert (gencoords.point_locations(points, vertices, triangles) == gencoords.INSIDE).all()
 
     # A convex cage around the mesh is at least as wide; this ellipsoidal one measures
     # 1.39 times Suzanne's bounding diagonal (the unit-frame bug made it 2.77).

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from core.shapes import (convex_hull_facets, cross_polytope, icosphere, octahedron, random_convex_polytope,
+from gencoords.tools.shapes import (convex_hull_facets, cross_polytope, icosphere, octahedron, random_convex_polytope,
                          regular_polygon)
 
 

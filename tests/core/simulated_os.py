@@ -2,7 +2,7 @@
 
 ``simulate(monkeypatch, system, holds)`` patches this process (undone by ``monkeypatch``)
 and sets environment variables so that every worker started afterwards runs this file
-first (``core.parallel.PRELUDE_VARIABLE``, the core's one test seam) and patches itself
+first (``gencoords.evaluation.parallel.PRELUDE_VARIABLE``, the core's one test seam) and patches itself
 the same way. Simulated, for ``system``:
 
 - ``"macos"`` and ``"windows"``: no ``os.posix_fallocate``, ``os.sched_getaffinity``,
@@ -24,7 +24,7 @@ import sys
 SYSTEM_VARIABLE = "GENCOORDS_SIMULATED_OS"
 HOLDS_VARIABLE = "GENCOORDS_SIMULATED_HOLDS"
 BROKEN_VARIABLE = "GENCOORDS_SIMULATED_BROKEN_START"
-PRELUDE_VARIABLE = "GENCOORDS_WORKER_PRELUDE"  # core.parallel.PRELUDE_VARIABLE
+PRELUDE_VARIABLE = "GENCOORDS_WORKER_PRELUDE"  # gencoords.evaluation.parallel.PRELUDE_VARIABLE
 
 
 class _Plain:

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-import core
-import core.evaluation
-import core.barycentric
+import gencoords
+import gencoords.evaluation.rows
+import gencoords.evaluation.barycentric
 from polytopes import icosphere, octahedron, random_convex_polytope, random_interior_points, regular_polygon
 from reference_formulas import mean_value_3d_ju, normalise
 
@@ -16,7 +16,7 @@ def facet_point(vertices, face, barycentric):
     return np.asarray(barycentric) @ vertices[face]
 
 
-@pytest.mark.parametrize("kind", core.KINDS)
+@pytest.mark.parametrize("kind", gencoords.advanced.KINDS)
 @pytest.mark.parametrize("offset", [0.0, 1e-11, -1e-11])
 def test_points_on_or_near_facets_edges_vertices_get_the_linear_limit(kind, offset):
     vertices, faces = TETRA_LIKE
@@ -25,48 +25,48 @@ def test_points_on_or_near_facets_edges_vertices_get_the_linear_limit(kind, offs
     normal /= np.linalg.norm(normal)
     cases = [(0.2, 0.3, 0.5), (0.5, 0.5, 0.0), (1.0, 0.0, 0.0), (0.0, 0.25, 0.75)]
     points = np.array([facet_point(vertices, face, b) for b in cases]) - offset * normal
-    coordinates = core.coordinates(points, vertices, faces, kind=kind)
+    coordinates = gencoords.coordinates(points, vertices, faces, kind=kind)
     expected = np.zeros((len(cases), len(vertices)))
     expected[:, face] = cases
     assert np.isfinite(coordinates).all()
     np.testing.assert_allclose(coordinates, expected, atol=1e-9)
-    np.testing.assert_array_equal(core.point_locations(points, vertices, faces), 0)
+    np.testing.assert_array_equal(gencoords.point_locations(points, vertices, faces), 0)
 
 
-@pytest.mark.parametrize("kind", core.KINDS)
+@pytest.mark.parametrize("kind", gencoords.advanced.KINDS)
 def test_coordinates_approach_the_facet_limit_continuously(kind):
     vertices, faces = TETRA_LIKE
     face = faces[3]
     on_facet = facet_point(vertices, face, (0.3, 0.3, 0.4))
     inward = -on_facet / np.linalg.norm(on_facet)
-    limit = core.coordinates(on_facet, vertices, faces, kind=kind)
+    limit = gencoords.coordinates(on_facet, vertices, faces, kind=kind)
     previous = np.inf
     for depth in [1e-2, 1e-4, 1e-6, 1e-8]:
-        gap = np.abs(core.coordinates(on_facet + depth * inward, vertices, faces, kind=kind) - limit).max()
+        gap = np.abs(gencoords.coordinates(on_facet + depth * inward, vertices, faces, kind=kind) - limit).max()
         assert gap < 50 * depth and gap <= previous
         previous = gap
 
 
 def test_vertex_gets_exactly_one():
     vertices, faces = icosphere(1)
-    coordinates = core.coordinates(vertices, vertices, faces, kind="wachspress")
+    coordinates = gencoords.coordinates(vertices, vertices, faces, kind="wachspress")
     np.testing.assert_array_equal(coordinates, np.eye(len(vertices)))
 
 
 def test_outside_raise_counts_and_names_the_points():
     vertices, faces = octahedron()
     points = np.array([[0, 0, 0], [2, 0, 0], [0.1, 0.1, 0.1], [0, 0, -3]])
-    with pytest.raises(core.OutsideCageError) as error:
-        core.coordinates(points, vertices, faces, kind="wachspress")
+    with pytest.raises(gencoords.OutsideCageError) as error:
+        gencoords.coordinates(points, vertices, faces, kind="wachspress")
     assert list(error.value.indices) == [1, 3]
     assert "2 of 4 points" in str(error.value) and "1, 3" in str(error.value)
 
 
-@pytest.mark.parametrize("kind", core.KINDS)
+@pytest.mark.parametrize("kind", gencoords.advanced.KINDS)
 def test_outside_project_gives_the_nearest_boundary_points_coordinates(kind):
     vertices, faces = octahedron()
     points = np.array([[2.0, 0.0, 0.0], [1.0, 1.0, 1.0], [0.0, -0.8, -0.9]])
-    coordinates = core.coordinates(points, vertices, faces, kind=kind, outside="project")
+    coordinates = gencoords.coordinates(points, vertices, faces, kind=kind, outside="project")
     nearest = coordinates @ vertices
     np.testing.assert_allclose(nearest[0], [1, 0, 0], atol=1e-12)
     np.testing.assert_allclose(nearest[1], [1 / 3, 1 / 3, 1 / 3], atol=1e-12)
@@ -78,7 +78,7 @@ def test_outside_extrapolate_mean_value_is_the_smooth_extension():
     """Outside a convex cage, mean value extrapolation equals Ju et al.'s formula there."""
     vertices, faces = icosphere(1)
     points = np.array([[1.5, 0.2, 0.1], [0.0, -2.0, 3.0], [1.2, 1.2, 0.0]])
-    ours = core.coordinates(points, vertices, faces, kind="mean_value", outside="extrapolate")
+    ours = gencoords.coordinates(points, vertices, faces, kind="mean_value", outside="extrapolate")
     theirs = np.array([normalise(mean_value_3d_ju(x, vertices, faces)) for x in points])
     np.testing.assert_allclose(ours, theirs, atol=1e-12)
     np.testing.assert_allclose(ours @ vertices, points, atol=1e-12)
@@ -91,7 +91,7 @@ def test_outside_extrapolate_mean_value_is_continuous_across_a_facet_plane():
     on_plane = np.array([1.5, 0.2, -0.7])
     assert abs(on_plane.sum() - 1.0) < 1e-15
     normal = np.ones(3) / np.sqrt(3)
-    values = [core.coordinates(on_plane + s * normal, vertices, faces, kind="mean_value",
+    values = [gencoords.coordinates(on_plane + s * normal, vertices, faces, kind="mean_value",
                                outside="extrapolate") for s in (-1e-7, 0.0, 1e-7)]
     assert np.isfinite(values[1]).all()
     assert np.abs(values[0] - values[1]).max() < 1e-5 and np.abs(values[2] - values[1]).max() < 1e-5
@@ -101,7 +101,7 @@ def test_outside_extrapolate_mean_value_is_continuous_across_a_facet_plane():
 def test_outside_extrapolate_is_finite_and_affine_even_at_poles(kind):
     vertices, faces = octahedron()
     points = np.array([[1.5, 0.2, -0.7], [1.2, 0.3, 0.2], [0.0, 0.0, 1.0 + 1e-3]])
-    coordinates = core.coordinates(points, vertices, faces, kind=kind, outside="extrapolate")
+    coordinates = gencoords.coordinates(points, vertices, faces, kind=kind, outside="extrapolate")
     assert np.isfinite(coordinates).all()
     np.testing.assert_allclose(coordinates.sum(axis=1), 1.0, atol=1e-12)
     regular = np.abs(coordinates).max(axis=1) < 1e6  # away from the pole: the formula itself
@@ -115,10 +115,10 @@ def test_extrapolation_on_a_facet_hyperplane_takes_the_limit(kind):
     edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
     on_line = np.array([[1.0, 1.5], [-1.0, -3.0]])  # on the lines x = 1 and x = -1, outside
     nearby = on_line + [[1e-9, 0.0], [-1e-9, 0.0]]
-    at, near = (core.coordinates(p, vertices, edges, kind=kind, outside="extrapolate") for p in (on_line, nearby))
+    at, near = (gencoords.coordinates(p, vertices, edges, kind=kind, outside="extrapolate") for p in (on_line, nearby))
     np.testing.assert_allclose(at @ vertices, on_line, atol=1e-12)
     np.testing.assert_allclose(at, near, atol=1e-6)
-    weights = core.weights(on_line, vertices, edges, kind=kind)
+    weights = gencoords.weights(on_line, vertices, edges, kind=kind)
     np.testing.assert_allclose(np.einsum("kn,knN->kN", weights, vertices[None] - on_line[:, None]), 0.0,
                                atol=1e-12)
 
@@ -127,20 +127,20 @@ def test_a_tolerance_that_is_not_positive_is_refused():
     vertices, faces = octahedron()
     for tolerance in (0.0, -1e-9, np.nan):
         with pytest.raises(ValueError, match="tolerance"):
-            core.coordinates([[0.1, 0.0, 0.0]], vertices, faces, tolerance=tolerance)
+            gencoords.coordinates([[0.1, 0.0, 0.0]], vertices, faces, tolerance=tolerance)
 
 
 def test_empty_inputs_give_empty_results():
     vertices, faces = octahedron()
     for empty in ([], np.empty((0, 3))):
-        assert core.coordinates(empty, vertices, faces).shape == (0, 6)
-        assert core.point_locations(empty, vertices, faces).shape == (0,)
+        assert gencoords.coordinates(empty, vertices, faces).shape == (0, 6)
+        assert gencoords.point_locations(empty, vertices, faces).shape == (0,)
 
 
 def test_point_locations():
     vertices, edges = regular_polygon(6)
     points = np.array([[0.0, 0.0], [1.0, 0.0], [0.75, np.sqrt(3) / 4], [3.0, 0.0], [0.9, 0.5]])
-    np.testing.assert_array_equal(core.point_locations(points, vertices, edges), [1, 0, 0, -1, -1])
+    np.testing.assert_array_equal(gencoords.point_locations(points, vertices, edges), [1, 0, 0, -1, -1])
 
 
 def test_chunking_and_threads_do_not_change_results(monkeypatch):
@@ -148,35 +148,35 @@ def test_chunking_and_threads_do_not_change_results(monkeypatch):
     vertices, faces = random_convex_polytope(rng, 3, 14)
     points = np.concatenate([random_interior_points(rng, vertices, 300), vertices[:3],
                              vertices.mean(axis=0) + 10.0 * np.ones((2, 3))])
-    reference = core.coordinates(points, vertices, faces, kind="voronoi", outside="project")
-    monkeypatch.setattr(core.evaluation, "_CHUNK_BYTES", 1)  # one point per chunk
-    chunked = core.coordinates(points, vertices, faces, kind="voronoi", outside="project")
+    reference = gencoords.coordinates(points, vertices, faces, kind="voronoi", outside="project")
+    monkeypatch.setattr(gencoords.evaluation.rows, "_CHUNK_BYTES", 1)  # one point per chunk
+    chunked = gencoords.coordinates(points, vertices, faces, kind="voronoi", outside="project")
     np.testing.assert_allclose(chunked, reference, rtol=0, atol=1e-15)  # BLAS rounding only
 
 
 def test_progress_is_reported_in_order_up_to_one(monkeypatch):
     vertices, faces = icosphere(1)
     points = 0.5 * random_interior_points(np.random.default_rng(0), vertices, 500)
-    monkeypatch.setattr(core.evaluation, "_CHUNK_BYTES", 1 << 16)
+    monkeypatch.setattr(gencoords.evaluation.rows, "_CHUNK_BYTES", 1 << 16)
     fractions = []
-    core.coordinates(points, vertices, faces, progress=fractions.append)
+    gencoords.coordinates(points, vertices, faces, progress=fractions.append)
     assert len(fractions) > 2 and fractions == sorted(fractions) and fractions[-1] == 1.0
 
 
 def test_float32_result_is_the_rounded_float64_result():
     vertices, faces = icosphere(1)
     points = 0.5 * random_interior_points(np.random.default_rng(4), vertices, 200)
-    single = core.coordinates(points, vertices, faces, kind="voronoi", dtype=np.float32)
+    single = gencoords.coordinates(points, vertices, faces, kind="voronoi", dtype=np.float32)
     assert single.dtype == np.float32
-    np.testing.assert_array_equal(single, core.coordinates(points, vertices, faces, kind="voronoi")
+    np.testing.assert_array_equal(single, gencoords.coordinates(points, vertices, faces, kind="voronoi")
                                   .astype(np.float32))
 
 
 def test_weights_are_homogeneous_and_finite_on_the_boundary():
     vertices, faces = octahedron()
     points = np.array([[0.2, 0.1, 0.0], [1.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.1, 0.2, 0.3]])
-    for kind in core.KINDS:
-        weights = core.weights(points, vertices, faces, kind=kind)
+    for kind in gencoords.advanced.KINDS:
+        weights = gencoords.weights(points, vertices, faces, kind=kind)
         assert np.isfinite(weights).all()
         np.testing.assert_allclose(np.einsum("kn,knN->kN", weights, vertices[None] - points[:, None]),
                                    0.0, atol=1e-12)
@@ -186,6 +186,6 @@ def test_locations_come_with_the_coordinates():
     vertices, faces = octahedron()
     points = np.array([[0.1, 0.1, 0.1], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.5, 0.5, 0.0]])
     locations = np.full(len(points), 7, dtype=np.int8)
-    core.coordinates(points, vertices, faces, outside="project", locations=locations)
-    np.testing.assert_array_equal(locations, core.point_locations(points, vertices, faces))
+    gencoords.coordinates(points, vertices, faces, outside="project", locations=locations)
+    np.testing.assert_array_equal(locations, gencoords.point_locations(points, vertices, faces))
     np.testing.assert_array_equal(locations, [1, 0, -1, 0])

@@ -4,8 +4,8 @@ each cage vertex, and the slot count Automatic storage picks."""
 import numpy as np
 import pytest
 
-import core
-from core import compact
+import gencoords
+from gencoords.tools import compact
 from polytopes import random_convex_polytope, random_interior_points
 
 
@@ -16,7 +16,7 @@ def irregular():
     rng = np.random.default_rng(19)
     vertices, faces = random_convex_polytope(rng, 3, 40)
     points = random_interior_points(rng, vertices, 300)
-    coordinates = core.coordinates(points, vertices, faces)
+    coordinates = gencoords.coordinates(points, vertices, faces)
     return vertices, coordinates, compact.motion_basis(vertices, faces, len(vertices))
 
 

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import core
+import gencoords
 from polytopes import (cross_polytope, icosphere, octahedron, random_convex_polytope,
                        random_interior_points, regular_polygon)
 
@@ -33,8 +33,8 @@ def polytope_and_points(seed, dim, count, points=20):
 @EXAMPLES
 def test_arbitrary_ridge_scalars_give_homogeneous_weights(seed, dim, count):
     rng, vertices, faces, points = polytope_and_points(seed, dim, count)
-    d = rng.normal(size=(len(points), len(core.ridges(faces))))  # any sign, any size
-    weights = core.weights_from_ridge_scalars(points, vertices, faces, d)
+    d = rng.normal(size=(len(points), len(gencoords.advanced.ridges(faces))))  # any sign, any size
+    weights = gencoords.advanced.weights_from_ridge_scalars(points, vertices, faces, d)
     assert residual(weights, points, vertices) < 1e-11
 
 
@@ -43,8 +43,8 @@ def test_arbitrary_ridge_scalars_give_homogeneous_weights(seed, dim, count):
 @EXAMPLES
 def test_arbitrary_floater_scalars_give_homogeneous_weights(seed, dim, count):
     rng, vertices, faces, points = polytope_and_points(seed, dim, count)
-    c = rng.normal(size=(len(points), len(core.ridges(faces))))
-    weights = core.floater_weights(points, vertices, faces, c)
+    c = rng.normal(size=(len(points), len(gencoords.advanced.ridges(faces))))
+    weights = gencoords.advanced.floater_weights(points, vertices, faces, c)
     assert residual(weights, points, vertices) < 1e-10
 
 
@@ -53,22 +53,22 @@ def test_arbitrary_floater_scalars_give_homogeneous_weights(seed, dim, count):
 @EXAMPLES
 def test_floater_equals_general_construction_under_the_c_d_map(seed, dim, count):
     rng, vertices, faces, points = polytope_and_points(seed, dim, count)
-    c = rng.uniform(0.1, 2.0, size=(len(points), len(core.ridges(faces))))
-    d = core.ridge_scalars_from_floater(points, vertices, faces, c)
-    floater = core.floater_weights(points, vertices, faces, c)
-    general = core.weights_from_ridge_scalars(points, vertices, faces, d)
+    c = rng.uniform(0.1, 2.0, size=(len(points), len(gencoords.advanced.ridges(faces))))
+    d = gencoords.advanced.ridge_scalars_from_floater(points, vertices, faces, c)
+    floater = gencoords.advanced.floater_weights(points, vertices, faces, c)
+    general = gencoords.advanced.weights_from_ridge_scalars(points, vertices, faces, d)
     np.testing.assert_allclose(general, floater, rtol=1e-9, atol=1e-9 * np.abs(floater).max())
-    back = core.floater_from_ridge_scalars(points, vertices, faces, d)
+    back = gencoords.advanced.floater_from_ridge_scalars(points, vertices, faces, d)
     np.testing.assert_allclose(back, c, rtol=1e-12)
 
 
-@pytest.mark.parametrize("kind", core.KINDS)
+@pytest.mark.parametrize("kind", gencoords.advanced.KINDS)
 @pytest.mark.parametrize("dim,count", SHAPES)
 @given(seed=SEEDS)
 @EXAMPLES
 def test_linear_precision_and_partition_of_unity(seed, dim, count, kind):
     _, vertices, faces, points = polytope_and_points(seed, dim, count)
-    coordinates = core.coordinates(points, vertices, faces, kind=kind)
+    coordinates = gencoords.coordinates(points, vertices, faces, kind=kind)
     size = np.ptp(vertices, axis=0).max()
     assert np.isfinite(coordinates).all()
     assert np.abs(coordinates.sum(axis=1) - 1.0).max() < 1e-12
@@ -81,15 +81,15 @@ def test_linear_precision_and_partition_of_unity(seed, dim, count, kind):
 @EXAMPLES
 def test_wachspress_and_mean_value_are_positive_in_convex_cages(seed, dim, count, kind):
     _, vertices, faces, points = polytope_and_points(seed, dim, count)
-    assert core.coordinates(points, vertices, faces, kind=kind).min() > 0.0
+    assert gencoords.coordinates(points, vertices, faces, kind=kind).min() > 0.0
 
 
 def test_discrete_harmonic_is_negative_somewhere_in_the_regular_octahedron():
     vertices, faces = octahedron()
     grid = np.stack(np.meshgrid(*[np.linspace(-1, 1, 21)] * 3), axis=-1).reshape(-1, 3)
     inside = grid[np.abs(grid).sum(axis=1) < 0.98]
-    harmonic = core.coordinates(inside, vertices, faces, kind="discrete_harmonic")
-    mean_value = core.coordinates(inside, vertices, faces, kind="mean_value")
+    harmonic = gencoords.coordinates(inside, vertices, faces, kind="discrete_harmonic")
+    mean_value = gencoords.coordinates(inside, vertices, faces, kind="mean_value")
     assert harmonic.min() < -1e-3
     assert mean_value.min() > 0.0
 
@@ -98,8 +98,8 @@ def test_discrete_harmonic_is_negative_somewhere_in_the_regular_octahedron():
 @EXAMPLES
 def test_voronoi_equals_discrete_harmonic_in_2d(seed):
     _, vertices, faces, points = polytope_and_points(seed, 2, 7)
-    np.testing.assert_allclose(core.coordinates(points, vertices, faces, kind="voronoi"),
-                               core.coordinates(points, vertices, faces, kind="discrete_harmonic"),
+    np.testing.assert_allclose(gencoords.coordinates(points, vertices, faces, kind="voronoi"),
+                               gencoords.coordinates(points, vertices, faces, kind="discrete_harmonic"),
                                atol=1e-12)
 
 
@@ -114,13 +114,13 @@ def test_voronoi_equals_wachspress_exactly_when_vertices_are_cospherical(seed, d
     from polytopes import convex_hull_facets
     faces = convex_hull_facets(on_sphere)
     points = random_interior_points(rng, on_sphere, 20)
-    voronoi = core.coordinates(points, on_sphere, faces, kind="voronoi")
-    wachspress = core.coordinates(points, on_sphere, faces, kind="wachspress")
+    voronoi = gencoords.coordinates(points, on_sphere, faces, kind="voronoi")
+    wachspress = gencoords.coordinates(points, on_sphere, faces, kind="wachspress")
     np.testing.assert_allclose(voronoi, wachspress, atol=1e-11)
     # Off the sphere (stretched: still convex, same faces) they differ.
     stretched = on_sphere * np.linspace(0.6, 1.4, dim)
-    voronoi = core.coordinates(points * np.linspace(0.6, 1.4, dim), stretched, faces, kind="voronoi")
-    wachspress = core.coordinates(points * np.linspace(0.6, 1.4, dim), stretched, faces, kind="wachspress")
+    voronoi = gencoords.coordinates(points * np.linspace(0.6, 1.4, dim), stretched, faces, kind="voronoi")
+    wachspress = gencoords.coordinates(points * np.linspace(0.6, 1.4, dim), stretched, faces, kind="wachspress")
     assert np.abs(voronoi - wachspress).max() > 1e-4
 
 
@@ -128,19 +128,19 @@ def test_voronoi_equals_wachspress_on_an_icosphere_not_on_an_irregular_octahedro
     rng = np.random.default_rng(7)
     vertices, faces = icosphere(2)
     points = 0.8 * random_interior_points(rng, vertices, 50)
-    np.testing.assert_allclose(core.coordinates(points, vertices, faces, kind="voronoi"),
-                               core.coordinates(points, vertices, faces, kind="wachspress"), atol=1e-12)
+    np.testing.assert_allclose(gencoords.coordinates(points, vertices, faces, kind="voronoi"),
+                               gencoords.coordinates(points, vertices, faces, kind="wachspress"), atol=1e-12)
     vertices, faces = octahedron((1.0, 1.6, 0.7))
     points = random_interior_points(rng, vertices, 50)
-    assert np.abs(core.coordinates(points, vertices, faces, kind="voronoi")
-                  - core.coordinates(points, vertices, faces, kind="wachspress")).max() > 1e-3
+    assert np.abs(gencoords.coordinates(points, vertices, faces, kind="voronoi")
+                  - gencoords.coordinates(points, vertices, faces, kind="wachspress")).max() > 1e-3
 
 
 @pytest.mark.parametrize("dim", [2, 3, 4])
 def test_regular_cross_polytope_centre_has_equal_coordinates(dim):
     vertices, faces = cross_polytope(dim)
-    for kind in core.KINDS:
-        centre = core.coordinates(np.zeros(dim), vertices, faces, kind=kind)
+    for kind in gencoords.advanced.KINDS:
+        centre = gencoords.coordinates(np.zeros(dim), vertices, faces, kind=kind)
         np.testing.assert_allclose(centre, np.full((1, 2 * dim), 1.0 / (2 * dim)), atol=1e-14)
 
 
@@ -151,19 +151,19 @@ def test_coordinates_are_invariant_under_similarity_transforms():
     rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
     rotation *= np.sign(np.linalg.det(rotation))  # keep orientation
     moved = lambda p: 250.0 * p @ rotation.T + [1e3, -2e3, 5e2]  # noqa: E731
-    for kind in core.KINDS:
-        np.testing.assert_allclose(core.coordinates(moved(points), moved(vertices), faces, kind=kind),
-                                   core.coordinates(points, vertices, faces, kind=kind), atol=1e-11)
+    for kind in gencoords.advanced.KINDS:
+        np.testing.assert_allclose(gencoords.coordinates(moved(points), moved(vertices), faces, kind=kind),
+                                   gencoords.coordinates(points, vertices, faces, kind=kind), atol=1e-11)
 
 
 def test_ridge_order_matches_the_columns_of_ridge_scalars():
     vertices, faces = regular_polygon(5)
-    np.testing.assert_array_equal(core.ridges(faces), np.arange(5)[:, None])
+    np.testing.assert_array_equal(gencoords.advanced.ridges(faces), np.arange(5)[:, None])
     vertices, faces = octahedron()
-    ridges = core.ridges(faces)
+    ridges = gencoords.advanced.ridges(faces)
     assert ridges.shape == (12, 2) and (ridges[:, 0] < ridges[:, 1]).all()
     x = np.array([[0.1, 0.2, -0.1]])
-    d = core.ridge_scalars(x, vertices, faces, "discrete_harmonic")
+    d = gencoords.advanced.ridge_scalars(x, vertices, faces, "discrete_harmonic")
     e = vertices[ridges] - x  # (r, 2, 3)
     np.testing.assert_allclose(d[0], 0.5 * np.linalg.norm(np.cross(e[:, 0], e[:, 1]), axis=1))
 
@@ -174,12 +174,12 @@ def test_wachspress_closed_form_equals_the_construction(seed, shape):
     # The polar dual's closed form (the evaluator of Wachspress in 2D and 3D) against
     # the reciprocal-basis construction fed with the polar dual's ridge scalars: the
     # same homogeneous weights, scale included.
-    from core.construction import construct_weights, point_frame
-    from core.generating_surfaces import named_ridge_scalars
-    from core.polar_dual import polar_dual_terms, wachspress_polar_weights
+    from gencoords.construction.general import construct_weights, point_frame
+    from gencoords.surfaces.named import named_ridge_scalars
+    from gencoords.construction.polar_dual import polar_dual_terms, wachspress_polar_weights
 
     rng, vertices, faces, points = polytope_and_points(seed, *shape)
-    cage = core.validate_cage(vertices, faces)
+    cage = gencoords.advanced.validate_cage(vertices, faces)
     frame = point_frame(cage, points)
     closed_form = wachspress_polar_weights(cage, polar_dual_terms(cage), frame)
     construction = construct_weights(cage, frame, named_ridge_scalars("wachspress", frame))

@@ -4,13 +4,13 @@ invariance, boundary limits, outside points and bad inputs."""
 import numpy as np
 import pytest
 
-import core
-from core.errors import CageError, OutsideCageError
-from core.green import (GreenOutsideError, green_chunk_size, green_coordinates, green_deform, green_rows,
+import gencoords
+from gencoords.base.errors import CageError, OutsideCageError
+from gencoords.construction.green import (GreenOutsideError, green_chunk_size, green_coordinates, green_deform, green_rows,
                         green_terms, stretch_factors)
-from core.orientation import orient_facets_outward
-from core.shapes import irregular_octahedron
-from core.validation import validate_cage
+from gencoords.base.orientation import orient_facets_outward
+from gencoords.tools.shapes import irregular_octahedron
+from gencoords.construction.validation import validate_cage
 from polytopes import dented_icosphere, icosphere
 
 
@@ -76,10 +76,10 @@ def quadrature(point, vertices, faces, levels=48):
 
 def random_inside(rng, vertices, faces, count):
     """Random points strictly inside (rejection by point location, 1e-3 of the size off the surface)."""
-    cage = core.Cage(vertices, faces)
+    cage = gencoords.Cage(vertices, faces)
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     points = rng.uniform(low, high, size=(20 * count, 3))
-    points = points[cage.point_locations(points) == core.INSIDE]
+    points = points[cage.point_locations(points) == gencoords.INSIDE]
     assert len(points) >= count
     return points[:count]
 
@@ -157,7 +157,7 @@ def test_points_near_faces_edges_and_vertices_reproduce_themselves(name, depth):
                 step = towards_centre / np.linalg.norm(towards_centre) - normals[face]
                 points.append(on_surface + depth * scale * step / np.linalg.norm(step))
     points = np.array(points)
-    points = points[core.Cage(vertices, faces).point_locations(points) == core.INSIDE]
+    points = points[gencoords.Cage(vertices, faces).point_locations(points) == gencoords.INSIDE]
     assert len(points) > 20
     phi, psi = green_coordinates(points, vertices, faces)
     assert np.isfinite(phi).all() and np.isfinite(psi).all()
@@ -185,7 +185,7 @@ def test_boundary_points_get_the_limit_from_inside(name):
         # The interior limit: continuous from inside (the jump is to the outside). Near a
         # sharp vertex or right-angled edge a step along one face's normal leaves the inside.
         near = on - 1e-7 * scale * normals[face]
-        inside = core.Cage(vertices, faces).point_locations(near) == core.INSIDE
+        inside = gencoords.Cage(vertices, faces).point_locations(near) == gencoords.INSIDE
         assert inside[0]  # the point inside the face
         near_phi, near_psi = green_coordinates(near[inside], vertices, faces)
         assert np.abs(near_phi - phi[:len(on)][inside]).max() < 1e-4
@@ -224,7 +224,7 @@ def test_float32_output_and_chunks_give_the_same_rows():
         for rows in (slice(0, 77), slice(77, 200)):
             where = green_rows(cage, terms, points[rows], convex, 1e-9 * cage.size, "raise", out_phi[rows],
                                out_psi[rows])
-            assert (where == core.INSIDE).all()
+            assert (where == gencoords.INSIDE).all()
         assert np.abs(out_phi - phi).max() < 1e-15 and np.abs(out_psi - psi).max() < 1e-15
 
 
@@ -242,7 +242,7 @@ def test_green_keeps_triangle_angles_better_than_mean_value_under_a_stretch():
     rest = angles(mesh_vertices)
     phi, psi = green_coordinates(mesh_vertices, cage_vertices, cage_faces)
     green = np.abs(angles(green_deform(phi, psi, cage_vertices, stretched, cage_faces)) - rest).mean()
-    mean_value = np.abs(angles(core.coordinates(mesh_vertices, cage_vertices, cage_faces) @ stretched) - rest).mean()
+    mean_value = np.abs(angles(gencoords.coordinates(mesh_vertices, cage_vertices, cage_faces) @ stretched) - rest).mean()
     assert green < 0.6 * mean_value  # measured: 4.4 against 11 degrees (642-vertex mesh)
 
 

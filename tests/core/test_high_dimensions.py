@@ -7,7 +7,7 @@ Independent formulas in these dimensions: tests/core/test_reference_formulas.py
 import numpy as np
 import pytest
 
-import core
+import gencoords
 from polytopes import random_convex_polytope, random_interior_points
 
 POLYTOPES = [(4, 9), (5, 9)]
@@ -20,10 +20,10 @@ def polytope(dim, count, seed):
 
 
 @pytest.mark.parametrize("dim,count", POLYTOPES)
-@pytest.mark.parametrize("kind", core.KINDS)
+@pytest.mark.parametrize("kind", gencoords.advanced.KINDS)
 def test_every_kind_has_linear_precision_and_partition_of_unity(dim, count, kind):
     _, vertices, faces, points = polytope(dim, count, seed=dim)
-    coordinates = core.coordinates(points, vertices, faces, kind=kind)
+    coordinates = gencoords.coordinates(points, vertices, faces, kind=kind)
     size = np.ptp(vertices, axis=0).max()
     np.testing.assert_allclose(coordinates.sum(axis=1), 1.0, atol=1e-12)
     assert np.abs(coordinates @ vertices - points).max() < 1e-11 * size
@@ -35,9 +35,9 @@ def test_every_kind_has_linear_precision_and_partition_of_unity(dim, count, kind
 @pytest.mark.parametrize("scalars", ["d", "c"])
 def test_arbitrary_ridge_or_floater_scalars_give_homogeneous_weights(dim, count, scalars):
     rng, vertices, faces, points = polytope(dim, count, seed=10 + dim)
-    values = rng.uniform(-1.0, 2.0, size=(len(points), len(core.ridges(faces))))
-    weights = (core.weights_from_ridge_scalars(points, vertices, faces, values) if scalars == "d"
-               else core.floater_weights(points, vertices, faces, values))
+    values = rng.uniform(-1.0, 2.0, size=(len(points), len(gencoords.advanced.ridges(faces))))
+    weights = (gencoords.advanced.weights_from_ridge_scalars(points, vertices, faces, values) if scalars == "d"
+               else gencoords.advanced.floater_weights(points, vertices, faces, values))
     residual = np.einsum("kn,knN->kN", weights, vertices[None] - points[:, None])
     assert np.abs(residual).max() < 1e-11 * np.abs(weights).max() * np.ptp(vertices, axis=0).max()
 
@@ -46,5 +46,5 @@ def test_arbitrary_ridge_or_floater_scalars_give_homogeneous_weights(dim, count,
 def test_power_family_ends_are_wachspress_and_voronoi(dim, count):
     _, vertices, faces, points = polytope(dim, count, seed=20 + dim)
     for gamma, named in ((-1.0, "wachspress"), (1.0, "voronoi")):
-        np.testing.assert_allclose(core.coordinates(points, vertices, faces, kind="power", gamma=gamma),
-                                   core.coordinates(points, vertices, faces, kind=named), atol=1e-11)
+        np.testing.assert_allclose(gencoords.coordinates(points, vertices, faces, kind="power", gamma=gamma),
+                                   gencoords.coordinates(points, vertices, faces, kind=named), atol=1e-11)

@@ -8,8 +8,8 @@ completeness. Each test is named after the statement it checks.
 import numpy as np
 import pytest
 
-import core
-from core.shapes import convex_hull_facets, cross_polytope, icosphere, irregular_octahedron, octahedron
+import gencoords
+from gencoords.tools.shapes import convex_hull_facets, cross_polytope, icosphere, irregular_octahedron, octahedron
 from polytopes import random_convex_polytope, random_interior_points, regular_polygon
 
 DIMENSIONS = [2, 3, 4]
@@ -40,8 +40,8 @@ def sphere_polytope(dim, seed):
 @pytest.mark.parametrize("dim", DIMENSIONS)
 def test_propositions_1_and_4_any_generating_surface_gives_homogeneous_weights(dim):
     rng, vertices, faces, points = polytope(dim)
-    d = rng.uniform(0.1, 3.0, size=(len(points), len(core.ridges(faces))))  # any surface
-    weights = core.weights_from_ridge_scalars(points, vertices, faces, d)
+    d = rng.uniform(0.1, 3.0, size=(len(points), len(gencoords.advanced.ridges(faces))))  # any surface
+    weights = gencoords.advanced.weights_from_ridge_scalars(points, vertices, faces, d)
     assert homogeneity_residual(weights, points, vertices) < 1e-12
 
 
@@ -51,7 +51,7 @@ def test_propositions_2_and_5_the_polytope_itself_generates_discrete_harmonic(di
     # discrete harmonic coordinates (the polar dual's closed form is checked against its
     # volumes in test_reference_formulas).
     _, vertices, faces, points = polytope(dim, seed=1, points=4)
-    cage = core.validate_cage(vertices, faces)
+    cage = gencoords.advanced.validate_cage(vertices, faces)
     normals = cage.facet_normals / np.linalg.norm(cage.facet_normals, axis=1, keepdims=True)
     offsets = np.einsum("mN,mN->m", vertices[faces[:, 0]], normals)
 
@@ -60,27 +60,27 @@ def test_propositions_2_and_5_the_polytope_itself_generates_discrete_harmonic(di
         with np.errstate(divide="ignore"):
             return np.where(speeds > 0, (offsets - x @ normals.T)[:, None] / speeds, np.inf).min(axis=2)
 
-    d = core.ridge_scalars_from_surface(points, vertices, faces, boundary, levels=3 if dim == 4 else 5)
-    weights = core.weights_from_ridge_scalars(points, vertices, faces, d)
+    d = gencoords.advanced.ridge_scalars_from_surface(points, vertices, faces, boundary, levels=3 if dim == 4 else 5)
+    weights = gencoords.advanced.weights_from_ridge_scalars(points, vertices, faces, d)
     np.testing.assert_allclose(weights / weights.sum(axis=1, keepdims=True),
-                               core.coordinates(points, vertices, faces, kind="discrete_harmonic"),
+                               gencoords.coordinates(points, vertices, faces, kind="discrete_harmonic"),
                                atol=1e-4 if dim == 4 else 1e-8)
 
 
 @pytest.mark.parametrize("dim", DIMENSIONS)
 def test_propositions_3_and_9_floater_equals_the_construction_when_d_is_n_factorial_c_over_m(dim):
     rng, vertices, faces, points = polytope(dim, seed=2)
-    c = rng.uniform(0.1, 2.0, size=(len(points), len(core.ridges(faces))))
-    d = core.ridge_scalars_from_floater(points, vertices, faces, c)
-    np.testing.assert_allclose(core.weights_from_ridge_scalars(points, vertices, faces, d),
-                               core.floater_weights(points, vertices, faces, c), rtol=1e-9)
+    c = rng.uniform(0.1, 2.0, size=(len(points), len(gencoords.advanced.ridges(faces))))
+    d = gencoords.advanced.ridge_scalars_from_floater(points, vertices, faces, c)
+    np.testing.assert_allclose(gencoords.advanced.weights_from_ridge_scalars(points, vertices, faces, d),
+                               gencoords.advanced.floater_weights(points, vertices, faces, c), rtol=1e-9)
 
 
 @pytest.mark.parametrize("dim", [3, 4])
 def test_proposition_8_floater_gives_homogeneous_weights_for_any_scalars(dim):
     rng, vertices, faces, points = polytope(dim, seed=3)
-    c = rng.normal(size=(len(points), len(core.ridges(faces))))  # any sign
-    weights = core.floater_weights(points, vertices, faces, c)
+    c = rng.normal(size=(len(points), len(gencoords.advanced.ridges(faces))))  # any sign
+    weights = gencoords.advanced.floater_weights(points, vertices, faces, c)
     assert homogeneity_residual(weights, points, vertices) < 1e-12
 
 
@@ -89,19 +89,19 @@ def test_proposition_10_and_corollaries_1_2_any_coordinates_come_from_some_surfa
     # Coordinates of another method (here: Wachspress, and random homogeneous weights)
     # are reproduced by some Floater scalars c, hence some ridge scalars d.
     rng, vertices, faces, points = polytope(dim, seed=4, points=3)
-    target = core.coordinates(points[0], vertices, faces, kind="wachspress")[0]
-    c = core.floater_scalars(points[0], vertices, faces, target)
-    rebuilt = core.floater_weights(points[:1], vertices, faces, c[None])[0]
+    target = gencoords.coordinates(points[0], vertices, faces, kind="wachspress")[0]
+    c = gencoords.advanced.floater_scalars(points[0], vertices, faces, target)
+    rebuilt = gencoords.advanced.floater_weights(points[:1], vertices, faces, c[None])[0]
     np.testing.assert_allclose(rebuilt / rebuilt.sum(), target, atol=1e-10)
-    d = core.ridge_scalars_from_floater(points[:1], vertices, faces, c[None])
-    again = core.weights_from_ridge_scalars(points[:1], vertices, faces, d)[0]
+    d = gencoords.advanced.ridge_scalars_from_floater(points[:1], vertices, faces, c[None])
+    again = gencoords.advanced.weights_from_ridge_scalars(points[:1], vertices, faces, d)[0]
     np.testing.assert_allclose(again / again.sum(), target, atol=1e-10)
 
 
 def test_proposition_6_voronoi_equals_discrete_harmonic_in_2d():
     _, vertices, faces, points = polytope(2, seed=5)
-    np.testing.assert_allclose(core.coordinates(points, vertices, faces, kind="voronoi"),
-                               core.coordinates(points, vertices, faces, kind="discrete_harmonic"),
+    np.testing.assert_allclose(gencoords.coordinates(points, vertices, faces, kind="voronoi"),
+                               gencoords.coordinates(points, vertices, faces, kind="discrete_harmonic"),
                                atol=1e-12)
 
 
@@ -109,8 +109,8 @@ def test_proposition_6_voronoi_equals_discrete_harmonic_in_2d():
 def test_proposition_7_wachspress_equals_voronoi_when_the_vertices_are_cospherical(dim):
     rng, vertices, faces = sphere_polytope(dim, seed=6)
     points = random_interior_points(rng, vertices, 12)
-    np.testing.assert_allclose(core.coordinates(points, vertices, faces, kind="voronoi"),
-                               core.coordinates(points, vertices, faces, kind="wachspress"), atol=1e-11)
+    np.testing.assert_allclose(gencoords.coordinates(points, vertices, faces, kind="voronoi"),
+                               gencoords.coordinates(points, vertices, faces, kind="wachspress"), atol=1e-11)
 
 
 @pytest.mark.parametrize("dim", DIMENSIONS)
@@ -118,12 +118,12 @@ def test_proposition_7_wachspress_equals_voronoi_when_the_vertices_are_cospheric
 def test_figures_9_to_11_wachspress_and_mean_value_are_positive(dim, kind):
     for seed in range(3):
         _, vertices, faces, _ = polytope(dim, seed=seed)
-        assert core.coordinate_report(vertices, faces, kind, samples=600).positive
+        assert gencoords.tools.coordinate_report(vertices, faces, kind, samples=600).positive
 
 
 def test_figure_9_discrete_harmonic_is_negative_somewhere_in_a_regular_octahedron():
     vertices, faces = octahedron()
-    report = core.coordinate_report(vertices, faces, "discrete_harmonic", samples=600)
+    report = gencoords.tools.coordinate_report(vertices, faces, "discrete_harmonic", samples=600)
     assert not report.positive and report.smallest < -1e-3
 
 
@@ -132,33 +132,33 @@ def test_figure_9_voronoi_equals_wachspress_in_regular_polytopes(shape):
     vertices, faces = {"octahedron": octahedron(), "icosahedron": icosphere(0),
                        "16-cell": cross_polytope(4)}[shape]
     points = random_interior_points(np.random.default_rng(7), vertices, 30)
-    np.testing.assert_allclose(core.coordinates(points, vertices, faces, kind="voronoi"),
-                               core.coordinates(points, vertices, faces, kind="wachspress"), atol=1e-12)
+    np.testing.assert_allclose(gencoords.coordinates(points, vertices, faces, kind="voronoi"),
+                               gencoords.coordinates(points, vertices, faces, kind="wachspress"), atol=1e-12)
 
 
 def test_figure_10_voronoi_differs_from_wachspress_in_an_irregular_octahedron():
     vertices, faces = irregular_octahedron()
     points = random_interior_points(np.random.default_rng(8), vertices, 30)
-    gap = np.abs(core.coordinates(points, vertices, faces, kind="voronoi")
-                 - core.coordinates(points, vertices, faces, kind="wachspress")).max()
+    gap = np.abs(gencoords.coordinates(points, vertices, faces, kind="voronoi")
+                 - gencoords.coordinates(points, vertices, faces, kind="wachspress")).max()
     assert gap > 1e-2
 
 
 def test_figure_11_voronoi_goes_negative_in_this_convex_polyhedron():
-    # Found by searching random 7-vertex hulls (seed 3 of core.shapes.random_convex_polytope),
+    # Found by searching random 7-vertex hulls (seed 3 of gencoords.tools.shapes.random_convex_polytope),
     # rounded and kept: Voronoi reaches about -0.06 where Wachspress stays positive.
     vertices = np.array([[-2.72, 0.531, -2.229], [-1.946, 1.614, 0.14], [-1.415, 1.668, 0.358],
                          [-2.048, 0.301, -3.077], [-1.956, 1.777, -1.014], [-0.797, 1.233, -0.319],
                          [-2.318, 0.266, -2.982]])
     faces = convex_hull_facets(vertices)
-    voronoi = core.coordinate_report(vertices, faces, "voronoi", samples=800)
+    voronoi = gencoords.tools.coordinate_report(vertices, faces, "voronoi", samples=800)
     assert voronoi.smallest < -0.02
-    assert core.coordinate_report(vertices, faces, "wachspress", samples=800).positive
+    assert gencoords.tools.coordinate_report(vertices, faces, "wachspress", samples=800).positive
 
 
 def test_regular_polygons_are_handled_like_the_paper_figures():
     # 2D counterpart of figure 9: in a regular hexagon all four kinds agree at the centre.
     vertices, edges = regular_polygon(6)
     centre = np.zeros((1, 2))
-    for kind in core.KINDS:
-        np.testing.assert_allclose(core.coordinates(centre, vertices, edges, kind=kind), 1 / 6, atol=1e-14)
+    for kind in gencoords.advanced.KINDS:
+        np.testing.assert_allclose(gencoords.coordinates(centre, vertices, edges, kind=kind), 1 / 6, atol=1e-14)

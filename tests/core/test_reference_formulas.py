@@ -5,9 +5,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import core
-from core.construction import point_frame, prepare_cage
-from core.generating_surfaces import power_dual, power_dual_by_subsets
+import gencoords
+from gencoords.construction.general import point_frame, prepare_cage
+from gencoords.surfaces.named import power_dual, power_dual_by_subsets
 from polytopes import cross_polytope, octahedron, random_convex_polytope, random_interior_points
 from reference_formulas import (discrete_harmonic_2d_cotangent, discrete_harmonic_3d_cotangent,
                                 discrete_harmonic_by_stiffness,
@@ -43,7 +43,7 @@ def polygon_order(vertices, faces):
 def test_2d_coordinates_equal_independent_formulas(seed, kind, reference, tolerance):
     vertices, faces, points = random_case(seed, 2, 7)
     order = polygon_order(vertices, faces)
-    ours = core.coordinates(points, vertices, faces, kind=kind)[:, order]
+    ours = gencoords.coordinates(points, vertices, faces, kind=kind)[:, order]
     theirs = np.array([normalise(reference(x, vertices[order])) for x in points])
     np.testing.assert_allclose(ours, theirs, atol=tolerance)
 
@@ -54,7 +54,7 @@ def test_2d_coordinates_equal_independent_formulas(seed, kind, reference, tolera
 def test_2d_floater_with_c_equal_to_powers_of_the_distance_14(seed, kind, power):
     vertices, faces, points = random_case(seed, 2, 7)
     order = polygon_order(vertices, faces)
-    ours = core.coordinates(points, vertices, faces, kind=kind)[:, order]
+    ours = gencoords.coordinates(points, vertices, faces, kind=kind)[:, order]
     polygon = vertices[order]
     theirs = np.array([normalise(floater_2d(x, polygon, np.linalg.norm(polygon - x, axis=1) ** power))
                        for x in points])
@@ -70,7 +70,7 @@ def test_2d_floater_with_c_equal_to_powers_of_the_distance_14(seed, kind, power)
 @EXAMPLES
 def test_3d_coordinates_equal_independent_formulas(seed, kind, reference, tolerance):
     vertices, faces, points = random_case(seed, 3, 12)
-    ours = core.coordinates(points, vertices, faces, kind=kind)
+    ours = gencoords.coordinates(points, vertices, faces, kind=kind)
     theirs = np.array([normalise(reference(x, vertices, faces)) for x in points])
     np.testing.assert_allclose(ours, theirs, atol=tolerance)
 
@@ -95,7 +95,7 @@ def test_3d_table_formulas_of_math_md():
     """d of the four named surfaces against docs/MATH.md's table, edge by edge."""
     vertices, faces = octahedron((1.0, 1.3, 0.8))
     x = np.array([0.1, -0.2, 0.15])
-    ridges = core.ridges(faces)
+    ridges = gencoords.advanced.ridges(faces)
     e_j, e_k = vertices[ridges[:, 0]] - x, vertices[ridges[:, 1]] - x
     l_j, l_k = np.linalg.norm(e_j, axis=1), np.linalg.norm(e_k, axis=1)
     cross = np.linalg.norm(np.cross(e_j, e_k), axis=1)
@@ -114,7 +114,7 @@ def test_3d_table_formulas_of_math_md():
         "voronoi": (l_j ** 2 * cot_at(vk, vj) + l_k ** 2 * cot_at(vj, vk)) / 8,
     }
     for kind, expected in table.items():
-        np.testing.assert_allclose(core.ridge_scalars(x, vertices, faces, kind)[0], expected, rtol=1e-12)
+        np.testing.assert_allclose(gencoords.advanced.ridge_scalars(x, vertices, faces, kind)[0], expected, rtol=1e-12)
 
 
 @pytest.mark.parametrize("dim", [3, 4, 5])
@@ -123,11 +123,11 @@ def test_mean_value_equals_its_definition_by_integration(dim):
     derivation) against Monte Carlo integration of the definition."""
     vertices, facets = cross_polytope(dim, radii=np.linspace(0.7, 1.4, dim))
     x = np.linspace(0.05, 0.2, dim)
-    ours = core.coordinates(x, vertices, facets, kind="mean_value")[0]
+    ours = gencoords.coordinates(x, vertices, facets, kind="mean_value")[0]
     estimate = normalise(mean_value_by_integration(x, vertices, facets))
     np.testing.assert_allclose(estimate, ours, atol=3e-3)
     # The check can fail: Wachspress coordinates differ by more than its tolerance.
-    assert np.abs(core.coordinates(x, vertices, facets, kind="wachspress")[0] - estimate).max() > 1e-2
+    assert np.abs(gencoords.coordinates(x, vertices, facets, kind="wachspress")[0] - estimate).max() > 1e-2
 
 
 @pytest.mark.parametrize("dim,count", [(2, 7), (3, 10), (4, 8)])  # 5D: 40 s of hull volumes
@@ -136,7 +136,7 @@ def test_mean_value_equals_its_definition_by_integration(dim):
 def test_wachspress_equals_polar_dual_volumes_in_any_dimension(seed, dim, count):
     """MATH.md's N-D power-dual scalars against the polar dual's facet volumes."""
     vertices, faces, points = random_case(seed, dim, count, points=3)
-    ours = core.coordinates(points, vertices, faces, kind="wachspress")
+    ours = gencoords.coordinates(points, vertices, faces, kind="wachspress")
     theirs = np.array([normalise(wachspress_by_polar_dual_volumes(x, vertices, faces)) for x in points])
     np.testing.assert_allclose(ours, theirs, atol=1e-10)
 
@@ -147,6 +147,6 @@ def test_wachspress_equals_polar_dual_volumes_in_any_dimension(seed, dim, count)
 def test_discrete_harmonic_minimises_the_dirichlet_energy_in_any_dimension(seed, dim, count):
     """MATH.md's N-D scalar (volume of {x} + ridge) against the stiffness matrix of eq. (10)."""
     vertices, faces, points = random_case(seed, dim, count)
-    ours = core.coordinates(points, vertices, faces, kind="discrete_harmonic")
+    ours = gencoords.coordinates(points, vertices, faces, kind="discrete_harmonic")
     theirs = np.array([normalise(discrete_harmonic_by_stiffness(x, vertices, faces)) for x in points])
     np.testing.assert_allclose(ours, theirs, atol=1e-10)

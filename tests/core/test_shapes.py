@@ -1,14 +1,14 @@
-"""core.shapes: the example cages are valid, outward-oriented convex cages."""
+"""gencoords.tools.shapes: the example cages are valid, outward-oriented convex cages."""
 
 import numpy as np
 
-import core
-from core.shapes import irregular_octahedron, octahedron
+import gencoords
+from gencoords.tools.shapes import irregular_octahedron, octahedron
 
 
 def test_irregular_octahedron_is_a_valid_convex_cage_with_no_circumsphere():
     vertices, faces = irregular_octahedron()
-    core.validate_cage(vertices, faces, convex=True)  # raises on inward or non-convex faces
+    gencoords.advanced.validate_cage(vertices, faces, convex=True)  # raises on inward or non-convex faces
     # no sphere through all six vertices: the least-squares sphere misses some of them
     rows = np.column_stack([2.0 * vertices, np.ones(len(vertices))])
     solution, *_ = np.linalg.lstsq(rows, (vertices ** 2).sum(axis=1), rcond=None)

@@ -1,10 +1,10 @@
-"""Skinning weights from coordinates (core.skinning): what Bake to Bones writes."""
+"""Skinning weights from coordinates (gencoords.tools.skinning): what Bake to Bones writes."""
 
 import numpy as np
 import pytest
 
-import core
-from core import compact, skinning
+import gencoords
+from gencoords.tools import compact, skinning
 from polytopes import random_convex_polytope, random_interior_points
 
 
@@ -18,7 +18,7 @@ def cage():
 
 def test_all_weights_on_the_bind_time_cage_skin_exactly(cage):
     vertices, faces, points = cage
-    coordinates = core.coordinates(points, vertices, faces, kind="mean_value")
+    coordinates = gencoords.coordinates(points, vertices, faces, kind="mean_value")
     moved = compact.smooth_test_motion(vertices)
     assert skinning.deviation(coordinates, vertices, coordinates, vertices, moved) < 1e-12
     np.testing.assert_allclose(points + skinning.skin(coordinates, vertices, moved),
@@ -28,7 +28,7 @@ def test_all_weights_on_the_bind_time_cage_skin_exactly(cage):
 def test_bones_resting_elsewhere_than_the_bind_time_cage_deviate(cage):
     """Issue 19 item 1: bones on the cage as it is now, not as it was at Bind."""
     vertices, faces, points = cage
-    coordinates = core.coordinates(points, vertices, faces, kind="mean_value")
+    coordinates = gencoords.coordinates(points, vertices, faces, kind="mean_value")
     edited = compact.smooth_test_motion(vertices)
     moved = edited + 0.1
     assert skinning.deviation(coordinates, vertices, coordinates, edited, moved) > 0.05
@@ -36,7 +36,7 @@ def test_bones_resting_elsewhere_than_the_bind_time_cage_deviate(cage):
 
 def test_truncation_keeps_the_largest_weights_renormalised(cage):
     vertices, faces, points = cage
-    coordinates = core.coordinates(points, vertices, faces, kind="wachspress")
+    coordinates = gencoords.coordinates(points, vertices, faces, kind="wachspress")
     weights = skinning.truncate(coordinates, 4)
     assert (np.count_nonzero(weights, axis=1) <= 4).all()
     np.testing.assert_allclose(weights.sum(axis=1), 1.0)

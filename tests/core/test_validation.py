@@ -5,15 +5,15 @@ import re
 import numpy as np
 import pytest
 
-import core
+import gencoords
 from polytopes import (dented_icosphere, icosphere, l_shape, octahedron, random_convex_polytope,
                        random_interior_points)
 from reference_formulas import mean_value_3d_ju, normalise
 
 
 def cage_error(vertices, faces, kind="wachspress"):
-    with pytest.raises(core.CageError) as error:
-        core.coordinates(np.zeros((1, np.shape(vertices)[1])), vertices, faces, kind=kind)
+    with pytest.raises(gencoords.CageError) as error:
+        gencoords.coordinates(np.zeros((1, np.shape(vertices)[1])), vertices, faces, kind=kind)
     return error.value
 
 
@@ -90,8 +90,8 @@ def test_duplicates_are_judged_by_distance_in_a_large_cage(offset, duplicate):
         error = cage_error(extra, faces)
         assert error.problem == "duplicate_vertices" and set(error.vertices) == {200, 642}
     else:
-        with pytest.raises(core.CageError) as error:  # not a duplicate: the cage is bent there
-            core.validate_cage(extra, faces)
+        with pytest.raises(gencoords.CageError) as error:  # not a duplicate: the cage is bent there
+            gencoords.advanced.validate_cage(extra, faces)
         assert error.value.problem != "duplicate_vertices"
 
 
@@ -102,15 +102,15 @@ def test_non_finite_vertex_and_points():
     error = cage_error(broken, faces)
     assert error.problem == "non_finite" and error.vertices == (3,)
     with pytest.raises(ValueError, match="non-finite"):
-        core.coordinates([[np.nan, 0, 0]], vertices, faces)
+        gencoords.coordinates([[np.nan, 0, 0]], vertices, faces)
 
 
 def test_unknown_kind_and_outside_mode():
     vertices, faces = octahedron()
     with pytest.raises(ValueError, match="kind"):
-        core.coordinates([[0, 0, 0]], vertices, faces, kind="harmonic")
+        gencoords.coordinates([[0, 0, 0]], vertices, faces, kind="harmonic")
     with pytest.raises(ValueError, match="outside"):
-        core.coordinates([[0, 0, 0]], vertices, faces, outside="clamp")
+        gencoords.coordinates([[0, 0, 0]], vertices, faces, outside="clamp")
 
 
 def test_flat_regions_of_triangulated_quads_count_as_convex():
@@ -118,8 +118,8 @@ def test_flat_regions_of_triangulated_quads_count_as_convex():
     quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
     triangles = np.array([[q[0], q[1], q[2]] for q in quads] + [[q[0], q[2], q[3]] for q in quads])
     points = np.random.default_rng(0).uniform(0.05, 0.95, size=(50, 3))
-    for kind in core.KINDS:
-        coordinates = core.coordinates(points, cube, triangles, kind=kind)
+    for kind in gencoords.advanced.KINDS:
+        coordinates = gencoords.coordinates(points, cube, triangles, kind=kind)
         np.testing.assert_allclose(coordinates @ cube, points, atol=1e-13)
 
 
@@ -128,26 +128,26 @@ def test_quads_of_a_cube_with_a_dragged_corner_split_into_a_convex_cage(corner):
     cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
     quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
     cube[corner] += 0.3 * (cube[corner] - 0.5)  # outward: the three quads at it bend
-    triangles = core.triangulate_quads(cube, quads)
-    core.validate_cage(cube, triangles)  # convex
+    triangles = gencoords.tools.triangulate_quads(cube, quads)
+    gencoords.advanced.validate_cage(cube, triangles)  # convex
     # Each quad's other diagonal folds the bent quads inward: then it is not convex.
     pairs = triangles.reshape(-1, 2, 3)
     kept_first = np.all(pairs[:, 0] == quads[:, [0, 1, 2]], axis=1)[:, None, None]
     other = np.where(kept_first, np.stack([quads[:, [0, 1, 3]], quads[:, [1, 2, 3]]], axis=1),
                      np.stack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]], axis=1))
-    with pytest.raises(core.CageError, match="not convex"):
-        core.validate_cage(cube, other.reshape(-1, 3))
+    with pytest.raises(gencoords.CageError, match="not convex"):
+        gencoords.advanced.validate_cage(cube, other.reshape(-1, 3))
 
 
 def test_mean_value_on_a_non_convex_cage_inside_and_outside():
     vertices, faces = dented_icosphere()
     rng = np.random.default_rng(2)
     inside = 0.3 * random_interior_points(rng, vertices, 40)
-    inside = inside[core.point_locations(inside, vertices, faces) == 1]
+    inside = inside[gencoords.point_locations(inside, vertices, faces) == 1]
     dent = 0.7 * vertices[0] / np.linalg.norm(vertices[0])  # beyond the pushed-in vertex
     outside = np.array([dent, [1.4, 0.3, 0.2], [0.0, 2.0, -1.0]])
-    assert list(core.point_locations(outside, vertices, faces)) == [-1, -1, -1]
-    ours = core.coordinates(np.concatenate([inside, outside]), vertices, faces,
+    assert list(gencoords.point_locations(outside, vertices, faces)) == [-1, -1, -1]
+    ours = gencoords.coordinates(np.concatenate([inside, outside]), vertices, faces,
                             kind="mean_value", outside="extrapolate")
     np.testing.assert_allclose(ours @ vertices, np.concatenate([inside, outside]), atol=1e-12)
     theirs = np.array([normalise(mean_value_3d_ju(x, vertices, faces))
@@ -158,12 +158,12 @@ def test_mean_value_on_a_non_convex_cage_inside_and_outside():
 def test_mean_value_on_a_non_convex_polygon():
     vertices, edges = l_shape()
     points = np.array([[0.5, 0.5], [1.5, 0.5], [0.5, 1.5], [0.9, 0.9]])
-    coordinates = core.coordinates(points, vertices, edges, kind="mean_value")
+    coordinates = gencoords.coordinates(points, vertices, edges, kind="mean_value")
     np.testing.assert_allclose(coordinates @ vertices, points, atol=1e-13)
-    with pytest.raises(core.OutsideCageError):
-        core.coordinates([[1.5, 1.5]], vertices, edges, kind="mean_value")
-    with pytest.raises(core.CageError, match="not convex"):
-        core.coordinates(points, vertices, edges, kind="wachspress")
+    with pytest.raises(gencoords.OutsideCageError):
+        gencoords.coordinates([[1.5, 1.5]], vertices, edges, kind="mean_value")
+    with pytest.raises(gencoords.CageError, match="not convex"):
+        gencoords.coordinates(points, vertices, edges, kind="wachspress")
 
 
 @pytest.mark.parametrize("dim,count", [(2, 7), (3, 10), (4, 8)])
@@ -171,23 +171,23 @@ def test_facets_of_a_hull_in_any_order_are_oriented_outward(dim, count):
     rng = np.random.default_rng(dim)
     vertices, faces = random_convex_polytope(rng, dim, count)
     scrambled = np.array([rng.permutation(face) for face in faces])
-    with pytest.raises(core.CageError):
-        core.validate_cage(vertices, scrambled)
-    oriented = core.orient_facets_outward(vertices, scrambled)
-    core.validate_cage(vertices, oriented)
+    with pytest.raises(gencoords.CageError):
+        gencoords.advanced.validate_cage(vertices, scrambled)
+    oriented = gencoords.tools.orient_facets_outward(vertices, scrambled)
+    gencoords.advanced.validate_cage(vertices, oriented)
     np.testing.assert_array_equal(np.sort(oriented, axis=1), np.sort(scrambled, axis=1))
 
 
 def test_validate_cage_accepts_a_good_cage_and_returns_it():
     vertices, faces = icosphere(2)
-    cage = core.validate_cage(vertices, faces)
+    cage = gencoords.advanced.validate_cage(vertices, faces)
     assert cage.size > 0 and len(cage.topology.ridges) == 3 * len(faces) // 2
 
 
 def test_a_flat_cage_is_called_flat_not_coincident():
     vertices, faces = icosphere()
-    with pytest.raises(core.CageError) as error:
-        core.Cage(vertices * (1.0, 1.0, 0.0), faces)  # an object scaled to zero on Z
+    with pytest.raises(gencoords.CageError) as error:
+        gencoords.Cage(vertices * (1.0, 1.0, 0.0), faces)  # an object scaled to zero on Z
     assert error.value.problem == "flat"
     assert "the cage is flat: all its vertices lie in one plane" in str(error.value)
     assert "coincide" not in str(error.value)
@@ -196,17 +196,17 @@ def test_a_flat_cage_is_called_flat_not_coincident():
 def test_a_cage_flat_within_its_tolerance_is_flat_and_a_thin_one_is_a_volume():
     vertices, faces = icosphere()
     size = np.linalg.norm(np.ptp(vertices, axis=0))
-    with pytest.raises(core.CageError) as error:  # 1e-7 of its size thick, tolerance 1e-6
-        core.Cage(vertices * (1.0, 1.0, 0.5e-7 * size), faces, tolerance=1e-6)
+    with pytest.raises(gencoords.CageError) as error:  # 1e-7 of its size thick, tolerance 1e-6
+        gencoords.Cage(vertices * (1.0, 1.0, 0.5e-7 * size), faces, tolerance=1e-6)
     assert error.value.problem == "flat"
     assert re.search(r"thickness 1\.\d+e-07 of its size", str(error.value))  # of the flat cage's size
-    assert core.Cage(vertices * (1.0, 1.0, 1e-2), faces, tolerance=1e-6).convex
+    assert gencoords.Cage(vertices * (1.0, 1.0, 1e-2), faces, tolerance=1e-6).convex
 
 
 def test_transposed_vertices_are_said_to_look_transposed():
     vertices, faces = icosphere()
-    with pytest.raises(core.CageError) as error:
-        core.Cage(vertices.T, faces)
+    with pytest.raises(gencoords.CageError) as error:
+        gencoords.Cage(vertices.T, faces)
     assert error.value.problem == "transposed"
     message = str(error.value)
     assert f"got (3, {len(vertices)})" in message and "look transposed: pass vertices.T" in message
@@ -215,7 +215,7 @@ def test_transposed_vertices_are_said_to_look_transposed():
 
 def test_a_tolerance_passed_to_a_cage_method_says_where_it_belongs():
     vertices, faces = icosphere()
-    cage = core.Cage(vertices, faces)
+    cage = gencoords.Cage(vertices, faces)
     with pytest.raises(TypeError, match=r"Cage\.coordinates\(\): .*unexpected keyword argument "
                                         r"'tolerance'; the tolerance belongs to the cage.*"
                                         r"Cage\(vertices, faces, tolerance=\.\.\.\)"):

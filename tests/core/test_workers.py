@@ -6,15 +6,15 @@ import tempfile
 import numpy as np
 import pytest
 
-import core
-import core.evaluation
-import core.parallel
+import gencoords
+import gencoords.evaluation.rows
+import gencoords.evaluation.parallel
 from polytopes import icosphere, random_convex_polytope, random_interior_points
 
 
 def shared_files():
     """This process's shared files (other processes' runs may have theirs)."""
-    return set(core.parallel.shared_files(os.getpid()))
+    return set(gencoords.evaluation.parallel.shared_files(os.getpid()))
 
 
 @pytest.fixture
@@ -31,13 +31,13 @@ def mixed_points():
 @pytest.fixture
 def small_chunks(monkeypatch):
     # Many chunks and units even for few points, so that every worker gets several.
-    monkeypatch.setattr(core.evaluation, "_CHUNK_PAIRS", 2000)
+    monkeypatch.setattr(gencoords.evaluation.rows, "_CHUNK_PAIRS", 2000)
 
 
-@pytest.mark.parametrize("kind", core.KINDS)
+@pytest.mark.parametrize("kind", gencoords.advanced.KINDS)
 def test_workers_give_bitwise_the_single_process_result(kind, mixed_points, small_chunks):
     vertices, faces, points = mixed_points
-    with core.Cage(vertices, faces) as cage:
+    with gencoords.Cage(vertices, faces) as cage:
         for outside, dtype in (("project", np.float64), ("extrapolate", np.float32)):
             alone = cage.coordinates(points, kind=kind, outside=outside, dtype=dtype, workers=1)
             shared_locations = np.zeros(len(points), dtype=np.int8)
@@ -51,26 +51,26 @@ def test_workers_give_bitwise_the_single_process_result(kind, mixed_points, smal
 
 def test_free_function_and_weights_with_workers(mixed_points, small_chunks):
     vertices, faces, points = mixed_points
-    np.testing.assert_array_equal(core.weights(points, vertices, faces, kind="wachspress", workers=2),
-                                  core.weights(points, vertices, faces, kind="wachspress", workers=1))
-    np.testing.assert_array_equal(core.point_locations(points, vertices, faces, workers=2),
-                                  core.point_locations(points, vertices, faces, workers=1))
+    np.testing.assert_array_equal(gencoords.weights(points, vertices, faces, kind="wachspress", workers=2),
+                                  gencoords.weights(points, vertices, faces, kind="wachspress", workers=1))
+    np.testing.assert_array_equal(gencoords.point_locations(points, vertices, faces, workers=2),
+                                  gencoords.point_locations(points, vertices, faces, workers=1))
 
 
 def test_outside_points_are_all_named_with_workers(mixed_points, small_chunks):
     vertices, faces, points = mixed_points
-    with pytest.raises(core.OutsideCageError) as alone:
-        core.coordinates(points, vertices, faces, workers=1)
-    with pytest.raises(core.OutsideCageError) as together:
-        core.coordinates(points, vertices, faces, workers=2)
+    with pytest.raises(gencoords.OutsideCageError) as alone:
+        gencoords.coordinates(points, vertices, faces, workers=1)
+    with pytest.raises(gencoords.OutsideCageError) as together:
+        gencoords.coordinates(points, vertices, faces, workers=2)
     assert len(alone.value.indices) == 4
     np.testing.assert_array_equal(together.value.indices, alone.value.indices)
 
 
 def test_a_cage_keeps_its_workers_between_calls_and_stops_them(mixed_points, small_chunks):
     vertices, faces, points = mixed_points
-    inside = points[core.point_locations(points, vertices, faces) == core.INSIDE]
-    cage = core.Cage(vertices, faces)
+    inside = points[gencoords.point_locations(points, vertices, faces) == gencoords.INSIDE]
+    cage = gencoords.Cage(vertices, faces)
     cage.coordinates(inside, workers=2)
     processes = list(cage._pool._processes)
     fractions = []
@@ -86,7 +86,7 @@ def test_a_cage_keeps_its_workers_between_calls_and_stops_them(mixed_points, sma
 def test_a_cancel_stops_the_workers_and_removes_the_shared_memory(mixed_points, small_chunks):
     vertices, faces, points = mixed_points
     before = shared_files()
-    cage = core.Cage(vertices, faces)
+    cage = gencoords.Cage(vertices, faces)
 
     def cancel(fraction):
         raise KeyboardInterrupt
@@ -100,14 +100,14 @@ def test_a_cancel_stops_the_workers_and_removes_the_shared_memory(mixed_points, 
 def test_a_killed_worker_raises_a_clear_error_and_leaves_nothing(mixed_points, small_chunks):
     vertices, faces, points = mixed_points
     before = shared_files()
-    cage = core.Cage(vertices, faces)
+    cage = gencoords.Cage(vertices, faces)
     cage.coordinates(points[:50], outside="project", workers=2)  # starts the pool
     processes = list(cage._pool._processes)
 
     def kill_one(fraction):
         processes[0].kill()
 
-    with pytest.raises(core.WorkerError, match="ended unexpectedly"):
+    with pytest.raises(gencoords.WorkerError, match="ended unexpectedly"):
         cage.coordinates(points, outside="project", workers=2, progress=kill_one)
     assert all(process.poll() is not None for process in processes)
     assert shared_files() == before
@@ -121,12 +121,12 @@ def test_a_worker_that_died_between_calls_raises_a_clear_error(mixed_points, sma
     # Sending it work meets a broken pipe: a WorkerError, not a BrokenPipeError.
     vertices, faces, points = mixed_points
     before = shared_files()
-    cage = core.Cage(vertices, faces)
+    cage = gencoords.Cage(vertices, faces)
     cage.coordinates(points[:50], outside="project", workers=2)  # starts the pool
     processes = list(cage._pool._processes)
     processes[0].kill()
     processes[0].wait()
-    with pytest.raises(core.WorkerError, match="ended unexpectedly"):
+    with pytest.raises(gencoords.WorkerError, match="ended unexpectedly"):
         cage.coordinates(points, outside="project", workers=2)
     assert all(process.poll() is not None for process in processes)
     assert shared_files() == before
@@ -135,7 +135,7 @@ def test_a_worker_that_died_between_calls_raises_a_clear_error(mixed_points, sma
 
 def test_default_stays_in_process_for_small_calls():
     vertices, faces = icosphere(1)
-    with core.Cage(vertices, faces) as cage:
+    with gencoords.Cage(vertices, faces) as cage:
         cage.coordinates(0.5 * vertices)
         assert cage._pool is None
 
@@ -144,7 +144,7 @@ def test_default_stays_in_process_for_small_calls():
 def test_bad_worker_counts_are_refused(workers):
     vertices, faces = icosphere(0)
     with pytest.raises(ValueError, match="workers must be a positive integer"):
-        core.coordinates(0.1 * vertices, vertices, faces, workers=workers)
+        gencoords.coordinates(0.1 * vertices, vertices, faces, workers=workers)
 
 
 @pytest.mark.parametrize("executable", [None, "", "/opt/blender/blender"])
@@ -154,17 +154,17 @@ def test_workers_start_the_prefix_python_when_sys_executable_is_not_one(monkeypa
     import sys
 
     vertices, faces, points = mixed_points
-    expected = core.coordinates(points, vertices, faces, outside="project", workers=1)
+    expected = gencoords.coordinates(points, vertices, faces, outside="project", workers=1)
     monkeypatch.setattr(sys, "executable", executable)
-    assert os.path.basename(core.parallel.python_executable()).startswith("python")
-    np.testing.assert_array_equal(core.coordinates(points, vertices, faces, outside="project", workers=2),
+    assert os.path.basename(gencoords.evaluation.parallel.python_executable()).startswith("python")
+    np.testing.assert_array_equal(gencoords.coordinates(points, vertices, faces, outside="project", workers=2),
                                   expected)
 
 
 @pytest.mark.parametrize("count, chunk, workers", [(40000, 25, 2), (1000, 7, 16), (5, 10, 4), (1, 1, 1),
                                                    (123457, 300, 3)])
 def test_dispatch_units_cover_the_rows_in_whole_chunks_and_shrink_towards_the_end(count, chunk, workers):
-    units = core.parallel.dispatch_units(count, chunk, workers)
+    units = gencoords.evaluation.parallel.dispatch_units(count, chunk, workers)
     starts, stops = np.array(units).T
     assert starts[0] == 0 and stops[-1] == count and (starts[1:] == stops[:-1]).all()
     assert (starts % chunk == 0).all()  # the same chunks as one process: bitwise the same rows
@@ -177,7 +177,7 @@ def test_dispatch_units_cover_the_rows_in_whole_chunks_and_shrink_towards_the_en
 
 
 def test_writers_reserve_their_rows_in_shared_memory(mixed_points, small_chunks):
-    shared = core.parallel.SharedArrays({"points": ((10, 3), np.float64), "result": ((10, 4), np.float32)},
+    shared = gencoords.evaluation.parallel.SharedArrays({"points": ((10, 3), np.float64), "result": ((10, 4), np.float32)},
                                         reserved_by_writers=("result",))
     try:
         if not shared.path.startswith("/dev/shm"):
@@ -185,12 +185,12 @@ def test_writers_reserve_their_rows_in_shared_memory(mixed_points, small_chunks)
         assert shared.reserved_by_writers == ("result",)
         # Only the points are reserved up front: the result's blocks come with its writers.
         assert os.stat(shared.path).st_blocks * 512 < shared.layout["result"][0] + 4096
-        views, descriptor = core.parallel.attach(shared.path, shared.layout)
-        core.parallel.reserve_rows(descriptor, shared.layout, ("result",), 0, 10)
+        views, descriptor = gencoords.evaluation.parallel.attach(shared.path, shared.layout)
+        gencoords.evaluation.parallel.reserve_rows(descriptor, shared.layout, ("result",), 0, 10)
         assert os.stat(shared.path).st_blocks * 512 >= shared.layout["result"][0] + 10 * 4 * 4
         read_only = os.open(shared.path, os.O_RDONLY)
-        with pytest.raises(core.WorkerError, match="could not reserve shared memory"):
-            core.parallel.reserve_rows(read_only, shared.layout, ("result",), 0, 10)
+        with pytest.raises(gencoords.WorkerError, match="could not reserve shared memory"):
+            gencoords.evaluation.parallel.reserve_rows(read_only, shared.layout, ("result",), 0, 10)
         os.close(read_only)
         os.close(descriptor)
     finally:
@@ -200,12 +200,12 @@ def test_writers_reserve_their_rows_in_shared_memory(mixed_points, small_chunks)
 def test_without_room_in_dev_shm_the_temporary_folder_serves(monkeypatch, mixed_points, small_chunks):
     # A container's 64 MB /dev/shm: the file goes to the temporary folder, reserved whole.
     vertices, faces, points = mixed_points
-    monkeypatch.setattr(core.parallel, "_free_bytes", lambda folder: 0 if folder == "/dev/shm" else 1 << 40)
-    shared = core.parallel.SharedArrays({"result": ((10, 4), np.float64)}, reserved_by_writers=("result",))
+    monkeypatch.setattr(gencoords.evaluation.parallel, "_free_bytes", lambda folder: 0 if folder == "/dev/shm" else 1 << 40)
+    shared = gencoords.evaluation.parallel.SharedArrays({"result": ((10, 4), np.float64)}, reserved_by_writers=("result",))
     assert shared.path.startswith(tempfile.gettempdir()) and shared.reserved_by_writers == ()
     shared.remove()
     before = shared_files()
-    with core.Cage(vertices, faces) as cage:
+    with gencoords.Cage(vertices, faces) as cage:
         np.testing.assert_array_equal(cage.coordinates(points, outside="project", workers=2),
                                       cage.coordinates(points, outside="project", workers=1))
     assert shared_files() == before

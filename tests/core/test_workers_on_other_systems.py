@@ -11,22 +11,22 @@ import warnings
 import numpy as np
 import pytest
 
-import core
-import core.cage
-import core.evaluation
-import core.parallel
+import gencoords
+import gencoords.evaluation.cage
+import gencoords.evaluation.rows
+import gencoords.evaluation.parallel
 import simulated_os
 from polytopes import random_convex_polytope, random_interior_points
 
 
 def shared_files():
     """This process's shared files (other processes' runs may have theirs)."""
-    return set(core.parallel.shared_files(os.getpid()))
+    return set(gencoords.evaluation.parallel.shared_files(os.getpid()))
 
 
 @pytest.fixture
 def cage_and_points(monkeypatch):
-    monkeypatch.setattr(core.evaluation, "_CHUNK_PAIRS", 2000)  # many units for few points
+    monkeypatch.setattr(gencoords.evaluation.rows, "_CHUNK_PAIRS", 2000)  # many units for few points
     rng = np.random.default_rng(5)
     vertices, faces = random_convex_polytope(rng, 3, 30)
     return vertices, faces, random_interior_points(rng, vertices, 800)
@@ -42,15 +42,15 @@ def system(request, monkeypatch, tmp_path):
 @pytest.fixture
 def automatic_two(monkeypatch):
     """``workers=None`` chooses two workers for these small calls."""
-    monkeypatch.setattr(core.cage, "_PAIRS_PER_WORKER", 1)
-    monkeypatch.setattr(core.cage, "available_cores", lambda: 2)
+    monkeypatch.setattr(gencoords.evaluation.cage, "_PAIRS_PER_WORKER", 1)
+    monkeypatch.setattr(gencoords.evaluation.cage, "available_cores", lambda: 2)
 
 
 def test_the_simulation_refuses_what_windows_refuses(monkeypatch, tmp_path):
     simulated_os.simulate(monkeypatch, "windows", tmp_path)
     assert not hasattr(os, "posix_fallocate") and not hasattr(os, "statvfs")
-    assert core.parallel.available_cores() == os.cpu_count()  # no sched_getaffinity
-    shared = core.parallel.SharedArrays({"result": ((10, 4), np.float64)})
+    assert gencoords.evaluation.parallel.available_cores() == os.cpu_count()  # no sched_getaffinity
+    shared = gencoords.evaluation.parallel.SharedArrays({"result": ((10, 4), np.float64)})
     assert shared.path.startswith(tempfile.gettempdir())  # no /dev/shm
     with pytest.raises(PermissionError):
         os.unlink(shared.path)  # mapped here
@@ -64,13 +64,13 @@ def test_the_simulation_refuses_what_windows_refuses(monkeypatch, tmp_path):
 
 def test_workers_leave_nothing_behind_and_give_the_same_numbers(system, cage_and_points):
     vertices, faces, points = cage_and_points
-    expected = core.coordinates(points, vertices, faces, workers=1)
-    np.testing.assert_array_equal(core.coordinates(points, vertices, faces, workers=2), expected)
+    expected = gencoords.coordinates(points, vertices, faces, workers=1)
+    np.testing.assert_array_equal(gencoords.coordinates(points, vertices, faces, workers=2), expected)
     gc.collect()
     assert not shared_files()
     # A kept cage: its workers hold nothing between calls, so each call's file goes as
     # soon as its result does (the files piled up while the workers kept them mapped).
-    with core.Cage(vertices, faces) as cage:
+    with gencoords.Cage(vertices, faces) as cage:
         for _ in range(3):
             result = cage.coordinates(points, workers=2)
             np.testing.assert_array_equal(result, expected)
@@ -83,14 +83,14 @@ def test_workers_leave_nothing_behind_and_give_the_same_numbers(system, cage_and
 
 def test_a_killed_worker_or_a_cancel_leaves_nothing_behind(system, cage_and_points):
     vertices, faces, points = cage_and_points
-    cage = core.Cage(vertices, faces)
+    cage = gencoords.Cage(vertices, faces)
     cage.coordinates(points[:50], workers=2)
     processes = list(cage._pool._processes)
 
     def kill_one(fraction):
         processes[0].kill()
 
-    with pytest.raises(core.WorkerError, match="ended unexpectedly"):
+    with pytest.raises(gencoords.WorkerError, match="ended unexpectedly"):
         cage.coordinates(points, workers=2, progress=kill_one)
 
     def cancel(fraction):
@@ -105,10 +105,10 @@ def test_a_killed_worker_or_a_cancel_leaves_nothing_behind(system, cage_and_poin
 
 def test_space_is_reserved_before_the_workers_write(system):
     # No posix_fallocate: a sparse file would kill the writers with SIGBUS on a full disk.
-    shared = core.parallel.SharedArrays({"points": ((1000, 3), np.float64), "result": ((1000, 40), np.float32)},
+    shared = gencoords.evaluation.parallel.SharedArrays({"points": ((1000, 3), np.float64), "result": ((1000, 40), np.float32)},
                                         reserved_by_writers=("result",))
     assert shared.reserved_by_writers == ()  # reserved whole, here
-    size = core.parallel.shared_layout({"points": ((1000, 3), np.float64),
+    size = gencoords.evaluation.parallel.shared_layout({"points": ((1000, 3), np.float64),
                                         "result": ((1000, 40), np.float32)})[1]
     assert os.stat(shared.path).st_blocks * 512 >= size
     shared.remove()
@@ -120,16 +120,16 @@ def test_a_full_disk_is_a_worker_error_and_leaves_nothing(system, monkeypatch, c
     def full(descriptor, offset, length):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(core.parallel, "_reserve", full)
-    with pytest.raises(core.WorkerError, match="free some disk space"):
-        core.coordinates(points, vertices, faces, workers=2)
+    monkeypatch.setattr(gencoords.evaluation.parallel, "_reserve", full)
+    with pytest.raises(gencoords.WorkerError, match="free some disk space"):
+        gencoords.coordinates(points, vertices, faces, workers=2)
     assert not shared_files()
-    with pytest.warns(core.WorkerWarning, match="No space left"):
-        result = core.coordinates(points, vertices, faces)
-    np.testing.assert_array_equal(result, core.coordinates(points, vertices, faces, workers=1))
-    monkeypatch.setattr(core.parallel, "_free_bytes", lambda folder: 0)
-    with pytest.raises(core.WorkerError, match="no room for"):
-        core.coordinates(points, vertices, faces, workers=2)
+    with pytest.warns(gencoords.WorkerWarning, match="No space left"):
+        result = gencoords.coordinates(points, vertices, faces)
+    np.testing.assert_array_equal(result, gencoords.coordinates(points, vertices, faces, workers=1))
+    monkeypatch.setattr(gencoords.evaluation.parallel, "_free_bytes", lambda folder: 0)
+    with pytest.raises(gencoords.WorkerError, match="no room for"):
+        gencoords.coordinates(points, vertices, faces, workers=2)
     assert not shared_files()
 
 
@@ -137,18 +137,18 @@ def test_workers_that_cannot_start_fall_back_to_this_process(monkeypatch, cage_a
     # An interpreter without numpy (or a crash at start-up): automatic counts compute
     # here with a warning that quotes the worker; an explicit count raises.
     vertices, faces, points = cage_and_points
-    expected = core.coordinates(points, vertices, faces, workers=1)
+    expected = gencoords.coordinates(points, vertices, faces, workers=1)
     simulated_os.broken_start(monkeypatch)
-    with pytest.warns(core.WorkerWarning, match="No module named 'numpy'"):
-        np.testing.assert_array_equal(core.coordinates(points, vertices, faces), expected)
-    with pytest.warns(core.WorkerWarning, match="could not start"):
-        np.testing.assert_array_equal(core.point_locations(points, vertices, faces),
-                                      core.point_locations(points, vertices, faces, workers=1))
-    with pytest.raises(core.WorkerError, match="could not start.*pass workers=1"):
-        core.coordinates(points, vertices, faces, workers=2)
+    with pytest.warns(gencoords.WorkerWarning, match="No module named 'numpy'"):
+        np.testing.assert_array_equal(gencoords.coordinates(points, vertices, faces), expected)
+    with pytest.warns(gencoords.WorkerWarning, match="could not start"):
+        np.testing.assert_array_equal(gencoords.point_locations(points, vertices, faces),
+                                      gencoords.point_locations(points, vertices, faces, workers=1))
+    with pytest.raises(gencoords.WorkerError, match="could not start.*pass workers=1"):
+        gencoords.coordinates(points, vertices, faces, workers=2)
     # A kept cage warns once, then computes its automatic calls here.
-    with core.Cage(vertices, faces) as cage:
-        with pytest.warns(core.WorkerWarning):
+    with gencoords.Cage(vertices, faces) as cage:
+        with pytest.warns(gencoords.WorkerWarning):
             cage.coordinates(points)
         with warnings.catch_warnings():
             warnings.simplefilter("error")
@@ -163,24 +163,24 @@ def test_an_interpreter_the_os_refuses_to_run_falls_back(monkeypatch, tmp_path, 
     blocked = tmp_path / "python.exe"
     blocked.write_text("")
     blocked.chmod(0o600)
-    monkeypatch.setattr(core.parallel, "python_executable", lambda: str(blocked))
-    with pytest.warns(core.WorkerWarning, match="could not start"):
-        result = core.coordinates(points, vertices, faces)
-    np.testing.assert_array_equal(result, core.coordinates(points, vertices, faces, workers=1))
-    with pytest.raises(core.WorkerError, match="could not start"):
-        core.coordinates(points, vertices, faces, workers=2)
+    monkeypatch.setattr(gencoords.evaluation.parallel, "python_executable", lambda: str(blocked))
+    with pytest.warns(gencoords.WorkerWarning, match="could not start"):
+        result = gencoords.coordinates(points, vertices, faces)
+    np.testing.assert_array_equal(result, gencoords.coordinates(points, vertices, faces, workers=1))
+    with pytest.raises(gencoords.WorkerError, match="could not start"):
+        gencoords.coordinates(points, vertices, faces, workers=2)
 
 
 def test_a_worker_dying_mid_call_falls_back_for_automatic_counts(cage_and_points, automatic_two):
     vertices, faces, points = cage_and_points
-    cage = core.Cage(vertices, faces)
+    cage = gencoords.Cage(vertices, faces)
     cage.coordinates(points[:400])
     processes = list(cage._pool._processes)
 
     def kill_one(fraction):
         processes[0].kill()
 
-    with pytest.warns(core.WorkerWarning, match="ended unexpectedly"):
+    with pytest.warns(gencoords.WorkerWarning, match="ended unexpectedly"):
         result = cage.coordinates(points, progress=kill_one)
     np.testing.assert_array_equal(result, cage.coordinates(points, workers=1))
     assert all(process.poll() is not None for process in processes)
@@ -199,7 +199,7 @@ def test_stale_files_of_dead_processes_are_swept_when_workers_start(cage_and_poi
                 os.path.join(folder, f"gencoords-noowner{os.getpid()}.shared")]  # an older name
         for path in [stale, *kept]:
             open(path, "wb").close()
-        core.coordinates(points, vertices, faces, workers=2)
+        gencoords.coordinates(points, vertices, faces, workers=2)
         assert not os.path.exists(stale)
         assert all(os.path.exists(path) for path in kept)
     finally:
@@ -220,14 +220,14 @@ def test_the_interpreter_is_found_in_every_layout(tmp_path, windows, layout, exp
     for name in layout:
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / name).write_text("")
-    candidates = core.parallel.interpreter_candidates(str(tmp_path), (3, 11), windows)
+    candidates = gencoords.evaluation.parallel.interpreter_candidates(str(tmp_path), (3, 11), windows)
     found = next(path for path in candidates if os.path.isfile(path))
     assert os.path.normpath(found) == os.path.normpath(tmp_path / expected)
 
 
 def test_sizes_are_64_bit_whatever_the_shapes_integer_type():
     # numpy 1.x on Windows multiplies np.int32 lengths (and np.prod) in 32 bits.
-    layout, size = core.parallel.shared_layout({"points": ((np.int32(60000), np.int32(3)), np.float64),
+    layout, size = gencoords.evaluation.parallel.shared_layout({"points": ((np.int32(60000), np.int32(3)), np.float64),
                                                 "result": ((np.int32(60000), np.int32(50000)), np.float64)})
     assert size >= 60000 * 50000 * 8 > 2**31
     assert layout["result"][1] == (60000, 50000) and type(layout["result"][1][0]) is int

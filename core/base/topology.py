@@ -10,9 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .inputs import checked
 
-__all__ = ["CageTopology", "ridges", "cage_topology", "gather_table"]
+__all__ = ["CageTopology", "cage_topology", "gather_table"]
 
 
 def _permutation_parity(order):
@@ -60,25 +59,6 @@ def _ridge_incidences(faces):
     parity = _permutation_parity(flat).reshape(count, dim)
     slot_sign = np.where(np.arange(dim) % 2 == 0, 1, -1)
     return np.sort(opposite, axis=2), parity * slot_sign[None, :]
-
-
-@checked
-def ridges(faces):
-    """Ridges of a simplicial cage, in the order ridge-scalar columns use.
-
-    Parameters
-    ----------
-    faces : (m, N) int
-        Facets (2D: polygon edges, 3D: triangles).
-
-    Returns
-    -------
-    ridges : (r, N-1) int
-        Sorted vertex indices of each ridge (2D: one vertex, 3D: an edge), rows in
-        lexicographic order.
-    """
-    faces = np.asarray(faces, dtype=np.int64)
-    return cage_topology(faces, int(faces.max(initial=-1)) + 1).ridges
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,13 @@ def triangulate_quads(vertices, quads):
     -------
     triangles : (2q, 3) int
         Quad j gives triangles 2j and 2j + 1, outward oriented.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> corners = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    >>> gencoords.tools.triangulate_quads(corners, np.array([[0, 1, 2, 3]])).shape
+    (2, 3)
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     quads = np.asarray(quads, dtype=np.int64).reshape(-1, 4)

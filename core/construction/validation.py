@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from . import tolerances
-from .construction import prepare_cage
-from .errors import CageError
-from .inputs import checked
+from ..base import tolerances
+from .general import prepare_cage
+from ..base.errors import CageError
+from ..base.inputs import checked
 
 __all__ = ["validate_cage", "convexity_violation", "non_convex_error", "DEFAULT_TOLERANCE"]
 
@@ -18,7 +18,7 @@ def _first(mask):
 
 
 def _check_arrays(vertices, faces):
-    # Shapes, dtypes, finiteness and index range: core.inputs (validate_cage is @checked).
+    # Shapes, dtypes, finiteness and index range: gencoords.base.inputs (validate_cage is @checked).
     vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
     dim = vertices.shape[1]
     if len(vertices) < dim + 1:
@@ -168,13 +168,24 @@ def validate_cage(vertices, faces, convex=True, tolerance=DEFAULT_TOLERANCE):
     convex : bool
         Also require convexity (every kind but mean value).
     tolerance : float
-        Relative to the cage's bounding-box diagonal, in (0, 1e-3] (``core.tolerances``):
+        Relative to the cage's bounding-box diagonal, in (0, 1e-3] (``gencoords.base.tolerances``):
         coincident vertices, flat facets and convexity are judged to this precision.
 
     Returns
     -------
     cage : PreparedCage
         The prepared cage, for reuse.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> cage = gencoords.advanced.validate_cage(square, edges)
+    >>> gencoords.advanced.validate_cage(square, edges[:, ::-1])
+    Traceback (most recent call last):
+    ...
+    gencoords.base.errors.CageError: ...
     """
     vertices, faces = _check_arrays(vertices, faces)
     cage = prepare_cage(vertices, faces)

@@ -18,19 +18,19 @@ from functools import cached_property
 
 import numpy as np
 
-from .inputs import bounding_frame, checked
-from .simplex import generalized_cross
-from .topology import CageTopology, cage_topology
+from ..base.inputs import bounding_frame, checked
+from ..base.simplex import generalized_cross
+from ..base.topology import CageTopology, cage_topology
 
 __all__ = ["PreparedCage", "PointFrame", "prepare_cage", "point_frame", "facet_determinants",
-           "construct_weights", "weights_from_ridge_scalars"]
+           "construct_weights"]
 
 
 @dataclass(frozen=True)
 class PreparedCage:
     """A cage in its frame with everything the formulas need that depends only on it.
 
-    The internal, unvalidated form (:func:`prepare_cage`); :class:`core.Cage` is the
+    The internal, unvalidated form (:func:`prepare_cage`); :class:`gencoords.Cage` is the
     public one, validated and holding one of these.
 
     Attributes
@@ -92,7 +92,7 @@ class PreparedCage:
 
 
 def prepare_cage(vertices, faces, scale=None):
-    """Precompute a :class:`PreparedCage` (no validation; see :func:`core.validate_cage`).
+    """Precompute a :class:`PreparedCage` (no validation; see :func:`gencoords.advanced.validate_cage`).
 
     Parameters
     ----------
@@ -100,7 +100,7 @@ def prepare_cage(vertices, faces, scale=None):
     faces : (m, N) int
         Outward-oriented facets.
     scale : float, optional
-        The frame's unit; by default the power of two of :func:`core.inputs.bounding_frame`.
+        The frame's unit; by default the power of two of :func:`gencoords.base.inputs.bounding_frame`.
 
     Returns
     -------
@@ -368,7 +368,7 @@ def construct_weights(cage, frame, ridge_scalars, skip_facets=None):
 
 
 def sum_rows(rows, table):
-    """Per-owner sums of rows, by a :func:`core.topology.gather_table`.
+    """Per-owner sums of rows, by a :func:`gencoords.base.topology.gather_table`.
 
     Parameters
     ----------
@@ -384,31 +384,3 @@ def sum_rows(rows, table):
     for column in range(1, table.shape[1]):
         total += np.take(rows, table[:, column], axis=0)
     return total
-
-
-@checked
-def weights_from_ridge_scalars(points, vertices, faces, d):
-    """The general construction for arbitrary ridge scalars (any generating surface).
-
-    Parameters
-    ----------
-    points : (k, N) float
-        Query points strictly inside the convex cage (elsewhere the formula is evaluated
-        as is: poles on facet hyperplanes give inf or NaN).
-    vertices : (n, N) float
-    faces : (m, N) int
-        Closed, outward-oriented simplicial facets of a convex cage.
-    d : (k, r) float
-        One scalar per (point, ridge), ridges ordered as :func:`core.ridges`.
-
-    Returns
-    -------
-    weights : (k, n) float
-        Homogeneous weights: ``sum_i w_i (v_i - x) = 0`` for every point.
-    """
-    from .units import to_world
-    from .validation import validate_cage  # it prepares cages: imported late
-
-    cage = validate_cage(vertices, faces)
-    # Frame weights have length degree -1 for the same d (u = r . m / det E).
-    return to_world(construct_weights(cage, point_frame(cage, points), d.T).T, cage.scale, -1, "weights")

@@ -1,6 +1,6 @@
 """A cage validated and prepared once, for any number of coordinate computations.
 
-``core.coordinates(points, vertices, faces, ...)`` and the other free functions build
+``gencoords.coordinates(points, vertices, faces, ...)`` and the other free functions build
 a :class:`Cage` per call; a caller with several batches of points (the add-on's Bind,
 an animation tool) keeps one, and with it everything that depends only on the cage:
 the validation, the per-facet and per-ridge polynomials, and the worker processes.
@@ -10,17 +10,17 @@ import warnings
 
 import numpy as np
 
-from . import tolerances
-from .boundary import BOUNDARY, OUTSIDE
-from .construction import point_frame
-from .errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
-from .evaluation import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
-from .generating_surfaces import CONVEX_ONLY_KINDS, kind_parameter, named_ridge_scalars
-from .inputs import OUTSIDE_MODES, checked
+from ..base import tolerances
+from ..construction.boundary import BOUNDARY, OUTSIDE
+from ..construction.general import point_frame
+from ..base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
+from .rows import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
+from ..surfaces.named import CONVEX_ONLY_KINDS, MEAN_VALUE, kind_parameter, named_ridge_scalars
+from ..base.inputs import OUTSIDE_MODES, checked
 from .parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead, dispatch_units,
                        python_executable)
-from .units import length_degree, to_world
-from .validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
+from ..construction.units import length_degree, to_world
+from ..construction.validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
 
 __all__ = ["Cage", "OUTSIDE_MODES", "needs_convex"]
 
@@ -32,7 +32,14 @@ _PAIRS_PER_WORKER = 16 << 20
 
 @checked
 def needs_convex(kind):
-    """Whether coordinates of ``kind`` require a convex cage (all but mean value)."""
+    """Whether coordinates of ``kind`` require a convex cage (all but mean value).
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> gencoords.needs_convex("wachspress"), gencoords.needs_convex("mean_value")
+    (True, False)
+    """
     return kind in CONVEX_ONLY_KINDS
 
 
@@ -59,10 +66,20 @@ class Cage:
     Notes
     -----
     A cage that has computed with ``workers > 1`` keeps its worker processes for the
-    next call; ``close()`` (or ``with core.Cage(...) as cage:``) stops them, as does
+    next call; ``close()`` (or ``with gencoords.Cage(...) as cage:``) stops them, as does
     garbage collection and interpreter exit. Where automatic workers (``workers=None``)
     cannot start or fail, the call is computed in this process with a
-    :class:`core.WorkerWarning`, and so are this cage's later automatic calls.
+    :class:`gencoords.WorkerWarning`, and so are this cage's later automatic calls.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> with gencoords.Cage(square, edges) as cage:  # validated once, workers kept
+    ...     b = cage.coordinates([[0.5, 0.5]], kind="mean_value")
+    >>> print(b.round(3))
+    [[0.25 0.25 0.25 0.25]]
     """
 
     def __init__(self, vertices, faces, tolerance=DEFAULT_TOLERANCE):
@@ -88,7 +105,7 @@ class Cage:
 
     @property
     def topology_ridges(self):
-        """The ridges' vertex indices, as :func:`core.ridges`: (r, N-1) int."""
+        """The ridges' vertex indices, as :func:`gencoords.advanced.ridges`: (r, N-1) int."""
         return self._prepared.topology.ridges
 
     @property
@@ -125,21 +142,21 @@ class Cage:
     # -- the public computations -------------------------------------------------------
 
     @checked
-    def coordinates(self, points, kind="mean_value", outside="raise", progress=None,
+    def coordinates(self, points, kind=MEAN_VALUE, outside="raise", progress=None,
                     dtype=np.float64, locations=None, workers=None, gamma=None):
-        """Generalized barycentric coordinates of points (see :func:`core.coordinates`).
+        """Generalized barycentric coordinates of points (see :func:`gencoords.coordinates`).
 
         Parameters
         ----------
         points : (k, N) float
         kind, outside, progress, dtype, locations
-            As :func:`core.coordinates`.
+            As :func:`gencoords.coordinates`.
         workers : int or None
             Processes to compute in. ``1``: this process only. ``None``: as many as
             the cores this process may use, for calls long enough to repay starting
             them (about half a second of work per worker), else this process; where
-            they cannot start or fail, this process (a :class:`core.WorkerWarning`;
-            an explicit count raises :class:`core.WorkerError` instead). The result
+            they cannot start or fail, this process (a :class:`gencoords.WorkerWarning`;
+            an explicit count raises :class:`gencoords.WorkerError` instead). The result
             is bitwise the same whatever the number.
 
         Returns
@@ -147,15 +164,15 @@ class Cage:
         coordinates : (k, n) dtype
         """
         result, where = self._evaluate(points, kind, outside, True, progress, dtype, workers, gamma)
-        if kind == "mean_value" and outside == "extrapolate":
+        if kind == MEAN_VALUE and outside == "extrapolate":
             self._warn_if_flat_extrapolation(points, result, where)
         if locations is not None:
             locations[...] = where
         return result
 
     @checked
-    def weights(self, points, kind="mean_value", workers=None, gamma=None):
-        """Homogeneous weights of a named kind (see :func:`core.weights`): (k, n) float."""
+    def weights(self, points, kind=MEAN_VALUE, workers=None, gamma=None):
+        """Homogeneous weights of a named kind (see :func:`gencoords.weights`): (k, n) float."""
         gamma = kind_parameter(kind, gamma)
         values, where = self._evaluate(points, kind, "extrapolate", False, None, np.dtype(np.float64),
                                        workers, gamma)
@@ -167,7 +184,7 @@ class Cage:
 
     @checked
     def ridge_scalars(self, points, kind, gamma=None):
-        """Ridge scalars d of a named generating surface (see :func:`core.ridge_scalars`):
+        """Ridge scalars d of a named generating surface (see :func:`gencoords.advanced.ridge_scalars`):
         (k, r) float."""
         gamma = kind_parameter(kind, gamma)
         d = named_ridge_scalars(kind, point_frame(self._prepared, points), gamma).T
@@ -280,7 +297,7 @@ class Cage:
             return
         factor = 1.0 + 1.0 / 3.0
         twin = Cage(self.vertices * factor, self.faces, self.tolerance)
-        again, _ = twin._evaluate(points[outside_rows] * factor, "mean_value", "extrapolate", True,
+        again, _ = twin._evaluate(points[outside_rows] * factor, MEAN_VALUE, "extrapolate", True,
                                   None, np.dtype(np.float64), 1)
         error = float(np.abs(again - result[outside_rows]).max())
         if error > tolerances.ACCURACY:

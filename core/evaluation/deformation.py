@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from . import tolerances
-from .inputs import checked
+from ..base import tolerances
+from ..base.inputs import checked
 
 __all__ = ["deform", "field_colors", "field_range", "coordinate_summary"]
 
@@ -25,6 +25,15 @@ def deform(coordinates, cage_positions, out=None):
     -------
     positions : (k, N) ndarray
         ``coordinates @ cage_positions``, in the dtype of ``coordinates`` (or ``out``).
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> b = gencoords.coordinates([[0.5, 0.5]], square, edges)
+    >>> print(gencoords.deform(b, 2.0 * square))  # the cage scaled by 2 moves the point with it
+    [[1. 1.]]
     """
     coordinates = np.asarray(coordinates)
     cage = np.asarray(cage_positions, dtype=coordinates.dtype)
@@ -58,6 +67,13 @@ def field_range(values):
 
     Values above ``-tolerances.NEGATIVE`` count as zero (round-off, not a negative
     coordinate), as in ``coordinate_summary``.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> lower, upper = gencoords.tools.field_range(np.array([0.0, 0.5, 1.0]))
+    >>> print(lower, upper)
+    0.0 1.0
     """
     values = np.asarray(values, dtype=np.float64)
     lowest = values.min(initial=0.0)
@@ -82,6 +98,15 @@ def field_colors(values):
     -------
     colors : (k, 4) float32
         Linear RGBA (what Blender's colour attributes hold), alpha 1.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> colors = gencoords.tools.field_colors(np.array([0.0, 0.5, 1.0]))
+    >>> colors.shape  # RGBA per value
+    (3, 4)
     """
     values = np.asarray(values, dtype=np.float64)
     lowest, highest = field_range(values)
@@ -123,6 +148,16 @@ def coordinate_summary(coordinates):
         ``min`` (smallest coordinate), ``negative_points`` (points with any coordinate
         below ``-tolerances.NEGATIVE``), ``max_affine_error`` (largest ``|row sum - 1|``) and
         ``nbytes`` (memory of the matrix).
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> b = gencoords.coordinates([[0.5, 0.5], [0.25, 0.5]], square, edges)
+    >>> summary = gencoords.tools.coordinate_summary(b)
+    >>> summary["min"], summary["negative_points"]
+    (0.125, 0)
     """
     coordinates = np.asarray(coordinates)
     if coordinates.size == 0:

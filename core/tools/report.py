@@ -10,17 +10,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import tolerances
-from .boundary import INSIDE
-from .cage import Cage
-from .generating_surfaces import KIND_TABLE, kind_parameter
-from .inputs import checked
-from .validation import DEFAULT_TOLERANCE
+from ..base import tolerances
+from ..construction.boundary import INSIDE
+from ..evaluation.cage import Cage
+from ..surfaces.named import KIND_TABLE, MEAN_VALUE, kind_parameter
+from ..base.inputs import checked
+from ..construction.validation import DEFAULT_TOLERANCE
 
 __all__ = ["CoordinateReport", "coordinate_report", "interior_sample"]
 
 # Points of the sample near each facet, at this fraction of the cage's size inside it.
-_NEAR_BOUNDARY = 1e-3
+_NEAR_BOUNDARY = tolerances.REPORT_NEAR_BOUNDARY
 
 
 @dataclass(frozen=True)
@@ -46,6 +46,14 @@ class CoordinateReport:
     smallest_weight_sum_point : (N,) float
     linear_precision : float
         The worst ``|sum_i b_i v_i - x|``, relative to the cage's size.
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.shapes import octahedron
+    >>> report = gencoords.tools.coordinate_report(*octahedron(), "mean_value", samples=200)
+    >>> report.kind, report.points, report.smallest >= 0.0
+    ('mean_value', 200, True)
     """
 
     kind: str
@@ -74,7 +82,7 @@ class CoordinateReport:
         sign = (f"positive (smallest {self.smallest:.2g})" if self.positive else
                 f"negative at {self.negative_points} of {self.points} points "
                 f"(down to {self.smallest:.2g})")
-        defined = ("well defined" if self.smallest_weight_sum > 1e-6 else
+        defined = ("well defined" if self.smallest_weight_sum > tolerances.WELL_DEFINED_WEIGHT_SUM else
                    f"nearly undefined somewhere (weight sum {self.smallest_weight_sum:.1g} of the weights)")
         return f"{label}: {sign}; {defined}; linear precision {self.linear_precision:.0e}"
 
@@ -114,7 +122,7 @@ def interior_sample(cage, count, seed=0):
 
 
 @checked
-def coordinate_report(vertices, faces, kind="mean_value", gamma=None, points=None, samples=2000,
+def coordinate_report(vertices, faces, kind=MEAN_VALUE, gamma=None, points=None, samples=2000,
                       tolerance=DEFAULT_TOLERANCE):
     """Positivity, well-definedness and linear precision of a kind in a cage.
 
@@ -123,7 +131,7 @@ def coordinate_report(vertices, faces, kind="mean_value", gamma=None, points=Non
     vertices : (n, N) float
     faces : (m, N) int
     kind : str
-        One of :data:`core.KINDS` (``gamma`` for ``"power"``).
+        One of :data:`gencoords.advanced.KINDS` (``gamma`` for ``"power"``).
     gamma : float, optional
     points : (k, N) float, optional
         Points examined besides the sample (those inside the cage).
@@ -134,6 +142,15 @@ def coordinate_report(vertices, faces, kind="mean_value", gamma=None, points=Non
     Returns
     -------
     CoordinateReport
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, faces = octahedron()
+    >>> report = gencoords.tools.coordinate_report(vertices, faces, "wachspress", samples=200)
+    >>> report.positive
+    True
     """
     with Cage(vertices, faces, tolerance) as cage:
         sample = interior_sample(cage, samples)

@@ -28,6 +28,15 @@ def orient_facets_outward(vertices, facets):
     -------
     facets : (m, N) int
         The same facets, outward oriented.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, faces = octahedron()
+    >>> scrambled = faces[:, ::-1]  # every facet inward
+    >>> oriented = gencoords.tools.orient_facets_outward(vertices, scrambled)
+    >>> cage = gencoords.advanced.validate_cage(vertices, oriented)  # outward again: no CageError
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     facets = np.array(facets, dtype=np.int64)

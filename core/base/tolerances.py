@@ -34,3 +34,18 @@ FARTHEST = 1e30
 FLAT = 1e-2
 # ... and an AccuracyWarning is given when that estimate exceeds this.
 ACCURACY = 1e-6
+# A measured length degree (construction/units.py) this close to an integer is that integer.
+INTEGER_DEGREE = 1e-9
+# coordinate_report's boundary sample: points moved inward by this of the cage's size.
+REPORT_NEAR_BOUNDARY = 1e-3
+# coordinate_report calls the coordinates well defined while the smallest weight sum
+# (of the weights' magnitudes) stays above this.
+WELL_DEFINED_WEIGHT_SUM = 1e-6
+# Coordinates more negative than this cannot become skinning weights; less negative ones
+# (float32 rounding, compact storage's reproduction) are clamped to 0 by the vertex
+# groups, and the deviation that makes is measured.
+SKINNING_NEGATIVE = 1e-5
+# Example shapes (tools/shapes.py): a hull facet's plane has every other point farther
+# than this on one side; random directions of a polytope are at least this far apart.
+HULL_SIDE = 1e-12
+DIRECTION_GAP = 1e-3

@@ -23,7 +23,7 @@ single-vertex drag exactly from the coordinates' residual ``W - slots @ basis.T`
 
 import numpy as np
 
-from . import tolerances
+from ..base import tolerances
 
 __all__ = ["motion_basis", "smooth_test_motion", "vertex_drag_motion", "deviation",
            "residual_deviations", "smallest_size", "DRAG_FRACTION"]

@@ -24,10 +24,10 @@ from math import factorial
 import numpy as np
 
 from .boundary import plane_distances
-from .construction import facet_determinants, point_frame, sum_rows
-from .inputs import checked
-from .simplex import generalized_cross
-from .topology import gather_table
+from .general import facet_determinants, point_frame, sum_rows
+from ..base.inputs import checked
+from ..base.simplex import generalized_cross
+from ..base.topology import gather_table
 from .units import to_world
 from .validation import DEFAULT_TOLERANCE, validate_cage
 
@@ -53,7 +53,7 @@ class FloaterTerms:
         The vertex each per-ridge term belongs to (rows ``role * r + ridge``; roles p,
         q, then the ridge's vertices).
     vertex_terms : (n, w) int
-        Their gather table (:func:`core.topology.gather_table`) by vertex.
+        Their gather table (:func:`gencoords.base.topology.gather_table`) by vertex.
     """
 
     facets: np.ndarray
@@ -99,7 +99,7 @@ def floater_term_values(cage, terms, points, facet_det, scaled_scalars):
     terms : FloaterTerms
     points : (k, N) float
     facet_det : (m, k) float
-        ``det E_T`` of every facet (see :class:`~core.construction.PointFrame`).
+        ``det E_T`` of every facet (see :class:`~gencoords.construction.general.PointFrame`).
     scaled_scalars : (r, k) float
         ``N! c_R`` (equivalently ``d_R |m_R|``) per (ridge, point).
 
@@ -146,7 +146,7 @@ def convex_cage_and_determinants(points, vertices, faces, tolerance, what):
         first = ", ".join(str(i) for i in np.flatnonzero(near)[:5])
         raise ValueError(f"{what} has a pole on the cage's facet hyperplanes: {np.count_nonzero(near)} "
                          f"points lie within the tolerance ({tolerance:g} of the cage's size) of "
-                         f"one (first: {first}); use core.coordinates, which takes the boundary "
+                         f"one (first: {first}); use gencoords.coordinates, which takes the boundary "
                          "limit there, or points strictly inside")
     return cage, det.T
 
@@ -170,6 +170,15 @@ def floater_weights(points, vertices, faces, c, tolerance=DEFAULT_TOLERANCE):
     Returns
     -------
     weights : (k, n) float
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> w = gencoords.advanced.floater_weights([[0.5, 0.5]], square, edges, np.ones((1, 4)))
+    >>> bool(np.allclose(w @ (square - [0.5, 0.5]), 0.0))  # any c gives homogeneous weights
+    True
     """
     cage, det = convex_cage_and_determinants(points, vertices, faces, tolerance, "floater_weights")
     scaled = factorial(cage.dimension) * c.T
@@ -193,6 +202,17 @@ def ridge_scalars_from_floater(points, vertices, faces, c, tolerance=DEFAULT_TOL
     -------
     d : (k, r) float
         ``N! c / |m_R|``.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> c = np.ones((1, 4))
+    >>> d = gencoords.advanced.ridge_scalars_from_floater([[0.5, 0.5]], square, edges, c)
+    >>> w = gencoords.advanced.weights_from_ridge_scalars([[0.5, 0.5]], square, edges, d)
+    >>> bool(np.allclose(w, gencoords.advanced.floater_weights([[0.5, 0.5]], square, edges, c)))
+    True
     """
     measure, scale, cage = _ridge_measure(points, vertices, faces, tolerance)
     return to_world(scale * c / measure, cage.scale, 1 - cage.dimension, "ridge scalars")
@@ -200,6 +220,17 @@ def ridge_scalars_from_floater(points, vertices, faces, c, tolerance=DEFAULT_TOL
 
 @checked
 def floater_from_ridge_scalars(points, vertices, faces, d, tolerance=DEFAULT_TOLERANCE):
-    """Inverse of :func:`ridge_scalars_from_floater`: c = d |m_R| / N!, (k, r) float."""
+    """Inverse of :func:`ridge_scalars_from_floater`: c = d |m_R| / N!, (k, r) float.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> c = np.array([[1.0, 2.0, 3.0, 4.0]])
+    >>> d = gencoords.advanced.ridge_scalars_from_floater([[0.5, 0.5]], square, edges, c)
+    >>> bool(np.allclose(gencoords.advanced.floater_from_ridge_scalars([[0.5, 0.5]], square, edges, d), c))
+    True
+    """
     measure, scale, cage = _ridge_measure(points, vertices, faces, tolerance)
     return to_world(d * measure / scale, cage.scale, cage.dimension - 1, "Floater scalars")

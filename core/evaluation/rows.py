@@ -10,13 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import tolerances
-from .boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances,
+from ..base import tolerances
+from ..construction.boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances,
                        plane_limit_coordinates)
-from .construction import construct_weights, facet_determinants, point_frame
-from .floater import FloaterTerms, floater_form_weights, floater_terms
-from .generating_surfaces import named_ridge_scalars, named_scaled_ridge_scalars
-from .polar_dual import PolarDualTerms, polar_dual_terms, wachspress_polar_weights
+from ..construction.general import construct_weights, facet_determinants, point_frame
+from ..construction.floater import FloaterTerms, floater_form_weights, floater_terms
+from ..surfaces.named import MEAN_VALUE, WACHSPRESS, named_ridge_scalars, named_scaled_ridge_scalars
+from ..construction.polar_dual import PolarDualTerms, polar_dual_terms, wachspress_polar_weights
 
 __all__ = ["EvaluationTerms", "evaluation_terms", "chunk_size", "evaluate_rows", "locate_rows"]
 
@@ -46,7 +46,7 @@ def evaluation_terms(cage):
 
 
 def chunk_size(cage, locate_only=False, convex=True):
-    """Points per chunk for a prepared cage (:class:`core.construction.PreparedCage`): int."""
+    """Points per chunk for a prepared cage (:class:`gencoords.construction.general.PreparedCage`): int."""
     facets = len(cage.topology.faces)
     if locate_only and convex:
         return max(1, _LOCATE_CHUNK_PAIRS // facets)
@@ -81,7 +81,7 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
 
     Parameters
     ----------
-    cage : core.construction.PreparedCage
+    cage : gencoords.construction.general.PreparedCage
     terms : EvaluationTerms
         ``evaluation_terms(cage)``.
     points : (k, N) float
@@ -114,10 +114,10 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
     # to zero and their formula is 0/0: only the reciprocal-basis form can drop single
     # facets. Otherwise Floater's form, the same weights grouped by ridge (Prop. 9), is
     # cheaper, and Wachspress's closed form (2D, 3D) cheaper still.
-    skip = (np.abs(distance.T) <= absolute) if kind == "mean_value" else None
+    skip = (np.abs(distance.T) <= absolute) if kind == MEAN_VALUE else None
     if skip is not None and skip.any():
         values = construct_weights(cage, frame, named_ridge_scalars(kind, frame, gamma), skip).T
-    elif kind == "wachspress" and terms.polar_dual is not None:
+    elif kind == WACHSPRESS and terms.polar_dual is not None:
         values = wachspress_polar_weights(cage, terms.polar_dual, frame).T
     else:
         values = floater_form_weights(cage, terms.floater, points, frame.facet_det,

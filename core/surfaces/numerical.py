@@ -21,7 +21,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .simplex import generalized_cross
+from ..base.simplex import generalized_cross
 
 __all__ = ["DEFAULT_LEVELS", "simplex_rule", "geodesic_pieces", "unit_sphere_ridge_scalars",
            "surface_ridge_scalars"]

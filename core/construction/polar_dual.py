@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .construction import sum_rows
-from .topology import gather_table
+from .general import sum_rows
+from ..base.topology import gather_table
 
 __all__ = ["PolarDualTerms", "polar_dual_terms", "wachspress_polar_weights"]
 
@@ -82,15 +82,15 @@ def wachspress_polar_weights(cage, terms, frame):
 
     Parameters
     ----------
-    cage : core.construction.PreparedCage
+    cage : gencoords.construction.general.PreparedCage
     terms : PolarDualTerms
-    frame : core.construction.PointFrame
+    frame : gencoords.construction.general.PointFrame
         Of the k points, with their facet determinants.
 
     Returns
     -------
     weights : (n, k) float
-        Equal to the construction's (:func:`core.weights` with kind="wachspress").
+        Equal to the construction's (:func:`gencoords.weights` with kind="wachspress").
     """
     with np.errstate(divide="ignore", invalid="ignore"):  # poles: the caller takes limits
         inverse_det = 1.0 / frame.facet_det

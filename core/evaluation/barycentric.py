@@ -1,24 +1,28 @@
 """The public entry points: coordinates, weights, ridge scalars and locations of points.
 
-Each builds a :class:`core.Cage` for the call (validated, prepared, and stopped again
+Each builds a :class:`gencoords.Cage` for the call (validated, prepared, and stopped again
 with its worker processes); callers with several batches of points keep one instead.
 """
 
 import numpy as np
 
 from .cage import Cage, needs_convex
-from .inputs import OUTSIDE_MODES, checked
-from .numerical_surfaces import DEFAULT_LEVELS, geodesic_pieces, simplex_rule, surface_ridge_scalars
-from .validation import DEFAULT_TOLERANCE
+from ..base.inputs import OUTSIDE_MODES, checked
+from ..surfaces.numerical import DEFAULT_LEVELS, geodesic_pieces, simplex_rule, surface_ridge_scalars
+from ..base.topology import cage_topology
+from ..surfaces.named import MEAN_VALUE
+from ..construction.general import construct_weights, point_frame
+from ..construction.units import to_world
+from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 
 __all__ = ["coordinates", "weights", "ridge_scalars", "ridge_scalars_from_surface", "point_locations",
-           "needs_convex", "OUTSIDE_MODES"]
+           "needs_convex", "OUTSIDE_MODES", "ridges", "weights_from_ridge_scalars"]
 # Entries of the (k, r, nodes, N) arrays of one chunk of ridge_scalars_from_surface.
 _SURFACE_CHUNK_ENTRIES = 1 << 22
 
 
 @checked
-def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
+def coordinates(points, vertices, faces, kind=MEAN_VALUE, outside="raise",
                 tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64, locations=None,
                 workers=None, gamma=None):
     """Generalized barycentric coordinates of points with respect to a cage.
@@ -62,7 +66,7 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
         Python interpreters importing only this package and numpy (also inside
         Blender); results come back through shared memory and are bitwise the same
         whatever the number of workers. To compute several batches against one cage,
-        keep a :class:`core.Cage`: it validates once and keeps its workers.
+        keep a :class:`gencoords.Cage`: it validates once and keeps its workers.
 
     gamma : float, optional
         The power family's exponent (kind ``"power"`` only; default -0.5): the surface's
@@ -84,6 +88,19 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
     WorkerError
         A worker process could not start, failed or was killed (the others are stopped
         and the shared memory removed).
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> b = gencoords.coordinates([[0.5, 0.5], [0.25, 0.5]], square, edges, kind="wachspress")
+    >>> b.shape
+    (2, 4)
+    >>> print(b[0])
+    [0.25 0.25 0.25 0.25]
+    >>> bool(np.allclose(b @ square, [[0.5, 0.5], [0.25, 0.5]]))
+    True
     """
     with Cage(vertices, faces, tolerance) as cage:
         return cage.coordinates(points, kind=kind, outside=outside, progress=progress, dtype=dtype,
@@ -91,7 +108,7 @@ def coordinates(points, vertices, faces, kind="mean_value", outside="raise",
 
 
 @checked
-def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERANCE, workers=None,
+def weights(points, vertices, faces, kind=MEAN_VALUE, tolerance=DEFAULT_TOLERANCE, workers=None,
             gamma=None):
     """Homogeneous weights of a named kind: ``sum_i w_i (v_i - x) = 0``.
 
@@ -104,6 +121,17 @@ def weights(points, vertices, faces, kind="mean_value", tolerance=DEFAULT_TOLERA
     Returns
     -------
     weights : (k, n) float
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> w = gencoords.weights([[0.5, 0.5]], square, edges)
+    >>> w.shape
+    (1, 4)
+    >>> bool(np.allclose(w @ (square - [0.5, 0.5]), 0.0))  # sum_i w_i (v_i - x) = 0
+    True
     """
     with Cage(vertices, faces, tolerance) as cage:
         return cage.weights(points, kind=kind, workers=workers, gamma=gamma)
@@ -119,16 +147,25 @@ def ridge_scalars(points, vertices, faces, kind, gamma=None):
     vertices : (n, N) float
     faces : (m, N) int
     kind : str
-        One of :data:`core.KINDS`.
+        One of :data:`gencoords.advanced.KINDS`.
     gamma : float, optional
         For kind ``"power"`` (see :func:`coordinates`).
 
     Returns
     -------
     d : (k, r) float
-        Columns follow :func:`core.ridges` (2D: vertices, 3D: edges). A ridge through a
+        Columns follow :func:`gencoords.advanced.ridges` (2D: vertices, 3D: edges). A ridge through a
         point has no scalar there: NaN (or inf) in that entry; :func:`coordinates` takes
         the boundary limits instead.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> d = gencoords.advanced.ridge_scalars([[0.5, 0.5]], square, edges, "mean_value")
+    >>> d.shape  # (k, r): one scalar per point and ridge
+    (1, 4)
     """
     return Cage(vertices, faces).ridge_scalars(points, kind, gamma=gamma)
 
@@ -161,7 +198,18 @@ def ridge_scalars_from_surface(points, vertices, faces, radius, levels=DEFAULT_L
     Returns
     -------
     d : (k, r) float
-        Columns follow :func:`core.ridges`.
+        Columns follow :func:`gencoords.advanced.ridges`.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> unit_sphere = lambda points, directions: np.ones(directions.shape[:2])
+    >>> d = gencoords.advanced.ridge_scalars_from_surface([[0.5, 0.5]], square, edges, unit_sphere)
+    >>> exact = gencoords.advanced.ridge_scalars([[0.5, 0.5]], square, edges, "mean_value")
+    >>> bool(np.allclose(d, exact, rtol=1e-6))  # the unit sphere generates mean value coordinates
+    True
     """
     cage = Cage(vertices, faces)
     corners = cage.vertices[cage.topology_ridges]
@@ -190,6 +238,77 @@ def point_locations(points, vertices, faces, tolerance=DEFAULT_TOLERANCE, worker
     Returns
     -------
     locations : (k,) int8
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> where = gencoords.point_locations([[0.5, 0.5], [1.0, 0.5], [2.0, 0.5]], square, edges)
+    >>> [int(code) for code in where] == [gencoords.INSIDE, gencoords.BOUNDARY, gencoords.OUTSIDE]
+    True
     """
     with Cage(vertices, faces, tolerance) as cage:
         return cage.point_locations(points, workers=workers)
+
+
+@checked
+def ridges(faces):
+    """Ridges of a simplicial cage, in the order ridge-scalar columns use.
+
+    Parameters
+    ----------
+    faces : (m, N) int
+        Facets (2D: polygon edges, 3D: triangles).
+
+    Returns
+    -------
+    ridges : (r, N-1) int
+        Sorted vertex indices of each ridge (2D: one vertex, 3D: an edge), rows in
+        lexicographic order.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> print(gencoords.advanced.ridges(edges).ravel())  # 2D: a ridge is a vertex
+    [0 1 2 3]
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    return cage_topology(faces, int(faces.max(initial=-1)) + 1).ridges
+
+
+@checked
+def weights_from_ridge_scalars(points, vertices, faces, d):
+    """The general construction for arbitrary ridge scalars (any generating surface).
+
+    Parameters
+    ----------
+    points : (k, N) float
+        Query points strictly inside the convex cage (elsewhere the formula is evaluated
+        as is: poles on facet hyperplanes give inf or NaN).
+    vertices : (n, N) float
+    faces : (m, N) int
+        Closed, outward-oriented simplicial facets of a convex cage.
+    d : (k, r) float
+        One scalar per (point, ridge), ridges ordered as :func:`gencoords.advanced.ridges`.
+
+    Returns
+    -------
+    weights : (k, n) float
+        Homogeneous weights: ``sum_i w_i (v_i - x) = 0`` for every point.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> d = gencoords.advanced.ridge_scalars([[0.5, 0.5]], square, edges, "wachspress")
+    >>> w = gencoords.advanced.weights_from_ridge_scalars([[0.5, 0.5]], square, edges, d)
+    >>> print(w / w.sum(axis=1, keepdims=True))
+    [[0.25 0.25 0.25 0.25]]
+    """
+    cage = validate_cage(vertices, faces)
+    # Frame weights have length degree -1 for the same d (u = r . m / det E).
+    return to_world(construct_weights(cage, point_frame(cage, points), d.T).T, cage.scale, -1, "weights")

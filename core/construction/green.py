@@ -9,7 +9,7 @@ similarity of the cage moves the point by the same similarity, and a stretch kee
 details' shape better than affine-invariant coordinates.
 
 :func:`green_rows` is the loop body over one chunk of points (shaped like
-:func:`core.evaluation.evaluate_rows`, for the worker pool); :func:`green_coordinates`
+:func:`gencoords.evaluation.rows.evaluate_rows`, for the worker pool); :func:`green_coordinates`
 runs it in this process.
 """
 
@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import tolerances
+from ..base import tolerances
 from .boundary import BOUNDARY, INSIDE, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances
-from .construction import facet_determinants, sum_rows
-from .errors import CageError, OutsideCageError
-from .inputs import _finite, checked, real_array
+from .general import facet_determinants, sum_rows
+from ..base.errors import CageError, OutsideCageError
+from ..base.inputs import _finite, checked, real_array
 from .units import to_world
 from .validation import DEFAULT_TOLERANCE, convexity_violation, validate_cage
 
@@ -36,7 +36,7 @@ _FOUR_PI = 4.0 * np.pi
 class GreenOutsideError(OutsideCageError):
     """Some points lie outside the cage: Green coordinates reproduce only inside points.
 
-    An :class:`~core.errors.OutsideCageError` (``indices`` lists every outside point),
+    An :class:`~gencoords.base.errors.OutsideCageError` (``indices`` lists every outside point),
     with a message naming what Green coordinates accept.
     """
 
@@ -81,7 +81,7 @@ class GreenTerms:
 
 
 def green_terms(cage):
-    """The :class:`GreenTerms` of a prepared 3D cage (:class:`core.construction.PreparedCage`)."""
+    """The :class:`GreenTerms` of a prepared 3D cage (:class:`gencoords.construction.general.PreparedCage`)."""
     corners = cage.facet_corners()  # (m, 3, 3)
     doubled_normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     doubled_area = np.linalg.norm(doubled_normal, axis=1)
@@ -145,7 +145,7 @@ def _face_integrals(cage, terms, x):
 
     Parameters
     ----------
-    cage : core.construction.PreparedCage
+    cage : gencoords.construction.general.PreparedCage
     terms : GreenTerms
     x : (k, 3) float
         Points, in the frame.
@@ -216,7 +216,7 @@ def _boundary_limits(cage, terms, weights):
     ----------
     weights : (b, n) float
         The boundary points as vertex weights (linear coordinates in their face, edge
-        or vertex: :func:`core.boundary.locate`'s limits); the vertices with non-zero
+        or vertex: :func:`gencoords.construction.boundary.locate`'s limits); the vertices with non-zero
         weight are the support.
 
     Returns
@@ -241,7 +241,7 @@ def green_rows(cage, terms, points, convex, absolute, outside, phi_out, psi_out)
 
     Parameters
     ----------
-    cage : core.construction.PreparedCage
+    cage : gencoords.construction.general.PreparedCage
         A validated, closed, outward-oriented 3D cage.
     terms : GreenTerms
         ``green_terms(cage)``.
@@ -328,7 +328,7 @@ def green_coordinates(points, vertices, faces, outside="raise", tolerance=DEFAUL
         ``"project"`` (the nearest boundary point's coordinates). Green coordinates do
         not extrapolate: ``"extrapolate"`` is refused.
     tolerance : float
-        Relative to the cage's size, as :func:`core.coordinates`.
+        Relative to the cage's size, as :func:`gencoords.coordinates`.
     dtype : numpy.float32 or numpy.float64
         Precision of the results (computed in float64).
 

@@ -22,8 +22,8 @@ Test seam: where the environment variable ``GENCOORDS_WORKER_PRELUDE`` names a P
 file, every worker runs it before serving (the tests simulate Windows' and macOS'
 semantics in the workers with it); nothing else reads it.
 
-A worker keeps its prepared cage between calls (a :class:`core.Cage` owns its pool).
-It computes whole chunks of :func:`core.evaluation.chunk_size` points, the same chunks
+A worker keeps its prepared cage between calls (a :class:`gencoords.Cage` owns its pool).
+It computes whole chunks of :func:`gencoords.evaluation.rows.chunk_size` points, the same chunks
 as one process, so the result is bitwise the same as ``workers=1``.
 """
 
@@ -44,7 +44,7 @@ import weakref
 
 import numpy as np
 
-from .errors import WorkerError, WorkerWarning
+from ..base.errors import WorkerError, WorkerWarning
 
 __all__ = ["available_cores", "python_executable", "interpreter_candidates", "dispatch_units",
            "WorkerPool", "SharedArrays", "shared_layout", "shared_files", "sweep_stale_files", "computed_here_instead", "serve"]
@@ -63,7 +63,7 @@ PRELUDE_VARIABLE = "GENCOORDS_WORKER_PRELUDE"
 _BOOT = ("import sys, os; sys.path.insert(0, sys.argv[1]); "
          f"prelude = os.environ.get({PRELUDE_VARIABLE!r}); "
          "prelude and __import__('runpy').run_path(prelude); "
-         "import importlib; importlib.import_module(sys.argv[2] + '.parallel').serve()")
+         "import importlib; importlib.import_module(sys.argv[2] + '.evaluation.parallel').serve()")
 _PREFIX = "gencoords-"
 _SUFFIX = ".shared"
 _RAM_FOLDER = "/dev/shm"
@@ -364,7 +364,9 @@ class WorkerPool:
 
     def __init__(self, vertices, faces, count):
         sweep_stale_files()
-        package_folder = os.path.dirname(os.path.abspath(__file__))
+        # The core's own folder (``core/`` in the repository and the extension,
+        # ``gencoords/`` when pip-installed), two levels up from evaluation/parallel.py.
+        package_folder = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
         command = [python_executable(), "-c", _BOOT, os.path.dirname(package_folder),
                    os.path.basename(package_folder)]
         environment = dict(os.environ, **_SINGLE_THREADED)
@@ -556,8 +558,8 @@ def serve():
     """A worker's main loop: commands from stdin, replies to stdout, until stdin ends."""
     import traceback
 
-    from .construction import prepare_cage
-    from .evaluation import evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
+    from ..construction.general import prepare_cage
+    from .rows import evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
 
     commands, replies = sys.stdin.buffer, sys.stdout.buffer
     sys.stdout = sys.stderr  # nothing but replies on the reply pipe
@@ -603,7 +605,7 @@ def serve():
 
 def _compute(cage, terms, arrays, job, start, stop, locate_only, evaluate, locate):
     """One unit of rows, in chunks; returns the number of outside points in it."""
-    from .boundary import OUTSIDE
+    from ..construction.boundary import OUTSIDE
 
     points, locations, result = arrays["points"], arrays["locations"], arrays.get("result")
     outside = 0

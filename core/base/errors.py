@@ -73,6 +73,6 @@ class WorkerError(RuntimeError):
 class WorkerWarning(UserWarning):
     """Worker processes could not start or failed, so the call was computed in the
     calling process instead (the message says why). The result is the same; a
-    :class:`core.Cage` that warned computes its later automatic calls in-process too.
+    :class:`gencoords.Cage` that warned computes its later automatic calls in-process too.
     ``warnings.simplefilter("ignore", WorkerWarning)`` silences it.
     """

@@ -7,7 +7,7 @@ of an outside point (``outside="project"``).
 
 import numpy as np
 
-from .simplex import closest_points_on_simplices
+from ..base.simplex import closest_points_on_simplices
 
 __all__ = ["INSIDE", "BOUNDARY", "OUTSIDE", "plane_distances", "locate",
            "winding_numbers", "plane_limit_coordinates", "nearest_boundary_coordinates"]
@@ -23,7 +23,7 @@ def plane_distances(cage, facet_det):
     ----------
     cage : PreparedCage
     facet_det : (k, m) float
-        From :func:`core.construction.facet_determinants`.
+        From :func:`gencoords.construction.general.facet_determinants`.
 
     Returns
     -------

@@ -11,9 +11,9 @@ from math import factorial
 
 import numpy as np
 
-from . import tolerances
+from ..base import tolerances
 from .floater import convex_cage_and_determinants, floater_term_values, floater_terms
-from .inputs import checked
+from ..base.inputs import checked
 from .units import to_world
 from .validation import DEFAULT_TOLERANCE
 
@@ -53,7 +53,15 @@ def floater_matrix(points, vertices, faces, tolerance=DEFAULT_TOLERANCE):
     Returns
     -------
     matrix : (k, n, r) float
-        ``weights[k] = matrix[k] @ c[k]``; ridges ordered as :func:`core.ridges`.
+        ``weights[k] = matrix[k] @ c[k]``; ridges ordered as :func:`gencoords.advanced.ridges`.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> gencoords.advanced.floater_matrix([[0.5, 0.5]], square, edges).shape
+    (1, 4, 4)
     """
     cage, det = convex_cage_and_determinants(points, vertices, faces, tolerance, "floater_matrix")
     return to_world(_frame_matrices(cage, points, det), cage.scale, -cage.dimension, "Floater matrices")
@@ -78,13 +86,24 @@ def floater_scalars(point, vertices, faces, w, tolerance=DEFAULT_TOLERANCE):
     -------
     c : (r,) float
         The least-norm solution of ``floater_matrix(point) @ c = w``. Ridge scalars
-        follow from :func:`core.ridge_scalars_from_floater`.
+        follow from :func:`gencoords.advanced.ridge_scalars_from_floater`.
 
     Raises
     ------
     ValueError
         ``w`` is not homogeneous at the point (``sum_i w_i (v_i - x) != 0``): no c gives
         it; the least-squares residual exceeds ``tolerances.HOMOGENEOUS`` times ``|w|``.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
+    >>> x = np.array([0.5, 0.5])
+    >>> target = gencoords.weights(x[None], square, edges, kind="wachspress")[0]
+    >>> c = gencoords.advanced.floater_scalars(x, square, edges, target)
+    >>> bool(np.allclose(gencoords.advanced.floater_weights(x[None], square, edges, c[None])[0], target))
+    True
     """
     cage, det = convex_cage_and_determinants(point[None], vertices, faces, tolerance, "floater_scalars")
     # Solved in the frame (the world matrix is scale^-N times it), c converted after.

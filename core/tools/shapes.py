@@ -5,6 +5,8 @@ from itertools import combinations
 
 import numpy as np
 
+from ..base import tolerances
+
 __all__ = ["regular_polygon", "octahedron", "irregular_octahedron", "icosphere", "cross_polytope",
            "random_convex_polytope", "convex_hull_facets"]
 
@@ -119,7 +121,7 @@ def convex_hull_facets(points):
         normal = np.linalg.svd(edges)[2][-1]
         side = (points - base) @ normal
         others = np.delete(side, subset)
-        if np.all(others < -1e-12) or np.all(others > 1e-12):
+        if np.all(others < -tolerances.HULL_SIDE) or np.all(others > tolerances.HULL_SIDE):
             facet = list(subset)
             # det[v_0 - x, v_1 - x, ...] > 0 for x inside: orient against the centroid.
             inside = points.mean(axis=0)
@@ -149,7 +151,7 @@ def random_convex_polytope(rng, dim, count):
         directions = rng.normal(size=(count, dim))
         directions /= np.linalg.norm(directions, axis=1, keepdims=True)
         gaps = np.linalg.norm(directions[:, None] - directions[None], axis=-1)
-        if (gaps + np.eye(count) * 2.0).min() > 1e-3:
+        if (gaps + np.eye(count) * 2.0).min() > tolerances.DIRECTION_GAP:
             break
     axes = rng.uniform(0.5, 2.0, size=dim)
     rotation = np.linalg.qr(rng.normal(size=(dim, dim)))[0]

@@ -8,7 +8,7 @@ then cross-checks shapes between arguments (points of the cage's dimension, one
 location per point, one scalar per ridge...). A parameter without a checker is an error
 when the module is imported, so a new function or parameter cannot skip the checks.
 Every message says what is wrong and what is accepted; errors are ``ValueError`` (cage
-problems :class:`~core.errors.CageError`, itself a ``ValueError``).
+problems :class:`~gencoords.base.errors.CageError`, itself a ``ValueError``).
 """
 
 import functools
@@ -20,7 +20,8 @@ import numpy as np
 
 from . import tolerances
 from .errors import CageError
-from .generating_surfaces import KINDS
+from .topology import cage_topology
+from ..surfaces.named import KINDS
 
 __all__ = ["checked", "CHECKS", "OUTSIDE_MODES", "check_tolerance", "real_array",
            "bounding_frame"]
@@ -257,14 +258,13 @@ def _convex(value, context):
 
 
 def _ridge_values(value, context, name):
-    from .topology import cage_topology  # topology's public function is itself @checked
 
     ridges = len(cage_topology(context.faces, context.vertex_count).ridges)
     array = np.atleast_2d(real_array(value, name))
     expected = (context.point_count, ridges)
     if array.shape != expected:
         raise ValueError(f"{name} must have shape (k, r) = {expected} (one value per point and "
-                         f"ridge, ridges as core.ridges(faces)), got {array.shape}")
+                         f"ridge, ridges as gencoords.advanced.ridges(faces)), got {array.shape}")
     return _finite(array, name)
 
 
@@ -315,7 +315,7 @@ def _values(value, context):
 
 
 def _cage_self(value, context):
-    """A :class:`core.Cage` method's cage: its vertices and faces are already checked."""
+    """A :class:`gencoords.Cage` method's cage: its vertices and faces are already checked."""
     context.dimension, context.vertex_count = value.vertices.shape[1], len(value.vertices)
     context.vertices, context.faces = value.vertices, value.faces
     return value
@@ -434,7 +434,7 @@ def checked(function):
     unknown = [name for name in signature.parameters if name not in CHECKS]
     if unknown:
         raise TypeError(f"{function.__qualname__}: no input check for parameter(s) {unknown}; "
-                        "add them to core.inputs.CHECKS")
+                        "add them to gencoords.base.inputs.CHECKS")
     order = [name for name in CHECKS if name in signature.parameters]
 
     @functools.wraps(function)

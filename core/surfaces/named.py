@@ -2,7 +2,7 @@
 
 d, shape (r, k) (ridges by points, the frame's layout), is the signed (N-1)-volume
 enclosed by x and the ridge projected onto the surface. Ridges have p = N-1 vertices;
-everything comes from a :class:`~core.construction.PointFrame`: the ridge's Gram matrix
+everything comes from a :class:`~gencoords.construction.general.PointFrame`: the ridge's Gram matrix
 of ``e = v - x`` and its generalized cross product, of norm ``|m_R|``.
 
 Floater's form of the construction takes ``d |m_R|`` (N! times Floater's c) instead. Some
@@ -17,9 +17,10 @@ from math import factorial
 
 import numpy as np
 
-from .numerical_surfaces import unit_sphere_ridge_scalars
+from .numerical import unit_sphere_ridge_scalars
 
-__all__ = ["Kind", "KIND_TABLE", "KINDS", "CONVEX_ONLY_KINDS", "named_ridge_scalars", "named_scaled_ridge_scalars",
+__all__ = ["Kind", "KIND_TABLE", "WACHSPRESS", "MEAN_VALUE", "KINDS", "CONVEX_ONLY_KINDS",
+           "named_ridge_scalars", "named_scaled_ridge_scalars",
            "kind_parameter", "mean_value", "discrete_harmonic_scaled", "wachspress_scaled",
            "voronoi_scaled", "power_scaled",
            "power_dual", "power_dual_scaled", "power_dual_by_subsets"]
@@ -164,11 +165,14 @@ class Kind:
     parameter_default: float = None  # its value when not given
 
 
+# The kinds the evaluation treats specially (a faster form, the default), spelled once.
+WACHSPRESS, MEAN_VALUE = "wachspress", "mean_value"
+
 KIND_TABLE = (
-    Kind("wachspress", "Wachspress", "Smooth, positive and affine invariant; needs a convex "
+    Kind(WACHSPRESS, "Wachspress", "Smooth, positive and affine invariant; needs a convex "
          "cage", wachspress_scaled, "scaled", True, False),
     # Mean value coordinates stay well defined on non-convex closed cages (Ju et al. 2005).
-    Kind("mean_value", "Mean Value", "Smooth and positive inside convex cages; also works "
+    Kind(MEAN_VALUE, "Mean Value", "Smooth and positive inside convex cages; also works "
          "on non-convex closed cages", mean_value, "d", False, False),
     Kind("discrete_harmonic", "Discrete Harmonic", "Cotangent weights; needs a convex cage "
          "and can be negative", discrete_harmonic_scaled, "scaled", True, True),

@@ -1,7 +1,7 @@
 """World units of the frame's raw values (weights, ridge scalars, Floater scalars).
 
 Every formula runs in the cage's frame, where lengths are world lengths divided by
-``cage.scale``, a power of two (:class:`~core.construction.PreparedCage`). Coordinates are
+``cage.scale``, a power of two (:class:`~gencoords.construction.general.PreparedCage`). Coordinates are
 ratios and need nothing; the raw values the public functions also return are
 homogeneous in length, of a known degree, so the world value is the frame's times
 ``scale ** degree``: for the same ridge scalars d the general construction's weights
@@ -15,6 +15,10 @@ from functools import lru_cache
 from itertools import combinations
 
 import numpy as np
+
+from ..base import tolerances
+from ..surfaces.named import named_ridge_scalars
+from .general import point_frame, prepare_cage
 
 __all__ = ["to_world", "length_degree"]
 
@@ -57,9 +61,6 @@ def length_degree(kind, dimension, gamma=None):
     Measured: d of a simplex around its centroid, at unit size and at size 2 (exact powers
     of two), so any homogeneous surface, whatever its formula, is converted right.
     """
-    from .construction import prepare_cage, point_frame
-    from .generating_surfaces import named_ridge_scalars
-
     simplex = np.vstack([np.zeros(dimension), np.eye(dimension)])
     facets = np.array(list(combinations(range(dimension + 1), dimension)))
     centre = simplex.mean(axis=0)[None]
@@ -67,4 +68,4 @@ def length_degree(kind, dimension, gamma=None):
                                                            centre), gamma)).max()
               for s in (1.0, 0.5)]  # the simplex at sizes 1 and 2
     degree = float(np.log2(values[1] / values[0]))
-    return round(degree) if abs(degree - round(degree)) < 1e-9 else degree
+    return round(degree) if abs(degree - round(degree)) < tolerances.INTEGER_DEGREE else degree

@@ -16,10 +16,9 @@ deformation.
 
 import numpy as np
 
-# Coordinates more negative than this cannot become skinning weights; less negative ones
-# (float32 rounding, compact storage's reproduction) are clamped to 0 by the vertex
-# groups, and the deviation that makes is measured.
-NEGATIVE_TOLERANCE = 1e-5
+from ..base import tolerances
+
+NEGATIVE_TOLERANCE = tolerances.SKINNING_NEGATIVE  # see there
 
 
 def truncate(coordinates, max_influences):

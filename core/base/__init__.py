@@ -1,0 +1,1 @@
+"""Bottom layer: tolerances, errors, simplex frames, cage topology and input checks."""

@@ -1,0 +1,1 @@
+"""Evaluation: the cage object, the public coordinate functions, row evaluation and workers."""
