@@ -5,33 +5,20 @@ loaded by path: it imports only bpy and numpy, and some subprocess scripts run w
 the extension installed.
 """
 
-import importlib.util
 import os
+import sys
 from pathlib import Path
 
 import bmesh
 import bpy
 
 
-def _load_mesh_arrays():
-    path = Path(__file__).resolve().parents[2] / "gencoords_addon" / "mesh_arrays.py"
-    spec = importlib.util.spec_from_file_location("gencoords_mesh_arrays", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
+from scripts.common.blender_objects import arrays, bind, make_active as activate  # noqa: E402, F401
 
-
-_arrays = _load_mesh_arrays()
-read_positions = _arrays.read_positions
-write_positions = _arrays.write_positions
-evaluated_positions = _arrays.evaluated_positions
-
-
-def activate(obj):
-    for other in bpy.context.view_layer.objects:
-        other.select_set(False)
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
+read_positions = arrays.read_positions
+write_positions = arrays.write_positions
+evaluated_positions = arrays.evaluated_positions
 
 
 def add_icosphere_cage(radius=2.0, subdivisions=1, name="Cage"):
@@ -82,14 +69,6 @@ def evaluated_cage_positions(cage):
 def update():
     """Evaluate the depsgraph, which runs the add-on's depsgraph_update_post handler."""
     bpy.context.evaluated_depsgraph_get().update()
-
-
-def bind(obj, cage, kind="MEAN_VALUE", outside="RAISE"):
-    obj.gencoords.cage = cage
-    obj.gencoords.kind = kind
-    obj.gencoords.outside = outside
-    activate(obj)
-    return bpy.ops.object.gencoords_bind()
 
 
 def load_user_preferences():

@@ -6,7 +6,6 @@ import pytest
 from mathutils import Matrix
 
 import gencoords as core_table
-from conftest import report_of, run_blender_script
 from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere,
                            add_subdivided_sphere, bind, evaluated_cage_positions,
                            evaluated_positions, mesh_state, read_positions, write_positions, update)

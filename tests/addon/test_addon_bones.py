@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from mathutils import Matrix
 
-from conftest import PACKAGE, REPO, report_of, run_blender_script
+from fresh_process import PACKAGE, REPO, report_of, run_blender_script
 from scene_helpers import (activate, add_icosphere_cage, add_sphere, bind, evaluated_positions,
                            mesh_state, read_positions, write_positions)
 

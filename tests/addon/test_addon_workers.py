@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import PACKAGE
+from fresh_process import PACKAGE
 from scene_helpers import activate, add_icosphere_cage, add_subdivided_sphere, bind, mesh_state
 
 # Windows' semantics and broken workers, simulated in every worker (tests/core).

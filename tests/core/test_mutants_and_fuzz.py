@@ -1,6 +1,5 @@
 """Tests that a mutation check found missing, and a fuzz test over random convex polytopes."""
 
-import itertools
 
 import numpy as np
 import pytest
