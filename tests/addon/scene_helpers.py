@@ -1,8 +1,9 @@
 """Building test scenes with bpy, shared by the tests and their subprocess scripts.
 
-Mesh arrays are read and written by the add-on's own ``gencoords_addon/mesh_arrays.py``,
-loaded by path: it imports only bpy and numpy, and some subprocess scripts run without
-the extension installed.
+Mesh arrays (the add-on's own ``gencoords_addon/mesh_arrays.py``, loaded by path: some
+subprocess scripts run without the extension installed), ``make_active`` and ``bind``
+(through the operator, as a user binds) are the scripts' own, from
+``scripts.common.blender_objects``: one helper per idea for scripts and tests.
 """
 
 import os
@@ -14,7 +15,7 @@ import bpy
 
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
-from scripts.common.blender_objects import arrays, bind, make_active as activate  # noqa: E402, F401
+from scripts.common.blender_objects import arrays, bind, make_active  # noqa: E402, F401 (tests import them from here)
 
 read_positions = arrays.read_positions
 write_positions = arrays.write_positions
@@ -50,7 +51,7 @@ def add_subdivided_sphere(levels, name="Mesh"):
     obj = add_sphere(name=name)
     modifier = obj.modifiers.new("Subdivision", 'SUBSURF')
     modifier.levels = levels
-    activate(obj)
+    make_active(obj)
     bpy.ops.object.modifier_apply(modifier=modifier.name)
     return obj
 

@@ -27,6 +27,7 @@ def face_points(rng, vertices, faces, count):
     return np.array(points), np.array(limits)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dim,count", FUZZ_CASES)
 def test_precision_unity_and_boundary_limits_hold_on_random_polytopes_at_any_scale(dim, count):
     rng = np.random.default_rng(1100 + dim)
