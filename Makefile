@@ -36,9 +36,16 @@ endif
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup test-tools demo test test-core build bench bench-core test-blender-matrix \
+.PHONY: help setup test-tools demo test test-core lint build bench bench-core test-blender-matrix \
         setup-blender-matrix check-release clean distclean
 
+## This list: every target with what its `##` comment says.
+help:
+	@awk '/^## /{text = text (text ? " " : "") substr($$0, 4); next} \
+	     /^[a-z][a-z-]*:/ && text {split($$0, t, ":"); printf "  %-22s %s\n", t[1], text} {text = ""}' \
+	    $(firstword $(MAKEFILE_LIST))
+
+## The virtual environment of BLENDER (default .venv): bpy, numpy, pytest, ruff, the core editable.
 setup: $(STAMP)
 
 $(STAMP): $(REQUIREMENTS) pyproject.toml
@@ -53,11 +60,11 @@ endif
 	$(PY) -m pip install --quiet --no-build-isolation --no-deps -e .
 	touch $(STAMP)
 
+TOOLS_STAMP := tests/tools/node_modules/.installed
+
 ## The tools the tests run besides Python: the Khronos glTF-Validator (npm, the version
 ## pinned in tests/tools/package-lock.json) checks the .glb a baked rig exports; without
 ## it that test skips, and fails where CI is set.
-TOOLS_STAMP := tests/tools/node_modules/.installed
-
 test-tools: $(TOOLS_STAMP)
 
 # Without npm (a machine with Python alone) the validator's test skips, except in CI.
@@ -68,48 +75,57 @@ $(TOOLS_STAMP): tests/tools/package.json tests/tools/package-lock.json
 
 ## The main job: a headless demo on a built-in default scene.
 demo: $(STAMP)
-	$(PY) scripts/demo.py
+	$(PY) scripts/demo/demo.py
 
 ## The whole test suite (core, then the built extension installed into Blender; the
 ## tests build and validate the zip themselves with this Blender's tools).
 test: $(STAMP) $(TOOLS_STAMP)
 	$(PY) -m pytest
 
+## The tests that need no Blender (the core, the layout): `pytest -m "not blender"`.
 test-core: $(STAMP)
-	$(PY) -m pytest tests/core
+	$(PY) -m pytest -m "not blender"
+
+## ruff (configured in pyproject.toml) over the core, the add-on, the scripts and the tests.
+lint: $(STAMP)
+	$(PY) -m ruff check .
 
 ## The whole suite on every Blender of MATRIX, one after the other, each in its own
 ## virtual environment; prints pass/fail counts and wall time per version at the end.
 test-blender-matrix: $(TOOLS_STAMP)
-	$(PYTHON) scripts/test_matrix.py $(MATRIX)
+	$(PYTHON) scripts/release/test_matrix.py $(MATRIX)
 
+## Only set up the virtual environments of every Blender of MATRIX.
 setup-blender-matrix:
 	for version in $(MATRIX); do $(MAKE) setup BLENDER=$$version || exit 1; done
 
 ## The extension zip, built and validated by Blender's own tools.
 build: $(STAMP)
-	$(PY) scripts/build_extension.py
+	$(PY) scripts/release/build_extension.py
 
 ## Before a release: install the zip into a real Blender and render the demo scene,
 ## e.g. `make check-release BLENDER_BINARY=~/blender-4.2.23-linux-x64/blender`.
 check-release: build
-	$(PY) scripts/check_release.py $(BLENDER_BINARY)
+	$(PY) scripts/release/check_release.py $(BLENDER_BINARY)
 
-## Speed and memory figures (not part of the tests). CGAL's timings join the core's
-## table in the same run once `sh scripts/cgal_reference.sh` has built its binary.
+# CGAL's timings join the core's table once `sh scripts/chroot/cgal_reference.sh` has built its binary.
 CGAL_REFERENCE := $(if $(wildcard build/cgal_reference),--cgal build/cgal_reference)
 
+## Speed and memory figures (not part of the tests; docs/BENCHMARKS.md), with CGAL's
+## timings beside the core's once `sh scripts/chroot/cgal_reference.sh` has built them.
 bench: $(STAMP) build
-	$(PY) scripts/bench_core.py --workers --surfaces $(CGAL_REFERENCE)
-	$(PY) scripts/bench_blender.py
-	$(PY) scripts/bench_artist.py
+	$(PY) scripts/benchmarks/bench_core.py --workers --surfaces $(CGAL_REFERENCE)
+	$(PY) scripts/benchmarks/bench_blender.py
+	$(PY) scripts/benchmarks/bench_artist.py
 
+## The core's speed table alone (no Blender).
 bench-core: $(STAMP)
-	$(PY) scripts/bench_core.py --workers --surfaces $(CGAL_REFERENCE)
+	$(PY) scripts/benchmarks/bench_core.py --workers --surfaces $(CGAL_REFERENCE)
 
-## Build outputs and caches; `make distclean` also removes the virtual environments.
+## Build outputs and caches.
 clean:
 	rm -rf dist build out .pytest_cache .hypothesis
 
+## Build outputs, caches and the virtual environments.
 distclean: clean
 	rm -rf $(VENV) .venv-*

@@ -1,5 +1,5 @@
 """The repository names no package-registry host: mirrors and indexes come from the
-machine's own configuration (e.g. scripts/debian_mirror.sh reads apt's), so a clone
+machine's own configuration (e.g. scripts/chroot/debian_mirror.sh reads apt's), so a clone
 works behind any mirror and no file points a tool at a host the project cannot reach."""
 
 import re

@@ -1,37 +1,25 @@
 """Building test scenes with bpy, shared by the tests and their subprocess scripts.
 
-Mesh arrays are read and written by the add-on's own ``gencoords_addon/mesh_arrays.py``,
-loaded by path: it imports only bpy and numpy, and some subprocess scripts run without
-the extension installed.
+Mesh arrays (the add-on's own ``gencoords_addon/mesh_arrays.py``, loaded by path: some
+subprocess scripts run without the extension installed), ``make_active`` and ``bind``
+(through the operator, as a user binds) are the scripts' own, from
+``scripts.common.blender_objects``: one helper per idea for scripts and tests.
 """
 
-import importlib.util
 import os
+import sys
 from pathlib import Path
 
 import bmesh
 import bpy
 
 
-def _load_mesh_arrays():
-    path = Path(__file__).resolve().parents[2] / "gencoords_addon" / "mesh_arrays.py"
-    spec = importlib.util.spec_from_file_location("gencoords_mesh_arrays", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
+from scripts.common.blender_objects import arrays, bind, make_active  # noqa: E402, F401 (tests import them from here)
 
-
-_arrays = _load_mesh_arrays()
-read_positions = _arrays.read_positions
-write_positions = _arrays.write_positions
-evaluated_positions = _arrays.evaluated_positions
-
-
-def activate(obj):
-    for other in bpy.context.view_layer.objects:
-        other.select_set(False)
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
+read_positions = arrays.read_positions
+write_positions = arrays.write_positions
+evaluated_positions = arrays.evaluated_positions
 
 
 def add_icosphere_cage(radius=2.0, subdivisions=1, name="Cage"):
@@ -63,7 +51,7 @@ def add_subdivided_sphere(levels, name="Mesh"):
     obj = add_sphere(name=name)
     modifier = obj.modifiers.new("Subdivision", 'SUBSURF')
     modifier.levels = levels
-    activate(obj)
+    make_active(obj)
     bpy.ops.object.modifier_apply(modifier=modifier.name)
     return obj
 
@@ -82,14 +70,6 @@ def evaluated_cage_positions(cage):
 def update():
     """Evaluate the depsgraph, which runs the add-on's depsgraph_update_post handler."""
     bpy.context.evaluated_depsgraph_get().update()
-
-
-def bind(obj, cage, kind="MEAN_VALUE", outside="RAISE"):
-    obj.gencoords.cage = cage
-    obj.gencoords.kind = kind
-    obj.gencoords.outside = outside
-    activate(obj)
-    return bpy.ops.object.gencoords_bind()
 
 
 def load_user_preferences():

@@ -8,7 +8,7 @@ import bpy
 import numpy as np
 import pytest
 
-from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere, bind,
+from scene_helpers import (make_active, add_cube_cage, add_icosphere_cage, add_sphere, bind,
                            evaluated_positions, mesh_state, read_positions, update,
                            write_positions)
 from test_addon_errors import assert_bind_refused, bound, fault_text
@@ -18,7 +18,7 @@ DELETED = "The cage 'Cage' was deleted: the mesh is not deformed; pick another c
 
 def delete_as_the_artist(obj):
     """Select only ``obj`` and press X (``object.delete``), in the window's context."""
-    activate(obj)
+    make_active(obj)
     window = bpy.context.window_manager.windows[0]
     with bpy.context.temp_override(window=window, selected_objects=[obj], active_object=obj,
                                    object=obj):
@@ -55,7 +55,7 @@ def test_deleting_the_cage_with_x_passes_the_mesh_through_and_the_cage_can_be_pu
     obj = bpy.data.objects["Mesh"]
     assert fault_text(gc, obj) == DELETED
     np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     assert not obj.modifiers and not gc.binding.bindings(obj)
 
@@ -176,7 +176,7 @@ def test_rebind_keeps_the_modifier_name_and_the_invoke_path_binds(gc):
     obj, cage = bound(gc)
     keys = {gc.binding.binding(obj).key}
     for _ in range(3):
-        activate(obj)
+        make_active(obj)
         assert bpy.ops.object.gencoords_bind('INVOKE_DEFAULT') == {'FINISHED'}
         keys.add(gc.binding.binding(obj).key)
         assert [m.name for m in obj.modifiers] == ["GenCoords"]
@@ -187,7 +187,7 @@ def test_rebind_keeps_the_modifier_name_and_the_invoke_path_binds(gc):
 def test_apply_leaves_no_node_group_behind(gc):
     obj, cage = bound(gc)
     assert any(group.get("gencoords") for group in bpy.data.node_groups)
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.modifier_apply(modifier="GenCoords") == {'FINISHED'}
     update()
     assert not bpy.data.node_groups  # the binding's group and the helpers it used
@@ -282,7 +282,7 @@ def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkey
     operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.operators")
     obj, cage = bound(gc)
     earlier = gc.binding.binding(obj).key
-    activate(obj)
+    make_active(obj)
     monkeypatch.setattr(operators, "interactive", lambda context: True)
     window_manager = WindowStandIn()
     context = ContextStandIn(window_manager)
@@ -337,7 +337,7 @@ def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeyp
     obj = add_sphere()
     settings = obj.gencoords
     settings.cage, settings.kind, settings.storage, settings.compact_size = cage, 'MEAN_VALUE', 'EXACT', 12
-    activate(obj)
+    make_active(obj)
     monkeypatch.setattr(operators, "interactive", lambda context: True)
     context = ContextStandIn(WindowStandIn())
     running = bind_operator_stand_in(operators)
@@ -358,7 +358,7 @@ def test_bind_and_unbind_leave_the_cage_with_the_users_it_had(gc):
     """Blender 5.2 keeps a user of an object a removed modifier's input pointed at: the
     capture at Bind and Unbind clear the inputs first, so a deleted cage can go."""
     obj, cage = bound(gc)
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     obj.gencoords.cage = None
     update()

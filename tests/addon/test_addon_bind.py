@@ -6,8 +6,7 @@ import pytest
 from mathutils import Matrix
 
 import gencoords as core_table
-from conftest import report_of, run_blender_script
-from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere,
+from scene_helpers import (make_active, add_cube_cage, add_icosphere_cage, add_sphere,
                            add_subdivided_sphere, bind, evaluated_cage_positions,
                            evaluated_positions, mesh_state, read_positions, write_positions, update)
 
@@ -135,6 +134,7 @@ def deviations_in_blender(gc, obj, cage, vertex):
     return found
 
 
+@pytest.mark.slow
 def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(gc, monkeypatch):
     """Issue 19.4: around a subdivided Suzanne, Make Cage's irregular cage needs nearly all
     its vertices as compact slots, so Automatic stores exactly and says why; what Blender
@@ -143,7 +143,7 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     # in this cage): a smaller Suzanne takes it from 0 to keep the test fast.
     monkeypatch.setattr(gc.binding, "EXACT_MAX_PRODUCT", 0)
     obj = add_subdivided_suzanne(2)  # 7958 vertices
-    activate(obj)
+    make_active(obj)
     with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
         assert bpy.ops.object.gencoords_make_cage(target_vertices=100) == {'FINISHED'}
         cage = obj.gencoords.cage
@@ -183,7 +183,7 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
         "Exact for it)")
     # The compact form Automatic turned down would have missed: 36 slots deviate.
     obj.gencoords.storage, obj.gencoords.compact_size = 'COMPACT', 36
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
     info = gc.binding.binding(obj).info
     assert info["storage"] == 'COMPACT' and "storage_choice" not in info
@@ -321,7 +321,7 @@ def test_hooks_armatures_modifiers_and_shape_keys_on_the_cage_drive_the_mesh(gc)
     skeleton = bpy.data.armatures.new("Skeleton")
     rig = bpy.data.objects.new("Rig", skeleton)
     bpy.context.scene.collection.objects.link(rig)
-    activate(rig)
+    make_active(rig)
     bpy.ops.object.mode_set(mode='EDIT')
     bone = skeleton.edit_bones.new("Bone")
     bone.head, bone.tail = (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)
@@ -365,7 +365,7 @@ def test_cage_edit_mode_changes_are_followed(gc):
     cage = add_icosphere_cage()
     obj = add_sphere()
     bind(obj, cage)
-    activate(cage)
+    make_active(cage)
     bpy.ops.object.mode_set(mode='EDIT')
     bpy.ops.mesh.select_all(action='SELECT')
     bpy.ops.transform.resize(value=(1.4, 1.4, 1.4))
@@ -403,7 +403,7 @@ def test_linked_duplicates_and_several_meshes_on_one_cage(gc):
         world = apply_matrix(bound.matrix_world, read_positions(bound.data))
         expected = apply_matrix(bound.matrix_world.inverted(), world * 1.2)
         np.testing.assert_allclose(evaluated_positions(bound), expected, atol=1e-5)
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     assert gc.binding.binding(twin) is not None  # the twin's own bind data stays
     np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
@@ -422,7 +422,7 @@ def test_a_cage_bound_to_another_cage_drives_its_mesh_in_the_same_update(gc):
 def test_binding_from_edit_mode_binds_what_the_artist_sees(gc):
     cage = add_icosphere_cage()
     obj = add_sphere()
-    activate(obj)
+    make_active(obj)
     bpy.ops.object.mode_set(mode='EDIT')
     bpy.ops.mesh.select_all(action='SELECT')
     bpy.ops.transform.resize(value=(0.5, 0.5, 0.5))
@@ -452,7 +452,7 @@ def test_apply_gives_a_clean_deformed_mesh(gc):
     bind(obj, cage)
     write_positions(cage.data, read_positions(cage.data) * 1.1)
     deformed = evaluated_positions(obj)
-    activate(obj)
+    make_active(obj)
     bpy.ops.object.modifier_apply(modifier="GenCoords")
     np.testing.assert_array_equal(read_positions(obj.data), deformed)
     assert sorted(a.name for a in obj.data.attributes) == before[1]
@@ -564,7 +564,7 @@ def test_auto_rebind_binds_again_on_leaving_edit_mode(gc):
     obj = add_sphere()
     obj.gencoords.auto_rebind = True
     bind(obj, cage)
-    activate(obj)
+    make_active(obj)
     bpy.ops.object.mode_set(mode='EDIT')
     update()
     bpy.ops.mesh.select_all(action='SELECT')
@@ -597,7 +597,7 @@ def test_undo_and_redo_of_bind_and_unbind(gc):
         write_positions(cage.data, read_positions(cage.data) * 1.2)
         np.testing.assert_allclose(evaluated_positions(obj), before[0] * 1.2, atol=1e-5)
 
-        activate(obj)
+        make_active(obj)
         assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
         bpy.ops.ed.undo_push(message="Unbind")
         assert bpy.ops.ed.undo() == {'FINISHED'}
@@ -652,7 +652,7 @@ def test_two_cages_on_one_mesh_compose_and_unbind_one_at_a_time(gc):
     np.testing.assert_allclose(evaluated_positions(obj), rest + (1.0, 0.5, 0), atol=1e-5)
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
     assert "Bound to 'Big'" in text and "Bound to 'Small'" in text
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_unbind(modifier=first.modifier.name) == {'FINISHED'}
     assert [b.cage for b in gc.binding.bindings(obj)] == [small]
     np.testing.assert_allclose(evaluated_positions(obj), rest + (0.0, 0.5, 0), atol=1e-5)
@@ -687,7 +687,7 @@ def test_a_failing_unbind_of_two_bindings_changes_nothing(gc, monkeypatch):
             raise RuntimeError("injected fault")
         return original(mesh, key)
     monkeypatch.setattr(gc.deformer, "park_slots", fails_the_second_time)
-    activate(obj)
+    make_active(obj)
     with pytest.raises(RuntimeError, match="nothing was changed.*injected fault"):
         bpy.ops.object.gencoords_unbind()
     assert [m.name for m in obj.modifiers] == modifiers
@@ -707,13 +707,13 @@ def test_make_cage_encloses_the_mesh_with_a_convex_cage(gc, shape):
         obj = bpy.context.active_object
         subdivision = obj.modifiers.new("Subdivision", 'SUBSURF')
         subdivision.levels = 2
-        activate(obj)
+        make_active(obj)
         bpy.ops.object.modifier_apply(modifier=subdivision.name)
     else:
         obj = add_sphere()
         obj.scale = (6.0, 0.3, 0.2)
         obj.rotation_euler = (0.3, 0.2, 0.9)
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_make_cage(target_vertices=60) == {'FINISHED'}
     cage = obj.gencoords.cage
     assert cage is not None and 30 <= len(cage.data.vertices) <= 90

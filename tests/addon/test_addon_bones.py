@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from mathutils import Matrix
 
-from conftest import PACKAGE, REPO, report_of, run_blender_script
-from scene_helpers import (activate, add_icosphere_cage, add_sphere, bind, evaluated_positions,
+from fresh_process import PACKAGE, REPO, report_of, run_blender_script
+from scene_helpers import (make_active, add_icosphere_cage, add_sphere, bind, evaluated_positions,
                            mesh_state, read_positions, write_positions)
 
 VALIDATOR = REPO / "tests" / "tools" / "node_modules" / "gltf-validator"
@@ -100,7 +100,7 @@ def test_bake_to_bones_deforms_like_the_binding(gc, influences, capfd):
     obj = add_sphere()
     bind(obj, cage)
     coordinates = coordinates_of(gc, obj)
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_bake_bones(max_influences=influences) == {'FINISHED'}
     assert [m.type for m in obj.modifiers] == ['ARMATURE'] and not gc.binding.bindings(obj)
     rest_cage = read_positions(cage.data).astype(np.float64)
@@ -134,7 +134,7 @@ def test_bake_to_bones_uses_the_bind_time_cage_after_a_cage_edit(gc):
     write_positions(cage.data, gc.core.tools.compact.smooth_test_motion(rest_cage))
     bound = world_positions(obj)
     assert np.linalg.norm(bound - read_positions(obj.data), axis=1).max() > 0.1  # it moved
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_bake_bones() == {'FINISHED'}
     rig = obj.parent
     heads = np.array([bone.head_local for bone in rig.data.bones])
@@ -150,7 +150,7 @@ def test_bake_to_bones_at_a_later_frame_follows_the_animation_like_the_binding(g
     obj, cage = posed_scene(gc)
     expected = binding_motion(obj, [1, 4, 10])
     bpy.context.scene.frame_set(10)
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_bake_bones() == {'FINISHED'}
     rig, tolerance = obj.parent, 1e-5 * diagonal_of(cage)
     assert bake_info(obj)["frames"] == [1, 10] and rig.animation_data.action is not None
@@ -167,7 +167,7 @@ def test_bake_to_bones_from_a_script_in_a_temp_override(gc):
     obj = add_sphere()
     bind(obj, cage)
     coordinates = coordinates_of(gc, obj)
-    activate(cage)  # the view layer's active object is not the mesh
+    make_active(cage)  # the view layer's active object is not the mesh
     with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
         assert bpy.ops.object.gencoords_bake_bones(max_influences=0) == {'FINISHED'}
     assert obj.parent is not None and obj.parent.type == 'ARMATURE'
@@ -190,7 +190,7 @@ def test_bake_to_bones_refuses_negative_coordinates_and_changes_nothing(gc):
     count = int(np.count_nonzero(coordinates < -gc.core.tools.skinning.NEGATIVE_TOLERANCE))
     assert count > 0
     state, objects = mesh_state(obj), set(bpy.data.objects.keys())
-    activate(obj)
+    make_active(obj)
     with pytest.raises(RuntimeError, match=rf"{count} of its Discrete Harmonic coordinates are "
                                            rf"negative \(down to -.*Wachspress"):
         bpy.ops.object.gencoords_bake_bones()
@@ -208,7 +208,7 @@ def test_bake_to_bones_reports_the_deviation_of_the_weights_it_wrote(gc):
     bind(obj, cage, kind="DISCRETE_HARMONIC")
     coordinates = coordinates_of(gc, obj)
     assert coordinates.min() < 0.0
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_bake_bones() == {'FINISHED'}
     written = np.zeros_like(coordinates)
     for vertex in obj.data.vertices:
@@ -234,7 +234,7 @@ def test_a_failing_bake_to_bones_changes_nothing(gc, monkeypatch):
     def broken(obj, bindings):
         raise RuntimeError("injected fault")
     monkeypatch.setattr(gc.binding, "remove", broken)  # the last step of the bake
-    activate(obj)
+    make_active(obj)
     with pytest.raises(RuntimeError, match="injected fault"):
         bpy.ops.object.gencoords_bake_bones()
     assert set(bpy.data.objects.keys()) == objects and set(bpy.data.armatures.keys()) == armatures
@@ -254,7 +254,7 @@ def test_undo_and_redo_of_bake_to_bones(gc):
         obj = add_sphere()
         bind(obj, cage)
         bpy.ops.ed.undo_push(message="Bind")
-        activate(obj)
+        make_active(obj)
         assert bpy.ops.object.gencoords_bake_bones() == {'FINISHED'}
         bpy.ops.ed.undo_push(message="Bake to Bones")
         assert bpy.ops.ed.undo() == {'FINISHED'}
@@ -293,7 +293,7 @@ def test_bake_to_bones_is_in_the_object_animation_menu_and_the_panel(gc):
 
     cage = add_icosphere_cage()
     obj = add_sphere()
-    activate(obj)
+    make_active(obj)
     assert not bpy.ops.object.gencoords_bake_bones.poll()  # not bound: greyed out
     with pytest.raises(RuntimeError, match="'Mesh' is not bound: Bind it first"):
         bpy.ops.object.gencoords_bake_bones()
@@ -322,7 +322,7 @@ def test_a_baked_rig_round_trips_through_gltf(gc, tmp_path):
     obj = add_sphere()
     bind(obj, cage)
     coordinates = coordinates_of(gc, obj)
-    activate(obj)
+    make_active(obj)
     # No keyframes: the imported action would pose the bones over what the test sets.
     assert bpy.ops.object.gencoords_bake_bones(max_influences=4, keyframes=False) == {'FINISHED'}
     rig = bpy.data.objects["Mesh cage rig"]
@@ -496,7 +496,7 @@ def test_the_exported_glb_animates_and_skins_like_blender(gc, tmp_path, influenc
     ones named), the file is valid and, skinned at its last keyframe by a reader of our
     own, matches Blender's deformation at that frame."""
     obj, cage = posed_scene(gc)
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_bake_bones(max_influences=influences) == {'FINISHED'}
     scene = bpy.context.scene
     scene.frame_set(scene.frame_end)

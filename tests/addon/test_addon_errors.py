@@ -7,7 +7,7 @@ import bpy
 import numpy as np
 import pytest
 
-from scene_helpers import (activate, add_cube_cage, add_icosphere_cage, add_sphere, bind,
+from scene_helpers import (make_active, add_cube_cage, add_icosphere_cage, add_sphere, bind,
                            edit_mesh, evaluated_positions, mesh_state, read_positions,
                            write_positions, update)
 
@@ -142,7 +142,7 @@ def assert_passed_through_and_unbind_restores(obj):
     """The deformer shows the mesh as it is, and Unbind gives back the mesh data."""
     before = mesh_state(obj)
     np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     np.testing.assert_array_equal(mesh_state(obj)[0], before[0])
     assert not obj.modifiers
@@ -152,7 +152,7 @@ def test_bind_data_of_another_format_is_reported_not_misread(gc):
     obj, cage = bound(gc)
     gc.binding.binding(obj).group["gencoords"]["format"] = 99  # as another version wrote
     assert "another version of GenCoords: Bind again or Unbind" in fault_text(gc, obj)
-    activate(obj)
+    make_active(obj)
     assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
     assert not obj.modifiers
 
@@ -239,7 +239,7 @@ def test_a_linked_library_object_is_refused(gc, tmp_path):
         target.objects = ["Mesh"]
     linked = target.objects[0]
     bpy.context.scene.collection.objects.link(linked)
-    activate(linked)
+    make_active(linked)
     with pytest.raises(RuntimeError, match="'Mesh' is linked from the library .* and cannot "
                                            "be changed: use Object > Library Override"):
         bpy.ops.object.gencoords_bind()

@@ -4,7 +4,7 @@ import tempfile
 
 import pytest
 
-from conftest import report_of, run_blender_script
+from fresh_process import report_of, run_blender_script
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,8 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import PACKAGE
-from scene_helpers import activate, add_icosphere_cage, add_subdivided_sphere, bind, mesh_state
+from fresh_process import PACKAGE
+from scene_helpers import make_active, add_icosphere_cage, add_subdivided_sphere, bind, mesh_state
 
 # Windows' semantics and broken workers, simulated in every worker (tests/core).
 _spec = importlib.util.spec_from_file_location(
@@ -76,7 +76,7 @@ def test_bind_computes_in_chunks_and_a_cancel_changes_nothing(gc, monkeypatch, w
     before = mesh_state(obj)
     monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 3000)  # 250 points a chunk per worker
     workers_preference(workers)
-    activate(obj)
+    make_active(obj)
     job = gc.binding.BindJob(obj, bpy.context)
     steps = job.steps()
     fractions = [next(steps) for _ in range(3)]
@@ -164,7 +164,7 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
 
 def test_make_cage_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, capfd, workers_preference):
     obj = add_subdivided_sphere(levels=1)
-    activate(obj)
+    make_active(obj)
     workers_preference(2)
     simulated_os.broken_start(monkeypatch)
     capfd.readouterr()

@@ -1,18 +1,12 @@
-"""The demo's scene (``scripts/blender_scenes.py``, which ``make demo`` builds): its cage
+"""The demo's scene (``scripts/common/scenes.py``, which ``make demo`` builds): its cage
 is snug around Suzanne, so the pictures show the mesh following the cage and stay in frame."""
-
-import sys
 
 import bpy
 import numpy as np
 import pytest
 
-from conftest import REPO
-
-sys.path.insert(0, str(REPO / "scripts"))
-import blender_scenes as scenes  # noqa: E402
-
-import gencoords  # noqa: E402  (the repository's core: the demo's scene uses it by path)
+import gencoords
+from scripts.common import scenes
 
 
 def world_positions(obj):

@@ -3,7 +3,7 @@ Bind found through the public, read-only ``binding_result`` (README, "Scripting"
 
 import pytest
 
-from conftest import report_of, run_blender_script
+from fresh_process import report_of, run_blender_script
 
 
 @pytest.fixture(scope="module")

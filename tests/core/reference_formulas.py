@@ -197,7 +197,6 @@ def wachspress_by_polar_dual_volumes(x, vertices, facets):
     facets around it, lies in the hyperplane p . (v_i - x) = 1; the weight is its
     (N-1)-volume over |v_i - x|. Volumes come from an explicit hull, not from the core.
     """
-    dim = vertices.shape[1]
     corners = vertices[facets]
     normals = np.array([np.linalg.svd(c[1:] - c[0])[2][-1] for c in corners])
     heights = np.einsum("mN,mN->m", normals, corners[:, 0] - x)

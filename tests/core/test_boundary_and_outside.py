@@ -189,3 +189,34 @@ def test_locations_come_with_the_coordinates():
     gencoords.coordinates(points, vertices, faces, outside="project", locations=locations)
     np.testing.assert_array_equal(locations, gencoords.point_locations(points, vertices, faces))
     np.testing.assert_array_equal(locations, [1, 0, -1, 0])
+
+
+@pytest.mark.parametrize("kind", gencoords.advanced.KINDS)
+def test_the_outside_threshold_is_the_boundary_tolerance(kind):
+    vertices, faces = octahedron()
+    tolerance = 1e-6
+    size = np.linalg.norm(np.ptp(vertices, axis=0))  # the cage's diagonal
+    centre = vertices[faces[0]].mean(axis=0)
+    normal = centre / np.linalg.norm(centre)  # outward, through the facet's centre
+    offsets = np.array([-3.0, -0.5, 0.0, 0.5, 3.0]) * tolerance * size  # along the outward normal
+    points = centre + offsets[:, None] * normal
+    where = gencoords.point_locations(points, vertices, faces, tolerance=tolerance)
+    np.testing.assert_array_equal(where, [gencoords.INSIDE, gencoords.BOUNDARY, gencoords.BOUNDARY, gencoords.BOUNDARY,
+                                          gencoords.OUTSIDE])
+    gencoords.coordinates(points[:4], vertices, faces, kind=kind, tolerance=tolerance)  # none outside
+    with pytest.raises(gencoords.OutsideCageError) as error:
+        gencoords.coordinates(points, vertices, faces, kind=kind, tolerance=tolerance)
+    assert list(error.value.indices) == [4]
+
+
+@pytest.mark.parametrize("kind", gencoords.advanced.KINDS)
+def test_beyond_a_sharp_vertex_within_tolerance_of_its_planes_is_still_outside(kind):
+    """Near a sharp apex a point can be within the tolerance of every facet's plane yet
+    farther than it from the cage: outside, not boundary (nor inside)."""
+    vertices, faces = octahedron((1.0, 1.0, 20.0))  # apex half-angle ~ 0.05 rad
+    tolerance = 1e-6
+    size = np.linalg.norm(np.ptp(vertices, axis=0))
+    beyond = vertices[4] + [0.0, 0.0, 5.0 * tolerance * size]  # ~0.25 tolerance from the planes
+    assert gencoords.point_locations(beyond[None], vertices, faces, tolerance=tolerance)[0] == gencoords.OUTSIDE
+    with pytest.raises(gencoords.OutsideCageError):
+        gencoords.coordinates(beyond, vertices, faces, kind=kind, tolerance=tolerance)

@@ -52,7 +52,7 @@ def quadrature(point, vertices, faces, levels=48):
     """phi and psi by their defining integrals, a midpoint rule on each face cut into
     levels^2 similar triangles: phi_i = sum over faces of the integral of the hat
     function times dG/dn, psi_j = -integral of G over face j, G = -1 / (4 pi r)."""
-    centres, weights = [], []
+    centres = []
     for i in range(levels):
         for j in range(levels - i):
             centres.append(((i + 1 / 3) / levels, (j + 1 / 3) / levels))

@@ -2,15 +2,18 @@
 
 Propositions 1 and 4 (and their N-D form) are one statement about the general
 construction; 3 and 9 one about Floater's form; 10 and the corollaries one about
-completeness. Each test is named after the statement it checks.
+completeness. Each test is named after the statement it checks; the statements that
+hold for any polytope are checked on random ones (hypothesis) in 2D, 3D and 4D.
 """
 
 import numpy as np
 import pytest
+from hypothesis import given
 
 import gencoords
 from gencoords.tools.shapes import convex_hull_facets, cross_polytope, icosphere, irregular_octahedron, octahedron
-from polytopes import random_convex_polytope, random_interior_points, regular_polygon
+from polytopes import (EXAMPLES, SEEDS, SHAPES, homogeneity_residual, polytope_and_points, random_convex_polytope,
+                       random_interior_points, regular_polygon)
 
 DIMENSIONS = [2, 3, 4]
 VERTEX_COUNTS = {2: 8, 3: 12, 4: 9}
@@ -22,27 +25,14 @@ def polytope(dim, seed=0, points=12):
     return rng, vertices, faces, random_interior_points(rng, vertices, points)
 
 
-def homogeneity_residual(weights, points, vertices):
-    """max |sum_i w_i (v_i - x)|, relative to the weights' and the cage's sizes."""
-    spokes = vertices[None] - points[:, None]
-    size = np.ptp(vertices, axis=0).max()
-    return np.abs(np.einsum("kn,knN->kN", weights, spokes)).max() / (np.abs(weights).max() * size)
-
-
-def sphere_polytope(dim, seed):
-    """A random polytope whose vertices lie on a sphere (circle in 2D)."""
-    rng = np.random.default_rng(seed)
-    directions = rng.normal(size=(VERTEX_COUNTS[dim], dim))
-    vertices = 1.7 * directions / np.linalg.norm(directions, axis=1, keepdims=True) + 0.3
-    return rng, vertices, convex_hull_facets(vertices)
-
-
-@pytest.mark.parametrize("dim", DIMENSIONS)
-def test_propositions_1_and_4_any_generating_surface_gives_homogeneous_weights(dim):
-    rng, vertices, faces, points = polytope(dim)
-    d = rng.uniform(0.1, 3.0, size=(len(points), len(gencoords.advanced.ridges(faces))))  # any surface
+@pytest.mark.parametrize("dim,count", SHAPES)
+@given(seed=SEEDS)
+@EXAMPLES
+def test_propositions_1_and_4_any_ridge_scalars_give_homogeneous_weights(seed, dim, count):
+    rng, vertices, faces, points = polytope_and_points(seed, dim, count)
+    d = rng.normal(size=(len(points), len(gencoords.advanced.ridges(faces))))  # any sign, any size
     weights = gencoords.advanced.weights_from_ridge_scalars(points, vertices, faces, d)
-    assert homogeneity_residual(weights, points, vertices) < 1e-12
+    assert homogeneity_residual(weights, points, vertices) < 1e-11
 
 
 @pytest.mark.parametrize("dim", DIMENSIONS)
@@ -67,21 +57,28 @@ def test_propositions_2_and_5_the_polytope_itself_generates_discrete_harmonic(di
                                atol=1e-4 if dim == 4 else 1e-8)
 
 
-@pytest.mark.parametrize("dim", DIMENSIONS)
-def test_propositions_3_and_9_floater_equals_the_construction_when_d_is_n_factorial_c_over_m(dim):
-    rng, vertices, faces, points = polytope(dim, seed=2)
+@pytest.mark.parametrize("dim,count", SHAPES)
+@given(seed=SEEDS)
+@EXAMPLES
+def test_propositions_3_and_9_floater_equals_the_construction_when_d_is_n_factorial_c_over_m(seed, dim, count):
+    rng, vertices, faces, points = polytope_and_points(seed, dim, count)
     c = rng.uniform(0.1, 2.0, size=(len(points), len(gencoords.advanced.ridges(faces))))
     d = gencoords.advanced.ridge_scalars_from_floater(points, vertices, faces, c)
-    np.testing.assert_allclose(gencoords.advanced.weights_from_ridge_scalars(points, vertices, faces, d),
-                               gencoords.advanced.floater_weights(points, vertices, faces, c), rtol=1e-9)
+    floater = gencoords.advanced.floater_weights(points, vertices, faces, c)
+    general = gencoords.advanced.weights_from_ridge_scalars(points, vertices, faces, d)
+    np.testing.assert_allclose(general, floater, rtol=1e-9, atol=1e-9 * np.abs(floater).max())
+    back = gencoords.advanced.floater_from_ridge_scalars(points, vertices, faces, d)
+    np.testing.assert_allclose(back, c, rtol=1e-12)
 
 
-@pytest.mark.parametrize("dim", [3, 4])
-def test_proposition_8_floater_gives_homogeneous_weights_for_any_scalars(dim):
-    rng, vertices, faces, points = polytope(dim, seed=3)
-    c = rng.normal(size=(len(points), len(gencoords.advanced.ridges(faces))))  # any sign
+@pytest.mark.parametrize("dim,count", SHAPES)
+@given(seed=SEEDS)
+@EXAMPLES
+def test_proposition_8_floater_gives_homogeneous_weights_for_any_scalars(seed, dim, count):
+    rng, vertices, faces, points = polytope_and_points(seed, dim, count)
+    c = rng.normal(size=(len(points), len(gencoords.advanced.ridges(faces))))
     weights = gencoords.advanced.floater_weights(points, vertices, faces, c)
-    assert homogeneity_residual(weights, points, vertices) < 1e-12
+    assert homogeneity_residual(weights, points, vertices) < 1e-10
 
 
 @pytest.mark.parametrize("dim", DIMENSIONS)
@@ -98,19 +95,33 @@ def test_proposition_10_and_corollaries_1_2_any_coordinates_come_from_some_surfa
     np.testing.assert_allclose(again / again.sum(), target, atol=1e-10)
 
 
-def test_proposition_6_voronoi_equals_discrete_harmonic_in_2d():
-    _, vertices, faces, points = polytope(2, seed=5)
+@given(seed=SEEDS)
+@EXAMPLES
+def test_proposition_6_voronoi_equals_discrete_harmonic_in_2d(seed):
+    _, vertices, faces, points = polytope_and_points(seed, 2, 7)
     np.testing.assert_allclose(gencoords.coordinates(points, vertices, faces, kind="voronoi"),
                                gencoords.coordinates(points, vertices, faces, kind="discrete_harmonic"),
                                atol=1e-12)
 
 
-@pytest.mark.parametrize("dim", DIMENSIONS)
-def test_proposition_7_wachspress_equals_voronoi_when_the_vertices_are_cospherical(dim):
-    rng, vertices, faces = sphere_polytope(dim, seed=6)
-    points = random_interior_points(rng, vertices, 12)
-    np.testing.assert_allclose(gencoords.coordinates(points, vertices, faces, kind="voronoi"),
-                               gencoords.coordinates(points, vertices, faces, kind="wachspress"), atol=1e-11)
+@pytest.mark.parametrize("dim", [2, 3, 4])
+@given(seed=SEEDS)
+@EXAMPLES
+def test_proposition_7_wachspress_equals_voronoi_exactly_when_the_vertices_are_cospherical(seed, dim):
+    rng = np.random.default_rng(seed)
+    count = {2: 7, 3: 10, 4: 8}[dim]
+    directions = rng.normal(size=(count, dim))
+    on_sphere = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    faces = convex_hull_facets(on_sphere)
+    points = random_interior_points(rng, on_sphere, 20)
+    voronoi = gencoords.coordinates(points, on_sphere, faces, kind="voronoi")
+    wachspress = gencoords.coordinates(points, on_sphere, faces, kind="wachspress")
+    np.testing.assert_allclose(voronoi, wachspress, atol=1e-11)
+    # Off the sphere (stretched: still convex, same faces) they differ.
+    stretched = on_sphere * np.linspace(0.6, 1.4, dim)
+    voronoi = gencoords.coordinates(points * np.linspace(0.6, 1.4, dim), stretched, faces, kind="voronoi")
+    wachspress = gencoords.coordinates(points * np.linspace(0.6, 1.4, dim), stretched, faces, kind="wachspress")
+    assert np.abs(voronoi - wachspress).max() > 1e-4
 
 
 @pytest.mark.parametrize("dim", DIMENSIONS)
@@ -125,11 +136,12 @@ def test_figure_9_discrete_harmonic_is_negative_somewhere_in_a_regular_octahedro
     vertices, faces = octahedron()
     report = gencoords.tools.coordinate_report(vertices, faces, "discrete_harmonic", samples=600)
     assert not report.positive and report.smallest < -1e-3
+    assert gencoords.tools.coordinate_report(vertices, faces, "mean_value", samples=600).positive
 
 
-@pytest.mark.parametrize("shape", ["octahedron", "icosahedron", "16-cell"])
+@pytest.mark.parametrize("shape", ["octahedron", "icosahedron", "icosphere", "16-cell"])
 def test_figure_9_voronoi_equals_wachspress_in_regular_polytopes(shape):
-    vertices, faces = {"octahedron": octahedron(), "icosahedron": icosphere(0),
+    vertices, faces = {"octahedron": octahedron(), "icosahedron": icosphere(0), "icosphere": icosphere(2),
                        "16-cell": cross_polytope(4)}[shape]
     points = random_interior_points(np.random.default_rng(7), vertices, 30)
     np.testing.assert_allclose(gencoords.coordinates(points, vertices, faces, kind="voronoi"),

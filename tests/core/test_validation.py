@@ -223,3 +223,11 @@ def test_a_tolerance_passed_to_a_cage_method_says_where_it_belongs():
     with pytest.raises(TypeError, match="unexpected keyword argument 'tolernce'") as error:
         cage.coordinates(np.zeros((1, 3)), tolernce=1e-6)
     assert "belongs to the cage" not in str(error.value)
+
+
+def test_a_cage_with_every_face_flipped_is_reported_inward():
+    vertices, faces = octahedron()
+    with pytest.raises(gencoords.CageError, match="inward") as error:
+        gencoords.advanced.validate_cage(vertices, faces[:, ::-1])
+    assert error.value.problem == "inward"
+    gencoords.advanced.validate_cage(vertices, faces)  # the same cage the right way out passes

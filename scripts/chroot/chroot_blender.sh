@@ -1,9 +1,9 @@
 #!/bin/sh
-# A real `blender` executable for scripts/check_release.py on a machine without one:
-# Debian's Blender in the screenshot chroot (scripts/panel_screenshots.sh --setup), on a
+# A real `blender` executable for scripts/release/check_release.py on a machine without one:
+# Debian's Blender in the screenshot chroot (scripts/chroot/panel_screenshots.sh --setup), on a
 # virtual display (Workbench renders need an OpenGL context even with -b).
-#   scripts/chroot_blender.sh --version
-#   .venv/bin/python scripts/check_release.py scripts/chroot_blender.sh
+#   scripts/chroot/chroot_blender.sh --version
+#   .venv/bin/python scripts/release/check_release.py scripts/chroot/chroot_blender.sh
 # Needs root; /work and /tmp are bind-mounted so paths are the same inside.
 set -eu
 CHROOT=${GENCOORDS_CHROOT:-/work/chroot-blender}

@@ -1,4 +1,4 @@
-"""GenCoords demo, headless: ``make demo`` (or ``.venv/bin/python scripts/demo.py``).
+"""GenCoords demo, headless: ``make demo`` (or ``.venv/bin/python scripts/demo/demo.py``).
 
 1. Binds a subdivided Suzanne (7958 vertices) to a convex icosphere cage with each of the
    four coordinate types through the installed extension, checks that an affine cage
@@ -22,13 +22,17 @@ import time
 
 import numpy as np
 
-import blender_session as session
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
+from scripts.common import session  # noqa: E402
 
 session.prepare()  # before bpy is imported: Blender reads its user folder then
-import blender_pictures as pictures  # noqa: E402
-import blender_scenes as scenes  # noqa: E402
+from scripts.common import pictures  # noqa: E402
+from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
-from blender_scenes import arrays  # noqa: E402
+from scripts.common.scenes import arrays  # noqa: E402
 import gencoords  # noqa: E402
 import gencoords.tools.shapes  # noqa: E402  (not imported by core itself)
 
@@ -214,12 +218,9 @@ def deformation_scene(shape_key=True):
 
 def bind(mesh, cage, kind):
     """Bind through the extension's operator, as a user would; returns the wall time."""
-    mesh.gencoords.cage = cage
-    mesh.gencoords.kind = ADDON_KINDS[kind]
-    scenes.make_active(mesh)
     start = time.perf_counter()
     with session.quiet():  # its "Info: Bound ..." report; the summary says it all
-        bpy.ops.object.gencoords_bind()
+        scenes.bind(mesh, cage, ADDON_KINDS[kind])
     return time.perf_counter() - start
 
 

@@ -10,10 +10,11 @@ field.blend also shows the coordinate field of cage vertex ``FIELD_VERTEX``.
 import sys
 from pathlib import Path
 
-import blender_session as session
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
+from scripts.common import session  # noqa: E402
 
 session.prepare()  # before bpy is imported: Blender reads its user folder then
-import blender_scenes as scenes  # noqa: E402
+from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
 
 FIELD_VERTEX = 7  # a cage vertex in front of Suzanne's face: a field clearly visible

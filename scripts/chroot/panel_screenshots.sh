@@ -3,21 +3,21 @@
 #
 # Blender runs under Xvfb inside a Debian chroot (outside git), so nothing is installed
 # on this machine but debootstrap:
-#   scripts/panel_screenshots.sh --setup   # once, as root: builds the chroot (~1.5 GB)
-#   scripts/panel_screenshots.sh           # as root: writes docs/pictures/*.png
-#   scripts/panel_screenshots.sh --check   # as root: an artist's session driven by real
-#                                          # keys (scripts/gui_check.py): out/gui_check/
+#   scripts/chroot/panel_screenshots.sh --setup   # once, as root: builds the chroot (~1.5 GB)
+#   scripts/chroot/panel_screenshots.sh           # as root: writes docs/pictures/*.png
+#   scripts/chroot/panel_screenshots.sh --check   # as root: an artist's session driven by real
+#                                          # keys (scripts/release/gui_check.py): out/gui_check/
 # The chroot is Debian unstable (sid) with its Blender package, from the mirror this
-# machine's apt uses (scripts/debian_mirror.sh); GENCOORDS_CHROOT picks another folder.
+# machine's apt uses (scripts/chroot/debian_mirror.sh); GENCOORDS_CHROOT picks another folder.
 set -eu
 
 CHROOT=${GENCOORDS_CHROOT:-/work/chroot-blender}
-REPO=$(cd "$(dirname "$0")/.." && pwd)
+REPO=$(cd "$(dirname "$0")/../.." && pwd)
 STAGE=/tmp/gencoords-screenshots   # inside the chroot
 PICTURES="$REPO/docs/pictures"
-SCRIPT=panel_screenshots.py
+SCRIPT=pictures/panel_screenshots.py
 if [ "${1:-}" = "--check" ]; then  # the same window, driven by keys instead of photographed
-    SCRIPT=gui_check.py
+    SCRIPT=release/gui_check.py
     PICTURES="$REPO/out/gui_check"
 fi
 APT="apt-get -o Acquire::Check-Valid-Until=false"  # the mirror's dates may trail the clock
@@ -31,7 +31,7 @@ mount_system() {
 
 if [ "${1:-}" = "--setup" ]; then
     command -v debootstrap >/dev/null || apt-get install -y debootstrap
-    debootstrap --variant=minbase sid "$CHROOT" "$(sh "$REPO/scripts/debian_mirror.sh")"
+    debootstrap --variant=minbase sid "$CHROOT" "$(sh "$REPO/scripts/chroot/debian_mirror.sh")"
     mount_system
     chroot "$CHROOT" sh -c "$APT update && DEBIAN_FRONTEND=noninteractive $APT install -y \
         --no-install-recommends blender xvfb xauth libgl1-mesa-dri x11-apps xdotool \
@@ -46,8 +46,8 @@ rm -rf "$CHROOT$STAGE"
 mkdir -p "$CHROOT$STAGE/shots"
 # The extension zip (Blender's own tools), and the scene bound with pip bpy 5.0.1 here:
 # (a file bound by one Blender opens bound in another: the deformer is Geometry Nodes).
-"$REPO/.venv/bin/python" "$REPO/scripts/panel_screenshot_scene.py" "$CHROOT$STAGE"
-"$REPO/.venv/bin/python" "$REPO/scripts/build_extension.py" >/dev/null  # the zip of this tree
+"$REPO/.venv/bin/python" "$REPO/scripts/pictures/panel_screenshot_scene.py" "$CHROOT$STAGE"
+"$REPO/.venv/bin/python" "$REPO/scripts/release/build_extension.py" >/dev/null  # the zip of this tree
 ZIP=$(ls -t "$REPO"/dist/gencoords-*.zip | head -n 1)
 cp -r "$REPO/scripts" "$CHROOT$STAGE/"
 cp "$ZIP" "$CHROOT$STAGE/gencoords.zip"

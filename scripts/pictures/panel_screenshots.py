@@ -1,6 +1,6 @@
 """Screenshots of the GenCoords panel in a real Blender window (not ``-b``): run by
-``scripts/panel_screenshots.sh``, which starts Blender under Xvfb with the extension
-installed, as ``blender --python scripts/panel_screenshots.py -- <output folder>``.
+``scripts/chroot/panel_screenshots.sh``, which starts Blender under Xvfb with the extension
+installed, as ``blender --python scripts/pictures/panel_screenshots.py -- <output folder>``.
 
 Opens the scene of ``panel_screenshot_scene.py`` (Suzanne in a fitted 42-vertex cage),
 unbound then bound, and saves the Properties editor's Modifiers tab and the 3D view with
@@ -13,11 +13,13 @@ import struct
 import subprocess
 import sys
 import traceback
-import zlib
 from pathlib import Path
 
 import bpy
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository (or its staged copy)
+from scripts.common.png import write_png  # noqa: E402
 
 SCENES = OUTPUT = None  # set by main(), or by a script that reuses these helpers
 EXTENSION = "bl_ext.user_default.gencoords"
@@ -66,18 +68,6 @@ def read_xwd(data):
     rows = np.frombuffer(data[start:start + bytes_per_line * height], dtype=np.uint8)
     pixels = rows.reshape(height, bytes_per_line)[:, :4 * width].reshape(height, width, 4)
     return pixels[:, :, 2::-1] if header[7] == 0 else pixels[:, :, 1:]  # BGRX or XRGB
-
-
-def write_png(path, rgb):
-    """A minimal PNG writer (8-bit RGB): Blender's Python has no image library."""
-    def chunk(kind, body):
-        return (struct.pack(">I", len(body)) + kind + body
-                + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF))
-    height, width = rgb.shape[:2]
-    raw = b"".join(b"\0" + np.ascontiguousarray(row).tobytes() for row in rgb)
-    path.write_bytes(b"\x89PNG\r\n\x1a\n"
-                     + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
-                     + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
 
 
 def open_scene(name):

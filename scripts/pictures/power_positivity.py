@@ -4,20 +4,19 @@ For regular and irregular convex polytopes in 2D, 3D and 4D, the smallest coordi
 of gencoords.tools.coordinate_report's interior sample (dense near the boundary) for each gamma,
 and the range of gamma where none is negative. Figures for docs/POWER.md:
 
-    .venv/bin/python scripts/power_positivity.py [--samples 3000] [--step 0.25]
+    .venv/bin/python scripts/pictures/power_positivity.py [--samples 3000] [--step 0.25]
         [--picture docs/power.png]
 """
 
 import argparse
 import os
-import struct
 import sys
-import zlib
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
+from scripts.common.png import write_png  # noqa: E402
 from gencoords.tools.shapes import (cross_polytope, icosphere, irregular_octahedron, octahedron,  # noqa: E402
                          random_convex_polytope, regular_polygon)
 
@@ -37,7 +36,7 @@ def polytopes():
 
 def positive_ranges(gammas, smallest):
     """The runs of consecutive gammas whose smallest coordinate is >= 0, as text."""
-    positive = smallest >= -core.base.tolerances.NEGATIVE
+    positive = smallest >= -gencoords.base.tolerances.NEGATIVE
     runs, start = [], None
     for index, flag in enumerate(list(positive) + [False]):
         if flag and start is None:
@@ -48,21 +47,6 @@ def positive_ranges(gammas, smallest):
             runs.append(f"{low}" if low == high else f"[{low}, {high}]")
             start = None
     return ", ".join(runs) or "none"
-
-
-def write_png(path, rgb):
-    """An (h, w, 3) float array in [0, 1] as an 8-bit PNG (numpy and zlib only)."""
-    data = np.clip(np.round(rgb * 255.0), 0, 255).astype(np.uint8)
-    rows = b"".join(b"\x00" + row.tobytes() for row in data)
-
-    def chunk(kind, payload):
-        body = kind + payload
-        return struct.pack(">I", len(payload)) + body + struct.pack(">I", zlib.crc32(body))
-
-    header = struct.pack(">IIBBBBB", data.shape[1], data.shape[0], 8, 2, 0, 0, 0)
-    with open(path, "wb") as file:
-        file.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows, 9))
-                   + chunk(b"IEND", b""))
 
 
 def field_picture(path, gammas=(-1.0, -0.5, 0.0, 0.5, 1.0, 2.0), pixels=220):

@@ -2,7 +2,7 @@
 # Prints the Debian mirror this machine's own apt configuration uses (its first
 # deb.sources "URIs:" or sources.list "deb" line whose suite is a Debian one), so that no
 # registry host is written into the repository. DEBIAN_MIRROR overrides it.
-#   CHROOT_MIRROR=$(sh scripts/debian_mirror.sh)
+#   CHROOT_MIRROR=$(sh scripts/chroot/debian_mirror.sh)
 set -eu
 if [ -n "${DEBIAN_MIRROR:-}" ]; then
     echo "$DEBIAN_MIRROR"

@@ -15,25 +15,26 @@ import time
 
 import numpy as np
 
-import blender_session as session
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
+from scripts.common import session  # noqa: E402
 
 session.prepare()  # before bpy is imported: Blender reads its user folder then
-import blender_scenes as scenes  # noqa: E402
+from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
-from blender_scenes import arrays  # noqa: E402
-from gencoords import Cage
+from scripts.common.scenes import arrays  # noqa: E402
+from gencoords import Cage  # noqa: E402
 from gencoords.tools import compact, skinning  # noqa: E402
 
 REPEATS = 7
 
 
 def bind(mesh, cage, kind="mean_value", storage="AUTO"):
-    mesh.gencoords.cage = cage
-    mesh.gencoords.kind = kind.upper()
-    mesh.gencoords.storage = storage
-    scenes.make_active(mesh)
+    """Bind through the operator (scenes.bind); returns the add-on's binding of ``mesh``."""
     with session.quiet():
-        result = bpy.ops.object.gencoords_bind()
+        result = scenes.bind(mesh, cage, kind, storage=storage)
     if "FINISHED" not in result:
         raise RuntimeError(f"gencoords_bind returned {result}")
     return session.addon_module("binding").binding(mesh)

@@ -48,12 +48,13 @@ from pathlib import Path
 
 import numpy as np
 
-import blender_session as session
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
+from scripts.common import session  # noqa: E402
 
 session.prepare()  # before bpy is imported: Blender reads its user folder then
-import blender_scenes as scenes  # noqa: E402
+from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
-from blender_scenes import arrays  # noqa: E402
+from scripts.common.scenes import arrays  # noqa: E402
 
 UPDATE_REPEATS = 7
 MOVED_CAGE_VERTEX = 0  # the top vertex of every icosphere: moves many mesh vertices
@@ -142,15 +143,9 @@ def bind_gencoords(mesh, cage, kind, storage):
     """GenCoords bound with ``kind`` and ``storage`` ('EXACT', 'COMPACT', 'COMPACT:<slots>'
     or 'AUTO'); returns the bind wall time."""
     storage, _, slots = storage.partition(":")
-    mesh.gencoords.cage = cage
-    mesh.gencoords.kind = kind.upper()
-    mesh.gencoords.storage = storage
-    if slots:
-        mesh.gencoords.compact_size = int(slots)
-    scenes.make_active(mesh)
     start = time.perf_counter()
     with session.quiet():  # its "Info: Bound ..." report
-        result = bpy.ops.object.gencoords_bind()
+        result = scenes.bind(mesh, cage, kind, storage=storage, compact_size=int(slots) if slots else None)
     seconds = time.perf_counter() - start
     if "FINISHED" not in result or not mesh.modifiers:
         raise RuntimeError(f"gencoords_bind ({kind}) returned {result}")

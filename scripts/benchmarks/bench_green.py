@@ -6,7 +6,7 @@ points; then the issue's sanity figure: the vertices of a sphere's triangulation
 (radius 0.6, 642 vertices) inside a 42-vertex icosphere cage stretched 1.6x along x, the
 mean and worst change of its triangles' angles with each.
 
-    .venv/bin/python scripts/bench_green.py [--points 4000]
+    .venv/bin/python scripts/benchmarks/bench_green.py [--points 4000]
 """
 
 import os
@@ -20,7 +20,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
 from gencoords.construction.green import green_coordinates, green_deform  # noqa: E402
 from gencoords.tools.shapes import icosphere  # noqa: E402

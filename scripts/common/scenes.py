@@ -1,34 +1,21 @@
 """Scenes the scripts build with bpy: Suzanne inside icosphere cages, fitted cages, mesh
 objects from arrays, and the cage edits the demo and the benchmarks apply.
 
-One piece of code per idea: ``demo.py`` and ``bench_*.py`` build the same subdivided
+One piece of code per idea: ``demo/demo.py`` and ``benchmarks/bench_*.py`` build the same subdivided
 Suzanne inside the same cages and read positions back the same way (the add-on's own
 ``gencoords_addon/mesh_arrays.py``, loaded by path), so the demo's pictures and the
-benchmarks' numbers describe the same thing. Import after ``blender_session.prepare()``.
+benchmarks' numbers describe the same thing. Import after ``session.prepare()``.
 """
-
-import importlib.util
 
 import bpy
 import numpy as np
 
 import gencoords
 from gencoords.construction.general import prepare_cage
-from blender_session import REPO
+from .blender_objects import arrays, bind, make_active  # noqa: F401 (scripts use them from here)
 from mathutils import Euler
 
 
-def _load_mesh_arrays():
-    """The add-on's mesh_arrays.py by path: it imports only bpy and numpy, and the demo
-    also runs parts without the extension installed."""
-    path = REPO / "gencoords_addon" / "mesh_arrays.py"
-    spec = importlib.util.spec_from_file_location("gencoords_mesh_arrays", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-arrays = _load_mesh_arrays()
 
 # Suzanne's subdivision level -> vertex count (primitive_monkey_add, size 2, applied
 # Catmull-Clark): the benchmark's three mesh sizes.
@@ -132,14 +119,6 @@ def add_mesh_object(name, vertices, faces=(), edges=(), collection=None):
     obj = bpy.data.objects.new(name, mesh)
     (collection or bpy.context.scene.collection).objects.link(obj)
     return obj
-
-
-def make_active(obj):
-    """Select ``obj`` alone and make it active: what the bind operators act on."""
-    for other in bpy.context.view_layer.objects:
-        other.select_set(False)
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
 
 
 def cage_size(points):

@@ -7,16 +7,16 @@ Given the path of a ``blender`` executable, in a throw-away Blender user folder
    ``blender_version_min`` (and ``blender_version_max`` when set);
 2. ``blender --command extension install-file -r user_default -e <zip>``: installs and
    enables the zip the way Blender's command line does;
-3. ``blender -b --python scripts/check_release.py -- --inside <out>``: a fresh Blender
+3. ``blender -b --python scripts/release/check_release.py -- --inside <out>``: a fresh Blender
    that starts with those preferences (the extension enabled at start-up, as for an
-   artist) builds the demo's scene (Suzanne in a 42-vertex cage, scripts/demo.py), binds
+   artist) builds the demo's scene (Suzanne in a 42-vertex cage, scripts/demo/demo.py), binds
    it through the operator, checks the mesh is unchanged at rest and follows a cage
    edit, renders a frame (Workbench) and saves the file; then the extension's own core
    computes coordinates in two worker processes from inside Blender (where
    ``sys.executable`` may be Blender itself) and checks them bitwise against one process;
 4. prints a report and exits non-zero when any step fails.
 
-Usage: python scripts/check_release.py BLENDER [--zip dist/gencoords-<version>.zip]
+Usage: python scripts/release/check_release.py BLENDER [--zip dist/gencoords-<version>.zip]
        [--out out/check_release]   (``make check-release BLENDER_BINARY=...`` builds first)
 """
 
@@ -33,7 +33,7 @@ import time
 import tomllib
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 MANIFEST = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))
 PACKAGE = f"bl_ext.user_default.{MANIFEST['id']}"
 
@@ -108,11 +108,10 @@ def inside(out):
     import bpy
     import numpy as np
 
-    sys.path.insert(0, str(REPO / "scripts"))
-    import blender_pictures as pictures
-    import blender_session as session
-    import demo
-    from blender_scenes import arrays
+    sys.path.insert(0, str(REPO))
+    from scripts.common import pictures, session
+    from scripts.common.scenes import arrays
+    from scripts.demo import demo
 
     failures = []
     enabled = PACKAGE in bpy.context.preferences.addons
@@ -156,7 +155,7 @@ def workers_inside_blender(report):
     returns failures."""
     import numpy as np
 
-    core = importlib.import_module(f"{PACKAGE}.core")
+    gencoords = importlib.import_module(f"{PACKAGE}.core")  # the extension's bundled copy
     parallel = importlib.import_module(f"{PACKAGE}.core.evaluation.parallel")
     shapes = importlib.import_module(f"{PACKAGE}.core.tools.shapes")
     vertices, faces = shapes.icosphere(2)

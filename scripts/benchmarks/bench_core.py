@@ -2,14 +2,14 @@
 
 Cost is reported per (point x facet) on a 642-vertex icosphere cage (1280 triangles),
 beside CGAL's (C++, double, one thread, the cage prepared once) run in the same process
-on the same cage and points when its binary is given (scripts/cgal_reference.sh builds
+on the same cage and points when its binary is given (scripts/chroot/cgal_reference.sh builds
 it), and peak extra memory for a large batch (numpy reports its allocations to
 tracemalloc).
 
-    .venv/bin/python scripts/bench_core.py [--points 4000] [--memory-points 200000]
-    .venv/bin/python scripts/bench_core.py --cgal build/cgal_reference
-    .venv/bin/python scripts/bench_core.py --workers     # 1, 2, 4, ... all cores
-    .venv/bin/python scripts/bench_core.py --million     # 1M points, mean value, float32
+    .venv/bin/python scripts/benchmarks/bench_core.py [--points 4000] [--memory-points 200000]
+    .venv/bin/python scripts/benchmarks/bench_core.py --cgal build/cgal_reference
+    .venv/bin/python scripts/benchmarks/bench_core.py --workers     # 1, 2, 4, ... all cores
+    .venv/bin/python scripts/benchmarks/bench_core.py --million     # 1M points, mean value, float32
 """
 
 import os
@@ -29,7 +29,7 @@ import tracemalloc  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
 from gencoords.evaluation.parallel import available_cores  # noqa: E402
 from gencoords.tools.shapes import icosphere  # noqa: E402
@@ -57,7 +57,7 @@ def best_time(function, repeats):
 
 
 def cgal_coordinates(binary, kind, vertices, faces, points, repeats):
-    """CGAL's coordinates and best time, by scripts/cgal_reference.cpp: ((k, n) float, s)."""
+    """CGAL's coordinates and best time, by scripts/chroot/cgal_reference.cpp: ((k, n) float, s)."""
     with tempfile.TemporaryDirectory() as folder:
         cage, queries, result = (os.path.join(folder, name) for name in ("cage.off", "points", "out"))
         with open(cage, "w") as off:
@@ -185,7 +185,7 @@ def main():
     parser.add_argument("--workers-points", type=int, default=40_000)
     parser.add_argument("--million", action="store_true", help="1M points, mean value, float32")
     parser.add_argument("--surfaces", action="store_true", help="numerical ridge scalars' cost")
-    parser.add_argument("--cgal", metavar="BINARY", help="scripts/cgal_reference.cpp, built")
+    parser.add_argument("--cgal", metavar="BINARY", help="scripts/chroot/cgal_reference.cpp, built")
     parser.add_argument("--independent", metavar="KIND", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.independent:

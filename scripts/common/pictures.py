@@ -7,7 +7,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from blender_session import quiet
+from .session import quiet
 from mathutils import Vector
 
 

@@ -16,14 +16,14 @@ import sys
 import tempfile
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 OUT = REPO / "out"
 DOCS = REPO / "docs"
 DIST = REPO / "dist"
 
 
 def prepare():
-    """Put the repository on ``sys.path`` (scripts/ load its files) and point Blender at a throw-away user
+    """Put the repository on ``sys.path`` (``scripts.common`` imports from there) and point Blender at a throw-away user
     folder (removed at exit). Call before ``import bpy``; returns the folder."""
     if str(REPO) not in sys.path:
         sys.path.insert(0, str(REPO))
@@ -39,7 +39,7 @@ def prepare():
 
 def _newest_source_time():
     """Latest modification time of anything that goes into the extension zip."""
-    paths = [REPO / "blender_manifest.toml", REPO / "scripts" / "build_extension.py"]
+    paths = [REPO / "blender_manifest.toml", REPO / "scripts" / "release" / "build_extension.py"]
     for folder in ("core", "gencoords_addon"):
         paths.extend((REPO / folder).rglob("*"))
     return max((p.stat().st_mtime for p in paths if p.is_file()), default=0.0)
@@ -54,12 +54,12 @@ def extension_zip(rebuild_if_stale=True):
     zips = sorted(DIST.glob("gencoords-*.zip"), key=lambda p: p.stat().st_mtime)
     if zips and not (rebuild_if_stale and zips[-1].stat().st_mtime < _newest_source_time()):
         return zips[-1]
-    print("building the extension: scripts/build_extension.py", flush=True)
-    subprocess.run([sys.executable, str(REPO / "scripts" / "build_extension.py")],
+    print("building the extension: scripts/release/build_extension.py", flush=True)
+    subprocess.run([sys.executable, str(REPO / "scripts" / "release" / "build_extension.py")],
                    cwd=REPO, check=True)
     zips = sorted(DIST.glob("gencoords-*.zip"), key=lambda p: p.stat().st_mtime)
     if not zips:
-        raise RuntimeError("scripts/build_extension.py wrote no dist/gencoords-*.zip")
+        raise RuntimeError("scripts/release/build_extension.py wrote no dist/gencoords-*.zip")
     return zips[-1]
 
 

@@ -1,6 +1,6 @@
 """An artist's session in a real Blender window, driven by real key presses: run by
-``scripts/gui_check.sh`` (Blender under Xvfb, keys sent with ``xdotool``) as
-``blender --python scripts/gui_check.py -- <scene folder> <output folder>``.
+``scripts/chroot/panel_screenshots.sh --check`` (Blender under Xvfb, keys sent with ``xdotool``) as
+``blender --python scripts/release/gui_check.py -- <scene folder> <output folder>``.
 
 Opens ``bound.blend`` of ``panel_screenshot_scene.py`` (Suzanne bound to its cage) and,
 one step per timer tick so that the window handles each key before the next check:
@@ -21,8 +21,8 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import panel_screenshots as shots  # noqa: E402  (window helpers, xwd capture)
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository (or its staged copy)
+from scripts.pictures import panel_screenshots as shots  # noqa: E402  (window helpers, xwd capture)
 
 SCENES, OUTPUT = map(Path, sys.argv[sys.argv.index("--") + 1:][:2])
 shots.SCENES, shots.OUTPUT = SCENES, OUTPUT

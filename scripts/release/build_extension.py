@@ -9,7 +9,7 @@ The extension's top-level ``__init__.py`` (Blender imports the package as
 manifest, ``gencoords_addon/`` and ``core/``: the repository root itself stays a plain
 folder, not a Python package that test runners or other tools would try to import.
 
-Usage: python scripts/build_extension.py [--output-dir DIR]
+Usage: python scripts/release/build_extension.py [--output-dir DIR]
 """
 
 import argparse
@@ -21,7 +21,7 @@ import tempfile
 import tomllib
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 BLENDER_EXT_RELATIVE = Path("scripts", "addons_core", "bl_pkg", "cli", "blender_ext.py")
 PACKAGED = ("blender_manifest.toml", "LICENSE", "gencoords_addon", "core")
 ENTRY_POINT = '''"""GenCoords Blender extension: the add-on is ``gencoords_addon``, the maths ``core``."""

@@ -1,9 +1,9 @@
-// CGAL's 3D barycentric coordinates on a cage and points given by scripts/bench_core.py,
+// CGAL's 3D barycentric coordinates on a cage and points given by scripts/benchmarks/bench_core.py,
 // so the benchmark compares both implementations on one machine, in one run, on the
 // same data (and checks that the two agree). Not part of the extension.
 //
-// Build (CGAL 6.x headers and Boost, e.g. Debian's libcgal-dev; see scripts/cgal_reference.sh):
-//   g++ -O3 -DNDEBUG -std=c++17 scripts/cgal_reference.cpp -o build/cgal_reference
+// Build (CGAL 6.x headers and Boost, e.g. Debian's libcgal-dev; see scripts/chroot/cgal_reference.sh):
+//   g++ -O3 -DNDEBUG -std=c++17 scripts/chroot/cgal_reference.cpp -o build/cgal_reference
 // Run:
 //   cgal_reference KIND CAGE.off POINTS.f64 COUNT REPEATS OUT.f64
 // KIND is wachspress, mean_value or discrete_harmonic; POINTS.f64 holds COUNT x 3 doubles;

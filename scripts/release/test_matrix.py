@@ -6,7 +6,7 @@ with that version's extension tools and installs it into that Blender. Prints a 
 pass/fail counts and wall times (set-up included) and exits non-zero when any version
 fails.
 
-Usage: python scripts/test_matrix.py VERSION [VERSION ...]
+Usage: python scripts/release/test_matrix.py VERSION [VERSION ...]
 """
 
 import re
@@ -15,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 COUNTS = re.compile(r"(\d+) (passed|failed|error|errors|skipped|xfailed)")
 
 
