@@ -9,6 +9,7 @@ the extension never touches the user's own Blender configuration.
 import atexit
 import contextlib
 import importlib
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -29,12 +30,26 @@ def prepare():
         sys.path.insert(0, str(REPO))
     if "bpy" in sys.modules:
         if getattr(sys.modules["bpy"].app, "binary_path", ""):  # inside a running Blender
-            return None  # (check_release.py): its own user folder stays
+            import_core_from_repository()  # (check_release.py): no venv, no gencoords
+            return None  # its own user folder stays
         raise RuntimeError("prepare() must run before bpy is imported")
     folder = tempfile.mkdtemp(prefix="gencoords-blender-user-")
     atexit.register(shutil.rmtree, folder, True)
     os.environ["BLENDER_USER_RESOURCES"] = folder
     return folder
+
+
+def import_core_from_repository():
+    """Make ``import gencoords`` work where the core is not installed (a real Blender's
+    own Python): the repository's ``core/`` folder under its installed name."""
+    try:
+        importlib.import_module("gencoords")
+    except ImportError:
+        spec = importlib.util.spec_from_file_location(
+            "gencoords", REPO / "core" / "__init__.py", submodule_search_locations=[str(REPO / "core")])
+        module = importlib.util.module_from_spec(spec)
+        sys.modules["gencoords"] = module
+        spec.loader.exec_module(module)
 
 
 def _newest_source_time():

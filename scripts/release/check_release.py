@@ -110,6 +110,7 @@ def inside(out):
 
     sys.path.insert(0, str(REPO))
     from scripts.common import pictures, session
+    session.prepare()  # inside Blender: the repository's core as gencoords for the scenes
     from scripts.common.scenes import arrays
     from scripts.demo import demo
 
