@@ -20,14 +20,15 @@ general construction, boundary limits, Floater, completeness, Green), ``evaluati
 from .base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError, WorkerWarning
 from .construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction.validation import DEFAULT_TOLERANCE
-from .evaluation.barycentric import coordinates, needs_convex, point_locations, weights
+from .construction.green import green_deform
+from .evaluation.barycentric import coordinates, green_coordinates, needs_convex, point_locations, weights
 from .evaluation.cage import Cage
 from .evaluation.deformation import deform
 from .surfaces.named import KIND_TABLE
 from . import advanced, tools  # noqa: E402  (the named sub-APIs, after the names they use)
 
 __all__ = [
-    "Cage", "coordinates", "weights", "point_locations", "deform",
+    "Cage", "coordinates", "weights", "point_locations", "deform", "green_coordinates", "green_deform",
     "KIND_TABLE", "needs_convex",
     "INSIDE", "BOUNDARY", "OUTSIDE", "DEFAULT_TOLERANCE",
     "CageError", "OutsideCageError", "WorkerError", "WorkerWarning", "AccuracyWarning",

@@ -8,9 +8,9 @@ cage from the vertices and the faces' unit outward normals,
 similarity of the cage moves the point by the same similarity, and a stretch keeps
 details' shape better than affine-invariant coordinates.
 
-:func:`green_rows` is the loop body over one chunk of points (shaped like
-:func:`gencoords.evaluation.rows.evaluate_rows`, for the worker pool); :func:`green_coordinates`
-runs it in this process.
+:func:`green_rows` is the loop body over one chunk of points
+(:func:`gencoords.evaluation.rows.evaluate_rows` calls it for kind ``"green"``, in this
+process or in workers); :func:`gencoords.green_coordinates` is the entry point.
 """
 
 from dataclasses import dataclass
@@ -23,10 +23,17 @@ from .general import facet_determinants, sum_rows
 from ..base.errors import CageError, OutsideCageError
 from ..base.inputs import _finite, checked, real_array
 from .units import to_world
-from .validation import DEFAULT_TOLERANCE, convexity_violation, validate_cage
+from .validation import DEFAULT_TOLERANCE, validate_cage
 
-__all__ = ["GreenTerms", "green_terms", "green_chunk_size", "green_rows", "green_coordinates",
+__all__ = ["GREEN", "GREEN_LABEL", "GREEN_DESCRIPTION", "GreenTerms", "green_terms", "green_chunk_size", "green_rows",
            "stretch_factors", "green_deform", "GreenOutsideError"]
+
+# The name the evaluation knows Green coordinates by (they are no generating surface
+# of the paper's family, so not in KIND_TABLE), and how people see them.
+GREEN = "green"
+GREEN_LABEL = "Green (shape-preserving)"
+GREEN_DESCRIPTION = ("Keeps details' shape when the cage stretches or bends (similarity "
+                     "invariant, uses the cage's face normals); any closed triangle cage")
 
 # (point, face) pairs per chunk: about 20 (m, k) float64 temporaries stay within a few MB.
 _CHUNK_PAIRS = 16 << 10
@@ -309,57 +316,6 @@ def _green_cage(vertices, faces, tolerance):
 
 
 @checked
-def green_coordinates(points, vertices, faces, outside="raise", tolerance=DEFAULT_TOLERANCE,
-                      dtype=np.float64):
-    """Green coordinates of points in a closed, outward-oriented triangle cage.
-
-    ``points = phi @ vertices + psi @ unit_normals`` and ``phi`` rows sum to 1 for points
-    inside (any closed cage, convex or not); points on the boundary (within
-    ``tolerance``) get the limit from inside.
-
-    Parameters
-    ----------
-    points : (k, 3) float
-    vertices : (n, 3) float
-    faces : (m, 3) int
-        Triangles counter-clockwise seen from outside.
-    outside : str
-        ``"raise"`` (:class:`GreenOutsideError`, an ``OutsideCageError``) or
-        ``"project"`` (the nearest boundary point's coordinates). Green coordinates do
-        not extrapolate: ``"extrapolate"`` is refused.
-    tolerance : float
-        Relative to the cage's size, as :func:`gencoords.coordinates`.
-    dtype : numpy.float32 or numpy.float64
-        Precision of the results (computed in float64).
-
-    Returns
-    -------
-    phi : (k, n) dtype
-        One per cage vertex.
-    psi : (k, m) dtype
-        One per face, in length units (it multiplies the face's unit normal).
-    """
-    if outside == "extrapolate":
-        raise ValueError("Green coordinates do not extrapolate outside the cage (their identity "
-                         "holds only inside); use outside='raise' or outside='project'")
-    cage = _green_cage(vertices, faces, tolerance)
-    terms = green_terms(cage)
-    convex = convexity_violation(cage, tolerance) is None
-    absolute = tolerance * cage.size
-    count = len(points)
-    phi = np.empty((count, len(cage.vertices)), dtype=dtype)
-    psi = np.empty((count, len(cage.topology.faces)), dtype=dtype)
-    locations = np.empty(count, dtype=np.int8)
-    chunk = green_chunk_size(cage)
-    for start in range(0, count, chunk):
-        rows = slice(start, min(start + chunk, count))
-        locations[rows] = green_rows(cage, terms, points[rows], convex, absolute, outside, phi[rows], psi[rows])
-    if outside == "raise" and (locations == OUTSIDE).any():
-        raise GreenOutsideError(np.flatnonzero(locations == OUTSIDE), count)
-    return phi, psi
-
-
-@checked
 def stretch_factors(vertices, cage_positions, faces):
     """Each face's stretch factor s_j from its rest shape to its deformed shape.
 
@@ -378,6 +334,15 @@ def stretch_factors(vertices, cage_positions, faces):
     Returns
     -------
     stretch : (m,) float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.advanced import stretch_factors
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> bool(np.allclose(stretch_factors(vertices, 2.5 * vertices + 1.0, faces), 2.5))
+    True
     """
     return _stretch(vertices, cage_positions, faces)
 
@@ -420,6 +385,18 @@ def green_deform(phi, psi, vertices, cage_positions, faces):
     -------
     positions : (k, 3) float64
         A deformed face of zero area has no normal and contributes no normal term.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> points = np.array([[0.1, 0.2, -0.3], [0.0, -0.4, 0.2]])
+    >>> phi, psi = gencoords.green_coordinates(points, vertices, faces)
+    >>> turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90 degrees about z
+    >>> moved = gencoords.green_deform(phi, psi, vertices, 2.0 * vertices @ turn.T, faces)
+    >>> bool(np.allclose(moved, 2.0 * points @ turn.T))  # a similarity, followed exactly
+    True
     """
     rest, deformed, faces = _deform_inputs(vertices, cage_positions, faces)
     _green_cage(rest, faces, DEFAULT_TOLERANCE)

@@ -1,4 +1,5 @@
-"""The public entry points: coordinates, weights, ridge scalars and locations of points.
+"""The public entry points: coordinates, weights, ridge scalars and locations of points,
+and Green coordinates.
 
 Each builds a :class:`gencoords.Cage` for the call (validated, prepared, and stopped again
 with its worker processes); callers with several batches of points keep one instead.
@@ -15,7 +16,7 @@ from ..construction.general import construct_weights, point_frame
 from ..construction.units import to_world
 from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 
-__all__ = ["coordinates", "weights", "ridge_scalars", "ridge_scalars_from_surface", "point_locations",
+__all__ = ["coordinates", "green_coordinates", "weights", "ridge_scalars", "ridge_scalars_from_surface", "point_locations",
            "needs_convex", "OUTSIDE_MODES", "ridges", "weights_from_ridge_scalars"]
 # Entries of the (k, r, nodes, N) arrays of one chunk of ridge_scalars_from_surface.
 _SURFACE_CHUNK_ENTRIES = 1 << 22
@@ -105,6 +106,58 @@ def coordinates(points, vertices, faces, kind=MEAN_VALUE, outside="raise",
     with Cage(vertices, faces, tolerance) as cage:
         return cage.coordinates(points, kind=kind, outside=outside, progress=progress, dtype=dtype,
                                 locations=locations, workers=workers, gamma=gamma)
+
+
+@checked
+def green_coordinates(points, vertices, faces, outside="raise", tolerance=DEFAULT_TOLERANCE, progress=None,
+                      dtype=np.float64, locations=None, workers=None):
+    """Green coordinates (Lipman, Levin and Cohen-Or 2008) of points in a closed triangle cage.
+
+    ``points = phi @ vertices + psi @ unit_normals`` and ``phi`` rows sum to 1, for points
+    inside any closed, outward-oriented triangle cage, convex or not; points on the
+    boundary (within ``tolerance``) get the limit from inside. Deform with
+    :func:`gencoords.green_deform`: a similarity of the cage moves the points by the same
+    similarity, and stretches keep details' shape (docs/MATH.md, "Green coordinates").
+
+    Parameters
+    ----------
+    points : (k, 3) float
+    vertices : (n, 3) float
+    faces : (m, 3) int
+        Triangles counter-clockwise seen from outside.
+    outside : str
+        ``"raise"`` (:class:`gencoords.OutsideCageError`) or ``"project"`` (the nearest
+        boundary point's coordinates). Green coordinates do not extrapolate:
+        ``"extrapolate"`` is refused.
+    tolerance : float
+        Relative to the cage's size, as :func:`coordinates`.
+    progress, dtype, locations, workers
+        As :func:`coordinates` (computed in float64; bitwise the same in any number of
+        worker processes).
+
+    Returns
+    -------
+    phi : (k, n) dtype
+        One per cage vertex.
+    psi : (k, m) dtype
+        One per face, in length units (it multiplies the face's unit normal).
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> phi, psi = gencoords.green_coordinates([[0.1, 0.2, -0.3]], vertices, faces)
+    >>> phi.shape, psi.shape
+    ((1, 42), (1, 80))
+    >>> normals = np.cross(*(vertices[faces[:, 1:]] - vertices[faces[:, :1]]).transpose(1, 0, 2))
+    >>> normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    >>> print((phi @ vertices + psi @ normals).round(12), phi.sum().round(12))
+    [[ 0.1  0.2 -0.3]] 1.0
+    """
+    with Cage(vertices, faces, tolerance) as cage:
+        return cage.green_coordinates(points, outside=outside, progress=progress, dtype=dtype,
+                                      locations=locations, workers=workers)
 
 
 @checked

@@ -19,6 +19,7 @@ from ..surfaces.named import CONVEX_ONLY_KINDS, MEAN_VALUE, kind_parameter, name
 from ..base.inputs import OUTSIDE_MODES, checked
 from .parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead, dispatch_units,
                        python_executable)
+from ..construction.green import GREEN, GreenOutsideError, green_chunk_size
 from ..construction.units import length_degree, to_world
 from ..construction.validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
 
@@ -171,6 +172,34 @@ class Cage:
         return result
 
     @checked
+    def green_coordinates(self, points, outside="raise", progress=None, dtype=np.float64, locations=None,
+                          workers=None):
+        """Green coordinates of points (see :func:`gencoords.green_coordinates`): 3D cages.
+
+        Parameters
+        ----------
+        points : (k, 3) float
+        outside, progress, dtype, locations, workers
+            As :meth:`coordinates`; ``outside`` is ``"raise"`` or ``"project"``.
+
+        Returns
+        -------
+        phi : (k, n) dtype
+        psi : (k, m) dtype
+            Views of one (k, n + m) array.
+        """
+        if self.dimension != 3:
+            raise CageError("bad_faces", f"Green coordinates need a 3D triangle cage, got a "
+                                         f"{self.dimension}D one")
+        if outside == "extrapolate":
+            raise ValueError("Green coordinates do not extrapolate outside the cage (their identity "
+                             "holds only inside); use outside='raise' or outside='project'")
+        result, where = self._evaluate(points, GREEN, outside, True, progress, dtype, workers)
+        if locations is not None:
+            locations[...] = where
+        return result[:, :len(self.vertices)], result[:, len(self.vertices):]
+
+    @checked
     def weights(self, points, kind=MEAN_VALUE, workers=None, gamma=None):
         """Homogeneous weights of a named kind (see :func:`gencoords.weights`): (k, n) float."""
         gamma = kind_parameter(kind, gamma)
@@ -236,25 +265,31 @@ class Cage:
         return wanted
 
     def _evaluate(self, points, kind, outside, normalise, progress, dtype, workers, gamma=None):
-        self._check_kind(kind)
-        gamma = kind_parameter(kind, gamma)
+        """(k, columns) results and (k,) locations: coordinates (n columns) or Green's
+        phi and psi (kind GREEN, n + m columns), here or in workers."""
+        green = kind == GREEN
+        if not green:
+            self._check_kind(kind)
+            gamma = kind_parameter(kind, gamma)
         cage = self._prepared
         if self._terms is None:
             self._terms = evaluation_terms(cage)
         count = len(points)
-        chunk = chunk_size(cage)
+        chunk = green_chunk_size(cage) if green else chunk_size(cage)
+        columns = len(cage.vertices) + (len(cage.topology.faces) if green else 0)
         job = dict(kind=kind, gamma=gamma, outside=outside, normalise=normalise, convex=self.convex,
                    absolute=self.tolerance * cage.size, chunk=chunk)
         chosen = self._worker_count(workers, count, len(cage.topology.faces))
         in_workers = chosen > 1
         if in_workers:
             try:
-                result, location = self._run_in_workers(points, job, chunk, progress, chosen, None, dtype)
+                result, location = self._run_in_workers(points, job, chunk, progress, chosen, None, dtype,
+                                                        columns)
             except WorkerError as error:
                 self._fall_back_or_raise(workers, error)
                 in_workers = False
         if not in_workers:  # progress starts again from 0 after a fall-back
-            result = np.empty((count, len(cage.vertices)), dtype=dtype)
+            result = np.empty((count, columns), dtype=dtype)
             location = np.empty(count, dtype=np.int8)
             keep_freed_memory_for_reuse()
             raising = False
@@ -270,7 +305,7 @@ class Cage:
                 if progress is not None:
                     progress(rows.stop / count)
         if outside == "raise" and (location == OUTSIDE).any():
-            raise OutsideCageError(np.flatnonzero(location == OUTSIDE), count)
+            raise (GreenOutsideError if green else OutsideCageError)(np.flatnonzero(location == OUTSIDE), count)
         return result, location
 
     def _fall_back_or_raise(self, workers, error):
@@ -306,8 +341,9 @@ class Cage:
                           f"{error:.1e} (estimated; {len(outside_rows)} outside points); use "
                           "outside='project', or a thicker cage", AccuracyWarning, stacklevel=4)
 
-    def _run_in_workers(self, points, job, chunk, progress, workers, locations, dtype):
-        """Compute ``job`` in worker processes: (result or None, locations)."""
+    def _run_in_workers(self, points, job, chunk, progress, workers, locations, dtype, columns=None):
+        """Compute ``job`` in worker processes: (result or None, locations); the result
+        has ``columns`` columns (default n)."""
         count = len(points)
         if self._pool is not None and (self._pool.closed or self._pool.size != workers):
             self.close()
@@ -315,7 +351,7 @@ class Cage:
             self._pool = WorkerPool(self.vertices, self.faces, workers)
         specs = {"points": (points.shape, np.float64), "locations": ((count,), np.int8)}
         if dtype is not None:
-            specs["result"] = ((count, len(self.vertices)), dtype)
+            specs["result"] = ((count, columns or len(self.vertices)), dtype)
         shared = SharedArrays(specs, reserved_by_writers=("result",) if dtype is not None else ())
         shared.arrays["points"][...] = points
         # Units of whole chunks (the same chunks as one process: bitwise the same rows).

@@ -16,6 +16,7 @@ from ..construction.boundary import (BOUNDARY, OUTSIDE, locate, nearest_boundary
 from ..construction.general import construct_weights, facet_determinants, point_frame
 from ..construction.floater import FloaterTerms, floater_form_weights, floater_terms
 from ..surfaces.named import MEAN_VALUE, WACHSPRESS, named_ridge_scalars, named_scaled_ridge_scalars
+from ..construction.green import GREEN, GreenTerms, green_rows, green_terms
 from ..construction.polar_dual import PolarDualTerms, polar_dual_terms, wachspress_polar_weights
 
 __all__ = ["EvaluationTerms", "evaluation_terms", "chunk_size", "evaluate_rows", "locate_rows"]
@@ -33,16 +34,18 @@ _LOCATE_CHUNK_PAIRS = 1 << 20
 
 @dataclass(frozen=True)
 class EvaluationTerms:
-    """Per-cage data of the evaluators: Floater's form, and Wachspress's closed form
-    (None above 3D)."""
+    """Per-cage data of the evaluators: Floater's form, Wachspress's closed form (None
+    above 3D) and Green coordinates' per-face constants (None but in 3D)."""
 
     floater: FloaterTerms
     polar_dual: PolarDualTerms
+    green: GreenTerms
 
 
 def evaluation_terms(cage):
     """The :class:`EvaluationTerms` of a prepared, closed and oriented cage."""
-    return EvaluationTerms(floater_terms(cage), polar_dual_terms(cage))
+    return EvaluationTerms(floater_terms(cage), polar_dual_terms(cage),
+                           green_terms(cage) if cage.dimension == 3 else None)
 
 
 def chunk_size(cage, locate_only=False, convex=True):
@@ -95,7 +98,8 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
     normalise : bool
         Coordinates (rows summing to 1) rather than homogeneous weights.
     out : (k, n) float32 or float64
-        Receives the rows.
+        Receives the rows; for kind ``"green"`` (k, n + m): phi, then psi
+        (:func:`gencoords.construction.green.green_rows`).
     gamma : float, optional
         The power family's parameter (kind "power").
 
@@ -103,6 +107,10 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
     -------
     locations : (k,) int8
     """
+    if kind == GREEN:
+        vertex_count = len(cage.vertices)
+        return green_rows(cage, terms.green, points, convex, absolute, outside, out[:, :vertex_count],
+                          out[:, vertex_count:])
     det = facet_determinants(cage, points)  # (k, m)
     distance = plane_distances(cage, det)
     where, limit = locate(cage, points, distance, absolute, convex)

@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
-from gencoords.construction.green import green_coordinates, green_deform  # noqa: E402
+from gencoords import green_coordinates, green_deform  # noqa: E402
 from gencoords.tools.shapes import icosphere  # noqa: E402
 
 

@@ -6,7 +6,8 @@ import pytest
 
 import gencoords
 from gencoords.base.errors import CageError, OutsideCageError
-from gencoords.construction.green import (GreenOutsideError, green_chunk_size, green_coordinates, green_deform, green_rows,
+from gencoords import green_coordinates, green_deform
+from gencoords.construction.green import (GreenOutsideError, green_chunk_size, green_rows,
                         green_terms, stretch_factors)
 from gencoords.base.orientation import orient_facets_outward
 from gencoords.tools.shapes import irregular_octahedron
@@ -272,3 +273,21 @@ def test_bad_inputs_raise_clear_errors():
         green_deform(phi, psi, vertices, vertices[1:], faces)
     with pytest.raises(ValueError, match="psi must be finite"):
         green_deform(phi, np.full_like(psi, np.inf), vertices, vertices, faces)
+
+
+def test_green_in_worker_processes_is_bitwise_the_same_with_progress_and_outside_errors():
+    vertices, faces = icosphere(2)
+    points = np.random.default_rng(7).uniform(-0.5, 0.5, (3000, 3))
+    seen = []
+    with gencoords.Cage(vertices, faces) as cage:
+        phi, psi = cage.green_coordinates(points, workers=1)
+        phi2, psi2 = cage.green_coordinates(points, workers=2, progress=seen.append, dtype=np.float32)
+        assert np.array_equal(phi.astype(np.float32), phi2) and np.array_equal(psi.astype(np.float32), psi2)
+        assert seen and seen[-1] == 1.0 and seen == sorted(seen)
+        with pytest.raises(GreenOutsideError, match="do not extrapolate") as error:
+            cage.green_coordinates(np.vstack([points, [[3.0, 0.0, 0.0]]]), workers=2)
+        assert list(error.value.indices) == [len(points)]
+        locations = np.empty(len(points) + 1, dtype=np.int8)
+        cage.green_coordinates(np.vstack([points, [[3.0, 0.0, 0.0]]]), outside="project", workers=2,
+                               locations=locations)
+        assert locations[-1] == gencoords.OUTSIDE and (locations[:-1] == gencoords.INSIDE).all()
