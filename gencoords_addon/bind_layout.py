@@ -6,7 +6,9 @@ A binding is a Geometry Nodes modifier whose node group carries the ID property
 ``METADATA`` (a dict: ``METADATA_KEYS`` and the figures measured at Bind), and vector
 point attributes on the mesh holding its slots three to an attribute
 (``slot_attribute_names``), plus, for compact storage, its basis of cage motions on the
-mesh's first n points (``basis_attribute_names``).
+mesh's first n points (``basis_attribute_names``; n + m rows for Green coordinates, whose
+slots are ``[phi, psi]``), and for Green coordinates the cage's triangles (three vertex
+indices) on the mesh's first m points (``triangle_attribute_name``).
 """
 
 FORMAT = 2  # bind data layout; data of another number read as "Bind again"
@@ -25,6 +27,7 @@ STORAGE = "storage"  # 'EXACT' or 'COMPACT'
 SLOT_COUNT = "slot_count"
 CAGE_VERTEX_COUNT = "cage_vertex_count"
 MESH_VERTEX_COUNT = "mesh_vertex_count"
+CAGE_FACE_COUNT = "cage_face_count"  # Green coordinates: the cage's triangles, m
 CAGE_NAME = "cage_name"  # the cage's name, kept up to date while it exists
 DELETED_CAGE = "deleted_cage"  # the name of the cage, once it is gone
 METADATA_KEYS = (FORMAT_KEY, KEY, KIND, OUTSIDE, STORAGE, SLOT_COUNT, CAGE_VERTEX_COUNT,
@@ -44,3 +47,8 @@ def slot_attribute_names(key, slot_count):
 def basis_attribute_names(key, slot_count):
     """Names of the vector attributes holding compact storage's basis, three columns each."""
     return [f"{attribute_prefix(key)}basis{t}" for t in range(-(-slot_count // 3))]
+
+
+def triangle_attribute_name(key):
+    """Name of the vector attribute holding a Green binding's cage triangles."""
+    return f"{attribute_prefix(key)}triangles"

@@ -22,10 +22,10 @@ import numpy as np
 from .. import core
 from ..core.tools import compact
 from . import compat, deformer, mesh_arrays, mesh_io, messages, preferences
-from .bind_layout import (CAGE_NAME, CAGE_VERTEX_COUNT, DELETED_CAGE, FORMAT, FORMAT_KEY, GAMMA,
-                          KEY, KIND, MESH_VERTEX_COUNT, METADATA, OUTSIDE, SLOT_COUNT, STORAGE,
-                          basis_attribute_names, slot_attribute_names)
-from .enums import core_name, kind_label, kind_parameter
+from .bind_layout import (CAGE_FACE_COUNT, CAGE_NAME, CAGE_VERTEX_COUNT, DELETED_CAGE, FORMAT, FORMAT_KEY,
+                          GAMMA, KEY, KIND, MESH_VERTEX_COUNT, METADATA, OUTSIDE, SLOT_COUNT, STORAGE,
+                          basis_attribute_names, slot_attribute_names, triangle_attribute_name)
+from .enums import core_name, is_green, kind_label, kind_parameter
 
 # Blender stores positions as float32: a flat cage face after Apply Rotation, or a mesh
 # vertex on the cage surface, is exact only to ~1e-7 of the cage's size, which the
@@ -97,14 +97,18 @@ class Binding:
         return deformer.read_rest_cage(self.group, self.info[CAGE_VERTEX_COUNT])
 
     def coordinates(self, mesh):
-        """The (k, n) float32 coordinates the mesh deforms with (compact: as reproduced
+        """The (k, rows) float32 coordinates the mesh deforms with (compact: as reproduced
         by its slots and basis), or None when the bind data is missing."""
         slots = mesh_arrays.read_triples(mesh, self.slot_names, self.info[SLOT_COUNT])
         if slots is None or self.basis_names is None:
             return slots
         basis = mesh_arrays.read_triples(mesh, self.basis_names, self.info[SLOT_COUNT])
-        count = self.info[CAGE_VERTEX_COUNT]
-        return None if basis is None else slots @ basis[:count].T
+        return None if basis is None else slots @ basis[:self.rows].T
+
+    @property
+    def rows(self):
+        """Coordinates per mesh vertex: n, or n + m for Green coordinates ([phi, psi])."""
+        return self.info[CAGE_VERTEX_COUNT] + self.info.get(CAGE_FACE_COUNT, 0)
 
     def coordinate_column(self, mesh, cage_vertex):
         """Every mesh vertex's coordinate for ``cage_vertex`` ((k,) float32), or None."""
@@ -297,7 +301,8 @@ class BindResult:
 
     storage: str
     slots: np.ndarray  # (k, s) float32
-    basis: np.ndarray  # (n, s) float64, or None for exact storage
+    basis: np.ndarray  # (n, s) float64 ((n + m, s) for Green), or None for exact storage
+    triangles: np.ndarray  # (m, 3) int: Green coordinates' cage triangles, else None
     rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
     info: dict  # METADATA
 
@@ -339,6 +344,7 @@ class BindJob:
         self.settings = settings = BindSettings.of(obj)
         self.cage, self.kind, self.gamma = settings.cage, settings.kind, settings.gamma
         self.outside, self.kind_label = settings.outside, settings.kind_label
+        self.green = is_green(self.kind)
         # Worker processes (None: the core's choice for the whole job; 1: in Blender).
         self.workers = preferences.worker_count(context)
         # Set when the workers failed and Blender computed instead: what to tell the artist.
@@ -353,6 +359,8 @@ class BindJob:
         }
         if self.gamma is not None:  # ID properties hold no None
             self.info[GAMMA] = self.gamma
+        if self.green:
+            self.info[CAGE_FACE_COUNT] = len(self.triangles)
         self.started = started
         self.result = None
 
@@ -392,14 +400,44 @@ class BindJob:
                             "infinite) positions, or an object has zero scale: fix them, "
                             "then Bind")
         self.triangles = geometry.triangles
+        if self.green:
+            self._green_frame(rest, world)
         return geometry
+
+    def _green_frame(self, rest, world):
+        """Green coordinates are similarity invariant, not affine: they are computed where
+        the deformer evaluates them, in the mesh's local space (a mirroring object
+        transform turns the cage's triangles inside out there: they are flipped)."""
+        if self.outside == 'extrapolate':
+            raise BindError("Green coordinates do not extrapolate outside the cage: set Outside "
+                            "to Report Error or Project, then Bind")
+        self.points, self.cage_vertices = rest, self.rest_cage.astype(np.float64)
+        if np.linalg.det(world[:3, :3]) < 0.0:
+            self.triangles = self.triangles[:, ::-1].copy()
+        if len(self.points) < len(self.triangles):
+            raise BindError(f"Green coordinates keep the cage's {len(self.triangles)} triangles on the "
+                            f"mesh's vertices, and '{self.obj.name}' has only {len(self.points)}: "
+                            "subdivide the mesh, use a cage with fewer faces or another type")
+
+    @property
+    def rows(self):
+        """Coordinates per mesh vertex: n, or n + m for Green coordinates ([phi, psi])."""
+        return len(self.cage_vertices) + (len(self.triangles) if self.green else 0)
+
+    def _basis(self, size):
+        """Compact storage's basis of cage motions, (rows, size) float64."""
+        if self.green:
+            return compact.green_motion_basis(self.cage_vertices, self.triangles, size)
+        return compact.motion_basis(self.cage_vertices, self.triangles, size)
 
     def _choose_storage(self):
         """Set ``storage`` (AUTO: measure in ``steps``), ``storage_choice``, ``measured``
         and, for compact storage, ``basis``."""
         settings = self.settings
-        count, cage_count = len(self.points), len(self.cage_vertices)
-        self.storage = choose_storage(settings.storage, count, cage_count, settings.compact_size)
+        count, cage_count = len(self.points), self.rows
+        # Green's basis starts with the 8 columns that keep similarities exact.
+        compact_size = max(settings.compact_size, 8) if self.green else settings.compact_size
+        self.storage = choose_storage(settings.storage, count, cage_count, compact_size)
         self.storage_choice = None  # why, in the panel's words (set where there is a why)
         self.measured = self.storage == 'AUTO'
         if settings.storage != 'EXACT' and self.storage == 'EXACT':
@@ -410,8 +448,7 @@ class BindJob:
             self.storage_choice = f"{label} ({why})"
         self.basis = None
         if self.storage == 'COMPACT':
-            self.basis = compact.motion_basis(self.cage_vertices, self.triangles,
-                                              min(settings.compact_size, cage_count))
+            self.basis = self._basis(min(compact_size, cage_count))
 
     def steps(self):
         """Compute the bind data chunk by chunk, yielding the fraction done (0 to 1).
@@ -436,11 +473,15 @@ class BindJob:
         """The core's coordinates of ``points`` ((k, n) float64), its errors as BindError."""
         if self.worker_failure is not None:  # they failed once: the rest in Blender too
             workers = 1
+        def compute(count):
+            if self.green:  # phi and psi side by side: the slots' n + m rows
+                return np.hstack(cage.green_coordinates(points, outside=self.outside, locations=locations,
+                                                        workers=count))
+            return cage.coordinates(points, kind=self.kind, outside=self.outside, locations=locations,
+                                    workers=count, gamma=self.gamma)
+
         try:
-            coordinates, failure = preferences.in_workers_or_blender(
-                lambda count: cage.coordinates(points, kind=self.kind, outside=self.outside,
-                                               locations=locations, workers=count,
-                                               gamma=self.gamma), workers)
+            coordinates, failure = preferences.in_workers_or_blender(compute, workers)
         except core.OutsideCageError:
             raise BindError(self._outside_message(cage)) from None
         except ValueError as error:  # every other core error is a ValueError
@@ -458,13 +499,14 @@ class BindJob:
         target on a sample of the mesh, or exact when compact needs more than half the
         cage's vertices (its slots and basis then take as much as exact storage) and
         exact storage fits AUTO_EXACT_MAX_BYTES; when it does not, compact with that half."""
-        count, cage_count = len(self.points), len(self.cage_vertices)
+        count, cage_count = len(self.points), self.rows
         sample = self.points[::max(1, count // DEVIATION_SAMPLES)]
         coordinates = self._coordinates(cage, sample, None)
-        basis = compact.motion_basis(self.cage_vertices, self.triangles, cage_count)
-        sizes = [size for size in range(3, cage_count, 3) if size > self.cage_vertices.shape[1]]
+        basis = self._basis(cage_count)
+        smallest = 8 if self.green else self.cage_vertices.shape[1] + 1
+        sizes = [size for size in range(3, cage_count, 3) if size >= smallest]
         size, _, _ = compact.smallest_size(coordinates, basis, self.cage_vertices,
-                                           AUTO_DEVIATION * AUTO_SAMPLE_MARGIN, sizes)
+                                           AUTO_DEVIATION * AUTO_SAMPLE_MARGIN, sizes, self._green_faces)
         saving = [each for each in sizes if each <= cage_count // 2]
         if size is None or size > cage_count // 2:
             exact_bytes = stored_bytes(count, cage_count, False)
@@ -478,8 +520,13 @@ class BindJob:
         # Compact: its line waits for the deviations measured on every vertex.
         self.storage, self.basis = 'COMPACT', basis[:, :size]
 
+    @property
+    def _green_faces(self):
+        """The triangles the deviations are measured with for Green coordinates, else None."""
+        return self.triangles if self.green else None
+
     def _compute(self, cage):
-        count, cage_count = len(self.points), len(self.cage_vertices)
+        count, cage_count = len(self.points), self.rows
         # Workers are chosen once for the whole job; each call gives every one a chunk.
         workers = cage.suggested_workers(count) if self.workers is None else self.workers
         if self.storage == 'AUTO':
@@ -506,39 +553,43 @@ class BindJob:
                     "for it)")
         # How this kind behaves in this cage, away from the mesh's own vertices (the
         # summary covers those): positivity and well-definedness on a sample.
-        report = core.tools.coordinate_report(self.cage_vertices, self.triangles, self.kind, gamma=self.gamma,
-                                        samples=REPORT_SAMPLES, tolerance=FLOAT32_TOLERANCE)
+        report = None if self.green else core.tools.coordinate_report(
+            self.cage_vertices, self.triangles, self.kind, gamma=self.gamma, samples=REPORT_SAMPLES,
+            tolerance=FLOAT32_TOLERANCE)
         slot_count = written.pop("slot_count")
         slots, locations = written.pop("slots"), written.pop("locations")
         self.info.update({STORAGE: self.storage, SLOT_COUNT: slot_count,
                           KEY: secrets.token_hex(3)})
         self.info.update(
-            report=report.headline,
+            report=("Green: similarity invariant, shape-preserving; any closed cage" if report is None
+                    else report.headline),
             points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
             points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
             nbytes=int(stored_bytes(count, slot_count, self.basis is not None)),
             bind_seconds=time.perf_counter() - self.started, **written)
         if self.storage_choice is not None:
             self.info["storage_choice"] = self.storage_choice
-        self.result = BindResult(self.storage, slots, self.basis, self.rest_cage, self.info)
+        self.result = BindResult(self.storage, slots, self.basis, self.triangles if self.green else None,
+                                 self.rest_cage, self.info)
 
     def _compute_slots(self, cage, workers):
         """Compute the slots in ``self.storage`` chunk by chunk, yielding the fraction done;
         returns them with the figures measured on them, as they will be written: the
         deviations from the exact coordinates (slots and basis in float32) on every vertex."""
-        count, cage_count = len(self.points), len(self.cage_vertices)
+        count, cage_count = len(self.points), self.rows
         slot_count = cage_count if self.basis is None else self.basis.shape[1]
         slots = np.empty((count, slot_count), dtype=np.float32)
         locations = np.empty(count, dtype=np.int8)
         stored_basis = (None if self.basis is None else  # as written: float32
                         self.basis.astype(np.float32).astype(np.float64))
         smallest, negative, affine_error = np.inf, 0, 0.0
-        smooth, drag = 0.0, np.zeros(cage_count)
+        smooth, drag = 0.0, np.zeros(len(self.cage_vertices))
         chunk = max(1, CHUNK_ENTRIES * workers // cage_count)
         for start in range(0, count, chunk):
             rows = slice(start, min(start + chunk, count))
             coordinates = self._coordinates(cage, self.points[rows], workers, locations[rows])
-            summary = core.tools.coordinate_summary(coordinates)
+            # Green's phi (the first n) sum to 1 and weigh the vertices as the others do.
+            summary = core.tools.coordinate_summary(coordinates[:, :len(self.cage_vertices)])
             smallest = min(smallest, summary["min"])
             negative += summary["negative_points"]
             affine_error = max(affine_error, summary["max_affine_error"])
@@ -546,7 +597,8 @@ class BindJob:
             reproduced = (slots[rows].astype(np.float64) if stored_basis is None else
                           slots[rows] @ stored_basis.T)
             residual = np.subtract(coordinates, reproduced, out=reproduced)
-            chunk_smooth, chunk_drag = compact.residual_deviations(residual, self.cage_vertices)
+            chunk_smooth, chunk_drag = compact.residual_deviations(residual, self.cage_vertices,
+                                                                   faces=self._green_faces)
             smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
             # With workers, shared memory: freed before the next chunk's.
             del coordinates, reproduced, residual
@@ -587,14 +639,18 @@ class BindJob:
         basis_names = None
         if result.basis is not None:
             basis_names = basis_attribute_names(key, result.info[SLOT_COUNT])
+        triangle_name = None if result.triangles is None else triangle_attribute_name(key)
         group = modifier = None
         try:
             group = deformer.build_group(f"GenCoords: {obj.name} in {self.cage.name}", key,
                                          result.rest_cage, result.info[MESH_VERTEX_COUNT],
-                                         result.info[SLOT_COUNT], basis_names)
+                                         result.info[SLOT_COUNT], basis_names, triangle_name,
+                                         0 if result.triangles is None else len(result.triangles))
             mesh_arrays.write_triples(obj.data, names, result.slots)
             if basis_names is not None:
                 mesh_arrays.write_triples(obj.data, basis_names, result.basis)
+            if triangle_name is not None:  # vertex indices, exact in float32 below 2^24
+                mesh_arrays.write_triples(obj.data, [triangle_name], result.triangles.astype(np.float32))
             modifier = obj.modifiers.new(MODIFIER_NAME, 'NODES')
             modifier.node_group = group
             modifier.show_in_editmode = True

@@ -23,7 +23,7 @@ import numpy as np
 from ..core.tools import compact, skinning
 from . import binding as bindings_module
 from . import compat, mesh_io
-from .enums import kind_label
+from .enums import is_green, kind_label
 
 BONE_PREFIX = "GenCoords "
 BAKE_INFO = "gencoords_bake"  # ID property of the rig's armature: the bake's figures
@@ -238,6 +238,11 @@ def _bake_inputs(obj, max_influences):
     found = bindings_module.binding(obj)
     if found.cage is None:
         raise bindings_module.BindError("The binding's cage is missing: Bind again first")
+    if is_green(found.info["kind"]):
+        raise bindings_module.BindError(
+            f"Cannot bake '{obj.name}' to bones: it is bound with Green coordinates, which also "
+            "follow the cage's face normals and stretch, and bones (linear blend skinning) "
+            "cannot: Bind with another Type (Mean Value, say), then Bake to Bones")
     coordinates = found.coordinates(obj.data)
     rest_local = found.rest_cage
     if coordinates is None or rest_local is None \

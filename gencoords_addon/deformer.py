@@ -20,6 +20,13 @@ three slots but costs five times as much per vertex). The small per-cage part (t
 ``E`` lanes) is single values: for exact storage, lanes gathered once onto a point
 cloud of s/3 points; for compact storage, one Attribute Statistic sum per lane.
 
+Green coordinates (slots ``[phi, psi]``, n + m of them) add the cage's face terms: the
+group builds a point cloud of n + m points whose displacements are the cage vertices'
+``C_j - R_j`` and then, per triangle, ``s_j n'_j - n_j`` (its unit normal now scaled by its
+stretch factor, minus its unit normal at rest; exactly 0 while its corners have not
+moved), from the triangles' corner indices kept on the mesh's first m points. The same
+lanes and sums then give ``P + sum_i phi_i (C_i - R_i) + sum_j psi_j (s_j n'_j - n_j)``.
+
 When the cage is missing, has another vertex count or non-finite positions, or the mesh
 has another vertex count than at bind time, the group passes the mesh through
 unchanged (the panel says why). It removes its own attributes from its output, so
@@ -39,6 +46,7 @@ MASK = "Mask"
 INVERT = "Invert Mask"
 LANE_NAMES = ("gencoords_lane_x", "gencoords_lane_y", "gencoords_lane_z")
 DISPLACEMENT = "gencoords_displacement"  # on the cage's copy inside the group
+REST = "gencoords_rest"  # Green: the rest cage, also stored on it
 AXES = "XYZ"
 COLUMN_WIDTH, ROW_HEIGHT = 220.0, 160.0
 
@@ -49,6 +57,10 @@ DEFORMER_COLUMNS = (
     "cage",  # Object Info, the cage's index and positions
     "rest",  # the bind-time cage, kept in the group
     "displacement",  # cage now minus at rest, stored on the cage
+    "face_corners",  # Green: a point per cage vertex and triangle, its corners
+    "face_vectors",  # ... their edge vectors now and at rest
+    "face_normals",  # ... unit normals and the stretch factor
+    "face_store",  # ... each point's displacement, stored on it
     "lane_index",  # per triple of slots: which cage vertices
     "lane_gather",  # their displacements
     "lane_split",  # ... split into axes
@@ -329,7 +341,8 @@ def _weighted_sums(build, slot_names, lanes):
     return partial[0]
 
 
-def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None):
+def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None,
+                triangle_name=None, face_count=0):
     """A new node group deforming a mesh of ``mesh_vertex_count`` vertices.
 
     Built in stages that pass sockets along, each in its own columns
@@ -351,7 +364,13 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
         s: n for exact storage, the basis size for compact storage.
     basis_names : list of str, optional
         Compact storage: the attributes holding the basis of cage motions on the first n
-        points (``bind_layout.basis_attribute_names``); None for exact storage.
+        points (n + m for Green coordinates; ``bind_layout.basis_attribute_names``); None
+        for exact storage.
+    triangle_name : str, optional
+        Green coordinates: the attribute holding the cage's m triangles (corner indices)
+        on the mesh's first m points; None for the other kinds.
+    face_count : int
+        Green coordinates: m.
     """
     rest_cage = np.asarray(rest_cage, dtype=np.float32)
     group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
@@ -361,20 +380,24 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
     build = _Builder(group, DEFORMER_COLUMNS)
     group_input = build.add('NodeGroupInput', "input")
     mesh = group_input.outputs[GEOMETRY]
-    cage, displacement = _cage_displacement(build, group_input, rest_cage)
+    cage, displacement = _cage_displacement(build, group_input, rest_cage, triangle_name is not None)
+    # What the slots weigh: the cage's vertices, or for Green also its faces.
+    moving = (cage, displacement) if triangle_name is None else _green_displacements(
+        build, mesh, cage, len(rest_cage), face_count, triangle_name)
     if basis_names is None:
-        lanes = _exact_lanes(build, cage, displacement, slot_count)
+        lanes = _exact_lanes(build, *moving, slot_count)
     else:
-        lanes = _compact_lanes(build, mesh, cage, displacement, basis_names)
+        lanes = _compact_lanes(build, mesh, *moving, basis_names)
     accumulated = _weighted_sums(build, slot_attribute_names(key, slot_count), lanes)
     moved = _moved_mesh(build, group_input, _offset(build, accumulated))
-    usable = _usable(build, mesh, cage, displacement, len(rest_cage), mesh_vertex_count)
+    usable = _usable(build, mesh, cage, moving, len(rest_cage), mesh_vertex_count)
     switch = build.add('GeometryNodeSwitch', "guard_switch", input_type='GEOMETRY')
     build.link(usable, switch.inputs["Switch"])
     build.link(mesh, switch.inputs["False"])
     build.link(moved, switch.inputs["True"])
     output = _strip_attributes(build, switch.outputs[0], key,
-                               slot_attribute_names(key, slot_count) + (basis_names or []))
+                               slot_attribute_names(key, slot_count) + (basis_names or [])
+                               + ([triangle_name] if triangle_name else []))
     build.link(output, build.add('NodeGroupOutput', "output").inputs[GEOMETRY])
     return group
 
@@ -396,18 +419,92 @@ def _deformer_interface(interface):
     interface.new_socket(GEOMETRY, in_out='OUTPUT', socket_type='NodeSocketGeometry')
 
 
-def _cage_displacement(build, group_input, rest_cage):
-    """The cage with ``DISPLACEMENT`` (now minus at rest) stored on its points, and that
-    attribute's field."""
+def _cage_displacement(build, group_input, rest_cage, keep_rest=False):
+    """The cage with ``DISPLACEMENT`` (now minus at rest) stored on its points (and
+    ``REST`` with ``keep_rest``), and the displacement's field."""
     cage = _cage_info(build, group_input)
     cage_index = build.add('GeometryNodeInputIndex', "cage").outputs[0]
     position = build.add('GeometryNodeInputPosition', "cage").outputs[0]
     rest = build.index_switch("rest", cage_index, rest_cage.tolist())
     # Stored once: every consumer of a field evaluates it again, and the Index Switch
     # over n constants costs n^2 per evaluation.
+    if keep_rest:
+        cage = build.store("displacement", cage, REST, rest)
+        rest = build.named_attribute("displacement", REST)
     cage = build.store("displacement", cage, DISPLACEMENT,
                        build.math("displacement", 'SUBTRACT', position, rest))
     return cage, build.named_attribute("displacement", DISPLACEMENT)
+
+
+def _green_displacements(build, mesh, cage, cage_vertex_count, face_count, triangle_name):
+    """A point cloud of n + m points with ``DISPLACEMENT`` stored: the cage's vertices'
+    (``C - R``), then each triangle's ``s n' - n`` (0 while its corners are at rest, so
+    the mesh stays bitwise at rest); and that attribute's field."""
+    cloud = build.add('GeometryNodePoints', "face_corners")
+    cloud.inputs["Count"].default_value = cage_vertex_count + face_count
+    index = build.add('GeometryNodeInputIndex', "face_corners").outputs[0]
+    triangle = build.math("face_corners", 'SUBTRACT', index, float(cage_vertex_count), vector=False)
+    corners = build.add('ShaderNodeSeparateXYZ', "face_corners")
+    build.link(build.sample_index("face_corners", mesh, build.named_attribute("face_corners", triangle_name),
+                                  triangle), corners.inputs[0])
+    position = build.add('GeometryNodeInputPosition', "face_corners").outputs[0]
+    rest_field = build.named_attribute("face_corners", REST)
+    now = [build.sample_index("face_vectors", cage, position, corners.outputs[c]) for c in range(3)]
+    rest = [build.sample_index("face_vectors", cage, rest_field, corners.outputs[c]) for c in range(3)]
+    edges_now = [build.math("face_vectors", 'SUBTRACT', now[c], now[0]) for c in (1, 2)]
+    edges_rest = [build.math("face_vectors", 'SUBTRACT', rest[c], rest[0]) for c in (1, 2)]
+    face = _scaled_normal_change(build, edges_rest, edges_now)
+    # Exactly 0 while the triangle's corners are where they were at Bind.
+    still = build.compare("face_normals", 'FLOAT', build.math("face_normals", 'ADD', build.math(
+        "face_normals", 'ADD', build.math("face_normals", 'DISTANCE', now[0], rest[0]),
+        build.math("face_normals", 'DISTANCE', now[1], rest[1]), vector=False),
+        build.math("face_normals", 'DISTANCE', now[2], rest[2]), vector=False), 0.0)
+    face = _switch(build, "face_store", 'VECTOR', still, face, (0.0, 0.0, 0.0))
+    vertex = build.sample_index("face_store", cage, build.named_attribute("face_store", DISPLACEMENT), index)
+    is_vertex = build.add('FunctionNodeCompare', "face_store", data_type='INT', operation='LESS_THAN')
+    operands = compat.compare_operands(is_vertex)
+    build.link(index, operands[0])
+    operands[1].default_value = cage_vertex_count
+    value = _switch(build, "face_store", 'VECTOR', is_vertex.outputs[0], face, vertex)
+    cloud = build.store("face_store", cloud.outputs[0], DISPLACEMENT, value)
+    return cloud, build.named_attribute("face_store", DISPLACEMENT)
+
+
+def _scaled_normal_change(build, edges_rest, edges_now):
+    """``s n' - n`` of a triangle from its edge vectors at rest (u, v) and now (u', v'):
+    ``s = ||(u', v')|| / (sqrt(2) |u x v|)``, ``||(u', v')||^2 = |u'|^2 |v|^2
+    - 2 (u'.v')(u.v) + |v'|^2 |u|^2`` (docs/MATH.md)."""
+    (u, v), (u_now, v_now) = edges_rest, edges_now
+    column = "face_normals"
+
+    def dot(a, b):
+        return build.math(column, 'DOT_PRODUCT', a, b)
+
+    def times(a, b):
+        return build.math(column, 'MULTIPLY', a, b, vector=False)
+
+    doubled_rest = build.math(column, 'CROSS_PRODUCT', u, v)
+    squared = build.math(column, 'ADD', build.math(column, 'SUBTRACT', times(dot(u_now, u_now), dot(v, v)),
+                                                   times(2.0, times(dot(u_now, v_now), dot(u, v))), vector=False),
+                         times(dot(v_now, v_now), dot(u, u)), vector=False)
+    root = build.math(column, 'SQRT', build.math(column, 'MAXIMUM', squared, 0.0, vector=False), vector=False)
+    stretch = build.math(column, 'DIVIDE', root, times(np.sqrt(2.0), build.math(column, 'LENGTH', doubled_rest)),
+                         vector=False)
+    normal_now = build.math(column, 'NORMALIZE', build.math(column, 'CROSS_PRODUCT', u_now, v_now))
+    return build.math(column, 'SUBTRACT', build.scale(column, normal_now, stretch),
+                      build.math(column, 'NORMALIZE', doubled_rest))
+
+
+def _switch(build, column, input_type, condition, if_false, if_true):
+    """``if_true`` where ``condition``, else ``if_false`` (sockets or constants)."""
+    node = build.add('GeometryNodeSwitch', column, input_type=input_type)
+    build.link(condition, node.inputs["Switch"])
+    for socket, value in ((node.inputs["False"], if_false), (node.inputs["True"], if_true)):
+        if isinstance(value, bpy.types.NodeSocket):
+            build.link(value, socket)
+        else:
+            socket.default_value = value
+    return node.outputs[0]
 
 
 def _offset(build, accumulated):
@@ -437,14 +534,14 @@ def _moved_mesh(build, group_input, offset):
     return moved.outputs[0]
 
 
-def _usable(build, mesh, cage, displacement, cage_vertex_count, mesh_vertex_count):
+def _usable(build, mesh, cage, moving, cage_vertex_count, mesh_vertex_count):
     """Whether deforming is meaningful: the cage and the mesh have their bind-time
-    vertex counts and the cage's displacement is finite."""
+    vertex counts and the displacements (``moving``: geometry, field) are finite."""
     cage_size = build.add('GeometryNodeAttributeDomainSize', "offset", component='MESH')
     build.link(cage, cage_size.inputs[0])
     mesh_size = build.add('GeometryNodeAttributeDomainSize', "offset", component='MESH')
     build.link(mesh, mesh_size.inputs[0])
-    total = build.statistic_sum("offset", cage, displacement)
+    total = build.statistic_sum("offset", *moving)
     # NaN and infinity are the only values for which x - x is not zero.
     difference = build.math("guard_compare", 'SUBTRACT', total, total)
     finite = build.compare("guard_compare", 'FLOAT',

@@ -2,12 +2,16 @@
 add-on), so the settings, the binding code and the panel all read the same tables.
 
 Kind identifiers are the core's names in upper case (``core_name``); the core's table of
-kinds (``core.KIND_TABLE``) is the one list of them.
+kinds (``core.KIND_TABLE``) is the one list of them, with Green coordinates after it.
 """
 
 from .. import core
+from ..core.construction.green import GREEN, GREEN_DESCRIPTION, GREEN_LABEL
 
-KIND_ITEMS = tuple((kind.name.upper(), kind.label, kind.description) for kind in core.KIND_TABLE)
+# The paper's kinds, then Green coordinates (not a generating surface: the core keeps
+# them out of its table, and the deformer adds the cage's face terms for them).
+KIND_ITEMS = tuple((kind.name.upper(), kind.label, kind.description) for kind in core.KIND_TABLE) + (
+    (GREEN.upper(), GREEN_LABEL, GREEN_DESCRIPTION),)
 DEFAULT_KIND = "MEAN_VALUE"
 OUTSIDE_ITEMS = (
     ("RAISE", "Report Error", "Refuse to bind when mesh vertices lie outside the cage"),
@@ -47,4 +51,11 @@ def kind_label(name):
 
 def kind_parameter(identifier):
     """The name of the kind's parameter ('gamma' for the power family), or None."""
+    if is_green(identifier):
+        return None
     return core.KIND_TABLE[core.advanced.KINDS.index(core_name(identifier))].parameter
+
+
+def is_green(identifier):
+    """Whether a kind (enum identifier or core name) is Green coordinates."""
+    return core_name(identifier) == GREEN

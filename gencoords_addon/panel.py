@@ -7,7 +7,7 @@ import bpy
 
 from .binding import binding, bindings, meshes_driven_by
 from .status import status_lines
-from .enums import kind_parameter
+from .enums import is_green, kind_parameter
 from .visualise import field_range
 
 
@@ -38,6 +38,9 @@ def draw_settings(layout, obj, width=None):
     column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
     if kind_parameter(settings.kind) == "gamma":
         column.prop(settings, "gamma")
+    if is_green(settings.kind):  # the one type that is not affine invariant: say what it does
+        for number, line in enumerate(wrapped("Keeps details' shape when the cage stretches", width)):
+            column.label(text=line, icon='INFO' if number == 0 else 'BLANK1')
     column.prop(settings, "outside")
     column.prop(settings, "storage")
     if settings.storage == 'COMPACT':  # Automatic picks its own slots, by measuring

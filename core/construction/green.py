@@ -26,7 +26,7 @@ from .units import to_world
 from .validation import DEFAULT_TOLERANCE, validate_cage
 
 __all__ = ["GREEN", "GREEN_LABEL", "GREEN_DESCRIPTION", "GreenTerms", "green_terms", "green_chunk_size", "green_rows",
-           "stretch_factors", "green_deform", "GreenOutsideError"]
+           "stretch_factors", "green_deform", "green_displacements", "GreenOutsideError"]
 
 # The name the evaluation knows Green coordinates by (they are no generating surface
 # of the paper's family, so not in KIND_TABLE), and how people see them.
@@ -356,6 +356,56 @@ def _stretch(rest, deformed, faces):
     return np.sqrt(np.maximum(squared, 0.0)) / (np.sqrt(8.0) * area)
 
 
+def _unit_normals(positions, faces):
+    """Unit normals of the faces, (m, 3); a face of zero area has none: 0."""
+    doubled = np.cross(positions[faces[:, 1]] - positions[faces[:, 0]], positions[faces[:, 2]] - positions[faces[:, 0]])
+    length = np.linalg.norm(doubled, axis=1, keepdims=True)
+    return np.divide(doubled, length, out=np.zeros_like(doubled), where=length > 0.0)
+
+
+def _scaled_normals(rest, deformed, faces):
+    """``s n'`` of every face, (m, 3)."""
+    return _stretch(rest, deformed, faces)[:, None] * _unit_normals(deformed, faces)
+
+
+def green_displacements(vertices, cage_positions, faces):
+    """The cage motion as Green coordinates see it: ``[v' - v; s n' - n]``, (n + m, 3).
+
+    A point with Green coordinates ``(phi, psi)`` moves by ``[phi, psi] @`` this (the
+    deformer's form, ``P + sum_i phi_i (C_i - R_i) + sum_j psi_j (s_j n'_j - n_j)``):
+    0 at rest, and linear in the motion for similarities.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+        Rest cage.
+    cage_positions : (n, 3) float
+        Deformed cage.
+    faces : (m, 3) int
+
+    Returns
+    -------
+    displacements : (n + m, 3) float64
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> from gencoords.construction.green import green_displacements
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> point = np.array([[0.1, 0.2, -0.3]])
+    >>> phi, psi = gencoords.green_coordinates(point, vertices, faces)
+    >>> moved = vertices * [1.6, 1.0, 1.0]
+    >>> offset = np.hstack([phi, psi]) @ green_displacements(vertices, moved, faces)
+    >>> bool(np.allclose(point + offset, gencoords.green_deform(phi, psi, vertices, moved, faces)))
+    True
+    """
+    rest = np.asarray(vertices, dtype=np.float64)
+    moved = np.asarray(cage_positions, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    return np.vstack([moved - rest, _scaled_normals(rest, moved, faces) - _unit_normals(rest, faces)])
+
+
 def _coordinate_array(value, name, shape):
     array = real_array(value, name, keep_float32=True)
     if array.ndim == 1:
@@ -402,11 +452,7 @@ def green_deform(phi, psi, vertices, cage_positions, faces):
     _green_cage(rest, faces, DEFAULT_TOLERANCE)
     phi = _coordinate_array(phi, "phi", (None, len(rest)))
     psi = _coordinate_array(psi, "psi", (len(phi), len(faces)))
-    doubled = np.cross(deformed[faces[:, 1]] - deformed[faces[:, 0]], deformed[faces[:, 2]] - deformed[faces[:, 0]])
-    length = np.linalg.norm(doubled, axis=1, keepdims=True)
-    unit = np.divide(doubled, length, out=np.zeros_like(doubled), where=length > 0.0)
-    scaled_normals = _stretch(rest, deformed, faces)[:, None] * unit
-    return phi.astype(np.float64) @ deformed + psi.astype(np.float64) @ scaled_normals
+    return phi.astype(np.float64) @ deformed + psi.astype(np.float64) @ _scaled_normals(rest, deformed, faces)
 
 
 _deform_inputs = checked(lambda vertices, cage_positions, faces: (vertices, cage_positions, faces))

@@ -19,13 +19,18 @@ How far the compact form is from the exact one depends on the cage and on where 
 points lie: :func:`residual_deviations` measures the standard smooth motion and the worst
 single-vertex drag exactly from the coordinates' residual ``W - slots @ basis.T``, and
 :func:`smallest_size` finds the fewest basis vectors that keep both under a target.
+
+Green coordinates (``[phi, psi]``, n + m per point) compress the same way over the
+n + m rows of :func:`gencoords.construction.green.green_displacements`, with
+:func:`green_motion_basis`; the functions below take ``faces`` for them.
 """
 
 import numpy as np
 
 from ..base import tolerances
+from ..construction.green import green_displacements
 
-__all__ = ["motion_basis", "smooth_test_motion", "vertex_drag_motion", "deviation",
+__all__ = ["motion_basis", "green_motion_basis", "smooth_test_motion", "vertex_drag_motion", "deviation",
            "residual_deviations", "smallest_size", "DRAG_FRACTION"]
 
 DRAG_FRACTION = 0.1  # the dragged cage vertex moves this fraction of the cage's diagonal
@@ -78,6 +83,71 @@ def motion_basis(vertices, faces, size):
     outside_affine = np.linalg.norm(affine.T @ vectors, axis=0) < 0.5
     smooth = vectors[:, outside_affine][:, np.argsort(values[outside_affine])]
     return np.column_stack([affine, smooth[:, :size - dim - 1]])
+
+
+def _dual_edges(faces):
+    """Pairs of triangles sharing an edge, (e, 2) int."""
+    faces = np.asarray(faces, dtype=np.int64)
+    edges = np.sort(np.concatenate([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]]), axis=1)
+    owners = np.tile(np.arange(len(faces)), 3)
+    order = np.lexsort(edges.T[::-1])
+    edges, owners = edges[order], owners[order]
+    same = (edges[1:] == edges[:-1]).all(axis=1)
+    return np.column_stack([owners[:-1][same], owners[1:][same]])
+
+
+def green_motion_basis(vertices, faces, size):
+    """Orthonormal motions of Green coordinates' n + m rows (vertices, then faces).
+
+    Block-diagonal: the vertex rows take :func:`motion_basis` (affine, then smooth), the
+    face rows the same construction on the faces' unit normals over the triangles'
+    adjacency (constant and linear in the normal, then smooth). A similarity moves the
+    vertices affinely and turns and scales the normals linearly, so every similarity of
+    the cage lies in the first 8 columns: compact Green storage follows it exactly.
+    Then the two parts' smooth modes alternate in proportion to their sizes.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    faces : (m, 3) int
+        Outward triangles.
+    size : int
+        Number of columns s, between 8 and n + m.
+
+    Returns
+    -------
+    basis : (n + m, s) float64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.compact import green_motion_basis
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> basis = green_motion_basis(vertices, faces, 24)
+    >>> basis.shape, bool(np.allclose(basis.T @ basis, np.eye(24)))
+    ((122, 24), True)
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    count, face_count = len(vertices), len(faces)
+    if not 8 <= size <= count + face_count:
+        raise ValueError(f"size must be between 8 (the similarities) and {count + face_count} (the "
+                         f"cage's vertex and face count), got {size}")
+    normals = np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), tolerances.TINY)
+    parts = (motion_basis(vertices, faces, count), motion_basis(normals, _dual_edges(faces), face_count))
+    # Column order: both affine blocks, then whichever part has used less of itself.
+    order, used = [(0, c) for c in range(4)] + [(1, c) for c in range(4)], [4, 4]
+    while len(order) < size:
+        part = 0 if used[0] / count <= used[1] / face_count else 1
+        order.append((part, used[part]))
+        used[part] += 1
+    basis = np.zeros((count + face_count, size))
+    for column, (part, index) in enumerate(order):
+        rows = slice(0, count) if part == 0 else slice(count, None)
+        basis[rows, column] = parts[part][:, index]
+    return basis
 
 
 def smooth_test_motion(vertices):
@@ -159,18 +229,20 @@ def deviation(coordinates, slots, basis, rest, moved):
     return float(np.linalg.norm(exact - compact, axis=1).max() / diagonal)
 
 
-def residual_deviations(residual, rest, fraction=DRAG_FRACTION):
+def residual_deviations(residual, rest, fraction=DRAG_FRACTION, faces=None):
     """Deviations of a reproduction of coordinates, for the standard motions, per diagonal.
 
     Parameters
     ----------
-    residual : (k, n) float
+    residual : (k, n) float, or (k, n + m) for Green coordinates
         Exact coordinates minus their reproduction (``W - slots @ basis.T``, with the
         slots and basis as stored).
     rest : (n, N) float
         The cage at rest (N = 3 for the smooth motion).
     fraction : float
         How far the dragged vertex moves, of the cage's diagonal.
+    faces : (m, 3) int, optional
+        Given for Green coordinates: the motions are then their ``green_displacements``.
 
     Returns
     -------
@@ -178,20 +250,57 @@ def residual_deviations(residual, rest, fraction=DRAG_FRACTION):
         ``max_i |residual_i D| / diagonal`` for ``D`` the :func:`smooth_test_motion`.
     drag : (n,) float
         Per cage vertex j, the deviation when j alone is dragged by ``fraction`` of the
-        diagonal (in any direction): ``fraction * max_i |residual_ij|``. Exact and cheap,
-        so the worst vertex is found without moving each one.
+        diagonal: ``fraction * max_i |residual_ij|`` in any direction (exact and cheap,
+        so the worst vertex is found without moving each one); for Green coordinates,
+        dragged outward as :func:`vertex_drag_motion`, with the faces around j.
     """
     rest = np.asarray(rest, dtype=np.float64)
     residual = np.asarray(residual, dtype=np.float64)
     if len(residual) == 0:
         return 0.0, np.zeros(len(rest))
     diagonal = np.linalg.norm(np.ptp(rest, axis=0))
-    smooth = np.linalg.norm(residual @ (smooth_test_motion(rest) - rest), axis=1).max() / diagonal
+    moved = smooth_test_motion(rest)
+    motion = moved - rest if faces is None else green_displacements(rest, moved, faces)
+    smooth = np.linalg.norm(residual @ motion, axis=1).max() / diagonal
+    if faces is not None:
+        return float(smooth), _green_drag_deviations(residual, rest, np.asarray(faces), fraction) / diagonal
     largest = np.maximum(residual.max(axis=0), -residual.min(axis=0))  # no |residual| copy
     return float(smooth), fraction * largest
 
 
-def smallest_size(coordinates, basis, rest, target, sizes):
+def _green_drag_deviations(residual, rest, faces, fraction):
+    """Per cage vertex j: ``max_i |residual_i D_j|``, D_j the Green displacements of j
+    dragged alone (its row and the rows of the faces around it), (n,) float."""
+    count = len(rest)
+    # Each vertex's step in vertex_drag_motion: outward from the centroid.
+    outward = rest - rest.mean(axis=0)
+    length = np.maximum(np.linalg.norm(outward, axis=1, keepdims=True), tolerances.TINY)
+    steps = fraction * np.linalg.norm(np.ptp(rest, axis=0)) * outward / length  # (n, 3)
+    # Face f with its corner c dragged, for every (f, c): those faces' displacements.
+    corners = rest[faces]  # (m, 3, 3)
+    face_rows = np.empty((len(faces), 3, 3))
+    for corner in range(3):
+        moved = corners.copy()
+        moved[:, corner] += steps[faces[:, corner]]
+        local = np.arange(3 * len(faces)).reshape(-1, 3)
+        face_rows[:, corner] = green_displacements(corners.reshape(-1, 3), moved.reshape(-1, 3), local)[-len(faces):]
+    # Sum each vertex's faces' terms with one reduceat over (face, corner) pairs sorted by vertex.
+    owner = faces.ravel()
+    order = np.argsort(owner, kind="stable")
+    starts = np.searchsorted(owner[order], np.arange(count))
+    face_of_pair = (np.arange(owner.size) // 3)[order]
+    terms = face_rows.reshape(-1, 3)[order]  # (3m, 3)
+    worst = np.zeros(count)
+    for begin in range(0, len(residual), 256):  # (rows, 3m, 3) temporaries stay small
+        block = residual[begin:begin + 256]
+        per_face = block[:, count:][:, face_of_pair]  # (rows, 3m)
+        total = np.add.reduceat(per_face[:, :, None] * terms[None], starts, axis=1)  # (rows, n, 3)
+        total += block[:, :count, None] * steps[None]
+        worst = np.maximum(worst, np.linalg.norm(total, axis=2).max(axis=0))
+    return worst
+
+
+def smallest_size(coordinates, basis, rest, target, sizes, faces=None):
     """The fewest leading basis vectors that keep both standard deviations under ``target``.
 
     Parameters
@@ -206,6 +315,8 @@ def smallest_size(coordinates, basis, rest, target, sizes):
         Largest deviation allowed, of the cage's diagonal.
     sizes : increasing sequence of int
         Candidate sizes, each at most m.
+    faces : (f, 3) int, optional
+        Green coordinates (``coordinates`` then ``[phi, psi]``): as :func:`residual_deviations`.
 
     Returns
     -------
@@ -225,7 +336,7 @@ def smallest_size(coordinates, basis, rest, target, sizes):
         # sweep costs one k x m x n product, whatever the number of candidates.
         residual -= projections[:, used:size] @ basis[:, used:size].T
         used = size
-        smooth, drag_per_vertex = residual_deviations(residual, rest)
+        smooth, drag_per_vertex = residual_deviations(residual, rest, faces=faces)
         drag = float(drag_per_vertex.max(initial=0.0))
         if smooth < target and drag < target:
             return size, smooth, drag

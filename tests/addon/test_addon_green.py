@@ -1,0 +1,117 @@
+"""Green coordinates as a deformer type: bound through the operator as a script binds
+(inside ``bpy.context.temp_override``), checked against the repository's core computed
+independently, for exact and compact storage."""
+
+import bpy
+import numpy as np
+import pytest
+
+import gencoords
+from gencoords.construction.green import green_displacements
+from gencoords.tools.compact import smooth_test_motion
+from scene_helpers import (add_icosphere_cage, add_subdivided_sphere, evaluated_positions, read_positions,
+                           write_positions)
+
+
+def bind_green(obj, cage, storage="EXACT", compact_size=36, outside="RAISE"):
+    """The Bind operator as a pipeline script calls it: settings, then an override."""
+    settings = obj.gencoords
+    settings.cage, settings.kind, settings.outside = cage, "GREEN", outside
+    settings.storage, settings.compact_size = storage, compact_size
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        return bpy.ops.object.gencoords_bind()
+
+
+def cage_arrays(cage):
+    faces = np.array([list(polygon.vertices) for polygon in cage.data.polygons])
+    return read_positions(cage.data).astype(np.float64), faces
+
+
+def similarity(points, seed=3):
+    rng = np.random.default_rng(seed)
+    rotation, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+    rotation *= np.sign(np.linalg.det(rotation))
+    return 1.4 * points @ rotation.T + np.array([0.3, -0.2, 0.5])
+
+
+@pytest.mark.parametrize("storage", ["EXACT", "COMPACT"])
+def test_green_binding_is_bitwise_at_rest_and_follows_similarities_exactly(gc, storage):
+    cage = add_icosphere_cage(subdivisions=2)  # 42 vertices, 80 triangles
+    obj = add_subdivided_sphere(levels=2)  # 1922 vertices
+    rest = read_positions(obj.data).astype(np.float64)
+    assert bind_green(obj, cage, storage=storage, compact_size=24) == {'FINISHED'}
+    info = gc.binding.binding(obj).info
+    slots = 42 + 80 if storage == "EXACT" else 24
+    assert (info["kind"], info["storage"], info["slot_count"], info["cage_face_count"]) == \
+        ("green", storage, slots, 80)
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
+    vertices, _ = cage_arrays(cage)
+    write_positions(cage.data, similarity(vertices))
+    np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
+    write_positions(cage.data, vertices)
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+
+
+def test_green_deformation_equals_the_core_and_keeps_shape_better_than_mean_value(gc):
+    cage = add_icosphere_cage(subdivisions=1)
+    obj = add_subdivided_sphere(levels=1)
+    rest = read_positions(obj.data).astype(np.float64)
+    vertices, faces = cage_arrays(cage)
+    assert bind_green(obj, cage) == {'FINISHED'}
+    moved = vertices * [1.6, 1.0, 1.0] + np.random.default_rng(0).normal(0.0, 0.05, vertices.shape)
+    write_positions(cage.data, moved)
+    phi, psi = gencoords.green_coordinates(rest, vertices, faces)  # independently, in float64
+    expected = gencoords.green_deform(phi, psi, vertices, moved, faces)
+    deformed = evaluated_positions(obj)
+    np.testing.assert_allclose(deformed, expected, atol=5e-6 * np.ptp(vertices, axis=0).max())
+    # Mean value follows the same cage affinely: the stretch shears the sphere's details.
+    mean_value = gencoords.coordinates(rest, vertices, faces) @ moved
+    assert np.abs(deformed - mean_value).max() > 0.01
+
+
+def test_compact_green_reports_the_deviation_of_what_it_wrote(gc):
+    cage = add_icosphere_cage(subdivisions=2)
+    obj = add_subdivided_sphere(levels=2)
+    rest = read_positions(obj.data).astype(np.float64)
+    vertices, faces = cage_arrays(cage)
+    assert bind_green(obj, cage, storage="COMPACT", compact_size=36) == {'FINISHED'}
+    info = gc.binding.binding(obj).info
+    moved = smooth_test_motion(vertices)
+    write_positions(cage.data, moved)
+    phi, psi = gencoords.green_coordinates(rest, vertices, faces)
+    exact = rest + np.hstack([phi, psi]) @ green_displacements(vertices, moved, faces)
+    diagonal = np.linalg.norm(np.ptp(vertices, axis=0))
+    measured = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max() / diagonal
+    assert 0.0 < info["deviation_smooth"] and abs(measured - info["deviation_smooth"]) < 1e-5
+    text = "\n".join(line for line, _ in gc.status.status_lines(obj))
+    assert "Green (shape-preserving)" in text and "Storage: Compact, 36 per vertex" in text
+
+
+def test_green_works_in_a_non_convex_cage_and_in_a_mirrored_object(gc):
+    cage = add_icosphere_cage(subdivisions=2)
+    vertices, faces = cage_arrays(cage)
+    dented = vertices.copy()
+    dented[0] *= 0.6  # a dent: the cage is no longer convex
+    write_positions(cage.data, dented)
+    obj = add_subdivided_sphere(levels=1)
+    obj.scale = (-1.0, 1.0, 1.0)  # mirrored: the cage is inside out in the mesh's space
+    bpy.context.view_layer.update()
+    rest = read_positions(obj.data).astype(np.float64)
+    assert bind_green(obj, cage) == {'FINISHED'}
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    write_positions(cage.data, dented * 1.3)  # a uniform scale, seen mirrored from the mesh
+    np.testing.assert_allclose(evaluated_positions(obj), rest * 1.3, atol=2e-5)
+
+
+def test_green_refuses_extrapolation_and_bake_to_bones_with_clear_messages(gc):
+    cage = add_icosphere_cage(subdivisions=1)
+    obj = add_subdivided_sphere(levels=1)
+    with pytest.raises(RuntimeError, match="Green coordinates do not extrapolate"):
+        bind_green(obj, cage, outside="EXTRAPOLATE")
+    assert not obj.modifiers
+    assert bind_green(obj, cage) == {'FINISHED'}
+    modifiers = [m.type for m in obj.modifiers]
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        with pytest.raises(RuntimeError, match="Green coordinates.*Bind with another Type"):
+            bpy.ops.object.gencoords_bake_bones()
+    assert [m.type for m in obj.modifiers] == modifiers and not bpy.data.armatures
