@@ -285,6 +285,21 @@ def _coordinates(value, context):
     return _finite(array, "coordinates")
 
 
+def _green_part(value, context, name):
+    """Green coordinates' phi (k, n) or psi (k, m), after the cage and the other part."""
+    array = real_array(value, name, keep_float32=True)
+    if array.ndim == 1:
+        array = array[None, :]
+    columns = context.vertex_count if name == "phi" else len(context.faces)
+    rows = context.point_count
+    if array.ndim != 2 or array.shape[1] != columns or (rows is not None and len(array) != rows):
+        raise ValueError(f"{name} must have shape ({'k' if rows is None else rows}, {columns}) (one row per "
+                         f"point, one column per cage {'vertex' if name == 'phi' else 'face'}), got "
+                         f"{array.shape}")
+    context.point_count = len(array)
+    return _finite(array, name)
+
+
 def _cage_positions(value, context):
     array = real_array(value, "cage_positions")
     if array.ndim != 2 or len(array) != context.vertex_count:
@@ -383,6 +398,8 @@ CHECKS = {
     "faces": _faces,
     "facets": lambda value, context: _faces(value, context, "facets"),
     "quads": lambda value, context: _faces(value, context, "quads", width=4),
+    "phi": lambda value, context: _green_part(value, context, "phi"),
+    "psi": lambda value, context: _green_part(value, context, "psi"),
     "points": _points,
     "point": _point,
     "values": _values,

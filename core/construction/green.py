@@ -21,7 +21,7 @@ from ..base import tolerances
 from .boundary import BOUNDARY, INSIDE, OUTSIDE, locate, nearest_boundary_coordinates, plane_distances
 from .general import facet_determinants, sum_rows
 from ..base.errors import CageError, OutsideCageError
-from ..base.inputs import _finite, checked, real_array
+from ..base.inputs import checked
 from .units import to_world
 from .validation import DEFAULT_TOLERANCE, validate_cage
 
@@ -406,17 +406,7 @@ def green_displacements(vertices, cage_positions, faces):
     return np.vstack([moved - rest, _scaled_normals(rest, moved, faces) - _unit_normals(rest, faces)])
 
 
-def _coordinate_array(value, name, shape):
-    array = real_array(value, name, keep_float32=True)
-    if array.ndim == 1:
-        array = array[None, :]
-    if array.shape[1:] != shape[1:] or (shape[0] is not None and len(array) != shape[0]):
-        expected = f"(k, {shape[1]})" if shape[0] is None else str(shape)
-        raise ValueError(f"{name} must have shape {expected} (one row per point, one column per "
-                         f"cage {'vertex' if name == 'phi' else 'face'}), got {array.shape}")
-    return _finite(array, name)
-
-
+@checked
 def green_deform(phi, psi, vertices, cage_positions, faces):
     """Deformed points from Green coordinates: ``phi @ v' + psi @ (s n')``.
 
@@ -448,11 +438,7 @@ def green_deform(phi, psi, vertices, cage_positions, faces):
     >>> bool(np.allclose(moved, 2.0 * points @ turn.T))  # a similarity, followed exactly
     True
     """
-    rest, deformed, faces = _deform_inputs(vertices, cage_positions, faces)
+    rest, deformed = vertices, cage_positions
     _green_cage(rest, faces, DEFAULT_TOLERANCE)
-    phi = _coordinate_array(phi, "phi", (None, len(rest)))
-    psi = _coordinate_array(psi, "psi", (len(phi), len(faces)))
     return phi.astype(np.float64) @ deformed + psi.astype(np.float64) @ _scaled_normals(rest, deformed, faces)
 
-
-_deform_inputs = checked(lambda vertices, cage_positions, faces: (vertices, cage_positions, faces))

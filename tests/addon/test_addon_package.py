@@ -54,7 +54,8 @@ def test_installed_extension_is_enabled_with_its_api(gc):
         assert not properties[name].is_animatable, name  # read at bind time only
     assert properties["kind"].default == 'MEAN_VALUE'
     assert {item.identifier for item in properties["kind"].enum_items} == {
-        'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER'}
+        'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN'}
+    assert properties["kind"].enum_items['GREEN'].name == "Green (shape-preserving)"
 
 
 class RecordingLayout:
@@ -131,7 +132,7 @@ def add_on_imports(tree, modules):
 
 
 def test_kind_ids_are_spelled_only_in_the_enum_module(addon):
-    spellings = {kind.name for kind in addon.core.KIND_TABLE}
+    spellings = {kind.name for kind in addon.core.KIND_TABLE} | {"green"}
     spellings |= {name.upper() for name in spellings}
     found = [f"{name}.py:{node.lineno} {node.value!r}" for name, tree in addon_trees().items()
              if name != "enums" for node in ast.walk(tree)

@@ -219,6 +219,10 @@ def good_calls():
         "coordinate_report": dict(cage, kind="power", gamma=0.5, samples=40),
         "ridge_scalars_from_surface": dict(cage, radius=lambda x, u: np.ones(u.shape[:2]), levels=1),
         "coordinate_summary": dict(coordinates=coordinates),
+        "green_coordinates": cage,
+        "green_deform": dict(zip(("phi", "psi"), gencoords.green_coordinates(points, vertices, faces)),
+                             vertices=vertices, cage_positions=vertices, faces=faces),
+        "stretch_factors": dict(vertices=vertices, cage_positions=vertices, faces=faces),
     }
 
 
@@ -238,7 +242,8 @@ def bad_versions(array):
 # What each parameter is called in messages (a vertex, a face...).
 NAMED_AS = {"vertices": "vert", "faces": "face", "facets": "facet", "quads": "quad", "points": "point",
             "point": "point", "c": "c must", "d": "d must", "w": "w must", "coordinates": "coordinates",
-            "cage_positions": "cage_positions", "out": "out must", "values": "values"}
+            "cage_positions": "cage_positions", "out": "out must", "values": "values", "phi": "phi",
+            "psi": "psi"}
 
 
 def test_every_public_function_checks_its_inputs():
@@ -273,7 +278,7 @@ def test_every_cage_method_checks_its_inputs():
     vertices, faces = octahedron((1.0, 1.3, 0.8))
     points = np.array([[0.1, -0.2, 0.15], [0.0, 0.3, -0.1]])
     cage = gencoords.Cage(vertices, faces)
-    methods = [cage.coordinates, cage.weights, cage.ridge_scalars, cage.point_locations]
+    methods = [cage.coordinates, cage.green_coordinates, cage.weights, cage.ridge_scalars, cage.point_locations]
     for method in methods + [cage.suggested_workers]:
         assert getattr(method, "checks_inputs", False), f"Cage.{method.__name__} is not @checked"
     for method in methods:
