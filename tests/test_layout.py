@@ -16,8 +16,8 @@ REPO = Path(__file__).resolve().parents[1]
 MAX_MODULES_PER_FOLDER = 12
 MAX_FUNCTION_LINES = 60
 MAX_TOP_LEVEL_NAMES = 25
-# Part B of issue 20 (the add-on's internals) removes the add-on's cycle and long functions;
-# until it is merged that half may fail.
+
+
 def module_name(path):
     """Dotted name of a .py file under the repository (``core/base/inputs.py`` -> ``core.base.inputs``)."""
     parts = list(path.relative_to(REPO).with_suffix("").parts)
@@ -215,6 +215,13 @@ def test_pip_installs_the_core_as_gencoords_and_it_imports_from_another_folder(i
                                env=environment)
     assert completed.returncode == 0, completed.stderr
     assert completed.stdout.startswith("ok")
+
+
+def test_the_core_package_and_the_extension_have_one_version():
+    import tomllib
+    package = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["project"]["version"]
+    extension = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))["version"]
+    assert package == extension
 
 
 def public_objects():
