@@ -225,13 +225,18 @@ def test_the_core_package_and_the_extension_have_one_version():
 
 
 def public_objects():
-    """(qualified name, object) of every function and class the public APIs list."""
+    """(qualified name, object) of every function and class the public APIs and every
+    module of the core list in ``__all__``."""
+    import importlib
     import inspect
 
     import gencoords
+    apis = [gencoords, gencoords.advanced, gencoords.tools]
+    apis += [importlib.import_module("gencoords." + name.partition(".")[2]) for name in sorted(modules("core"))
+             if name != "core"]
     found = {}
-    for api in (gencoords, gencoords.advanced, gencoords.tools):
-        for name in api.__all__:
+    for api in apis:
+        for name in getattr(api, "__all__", ()):
             value = getattr(api, name)
             if (inspect.isfunction(value) or inspect.isclass(value)) and not issubclass_of_exception(value):
                 found.setdefault(f"{api.__name__}.{name}", value)
@@ -242,7 +247,23 @@ def issubclass_of_exception(value):
     return isinstance(value, type) and issubclass(value, BaseException)
 
 
-@pytest.mark.parametrize("name, value", public_objects(), ids=[name for name, _ in public_objects()])
+# Modules whose public names still wait for their Examples (green.py and parallel.py are
+# being reworked elsewhere); each entry comes off when its module has them.
+EXAMPLES_PENDING = {"gencoords.base.inputs", "gencoords.base.simplex", "gencoords.base.topology",
+                    "gencoords.construction.boundary", "gencoords.construction.floater",
+                    "gencoords.construction.general", "gencoords.construction.green",
+                    "gencoords.construction.polar_dual", "gencoords.construction.units",
+                    "gencoords.construction.validation", "gencoords.evaluation.parallel",
+                    "gencoords.evaluation.rows", "gencoords.surfaces.named", "gencoords.surfaces.numerical"}
+
+
+def examples_cases():
+    return [pytest.param(name, value, id=name, marks=[pytest.mark.xfail(reason="Examples not written yet")]
+                         if name.rpartition(".")[0] in EXAMPLES_PENDING else [])
+            for name, value in public_objects()]
+
+
+@pytest.mark.parametrize("name, value", examples_cases())
 def test_every_public_function_has_examples_that_run(name, value):
     import doctest
     import inspect

@@ -15,6 +15,13 @@ def regular_polygon(sides, radius=1.0):
     -------
     vertices : (sides, 2) float
     edges : (sides, 2) int
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import regular_polygon
+    >>> vertices, edges = regular_polygon(4)
+    >>> vertices.round(6).tolist(), edges.tolist()
+    ([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [-0.0, -1.0]], [[0, 1], [1, 2], [2, 3], [3, 0]])
     """
     angle = 2.0 * np.pi * np.arange(sides) / sides
     vertices = radius * np.stack([np.cos(angle), np.sin(angle)], axis=1)
@@ -30,6 +37,13 @@ def octahedron(radii=(1.0, 1.0, 1.0)):
     vertices : (6, 3) float
         Order: +x, -x, +y, -y, +z, -z.
     faces : (8, 3) int
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, faces = octahedron((1.0, 2.0, 3.0))
+    >>> vertices[::2].tolist(), faces.shape
+    ([[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]], (8, 3))
     """
     x, y, z = radii
     vertices = np.array([[x, 0, 0], [-x, 0, 0], [0, y, 0], [0, -y, 0], [0, 0, z], [0, 0, -z]], float)
@@ -48,6 +62,14 @@ def irregular_octahedron():
     vertices : (6, 3) float
         Order: near +x, -x, +y, -y (the quadrilateral, in z = 0), then the two apexes.
     faces : (8, 3) int
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.shapes import irregular_octahedron
+    >>> vertices, faces = irregular_octahedron()
+    >>> gencoords.coordinates([[0.1, 0.0, 0.1]], vertices, faces, workers=1).shape
+    (1, 6)
     """
     vertices = np.array([[1.25, 0.15, 0.0], [-0.85, -0.1, 0.0], [-0.1, 0.95, 0.0],
                          [0.2, -0.8, 0.0], [0.3, 0.15, 1.1], [-0.25, -0.1, -0.8]])
@@ -61,6 +83,13 @@ def icosphere(subdivisions=1, radius=1.0):
     -------
     vertices : (n, 3) float
     faces : (m, 3) int
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(2, radius=0.5)
+    >>> vertices.shape, faces.shape
+    ((162, 3), (320, 3))
     """
     t = (1.0 + 5.0 ** 0.5) / 2.0
     vertices = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0],
@@ -99,6 +128,13 @@ def cross_polytope(dim, radii=None):
         Order: +radii on each axis, then -radii on each axis.
     facets : (2^dim, dim) int
         One vertex per axis, + or -.
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import cross_polytope
+    >>> vertices, facets = cross_polytope(4)  # the 16-cell
+    >>> vertices.shape, facets.shape
+    ((8, 4), (16, 4))
     """
     radii = np.ones(dim) if radii is None else np.asarray(radii, dtype=float)
     vertices = np.concatenate([np.diag(radii), -np.diag(radii)])
