@@ -38,6 +38,12 @@ def write_positions(mesh, positions):
     mesh.update()
 
 
+def write_shape_key(key_block, positions):
+    """Set the positions of a shape key (``obj.data.shape_keys.key_blocks[...]``, or what
+    ``obj.shape_key_add`` returns): (k, 3) float, in the mesh's local space."""
+    key_block.data.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).reshape(-1))
+
+
 def read_loop_triangles(mesh):
     """Blender's triangulation of ``mesh``'s faces, (m, 3) int64, windings kept."""
     mesh.calc_loop_triangles()

@@ -16,8 +16,8 @@ REPO = Path(__file__).resolve().parents[1]
 MAX_MODULES_PER_FOLDER = 12
 MAX_FUNCTION_LINES = 60
 MAX_TOP_LEVEL_NAMES = 25
-# Part B of issue 20 (the add-on's internals) removes the add-on's cycle and long functions;
-# until it is merged that half may fail.
+
+
 def module_name(path):
     """Dotted name of a .py file under the repository (``core/base/inputs.py`` -> ``core.base.inputs``)."""
     parts = list(path.relative_to(REPO).with_suffix("").parts)
@@ -217,14 +217,26 @@ def test_pip_installs_the_core_as_gencoords_and_it_imports_from_another_folder(i
     assert completed.stdout.startswith("ok")
 
 
+def test_the_core_package_and_the_extension_have_one_version():
+    import tomllib
+    package = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["project"]["version"]
+    extension = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))["version"]
+    assert package == extension
+
+
 def public_objects():
-    """(qualified name, object) of every function and class the public APIs list."""
+    """(qualified name, object) of every function and class the public APIs list in
+    ``__all__``: the top level, ``gencoords.advanced``, ``gencoords.tools`` and the tool
+    modules it names (the layers below are internal)."""
     import inspect
 
     import gencoords
+    tools = gencoords.tools
+    apis = [gencoords, gencoords.advanced, tools] + [getattr(tools, name) for name in tools.__all__
+                                                    if inspect.ismodule(getattr(tools, name))]
     found = {}
-    for api in (gencoords, gencoords.advanced, gencoords.tools):
-        for name in api.__all__:
+    for api in apis:
+        for name in getattr(api, "__all__", ()):
             value = getattr(api, name)
             if (inspect.isfunction(value) or inspect.isclass(value)) and not issubclass_of_exception(value):
                 found.setdefault(f"{api.__name__}.{name}", value)
@@ -235,7 +247,7 @@ def issubclass_of_exception(value):
     return isinstance(value, type) and issubclass(value, BaseException)
 
 
-@pytest.mark.parametrize("name, value", public_objects(), ids=[name for name, _ in public_objects()])
+@pytest.mark.parametrize("name, value", public_objects())
 def test_every_public_function_has_examples_that_run(name, value):
     import doctest
     import inspect

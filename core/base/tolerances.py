@@ -45,7 +45,3 @@ WELL_DEFINED_WEIGHT_SUM = 1e-6
 # (float32 rounding, compact storage's reproduction) are clamped to 0 by the vertex
 # groups, and the deviation that makes is measured.
 SKINNING_NEGATIVE = 1e-5
-# Example shapes (tools/shapes.py): a hull facet's plane has every other point farther
-# than this on one side; random directions of a polytope are at least this far apart.
-HULL_SIDE = 1e-12
-DIRECTION_GAP = 1e-3

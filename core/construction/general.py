@@ -18,7 +18,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..base.inputs import bounding_frame, checked
+from ..base.inputs import bounding_frame
 from ..base.simplex import generalized_cross
 from ..base.topology import CageTopology, cage_topology
 

@@ -62,6 +62,16 @@ def motion_basis(vertices, faces, size):
         Orthonormal columns. The first N + 1 span the affine functions of the vertex
         positions (constant and linear); the others are eigenvectors of the cage's
         edge-graph Laplacian restricted to the complement, by increasing frequency.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.compact import motion_basis
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> basis = motion_basis(vertices, faces, 10)
+    >>> basis.shape, bool(np.allclose(basis.T @ basis, np.eye(10)))
+    ((42, 10), True)
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     count, dim = vertices.shape
@@ -164,6 +174,14 @@ def smooth_test_motion(vertices):
     Returns
     -------
     moved : (n, 3) float64
+
+    Examples
+    --------
+    >>> from gencoords.tools.compact import smooth_test_motion
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, _ = octahedron((1.0, 1.0, 2.0))
+    >>> smooth_test_motion(vertices).shape
+    (6, 3)
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     low, high = vertices.min(axis=0), vertices.max(axis=0)
@@ -192,6 +210,15 @@ def vertex_drag_motion(vertices, index=0, fraction=DRAG_FRACTION):
     Returns
     -------
     moved : (n, N) float64
+
+    Examples
+    --------
+    >>> from gencoords.tools.compact import vertex_drag_motion
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> moved = vertex_drag_motion(vertices, index=0, fraction=0.5)
+    >>> moved[0].round(6).tolist(), bool((moved[1:] == vertices[1:]).all())
+    ([2.732051, 0.0, 0.0], True)
     """
     moved = np.array(vertices, dtype=np.float64)
     direction = moved[index] - moved.mean(axis=0)
@@ -218,6 +245,17 @@ def deviation(coordinates, slots, basis, rest, moved):
     -------
     deviation : float
         ``max_i |w_i D - slots_i basis^T D| / |diagonal|``, with ``D = moved - rest``.
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.compact import deviation, motion_basis, vertex_drag_motion
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> w = gencoords.coordinates([[0.1, 0.2, 0.3]], vertices, faces, workers=1)
+    >>> basis = motion_basis(vertices, faces, 42)  # every motion: exact
+    >>> float(deviation(w, w @ basis, basis, vertices, vertex_drag_motion(vertices))) < 1e-12
+    True
     """
     rest = np.asarray(rest, dtype=np.float64)
     displacement = np.asarray(moved, dtype=np.float64) - rest
@@ -253,6 +291,18 @@ def residual_deviations(residual, rest, fraction=DRAG_FRACTION, faces=None):
         diagonal: ``fraction * max_i |residual_ij|`` in any direction (exact and cheap,
         so the worst vertex is found without moving each one); for Green coordinates,
         dragged outward as :func:`vertex_drag_motion`, with the faces around j.
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.compact import motion_basis, residual_deviations
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> w = gencoords.coordinates([[0.1, 0.2, 0.3]], vertices, faces, workers=1)
+    >>> basis = motion_basis(vertices, faces, 10)
+    >>> smooth, drag = residual_deviations(w - (w @ basis) @ basis.T, vertices)
+    >>> drag.shape, smooth < 0.1
+    ((42,), True)
     """
     rest = np.asarray(rest, dtype=np.float64)
     residual = np.asarray(residual, dtype=np.float64)
@@ -325,6 +375,18 @@ def smallest_size(coordinates, basis, rest, target, sizes, faces=None):
         float64) are both below ``target``; None if none is.
     smooth, drag : float
         Those deviations at ``size`` (at the last size when None).
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.compact import motion_basis, smallest_size
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> w = gencoords.coordinates([[0.1, 0.2, 0.3], [0.0, -0.4, 0.1]], vertices, faces, workers=1)
+    >>> basis = motion_basis(vertices, faces, 42)
+    >>> size, smooth, drag = smallest_size(w, basis, vertices, 1e-3, [4, 10, 20, 42])
+    >>> size in (4, 10, 20, 42), smooth < 1e-3 and drag < 1e-3
+    (True, True)
     """
     coordinates = np.asarray(coordinates, dtype=np.float64)
     basis = np.asarray(basis, dtype=np.float64)

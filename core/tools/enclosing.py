@@ -27,6 +27,14 @@ def sphere_directions(count):
     Returns
     -------
     directions : (count, 3) float64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.enclosing import sphere_directions
+    >>> directions = sphere_directions(100)
+    >>> directions.shape, bool(np.allclose(np.linalg.norm(directions, axis=1), 1.0))
+    ((100, 3), True)
     """
     if count < 4:
         raise ValueError(f"at least 4 directions enclose a volume, got {count}")
@@ -54,6 +62,14 @@ def supporting_offsets(points, directions, margin=0.0, chunk=1 << 16):
     -------
     offsets : (d,) float64
         ``max_p directions @ p + margin``: the half-space ``n . x <= offset`` holds them all.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.enclosing import supporting_offsets
+    >>> points = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]])
+    >>> supporting_offsets(points, np.eye(3), margin=0.5).tolist()
+    [1.5, 2.5, 3.5]
     """
     points = np.asarray(points, dtype=np.float64)
     directions = np.asarray(directions, dtype=np.float64)
@@ -78,6 +94,14 @@ def dual_points(directions, offsets, centre):
     points : (d, N) float64
         ``n_i / (offset_i - n_i . centre)``. Their convex hull's facets are the polytope's
         vertices (:func:`facet_vertices`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.enclosing import dual_points
+    >>> directions = np.concatenate([np.eye(3), -np.eye(3)])  # the cube |x| <= 2
+    >>> dual_points(directions, np.full(6, 2.0), np.zeros(3))[:2].tolist()
+    [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0]]
     """
     directions = np.asarray(directions, dtype=np.float64)
     distance = np.asarray(offsets, dtype=np.float64) - directions @ np.asarray(centre, dtype=np.float64)
@@ -101,6 +125,14 @@ def facet_vertices(directions, offsets, dual_facets):
     vertices : (f, N) float64
         Solutions of ``directions[facet] @ x = offsets[facet]`` (coinciding for facets of
         one dual face: merge them by distance).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.enclosing import facet_vertices
+    >>> directions = np.concatenate([np.eye(3), -np.eye(3)])  # the cube |x| <= 2
+    >>> facet_vertices(directions, np.full(6, 2.0), [[0, 1, 2], [3, 4, 5]]).tolist()
+    [[2.0, 2.0, 2.0], [-2.0, -2.0, -2.0]]
     """
     directions = np.asarray(directions, dtype=np.float64)
     facets = np.asarray(dual_facets, dtype=np.int64)

@@ -103,6 +103,17 @@ def interior_sample(cage, count, seed=0):
     -------
     points : (j, N) float
         j <= count points, all inside.
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.construction.boundary import INSIDE
+    >>> from gencoords.tools.report import interior_sample
+    >>> from gencoords.tools.shapes import octahedron
+    >>> with gencoords.Cage(*octahedron()) as cage:
+    ...     points = interior_sample(cage, 100)
+    ...     bool((cage.point_locations(points, workers=1) == INSIDE).all()), points.shape[1]
+    (True, 3)
     """
     rng = np.random.default_rng(seed)
     vertices, faces = cage.vertices, cage.faces

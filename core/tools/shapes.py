@@ -1,14 +1,11 @@
-"""Example cages: regular polygons, octahedra, icospheres, cross-polytopes and random
-convex polytopes in any dimension (outward oriented)."""
+"""Example cages: regular polygons, octahedra, icospheres and cross-polytopes in any
+dimension (outward oriented)."""
 
 from itertools import combinations
 
 import numpy as np
 
-from ..base import tolerances
-
-__all__ = ["regular_polygon", "octahedron", "irregular_octahedron", "icosphere", "cross_polytope",
-           "random_convex_polytope", "convex_hull_facets"]
+__all__ = ["regular_polygon", "octahedron", "irregular_octahedron", "icosphere", "cross_polytope"]
 
 
 def regular_polygon(sides, radius=1.0):
@@ -18,6 +15,13 @@ def regular_polygon(sides, radius=1.0):
     -------
     vertices : (sides, 2) float
     edges : (sides, 2) int
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import regular_polygon
+    >>> vertices, edges = regular_polygon(4)
+    >>> vertices.round(6).tolist(), edges.tolist()
+    ([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [-0.0, -1.0]], [[0, 1], [1, 2], [2, 3], [3, 0]])
     """
     angle = 2.0 * np.pi * np.arange(sides) / sides
     vertices = radius * np.stack([np.cos(angle), np.sin(angle)], axis=1)
@@ -33,6 +37,13 @@ def octahedron(radii=(1.0, 1.0, 1.0)):
     vertices : (6, 3) float
         Order: +x, -x, +y, -y, +z, -z.
     faces : (8, 3) int
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, faces = octahedron((1.0, 2.0, 3.0))
+    >>> vertices[::2].tolist(), faces.shape
+    ([[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]], (8, 3))
     """
     x, y, z = radii
     vertices = np.array([[x, 0, 0], [-x, 0, 0], [0, y, 0], [0, -y, 0], [0, 0, z], [0, 0, -z]], float)
@@ -51,6 +62,14 @@ def irregular_octahedron():
     vertices : (6, 3) float
         Order: near +x, -x, +y, -y (the quadrilateral, in z = 0), then the two apexes.
     faces : (8, 3) int
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.shapes import irregular_octahedron
+    >>> vertices, faces = irregular_octahedron()
+    >>> gencoords.coordinates([[0.1, 0.0, 0.1]], vertices, faces, workers=1).shape
+    (1, 6)
     """
     vertices = np.array([[1.25, 0.15, 0.0], [-0.85, -0.1, 0.0], [-0.1, 0.95, 0.0],
                          [0.2, -0.8, 0.0], [0.3, 0.15, 1.1], [-0.25, -0.1, -0.8]])
@@ -64,6 +83,13 @@ def icosphere(subdivisions=1, radius=1.0):
     -------
     vertices : (n, 3) float
     faces : (m, 3) int
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(2, radius=0.5)
+    >>> vertices.shape, faces.shape
+    ((162, 3), (320, 3))
     """
     t = (1.0 + 5.0 ** 0.5) / 2.0
     vertices = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0],
@@ -88,72 +114,40 @@ def icosphere(subdivisions=1, radius=1.0):
 
 
 def cross_polytope(dim, radii=None):
-    """The N-D cross-polytope (2D square, 3D octahedron, 4D 16-cell), outward oriented."""
+    """The N-D cross-polytope (2D square, 3D octahedron, 4D 16-cell), outward oriented.
+
+    Parameters
+    ----------
+    dim : int
+    radii : (dim,) float, optional
+        The vertices are at +-radii on the axes (all 1 by default).
+
+    Returns
+    -------
+    vertices : (2 dim, dim) float
+        Order: +radii on each axis, then -radii on each axis.
+    facets : (2^dim, dim) int
+        One vertex per axis, + or -.
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import cross_polytope
+    >>> vertices, facets = cross_polytope(4)  # the 16-cell
+    >>> vertices.shape, facets.shape
+    ((8, 4), (16, 4))
+    """
     radii = np.ones(dim) if radii is None else np.asarray(radii, dtype=float)
     vertices = np.concatenate([np.diag(radii), -np.diag(radii)])
-    return vertices, convex_hull_facets(vertices)
-
-
-def convex_hull_facets(points):
-    """Facets of the convex hull of points in general convex position (every point a vertex).
-
-    Brute force over all N-subsets: fine for the dozen points a test uses.
-
-    Parameters
-    ----------
-    points : (n, N) float
-
-    Returns
-    -------
-    facets : (m, N) int
-        Outward oriented (det[v_1 - v_0, ...] ordering, as the core expects).
-    """
-    count, dim = points.shape
-    if dim == 2:
-        centre = points.mean(axis=0)
-        order = np.argsort(np.arctan2(*(points - centre).T[::-1]))
-        return np.stack([order, np.roll(order, -1)], axis=1)
+    if dim == 2:  # counter-clockwise from -x
+        return vertices, np.array([[2, 3], [3, 0], [0, 1], [1, 2]])
+    inside = vertices.mean(axis=0)
     facets = []
-    for subset in combinations(range(count), dim):
-        base = points[subset[0]]
-        edges = points[list(subset[1:])] - base
-        # Normal: the null vector of the edges (last right-singular vector).
-        normal = np.linalg.svd(edges)[2][-1]
-        side = (points - base) @ normal
-        others = np.delete(side, subset)
-        if np.all(others < -tolerances.HULL_SIDE) or np.all(others > tolerances.HULL_SIDE):
-            facet = list(subset)
-            # det[v_0 - x, v_1 - x, ...] > 0 for x inside: orient against the centroid.
-            inside = points.mean(axis=0)
-            if np.linalg.det(points[facet] - inside) < 0:
-                facet[0], facet[1] = facet[1], facet[0]
-            facets.append(facet)
-    return np.array(facets)
-
-
-def random_convex_polytope(rng, dim, count):
-    """A random convex simplicial polytope: points on a random ellipsoid.
-
-    Parameters
-    ----------
-    rng : numpy Generator
-    dim : int
-    count : int
-        Number of vertices (> dim).
-
-    Returns
-    -------
-    vertices : (count, dim) float
-    facets : (m, dim) int
-    """
-    while True:  # redraw the rare near-coincident vertices (an ill-conditioned cage whose
-        # rounding the precision tests would blame on the formulas)
-        directions = rng.normal(size=(count, dim))
-        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-        gaps = np.linalg.norm(directions[:, None] - directions[None], axis=-1)
-        if (gaps + np.eye(count) * 2.0).min() > tolerances.DIRECTION_GAP:
-            break
-    axes = rng.uniform(0.5, 2.0, size=dim)
-    rotation = np.linalg.qr(rng.normal(size=(dim, dim)))[0]
-    vertices = (directions * axes) @ rotation.T + rng.uniform(-3, 3, size=dim)
-    return vertices, convex_hull_facets(vertices)
+    for facet in combinations(range(2 * dim), dim):
+        if len({vertex % dim for vertex in facet}) < dim:
+            continue  # a vertex and its opposite: not on one facet
+        facet = list(facet)
+        # det[v_0 - x, v_1 - x, ...] > 0 for x inside: orient against the centre.
+        if np.linalg.det(vertices[facet] - inside) < 0:
+            facet[0], facet[1] = facet[1], facet[0]
+        facets.append(facet)
+    return vertices, np.array(facets)

@@ -7,6 +7,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from .png import write_png
 from .session import quiet
 from mathutils import Vector
 
@@ -92,19 +93,6 @@ def load_png(path):
     return pixels.reshape(height, width, 4)
 
 
-def save_png(path, pixels):
-    """Write an ``(h, w, 4)`` array (as returned by ``load_png``) to a PNG file."""
-    pixels = np.ascontiguousarray(pixels, dtype=np.float32)
-    height, width = pixels.shape[:2]
-    image = bpy.data.images.new(Path(path).stem, width, height, alpha=True)
-    image.pixels.foreach_set(pixels.ravel())
-    image.filepath_raw = str(path)
-    image.file_format = "PNG"
-    image.save()
-    bpy.data.images.remove(image)
-    return Path(path)
-
-
 def side_by_side(paths, target, gap=8):
     """Concatenate same-height PNGs left to right with a white gap, into ``target``."""
     images = [load_png(p) for p in paths]
@@ -115,4 +103,4 @@ def side_by_side(paths, target, gap=8):
         padded = np.ones((height, image.shape[1], 4), dtype=np.float32)
         padded[height - image.shape[0]:] = image  # rows are bottom-up: align tops
         parts.extend([padded, spacer])
-    return save_png(target, np.concatenate(parts[:-1], axis=1))
+    return Path(write_png(target, np.concatenate(parts[:-1], axis=1)[::-1]))  # rows top-down

@@ -84,6 +84,10 @@ def add_fitted_cage(mesh, subdivisions=2, margin=1.08, name="Cage"):
     every mesh vertex is inside every face plane, times ``margin``. Scaling keeps it
     convex. A snug cage makes the mesh follow cage edits visibly (a loose one smooths
     them out), which is what the demo wants to show.
+
+    Not Make Cage (``gencoords_addon/cage_maker.py``, a hull of supporting planes with a
+    vertex budget), which the demo shows beside it: this cage keeps the icosphere's
+    topology, so the demo's edits (``nonaffine_edit``) and pictures stay the same.
     """
     points = arrays.read_positions(mesh.data) @ np.array(mesh.matrix_world)[:3, :3].T + np.array(
         mesh.matrix_world.translation)

@@ -210,7 +210,7 @@ def deformation_scene(shape_key=True):
         # Animated through the evaluated cage, which is what the add-on follows.
         cage.shape_key_add(name="Basis")
         pull = cage.shape_key_add(name="Pull and twist", from_mix=False)
-        pull.data.foreach_set("co", scenes.nonaffine_edit(rest_cage).astype(np.float32).ravel())
+        arrays.write_shape_key(pull, scenes.nonaffine_edit(rest_cage))
         pull.value = 0.0
     pictures.add_camera(CAMERA_TARGET, azimuth=-75, elevation=12, ortho_scale=5.0)
     return scene, mesh, cage

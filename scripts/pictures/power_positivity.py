@@ -16,9 +16,10 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
-from scripts.common.png import write_png  # noqa: E402
 from gencoords.tools.shapes import (cross_polytope, icosphere, irregular_octahedron, octahedron,  # noqa: E402
-                         random_convex_polytope, regular_polygon)
+                                    regular_polygon)
+from scripts.common.png import write_png  # noqa: E402
+from scripts.common.polytopes import random_convex_polytope  # noqa: E402
 
 
 def polytopes():

@@ -22,6 +22,7 @@ import bpy
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository (or its staged copy)
+from scripts.common.blender_objects import arrays  # noqa: E402  (the add-on's mesh_arrays.py)
 from scripts.pictures import panel_screenshots as shots  # noqa: E402  (window helpers, xwd capture)
 
 SCENES, OUTPUT = map(Path, sys.argv[sys.argv.index("--") + 1:][:2])
@@ -58,22 +59,10 @@ def mesh_and_cage():
     return bpy.data.objects["Suzanne"], bpy.data.objects.get("Cage")
 
 
-def evaluated(obj):
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    mesh = obj.evaluated_get(depsgraph).data
-    positions = np.empty(len(mesh.vertices) * 3)
-    mesh.vertices.foreach_get("co", positions)
-    return positions.reshape(-1, 3)
-
-
-def rest(obj):
-    positions = np.empty(len(obj.data.vertices) * 3)
-    obj.data.vertices.foreach_get("co", positions)
-    return positions.reshape(-1, 3)
-
-
 def moved_by(obj):
-    return float(np.abs(evaluated(obj) - rest(obj)).max())
+    """The largest move of ``obj``'s evaluated vertices from its own (rest) positions."""
+    evaluated = arrays.evaluated_positions(obj).astype(np.float64)
+    return float(np.abs(evaluated - arrays.read_positions(obj.data)).max())
 
 
 def status_text(obj):
@@ -96,8 +85,9 @@ def edit_cage():
     shots.set_up_views()
     mesh, cage = mesh_and_cage()
     check("at rest after opening", moved_by(mesh) < 1e-6, f"max move {moved_by(mesh):.2e}")
-    cage.data.vertices[7].co.z += 0.3
-    cage.data.update()
+    positions = arrays.read_positions(cage.data).astype(np.float64)
+    positions[7, 2] += 0.3  # as a user's edit: in double, stored as float32
+    arrays.write_positions(cage.data, positions)
     bpy.ops.ed.undo_push(message="Move cage vertex")
 
 

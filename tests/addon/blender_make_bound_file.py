@@ -12,7 +12,7 @@ import bpy
 import numpy as np
 
 from scene_helpers import (add_icosphere_cage, add_sphere, bind, evaluated_positions,
-                           load_user_preferences, read_positions)
+                           load_user_preferences, read_positions, write_shape_key)
 
 blend_path, positions_path = sys.argv[1:3]
 load_user_preferences()
@@ -25,7 +25,7 @@ cage = add_icosphere_cage()
 cage.hide_render = True  # as artists do; renders must still follow its animation
 cage.shape_key_add(name="Basis")
 stretch = cage.shape_key_add(name="Stretch")
-stretch.data.foreach_set("co", (read_positions(cage.data) * (1.6, 1.0, 1.0) + (0.8, 0, 0)).reshape(-1))
+write_shape_key(stretch, read_positions(cage.data) * (1.6, 1.0, 1.0) + (0.8, 0, 0))
 for frame, value in ((1, 0.0), (2, 1.0)):
     stretch.value = value
     stretch.keyframe_insert("value", frame=frame)

@@ -10,7 +10,7 @@ import sys
 import bpy
 import numpy as np
 
-from scene_helpers import evaluated_positions, load_user_preferences, read_positions
+from scene_helpers import evaluated_positions, load_user_preferences, read_positions, write_shape_key
 
 blend_path, positions_path = sys.argv[1:3]
 load_user_preferences()
@@ -33,7 +33,7 @@ if report["enabled"]:
 
     report["status"] = [text for text, _ in status.status_lines(obj)]
 basis = cage.data.shape_keys.key_blocks["Basis"]  # an edit after reopening
-basis.data.foreach_set("co", (read_positions(cage.data) * 1.25).reshape(-1))
+write_shape_key(basis, read_positions(cage.data) * 1.25)
 cage.data.update()
 report["follows_an_edit"] = float(np.abs(evaluated_positions(obj) - rest * 1.25).max())
 print("REPORT " + json.dumps(report), flush=True)

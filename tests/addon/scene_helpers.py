@@ -19,6 +19,7 @@ from scripts.common.blender_objects import arrays, bind, make_active  # noqa: E4
 
 read_positions = arrays.read_positions
 write_positions = arrays.write_positions
+write_shape_key = arrays.write_shape_key
 evaluated_positions = arrays.evaluated_positions
 
 

@@ -8,7 +8,7 @@ from mathutils import Matrix
 import gencoords as core_table
 from scene_helpers import (make_active, add_cube_cage, add_icosphere_cage, add_sphere,
                            add_subdivided_sphere, bind, evaluated_cage_positions,
-                           evaluated_positions, mesh_state, read_positions, write_positions, update)
+                           evaluated_positions, mesh_state, read_positions, write_positions, write_shape_key, update)
 
 # The add-on's kind identifiers, derived from the core's table as the add-on does (the
 # repository's core: the installed copy is importable only once the session installed it).
@@ -345,7 +345,7 @@ def test_hooks_armatures_modifiers_and_shape_keys_on_the_cage_drive_the_mesh(gc)
     cage.shape_key_add(name="Basis")
     key = cage.shape_key_add(name="Stretch")
     stretched = read_positions(cage.data) * (1.5, 1.0, 1.0)
-    key.data.foreach_set("co", stretched.reshape(-1))
+    write_shape_key(key, stretched)
     key.value = 0.0
     key.keyframe_insert("value", frame=1)
     key.value = 1.0
@@ -380,7 +380,7 @@ def test_shape_keys_and_edits_of_the_bound_mesh_are_carried_along(gc):
     obj.shape_key_add(name="Basis")
     bulge = obj.shape_key_add(name="Bulge")
     bulged = read_positions(obj.data) * (1.0, 1.0, 1.3)
-    bulge.data.foreach_set("co", bulged.reshape(-1))
+    write_shape_key(bulge, bulged)
     bulge.value = 1.0
     # At rest: the key alone (its mix with the basis rounds at 1e-7).
     np.testing.assert_allclose(evaluated_positions(obj), bulged, atol=1e-6)

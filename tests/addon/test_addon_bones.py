@@ -17,7 +17,7 @@ from mathutils import Matrix
 
 from fresh_process import PACKAGE, REPO, report_of, run_blender_script
 from scene_helpers import (make_active, add_icosphere_cage, add_sphere, bind, evaluated_positions,
-                           mesh_state, read_positions, write_positions)
+                           mesh_state, read_positions, write_positions, write_shape_key)
 
 VALIDATOR = REPO / "tests" / "tools" / "node_modules" / "gltf-validator"
 
@@ -50,7 +50,7 @@ def animate_cage(gc, cage, last_frame=10):
     rest = read_positions(cage.data).astype(np.float64)
     cage.shape_key_add(name="Basis")
     bent = cage.shape_key_add(name="Bent")
-    bent.data.foreach_set("co", gc.core.tools.compact.smooth_test_motion(rest).astype(np.float32).ravel())
+    write_shape_key(bent, gc.core.tools.compact.smooth_test_motion(rest))
     for frame, value, turn in ((1, 0.0, 0.0), (last_frame, 1.0, 0.4)):
         bent.value = value
         bent.keyframe_insert("value", frame=frame)

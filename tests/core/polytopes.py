@@ -1,11 +1,12 @@
-"""Test polytopes: the core's example cages, points in them, and non-convex cages."""
+"""Test polytopes: the core's example cages, random convex polytopes and points in them
+(scripts.common.polytopes, shared with the benchmarks), and non-convex cages."""
 
 import numpy as np
 from hypothesis import settings
 from hypothesis import strategies as st
 
-from gencoords.tools.shapes import (convex_hull_facets, cross_polytope, icosphere, octahedron, random_convex_polytope,
-                         regular_polygon)
+from gencoords.tools.shapes import cross_polytope, icosphere, octahedron, regular_polygon
+from scripts.common.polytopes import convex_hull_facets, random_convex_polytope, random_interior_points
 
 SEEDS = st.integers(0, 2**32 - 1)
 # (dimension, vertex count) of the random polytopes: polygons, polyhedra, 4-polytopes
@@ -26,21 +27,6 @@ def homogeneity_residual(weights, points, vertices):
     spokes = vertices[None, :, :] - points[:, None, :]
     size = np.ptp(vertices, axis=0).max()
     return np.abs(np.einsum("kn,knN->kN", weights, spokes)).max() / (np.abs(weights).max() * size)
-
-
-def random_interior_points(rng, vertices, count, shrink=0.95):
-    """Random points strictly inside the convex hull of the vertices.
-
-    Dirichlet combinations of the vertices, pulled towards the centroid.
-
-    Returns
-    -------
-    points : (count, N) float
-    """
-    mix = rng.dirichlet(np.full(len(vertices), 0.7), size=count)
-    centre = vertices.mean(axis=0)
-    pull = rng.uniform(0.0, shrink, size=(count, 1))
-    return centre + pull * (mix @ vertices - centre)
 
 
 def dented_icosphere():
