@@ -249,10 +249,12 @@ def _bake_inputs(obj, max_influences):
             or len(obj.data.vertices) != found.info["mesh_vertex_count"]:
         raise bindings_module.BindError(f"The bind data of '{obj.name}' is missing or no "
                                         "longer matches its vertices: Bind again")
-    weights = skinning.truncate(coordinates, max_influences)
-    negative, smallest = skinning.negative_weights(weights)
+    # On every coordinate, before Max Influences drops the smallest: a truncation would
+    # otherwise drop negatives silently, and the kept weights would not be the binding.
+    negative, smallest = skinning.negative_weights(coordinates)
     if negative:
         raise bindings_module.BindError(negative_message(obj, found, negative, smallest))
+    weights = skinning.truncate(coordinates, max_influences)
     # The rig sits at the world origin: the bones rest where the bind-time cage is seen
     # from the mesh now (the deformer reads the cage relative to the mesh too).
     world = np.array(obj.matrix_world, dtype=np.float64)

@@ -1,6 +1,11 @@
-"""The one depsgraph handler (the deformation itself needs none): Auto Rebind, which
-binds again when the artist leaves Edit Mode after adding or deleting vertices of a
-bound mesh, and the housekeeping after the artist's Delete and Apply.
+"""The handlers (the deformation itself needs none): Auto Rebind, which binds again when
+the artist leaves Edit Mode after adding or deleting vertices of a bound mesh, and the
+housekeeping after the artist's Delete and Apply, also on opening a file (``load_post``).
+
+In a window, Auto Rebind hands the rebind to the Bind operator's invoke path (progress
+bar, Esc cancels), started by a timer just after the update that noticed it (a
+depsgraph handler must not run operators, and would block the window); in background
+mode (no timers run, nothing to show) it binds there and then.
 
 Blender's Delete of a bound cage (X, the outliner) either clears the references to it,
 without re-evaluating the mesh (which keeps its last deformation), or, where it keeps
@@ -21,6 +26,7 @@ from . import binding
 
 _was_editing = set()  # Object.session_uid of bound meshes seen in Edit Mode
 _cage_names = {}  # Object.session_uid -> name, of the bound cages at the last housekeeping
+_rebind_pending = set()  # Object.session_uid of meshes the timer is to rebind in a window
 
 
 def _never_raise(handler):
@@ -33,17 +39,74 @@ def _never_raise(handler):
     return persistent(guarded)
 
 
+def _needs_rebind(obj):
+    """Whether the bound mesh ``obj`` (out of Edit Mode) has another vertex count than
+    at Bind."""
+    found = binding.binding(obj)
+    return found is not None and len(obj.data.vertices) != found.info.get("mesh_vertex_count")
+
+
+def _in_window():
+    """Whether Blender runs with windows that process events (and timers)."""
+    return not bpy.app.background and bool(bpy.context.window_manager.windows)
+
+
 def _rebind(obj):
     """Bind ``obj`` again to its bound cage; print why not when that fails."""
     found = binding.binding(obj)
     if obj.gencoords.cage is None:
         obj.gencoords.cage = found.cage
+    if _in_window():
+        _rebind_pending.add(obj.session_uid)
+        if not bpy.app.timers.is_registered(rebind_in_window):
+            bpy.app.timers.register(rebind_in_window, first_interval=0.0)
+        return
     try:
         job = binding.BindJob(obj, bpy.context)
         job.run()
         job.commit()
     except binding.BindError as error:
         print(f"GenCoords: Auto Rebind of '{obj.name}' failed: {error}")
+
+
+def _window_showing(obj):
+    """A window whose view layer has ``obj``, and its largest 3D Viewport (else its
+    largest area) with that area's main region; None where no window shows it."""
+    for window in bpy.context.window_manager.windows:
+        if window.view_layer.objects.get(obj.name) != obj:
+            continue
+        areas = sorted(window.screen.areas, key=lambda a: (a.type == 'VIEW_3D', a.width * a.height))
+        if not areas:
+            continue
+        area = areas[-1]
+        region = next((r for r in area.regions if r.type == 'WINDOW'), None)
+        return window, area, region
+    return None
+
+
+def rebind_in_window():
+    """Timer (runs once): start the modal Bind of each mesh noted by ``_rebind``, in a
+    window showing it, as if the artist had confirmed Replace Binding. The mesh may be
+    gone (deleted, undone), back in Edit Mode (its next exit notes it again) or already
+    rebound by then: it is then left alone."""
+    pending = set(_rebind_pending)
+    _rebind_pending.clear()
+    for obj in [o for o in bpy.data.objects if o.session_uid in pending]:
+        try:
+            if obj.type != 'MESH' or obj.mode == 'EDIT' or not _needs_rebind(obj):
+                continue
+            shown = _window_showing(obj)
+            if shown is None:
+                print(f"GenCoords: Auto Rebind of '{obj.name}': no window shows it, Bind it")
+                continue
+            window, area, region = shown
+            with bpy.context.temp_override(window=window, area=area, region=region,
+                                           active_object=obj, object=obj,
+                                           selected_objects=[obj]):
+                bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', replace_confirmed=True)
+        except Exception:  # the next mesh still gets its rebind
+            traceback.print_exc()
+    return None
 
 
 def release_deleted_cages():
@@ -97,18 +160,37 @@ def on_depsgraph_update(scene, depsgraph):
         if uid not in _was_editing:
             continue
         _was_editing.discard(uid)
-        found = binding.binding(obj)
-        if found is not None and len(obj.data.vertices) != found.info.get("mesh_vertex_count"):
+        if _needs_rebind(obj):
             _rebind(obj)
 
 
+@_never_raise
+def on_load_post(*_):
+    """A file opened: nothing of the previous one is pending, and a cage deleted while
+    an older GenCoords kept it alive (saved with the file) is let go of now, not at the
+    first update touching a scene."""
+    _was_editing.clear()
+    _rebind_pending.clear()
+    release_deleted_cages()
+    binding.remove_orphaned_groups()
+
+
+HANDLERS = ((bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+            (bpy.app.handlers.load_post, on_load_post))
+
+
 def register():
-    if on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.append(on_depsgraph_update)
+    for handlers, handler in HANDLERS:
+        if handler not in handlers:
+            handlers.append(handler)
 
 
 def unregister():
-    if on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
-        bpy.app.handlers.depsgraph_update_post.remove(on_depsgraph_update)
+    for handlers, handler in HANDLERS:
+        if handler in handlers:
+            handlers.remove(handler)
+    if bpy.app.timers.is_registered(rebind_in_window):
+        bpy.app.timers.unregister(rebind_in_window)
     _was_editing.clear()
     _cage_names.clear()
+    _rebind_pending.clear()

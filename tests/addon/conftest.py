@@ -53,7 +53,7 @@ def addon(package):
         os.environ[ENABLE_INSTEAD_OF_READING_PREFERENCES] = PACKAGE
     modules = {name: importlib.import_module(f"{PACKAGE}.gencoords_addon.{name}")
                for name in ("binding", "bones", "compat", "deformer", "status", "visualise",
-                            "enums", "bind_layout", "mesh_arrays")}
+                            "enums", "bind_layout", "mesh_arrays", "handlers", "operators")}
     yield SimpleNamespace(core=importlib.import_module(f"{PACKAGE}.core"), **modules)
     shutil.rmtree(USER_RESOURCES, ignore_errors=True)
 

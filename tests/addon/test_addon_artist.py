@@ -106,6 +106,33 @@ def test_a_cage_unlinked_from_every_collection_is_let_go_of(gc):
     np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
 
 
+def test_opening_a_file_with_a_deleted_cage_kept_alive_lets_go_of_it(gc, tmp_path):
+    """Issue 19 item 3: a file saved by an older GenCoords, where Delete left the cage
+    alive (in no collection, held by the modifier input and the Cage setting), is
+    cleaned on opening (load_post), not at the first update touching a scene."""
+    obj, cage = bound(gc)
+    path = tmp_path / "old deleted cage.blend"
+    handlers = bpy.app.handlers.depsgraph_update_post
+    ours = gc.handlers.on_depsgraph_update
+    handlers.remove(ours)  # as an older version: nothing lets go of the cage
+    try:
+        for collection in list(cage.users_collection):
+            collection.objects.unlink(cage)
+        update()
+        assert gc.binding.binding(obj).cage == cage and obj.gencoords.cage == cage
+        write_positions(cage.data, read_positions(cage.data) * 1.2)
+        bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    finally:
+        handlers.append(ours)
+
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    obj, cage = bpy.data.objects["Mesh"], bpy.data.objects["Cage"]  # saved: it had users
+    assert gc.binding.binding(obj).cage is None and obj.gencoords.cage is None
+    assert cage.users == 0
+    assert fault_text(gc, obj) == DELETED
+    np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+
+
 def test_bind_to_another_cage_replaces_the_binding_whose_cage_was_deleted(gc):
     obj, cage = bound(gc)
     delete_as_the_artist(cage)

@@ -1,5 +1,7 @@
 """Binding and the native deformer, driven through the operators as a script would."""
 
+import sys
+
 import bpy
 import numpy as np
 import pytest
@@ -559,11 +561,8 @@ def test_a_failure_in_the_middle_of_the_compute_changes_nothing(gc, monkeypatch)
     assert mesh_state(obj)[1] == before[1] and not obj.modifiers
 
 
-def test_auto_rebind_binds_again_on_leaving_edit_mode(gc):
-    cage = add_icosphere_cage()
-    obj = add_sphere()
-    obj.gencoords.auto_rebind = True
-    bind(obj, cage)
+def subdivide_in_edit_mode(obj):
+    """Tab in, subdivide everything, Tab out, with the depsgraph updates between."""
     make_active(obj)
     bpy.ops.object.mode_set(mode='EDIT')
     update()
@@ -571,9 +570,92 @@ def test_auto_rebind_binds_again_on_leaving_edit_mode(gc):
     bpy.ops.mesh.subdivide()
     bpy.ops.object.mode_set(mode='OBJECT')
     update()
+
+
+def test_auto_rebind_binds_again_on_leaving_edit_mode(gc):
+    """Background mode (no window processes events, timers do not run): the handler
+    binds there and then."""
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    obj.gencoords.auto_rebind = True
+    bind(obj, cage)
+    subdivide_in_edit_mode(obj)
+    assert not bpy.app.timers.is_registered(gc.handlers.rebind_in_window)
     assert gc.binding.binding(obj).info["mesh_vertex_count"] == len(obj.data.vertices)
     write_positions(cage.data, read_positions(cage.data) * 1.2)
     np.testing.assert_allclose(evaluated_positions(obj), read_positions(obj.data) * 1.2, atol=1e-5)
+
+
+@pytest.fixture
+def as_in_a_window(gc, monkeypatch):
+    """The handler behaves as in the UI (a window processes events); the timer it
+    registers is unregistered after the test (none runs in background mode)."""
+    monkeypatch.setattr(gc.handlers, "_in_window", lambda: True)
+    yield gc.handlers
+    if bpy.app.timers.is_registered(gc.handlers.rebind_in_window):
+        bpy.app.timers.unregister(gc.handlers.rebind_in_window)
+
+
+def test_auto_rebind_in_a_window_hands_over_to_the_bind_operator(gc, as_in_a_window, monkeypatch):
+    """Issue 19 item 9: in the UI the handler does not bind (it would block the window):
+    a timer starts the Bind operator (its invoke path: progress, Esc), confirmed, in a
+    window's context (headless, Blender runs execute: no window has events; the GUI
+    check, scripts/release/gui_check.py, sees invoke in a real window)."""
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    obj.gencoords.auto_rebind = True
+    bind(obj, cage)
+    count = len(obj.data.vertices)
+    invoked = []
+    original = gc.binding.BindJob
+
+    def spy(obj, context):  # who starts the job, in which context
+        invoked.append((sys._getframe(1).f_code.co_name, context.active_object, context.window,
+                        context.area))
+        return original(obj, context)
+    monkeypatch.setattr(gc.binding, "BindJob", spy)
+    make_active(cage)  # the rebind acts on the mesh, whatever is active
+    subdivide_in_edit_mode(obj)
+    make_active(cage)
+    assert bpy.app.timers.is_registered(as_in_a_window.rebind_in_window)
+    assert gc.binding.binding(obj).info["mesh_vertex_count"] == count  # not yet
+    update()  # more updates before the timer fires: still one rebind
+    assert as_in_a_window.rebind_in_window() is None  # the timer, once
+    assert len(invoked) == 1
+    caller, active, window, area = invoked[0]
+    assert caller == "_start" and active == obj and window is not None and area is not None
+    assert gc.binding.binding(obj).info["mesh_vertex_count"] == len(obj.data.vertices) > count
+    assert [m.name for m in obj.modifiers] == ["GenCoords"]
+    update()
+    assert not invoked[1:]  # the rebind's own updates start no other
+    write_positions(cage.data, read_positions(cage.data) * 1.2)
+    np.testing.assert_allclose(evaluated_positions(obj), read_positions(obj.data) * 1.2, atol=1e-5)
+
+
+@pytest.mark.parametrize("meanwhile", ["deleted", "editing", "unbound"])
+def test_auto_rebind_in_a_window_leaves_a_mesh_changed_before_the_timer_alone(
+        gc, as_in_a_window, meanwhile):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    obj.gencoords.auto_rebind = True
+    bind(obj, cage)
+    subdivide_in_edit_mode(obj)
+    assert bpy.app.timers.is_registered(as_in_a_window.rebind_in_window)
+    if meanwhile == "deleted":
+        bpy.data.objects.remove(obj)
+    elif meanwhile == "editing":
+        bpy.ops.object.mode_set(mode='EDIT')
+    else:
+        assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+    update()
+    objects = set(bpy.data.objects.keys())
+    assert as_in_a_window.rebind_in_window() is None
+    assert set(bpy.data.objects.keys()) == objects
+    if meanwhile == "editing":
+        assert gc.binding.binding(obj).info["mesh_vertex_count"] != len(obj.data.vertices)
+        bpy.ops.object.mode_set(mode='OBJECT')
+    if meanwhile != "deleted":
+        assert len(gc.binding.bindings(obj)) == (meanwhile == "editing")
 
 
 def test_undo_and_redo_of_bind_and_unbind(gc):

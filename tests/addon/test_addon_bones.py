@@ -199,6 +199,27 @@ def test_bake_to_bones_refuses_negative_coordinates_and_changes_nothing(gc):
     assert mesh_state(obj)[1] == state[1]
 
 
+@pytest.mark.parametrize("max_influences", [1, 4])
+def test_bake_to_bones_refuses_negative_coordinates_with_max_influences(gc, max_influences):
+    """Issue 19 item 2: Max Influences keeps the largest weights, which would drop the
+    negative ones silently; the refusal looks at every coordinate, as with all kept."""
+    cage = add_icosphere_cage(radius=1.3)
+    obj = add_sphere()
+    bind(obj, cage, kind="DISCRETE_HARMONIC")
+    coordinates = coordinates_of(gc, obj)
+    tools = gc.core.tools.skinning
+    count = int(np.count_nonzero(coordinates < -tools.NEGATIVE_TOLERANCE))
+    assert count > 0 and tools.negative_weights(tools.truncate(coordinates, max_influences))[0] == 0
+    state, objects = mesh_state(obj), set(bpy.data.objects.keys())
+    make_active(obj)
+    with pytest.raises(RuntimeError, match=rf"{count} of its Discrete Harmonic coordinates are "
+                                           r"negative"):
+        bpy.ops.object.gencoords_bake_bones(max_influences=max_influences)
+    assert set(bpy.data.objects.keys()) == objects and gc.binding.binding(obj) is not None
+    assert not obj.vertex_groups and not cage.vertex_groups and obj.parent is None
+    assert mesh_state(obj)[1] == state[1]
+
+
 def test_bake_to_bones_reports_the_deviation_of_the_weights_it_wrote(gc):
     """Issue 19 item 2: coordinates negative within rounding (discrete harmonic in this
     cage, down to about -2e-6) are clamped to 0 by the vertex groups; the deviation
