@@ -31,7 +31,7 @@ class BindingResult:
     modifier: str  # the binding's Geometry Nodes modifier on the object
     cage: str | None  # the cage object it follows; None once the cage was deleted
     format: int  # bind data layout (``is_current``: this extension's)
-    kind: str  # 'MEAN_VALUE', 'WACHSPRESS', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER'
+    kind: str  # 'MEAN_VALUE', 'WACHSPRESS', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN'
     gamma: float | None  # the power family's exponent; None for the other kinds
     outside: str  # 'RAISE', 'PROJECT', 'EXTRAPOLATE'
     storage: str  # the storage chosen: 'EXACT' or 'COMPACT' (Automatic decided)

@@ -12,6 +12,7 @@ import numpy as np
 
 import gencoords
 from gencoords.construction.general import prepare_cage
+from gencoords.construction.green import GREEN_LABEL
 from .blender_objects import arrays, bind, make_active  # noqa: F401 (scripts use them from here)
 from mathutils import Euler
 
@@ -28,7 +29,8 @@ CAGE_RADIUS = 2.0
 
 # The parameter-free kinds (the power family has its own pictures: docs/POWER.md).
 KINDS = tuple(kind.name for kind in gencoords.KIND_TABLE if kind.parameter is None)
-KIND_LABELS = {kind.name: kind.label for kind in gencoords.KIND_TABLE}
+GREEN = "green"  # the deformer type beside the paper's kinds (shape-preserving)
+KIND_LABELS = {kind.name: kind.label for kind in gencoords.KIND_TABLE} | {GREEN: GREEN_LABEL}
 
 
 # ------------------------------------------------------------------------------ scenes
@@ -151,6 +153,13 @@ def nonaffine_edit(rest):
     edited[:, 1] = sin * rest[:, 0] + cos * rest[:, 1]
     edited[:, 2] = z + lift
     return edited
+
+
+def similarity_map(points):
+    """A fixed similarity (rotation, uniform scale 1.2, translation): Green coordinates,
+    similarity invariant but not affine invariant, reproduce it exactly."""
+    matrix = 1.2 * np.array(Euler((0.3, -0.2, 0.5)).to_matrix())
+    return np.asarray(points, dtype=float) @ matrix.T + np.array([0.3, -0.2, 0.15])
 
 
 def affine_map(points):

@@ -6,10 +6,11 @@
    cage edit (out/before.png, out/after_<kind>.png, out/demo.png).
 2. Renders the paper's figures 9 and 10: each type's coordinate field for one vertex v of
    a regular and an irregular octahedron, on three cross-sections (out/fields.png).
-   ``--update-docs`` copies out/demo.png, out/fields.png and out/artist.png to docs/ for
-   the README.
+   ``--update-docs`` copies out/demo.png, out/fields.png, out/artist.png and
+   out/green.png to docs/ for the README.
 3. Makes a cage with Make Cage and deforms the mesh with two cages at once
-   (out/artist.png).
+   (out/artist.png); stretches the cage 1.6x with mean value and with Green coordinates
+   and measures how much the mesh's triangle angles change (out/green.png).
 4. Saves out/demo.blend: Suzanne bound to the cage (mean value), the cage animated by a
    keyframed shape key, ready to play in Blender with the extension installed.
 
@@ -270,6 +271,46 @@ def artist_pictures():
                      session.OUT / "artist.png")
 
 
+def triangle_angles(mesh):
+    """The evaluated mesh's triangles' corner angles, (t, 3) in degrees."""
+    corners = arrays.evaluated_positions(mesh)[arrays.read_loop_triangles(mesh.data)]
+    angles = []
+    for i in range(3):
+        a, b = corners[:, (i + 1) % 3] - corners[:, i], corners[:, (i + 2) % 3] - corners[:, i]
+        cosine = np.einsum("tc,tc->t", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+        angles.append(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+    return np.stack(angles, axis=1)
+
+
+def green_pictures(stretch=1.6):
+    """The cage stretched ``stretch`` times along x, the mesh bound with mean value and
+    with Green coordinates (out/green.png), and the mean change of the mesh's triangle
+    angles under each: Green keeps details' shape. Returns {kind: (mean, worst)}."""
+    scene, mesh, cage = deformation_scene(shape_key=False)
+    scene.camera.data.ortho_scale = 6.5  # the stretched mesh is wider
+    rest_cage = arrays.read_positions(cage.data)
+    centre = rest_cage.mean(axis=0)
+    stretched = centre + (rest_cage - centre) * (stretch, 1.0, 1.0)
+    rest_angles = triangle_angles(mesh)
+    changes, paths = {}, []
+    for kind in ("mean_value", scenes.GREEN):
+        scenes.bind(mesh, cage, kind.upper())
+        arrays.write_positions(cage.data, stretched)
+        settle()
+        change = np.abs(triangle_angles(mesh) - rest_angles)
+        changes[kind] = (float(change.mean()), float(change.max()))
+        label = "mean value" if kind == "mean_value" else "green (shape-preserving)"
+        corner_label(f"{label}: angles change {changes[kind][0]:.1f} deg", scene.camera)
+        paths.append(session.OUT / f"stretched_{kind}.png")
+        render_with_cage_wire(cage, paths[-1])
+        arrays.write_positions(cage.data, rest_cage)
+        settle()
+        scenes.make_active(mesh)
+        bpy.ops.object.gencoords_unbind()
+    pictures.side_by_side(paths, session.OUT / "green.png")
+    return changes
+
+
 def corner_label(text, camera):
     """A caption in the picture's top-left corner (replaces the previous one)."""
     for obj in [o for o in bpy.data.objects if o.name.startswith("Caption")]:
@@ -364,11 +405,15 @@ def main():
               "out/demo.png (before | mean value)")
         artist_pictures()
         print("out/artist.png: a cage made by Make Cage, and two cages deforming one mesh")
+        changes = green_pictures()
+        print("out/green.png: the cage stretched 1.6x along x; mean / worst change of the mesh's "
+              "triangle angles: " + ", ".join(f"{kind} {mean:.1f} / {worst:.1f} degrees"
+                                              for kind, (mean, worst) in changes.items()))
 
     minima = render_fields(session.OUT / "fields.png")
     if args.update_docs:
         session.DOCS.mkdir(exist_ok=True)
-        for picture in ("demo.png", "fields.png", "artist.png"):
+        for picture in ("demo.png", "fields.png", "artist.png", "green.png"):
             if (session.OUT / picture).exists():
                 shutil.copyfile(session.OUT / picture, session.DOCS / picture)
         print("README pictures updated in docs/")
