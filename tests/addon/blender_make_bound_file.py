@@ -3,7 +3,7 @@ shape key, after deleting another object bound to that cage.
 
 Frame 1 is the rest cage, frame 2 stretches it along x. The mesh's rest positions and
 its evaluated positions at frame 2 go to an .npy file, (2, k, 3).
-Usage: blender_make_bound_file.py BLEND NPY
+Usage: blender_make_bound_file.py BLEND NPY [KIND]  (the mesh's coordinate type, default MEAN_VALUE)
 """
 
 import sys
@@ -15,6 +15,7 @@ from scene_helpers import (add_icosphere_cage, add_sphere, bind, evaluated_posit
                            load_user_preferences, read_positions, write_shape_key)
 
 blend_path, positions_path = sys.argv[1:3]
+kind = sys.argv[3] if len(sys.argv) > 3 else "MEAN_VALUE"
 load_user_preferences()
 assert "bl_ext.user_default.gencoords" in bpy.context.preferences.addons
 bpy.ops.wm.read_homefile(use_empty=True)
@@ -32,7 +33,7 @@ for frame, value in ((1, 0.0), (2, 1.0)):
 
 obj = add_sphere()
 scene.frame_set(1)
-assert bind(obj, cage) == {'FINISHED'}
+assert bind(obj, cage, kind=kind) == {'FINISHED'}
 deleted = add_sphere(radius=0.5, name="Deleted")
 assert bind(deleted, cage) == {'FINISHED'}
 bpy.data.objects.remove(deleted)  # its bind data must not be saved

@@ -691,11 +691,12 @@ def test_undo_and_redo_of_bind_and_unbind(gc):
         np.testing.assert_array_equal(read_positions(obj.data), before[0])
 
 
-def test_strength_and_a_vertex_group_mask_scale_the_displacement(gc):
+@pytest.mark.parametrize("kind", ["MEAN_VALUE", "GREEN"])  # Green: the face terms are masked too
+def test_strength_and_a_vertex_group_mask_scale_the_displacement(gc, kind):
     cage = add_icosphere_cage()
     obj = add_sphere()
     rest = read_positions(obj.data).astype(np.float64)
-    bind(obj, cage)
+    bind(obj, cage, kind=kind)
     modifier = gc.binding.binding(obj).modifier
     write_positions(cage.data, read_positions(cage.data) + (1.0, 0.0, 0.0))
     np.testing.assert_allclose(evaluated_positions(obj), rest + (1.0, 0, 0), atol=1e-5)

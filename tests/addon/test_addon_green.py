@@ -115,3 +115,26 @@ def test_green_refuses_extrapolation_and_bake_to_bones_with_clear_messages(gc):
         with pytest.raises(RuntimeError, match="Green coordinates.*Bind with another Type"):
             bpy.ops.object.gencoords_bake_bones()
     assert [m.type for m in obj.modifiers] == modifiers and not bpy.data.armatures
+
+
+def test_show_coordinate_paints_green_phi_and_a_second_cage_composes(gc):
+    cage = add_icosphere_cage(subdivisions=2)
+    obj = add_subdivided_sphere(levels=1)
+    rest = read_positions(obj.data).astype(np.float64)
+    vertices, faces = cage_arrays(cage)
+    assert bind_green(obj, cage) == {'FINISHED'}
+    obj.gencoords.field_vertex = 4
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_show_field() == {'FINISHED'}
+    colors = np.empty(len(obj.data.vertices) * 4, dtype=np.float32)
+    obj.data.color_attributes["GenCoords Field"].data.foreach_get("color", colors)
+    phi, _ = gencoords.green_coordinates(rest, vertices, faces)
+    np.testing.assert_allclose(colors.reshape(-1, 4), gc.core.tools.field_colors(phi[:, 4]), atol=2e-3)
+    # A second, mean value binding after the Green one: at rest both change nothing.
+    second = add_icosphere_cage(subdivisions=2, radius=2.5, name="Outer")
+    assert bind_green(obj, second) == {'FINISHED'}
+    assert [m.type for m in obj.modifiers] == ['NODES', 'NODES']
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    write_positions(second.data, read_positions(second.data) + (0.0, 0.5, 0.0))
+    write_positions(cage.data, similarity(vertices))
+    np.testing.assert_allclose(evaluated_positions(obj), similarity(rest) + (0.0, 0.5, 0.0), atol=3e-5)
