@@ -9,7 +9,8 @@ passes through, the panel says why, the cage can be purged), undoes with Ctrl+Z 
 cage is back and drives the mesh), rebinds through the Replace Binding confirmation
 (Return), finds Bake to Bones with the F3 menu search (typed) and runs it, undoes that,
 then, with Auto Rebind on, deletes a vertex in Edit Mode (Tab, a click on the vertex, X >
-Vertices, Tab): the Bind operator's invoke path binds again. Each check
+Vertices, Tab): the Bind operator's invoke path binds again; last, Type Green, Bind
+through the window (Return to replace) and a 1.6x stretch of the cage. Each check
 prints ``PASS``/``FAIL`` with what was measured, screenshots go to the output folder,
 and Blender exits non-zero when a check failed.
 """
@@ -243,10 +244,47 @@ def after_auto_rebind():
     shots.shoot('VIEW_3D', "auto_rebound")
 
 
+def green_rebind():
+    """Type Green in the panel, then Bind through the window (Replace Binding: Return)."""
+    mesh, _ = mesh_and_cage()
+    select_only(mesh)
+    mesh.gencoords.kind = 'GREEN'
+    shots.shoot('PROPERTIES', "green_type")
+    with shots.in_area('PROPERTIES'):
+        bpy.ops.object.gencoords_bind('INVOKE_DEFAULT')
+    keys("Return", over='PROPERTIES')
+
+
+def after_green_bind():
+    mesh, cage = mesh_and_cage()
+    found = addon("binding").binding(mesh)
+    kind = found.info["kind"] if found else None
+    check("Bind with Type Green binds Green coordinates", kind == "green", f"kind {kind}")
+    check("Green binding at rest equals the mesh", moved_by(mesh) < 1e-5, f"max move {moved_by(mesh):.2e}")
+    text = status_text(mesh)
+    check("the panel names Green", "Green (shape-preserving)" in text, text)
+    positions = arrays.read_positions(cage.data).astype(np.float64)
+    centre = positions.mean(axis=0)
+    arrays.write_positions(cage.data, centre + (positions - centre) * (1.6, 1.0, 1.0))
+    bpy.ops.ed.undo_push(message="Stretch cage")
+
+
+def after_green_stretch():
+    mesh, _ = mesh_and_cage()
+    evaluated = arrays.evaluated_positions(mesh).astype(np.float64)
+    rest = arrays.read_positions(mesh.data)
+    widths = np.ptp(evaluated, axis=0) / np.ptp(rest, axis=0)
+    check("the mesh follows the stretched cage with Green coordinates",
+          np.isfinite(evaluated).all() and 1.1 < widths[0] < 1.6,
+          f"width ratios {np.round(widths, 3).tolist()}")
+    shots.shoot('VIEW_3D', "green_stretched")
+    shots.shoot('PROPERTIES', "green_bound")
+
+
 STEPS = [open_bound, edit_cage, delete_cage, after_delete, after_undo, after_rebind,
          search_bake, run_bake, confirm_bake, after_bake, after_bake_undo,
          edit_vertices, click_vertex, delete_vertex, pick_vertices, leave_edit_mode,
-         after_auto_rebind]
+         after_auto_rebind, green_rebind, after_green_bind, after_green_stretch]
 
 
 def run_next_step():
