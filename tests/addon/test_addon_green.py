@@ -2,6 +2,8 @@
 (inside ``bpy.context.temp_override``), checked against the repository's core computed
 independently, for exact and compact storage."""
 
+import importlib
+
 import bpy
 import numpy as np
 import pytest
@@ -41,6 +43,8 @@ def test_green_binding_is_bitwise_at_rest_and_follows_similarities_exactly(gc, s
     rest = read_positions(obj.data).astype(np.float64)
     assert bind_green(obj, cage, storage=storage, compact_size=24) == {'FINISHED'}
     info = gc.binding.binding(obj).info
+    result = importlib.import_module(gc.core.__name__.rpartition(".")[0]).binding_result(obj)
+    assert (result.kind, result.storage, result.gamma) == ("GREEN", storage, None)
     slots = 42 + 80 if storage == "EXACT" else 24
     assert (info["kind"], info["storage"], info["slot_count"], info["cage_face_count"]) == \
         ("green", storage, slots, 80)
