@@ -473,6 +473,7 @@ class BindJob:
         """The core's coordinates of ``points`` ((k, n) float64), its errors as BindError."""
         if self.worker_failure is not None:  # they failed once: the rest in Blender too
             workers = 1
+
         def compute(count):
             if self.green:  # phi and psi side by side: the slots' n + m rows
                 return np.hstack(cage.green_coordinates(points, outside=self.outside, locations=locations,
