@@ -15,6 +15,10 @@ the same way. Simulated, for ``system``:
 
 ``broken_start(monkeypatch)`` makes every worker die at start-up the way an interpreter
 without numpy does.
+
+``kill_mid_call(monkeypatch, pool)`` kills a worker at a point where it certainly still
+owes rows: killing it from a progress callback raced with it (a worker whose replies
+were all in the pipe had nothing left to owe, and the call rightly succeeded).
 """
 
 import itertools
@@ -44,6 +48,26 @@ def simulate(monkeypatch, system, holds):
 def broken_start(monkeypatch):
     monkeypatch.setenv(PRELUDE_VARIABLE, os.path.abspath(__file__))
     monkeypatch.setenv(BROKEN_VARIABLE, "1")
+
+
+def kill_mid_call(monkeypatch, pool, index=0, after=2):
+    """Kill worker ``index`` of ``pool`` (and wait until it is dead) just before the parent
+    sends it its unit of rows number ``after + 1`` of the next call: it has computed some
+    units (``after`` are in flight at a time), the other workers are busy, and the unit
+    being sent is one only it was to compute, so the call cannot succeed. Returns the
+    list of units sent to it (the test asserts the kill happened: longer than ``after``)."""
+    send, sent = pool._send, []
+
+    def sending(to, message):
+        if to == index and message[0] == "rows":
+            sent.append(message[1:3])
+            if len(sent) == after + 1:
+                pool._processes[index].kill()
+                pool._processes[index].wait()
+        return send(to, message)
+
+    monkeypatch.setattr(pool, "_send", sending)
+    return sent
 
 
 def _apply(patch, system, holds):

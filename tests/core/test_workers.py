@@ -9,6 +9,7 @@ import pytest
 import gencoords
 import gencoords.evaluation.rows
 import gencoords.evaluation.parallel
+import simulated_os
 from polytopes import icosphere, random_convex_polytope, random_interior_points
 
 
@@ -97,19 +98,17 @@ def test_a_cancel_stops_the_workers_and_removes_the_shared_memory(mixed_points, 
     assert shared_files() == before
 
 
-def test_a_killed_worker_raises_a_clear_error_and_leaves_nothing(mixed_points, small_chunks):
+def test_a_killed_worker_raises_a_clear_error_and_leaves_nothing(monkeypatch, mixed_points, small_chunks):
     vertices, faces, points = mixed_points
     before = shared_files()
     cage = gencoords.Cage(vertices, faces)
     cage.coordinates(points[:50], outside="project", workers=2)  # starts the pool
     processes = list(cage._pool._processes)
-
-    def kill_one(fraction):
-        processes[0].kill()
-
+    sent = simulated_os.kill_mid_call(monkeypatch, cage._pool)  # with rows still to compute
     with pytest.raises(gencoords.WorkerError, match="ended unexpectedly"):
-        cage.coordinates(points, outside="project", workers=2, progress=kill_one)
-    assert all(process.poll() is not None for process in processes)
+        cage.coordinates(points, outside="project", workers=2)
+    assert len(sent) == 3  # killed mid-call, after computing some rows
+    assert all(process.poll() is not None for process in processes)  # the other one stopped
     assert shared_files() == before
     # The next call starts fresh workers.
     np.testing.assert_array_equal(cage.coordinates(points, outside="project", workers=2),

@@ -81,17 +81,15 @@ def test_workers_leave_nothing_behind_and_give_the_same_numbers(system, cage_and
         assert not cage._pool.closed
 
 
-def test_a_killed_worker_or_a_cancel_leaves_nothing_behind(system, cage_and_points):
+def test_a_killed_worker_or_a_cancel_leaves_nothing_behind(system, monkeypatch, cage_and_points):
     vertices, faces, points = cage_and_points
     cage = gencoords.Cage(vertices, faces)
     cage.coordinates(points[:50], workers=2)
     processes = list(cage._pool._processes)
-
-    def kill_one(fraction):
-        processes[0].kill()
-
+    sent = simulated_os.kill_mid_call(monkeypatch, cage._pool)
     with pytest.raises(gencoords.WorkerError, match="ended unexpectedly"):
-        cage.coordinates(points, workers=2, progress=kill_one)
+        cage.coordinates(points, workers=2)
+    assert len(sent) == 3 and all(process.poll() is not None for process in processes)
 
     def cancel(fraction):
         raise KeyboardInterrupt
@@ -171,17 +169,15 @@ def test_an_interpreter_the_os_refuses_to_run_falls_back(monkeypatch, tmp_path, 
         gencoords.coordinates(points, vertices, faces, workers=2)
 
 
-def test_a_worker_dying_mid_call_falls_back_for_automatic_counts(cage_and_points, automatic_two):
+def test_a_worker_dying_mid_call_falls_back_for_automatic_counts(monkeypatch, cage_and_points, automatic_two):
     vertices, faces, points = cage_and_points
     cage = gencoords.Cage(vertices, faces)
     cage.coordinates(points[:400])
     processes = list(cage._pool._processes)
-
-    def kill_one(fraction):
-        processes[0].kill()
-
+    sent = simulated_os.kill_mid_call(monkeypatch, cage._pool)
     with pytest.warns(gencoords.WorkerWarning, match="ended unexpectedly"):
-        result = cage.coordinates(points, progress=kill_one)
+        result = cage.coordinates(points)
+    assert len(sent) == 3
     np.testing.assert_array_equal(result, cage.coordinates(points, workers=1))
     assert all(process.poll() is not None for process in processes)
     cage.close()
