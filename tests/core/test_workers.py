@@ -184,7 +184,7 @@ def test_writers_reserve_their_rows_in_shared_memory(mixed_points, small_chunks)
         assert shared.reserved_by_writers == ("result",)
         # Only the points are reserved up front: the result's blocks come with its writers.
         assert os.stat(shared.path).st_blocks * 512 < shared.layout["result"][0] + 4096
-        views, descriptor = gencoords.evaluation.parallel.attach(shared.path, shared.layout)
+        views, descriptor = gencoords.evaluation.parallel.attach(shared.address, shared.layout)
         gencoords.evaluation.parallel.reserve_rows(descriptor, shared.layout, ("result",), 0, 10)
         assert os.stat(shared.path).st_blocks * 512 >= shared.layout["result"][0] + 10 * 4 * 4
         read_only = os.open(shared.path, os.O_RDONLY)
@@ -208,3 +208,16 @@ def test_without_room_in_dev_shm_the_temporary_folder_serves(monkeypatch, mixed_
         np.testing.assert_array_equal(cage.coordinates(points, outside="project", workers=2),
                                       cage.coordinates(points, outside="project", workers=1))
     assert shared_files() == before
+
+
+def test_without_a_usable_temporary_folder_dev_shm_serves(monkeypatch, mixed_points, small_chunks):
+    if not os.access("/dev/shm", os.W_OK):
+        pytest.skip("no /dev/shm here (tests/core/test_workers_on_other_systems.py covers that)")
+    vertices, faces, points = mixed_points
+
+    def no_temporary_folder():
+        raise FileNotFoundError(2, "No usable temporary directory found")
+
+    monkeypatch.setattr(tempfile, "gettempdir", no_temporary_folder)
+    np.testing.assert_array_equal(gencoords.coordinates(points, vertices, faces, outside="project", workers=2),
+                                  gencoords.coordinates(points, vertices, faces, outside="project", workers=1))
