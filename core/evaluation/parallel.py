@@ -8,15 +8,23 @@ needs bpy is never imported, and no ``multiprocessing`` start method re-runs the
 caller's script.
 
 Data crosses in shared memory, never pickled: a call's points, locations and result
-live in one memory-mapped file (in ``/dev/shm`` where there is one, else the temporary
-folder), named ``gencoords-<parent pid>-<random>.shared``, mapped by the parent and by
-every worker. Nothing is left behind on any OS: where a mapped file can be removed
-(Linux, macOS) its name goes as soon as the workers have mapped it; where it cannot
-(Windows refuses while any process holds it open or mapped) the workers release it at
-the end of every call, and it goes once the parent's last view of it is gone. A file
-a crash left behind (its owner dead, or on Windows no longer in use) is swept when the
-next pool starts (:func:`sweep_stale_files`). Commands and replies are small pickles
-on the workers' stdin and stdout.
+live in one mapping shared by the parent and every worker. Nothing is left behind on
+any OS, after success, failure, a kill or a crash:
+
+- Windows: memory backed by the paging file under a random tag name,
+  ``gencoords-<parent pid>-<random>`` (``mmap.mmap(-1, size, tagname=...)``), never a
+  file: Windows refuses to remove a file that any process holds, and the caller may
+  keep the result (a view of the mapping) until it exits. The OS frees the memory when
+  the last process holding it closes it or ends.
+- Linux and macOS: a memory-mapped file ``gencoords-<parent pid>-<random>.shared`` (in
+  ``/dev/shm`` where there is one, else the temporary folder), whose name goes as soon
+  as the workers have mapped it (the mappings stay valid).
+
+The workers release the mapping at the end of every call, so a kept pool holds no
+memory between calls. A file a crash left behind (its owner dead; on Windows, one an
+older version made that no process holds) is swept when the next pool starts
+(:func:`sweep_stale_files`). Commands and replies are small pickles on the workers'
+stdin and stdout.
 
 Test seam: where the environment variable ``GENCOORDS_WORKER_PRELUDE`` names a Python
 file, every worker runs it before serving (the tests simulate Windows' and macOS'
@@ -34,6 +42,7 @@ import mmap
 import os
 import pickle
 import queue
+import secrets
 import shutil
 import subprocess
 import sys
@@ -67,9 +76,11 @@ _BOOT = ("import sys, os; sys.path.insert(0, sys.argv[1]); "
 _PREFIX = "gencoords-"
 _SUFFIX = ".shared"
 _RAM_FOLDER = "/dev/shm"
-# No console window per worker on Windows (Blender has none to share when started
-# from its icon); 0 elsewhere.
-_CREATION_FLAGS = getattr(subprocess, "CREATE_NO_WINDOW", 0)
+# Read when used, not at import: the tests simulate Windows on Linux by setting it.
+_WINDOWS = os.name == "nt"
+# subprocess.CREATE_NO_WINDOW (defined on Windows only): no console window per worker
+# (Blender has none to share when started from its icon), no output in the artist's.
+_CREATE_NO_WINDOW = 0x08000000
 _STDERR_KEPT = 40  # lines of a worker's stderr quoted when it dies
 _ZEROS = 1 << 22  # bytes written at a time where space is reserved by writing zeros
 # BLAS threads in every worker would oversubscribe the cores the workers already use.
@@ -142,63 +153,56 @@ def dispatch_units(count, chunk, workers):
 
 
 class SharedArrays:
-    """Named arrays in one memory-mapped temporary file that workers map too.
+    """Named arrays in memory that workers map too: tagged memory on Windows, a
+    memory-mapped temporary file elsewhere (the module's docstring says why).
 
     Parameters
     ----------
     specs : dict of name -> (shape, dtype)
+    reserved_by_writers : sequence of str
+        Arrays whose memory the writers may reserve row by row (they come last in ``specs``).
 
     Attributes
     ----------
     arrays : dict of name -> ndarray
         Views of the mapping; they keep it alive after this object is gone.
     layout : dict of name -> (offset, shape, dtype string)
-        What a worker needs to map the same arrays (:func:`attach`).
-    path : str
-        The file, ``gencoords-<this process's id>-<random>.shared``.
+        What a worker needs to map the same arrays (:func:`attach`), with ``address``.
+    address : (kind, name, size)
+        ``("tagname", tag name, bytes)`` on Windows, ``("path", file, bytes)`` elsewhere.
+    path : str or None
+        The file, ``gencoords-<this process's id>-<random>.shared``; None on Windows.
     reserved_by_writers : tuple of str
         Arrays whose memory the writers reserve, row by row, before writing them
-        (:func:`reserve_rows`); they come last in ``specs``. Empty where the file is not
-        in /dev/shm or the OS has no ``posix_fallocate`` (then it is reserved whole, here).
+        (:func:`reserve_rows`). Empty where the file is not in /dev/shm or the OS has no
+        ``posix_fallocate`` (then it is reserved whole, here) and on Windows (the OS
+        commits the whole mapping when it is made).
 
     Raises
     ------
     WorkerError
-        No room for the file (its message says how much is needed where).
+        No room for the memory or the file, or no usable temporary folder (its message
+        says what to do).
     """
 
     def __init__(self, specs, reserved_by_writers=()):
         self.layout, size = shared_layout(specs)
-        self.path = self._mapping = self._removal = None
-        # RAM (/dev/shm) where it has room, else the temporary folder (page cache). Space
-        # is reserved before anything is written: a full tmpfs (containers give it 64 MB)
-        # or disk would otherwise kill the writers with SIGBUS halfway through. Reserving
-        # zeroes the memory (45 ms for a 205 MB result, with the workers waiting): in
-        # /dev/shm the writers reserve their own rows as they go (:func:`reserve_rows`).
-        folders = (_RAM_FOLDER, tempfile.gettempdir()) if os.access(_RAM_FOLDER, os.W_OK) \
-            else (tempfile.gettempdir(),)
-        for folder in folders:
-            in_ram = folder == _RAM_FOLDER
-            deferred = tuple(reserved_by_writers) if in_ram and hasattr(os, "posix_fallocate") else ()
-            upfront = min((self.layout[name][0] for name in deferred), default=size)
-            try:
-                free = _free_bytes(folder)
-                if free < size:
-                    raise OSError(f"{free / 2**20:.0f} MB free")
-                self._mapping, self.path = _mapped_file(folder, size, upfront)
-                self.reserved_by_writers = deferred
-                break
-            except OSError as error:
-                if not in_ram:
-                    raise WorkerError(f"no room for {size / 2**20:.0f} MB of shared results in "
-                                      f"{folder} ({error}): free some disk space, or pass workers=1 "
-                                      "to compute in this process") from error
+        self.path = self._removal = None
+        if _WINDOWS:
+            self._mapping, name = _tagged_memory(size)
+            self.reserved_by_writers, self.address = (), ("tagname", name, size)
+        else:
+            self._mapping, self.path, self.reserved_by_writers = _shared_file(
+                size, self.layout, reserved_by_writers)
+            self.address = ("path", self.path, size)
         self.arrays = _views(self._mapping, self.layout)
 
     def remove(self):
-        """Remove the file's name: now where the OS allows it (a mapped file's name can go
-        on Linux and macOS; the mappings stay valid), else (Windows, while any process
-        holds it open or mapped) once this process's last view of it is gone."""
+        """Remove the file's name (nothing to do for Windows' tagged memory): now where the
+        OS allows it (a mapped file's name can go on Linux and macOS; the mappings stay
+        valid), else once this process's last view of it is gone."""
+        if self.path is None:
+            return
         try:
             os.unlink(self.path)
         except FileNotFoundError:
@@ -207,6 +211,56 @@ class SharedArrays:
             if self._removal is None:
                 # Runs after the mapping is unmapped (mmap clears weak references last).
                 self._removal = weakref.finalize(self._mapping, _remove_quietly, self.path)
+
+
+def _tagged_memory(size):
+    """Windows: ``size`` bytes backed by the paging file under a new random tag name, which
+    the workers open (:func:`attach`): (mmap, name). Nothing is on disk; the OS commits the
+    whole size here (so no writer can fail for want of it) and frees it when the last
+    process holding it closes it or ends."""
+    name = f"{_PREFIX}{os.getpid()}-{secrets.token_hex(8)}"
+    try:
+        return mmap.mmap(-1, size, tagname=name), name
+    except OSError as error:
+        raise WorkerError(f"no memory for {size / 2**20:.0f} MB of shared results ({error}): close "
+                          "other programs, or pass workers=1 to compute in this process") from error
+
+
+def _shared_file(size, layout, reserved_by_writers):
+    """Linux and macOS: a new shared file of ``size`` bytes, its space reserved, mapped:
+    (mmap, path, the arrays of ``reserved_by_writers`` that the writers reserve)."""
+    # RAM (/dev/shm) where it has room, else the temporary folder (page cache). Space is
+    # reserved before anything is written: a full tmpfs (containers give it 64 MB) or
+    # disk would otherwise kill the writers with SIGBUS halfway through. Reserving zeroes
+    # the memory (45 ms for a 205 MB result, with the workers waiting): in /dev/shm the
+    # writers reserve their own rows as they go (:func:`reserve_rows`).
+    in_ram = os.access(_RAM_FOLDER, os.W_OK)
+    while True:
+        folder = _RAM_FOLDER if in_ram else _temporary_folder()
+        deferred = tuple(reserved_by_writers) if in_ram and hasattr(os, "posix_fallocate") else ()
+        upfront = min((layout[name][0] for name in deferred), default=size)
+        try:
+            free = _free_bytes(folder)
+            if free < size:
+                raise OSError(f"{free / 2**20:.0f} MB free")
+            return (*_mapped_file(folder, size, upfront), deferred)
+        except OSError as error:
+            if not in_ram:
+                raise WorkerError(f"no room for {size / 2**20:.0f} MB of shared results in "
+                                  f"{folder} ({error}): free some disk space, or pass workers=1 "
+                                  "to compute in this process") from error
+            in_ram = False
+
+
+def _temporary_folder():
+    """The temporary folder; WorkerError where there is none usable (tempfile raises
+    FileNotFoundError when no candidate folder is writable)."""
+    try:
+        return tempfile.gettempdir()
+    except OSError as error:
+        raise WorkerError(f"no usable temporary folder for the shared results ({error}): set "
+                          "TMPDIR to a writable folder with free space, or pass workers=1 to "
+                          "compute in this process") from error
 
 
 def shared_layout(specs):
@@ -245,13 +299,12 @@ def _reserve(descriptor, offset, length):
         return
     if hasattr(os, "posix_fallocate"):  # Linux
         os.posix_fallocate(descriptor, offset, length)
-    elif os.name != "nt":  # macOS: ftruncate made a sparse file; zeros written are allocated
+    else:  # macOS: ftruncate made a sparse file; zeros written are allocated
         zeros = memoryview(bytes(min(_ZEROS, length)))
         os.lseek(descriptor, offset, os.SEEK_SET)
         end = offset + length
         while offset < end:
             offset += os.write(descriptor, zeros[:end - offset])
-    # Windows: ftruncate (SetEndOfFile) allocated the clusters, or failed for want of them.
 
 
 def _free_bytes(folder):
@@ -270,15 +323,16 @@ def sweep_stale_files():
     a kill, Windows at exit): list of the paths removed.
 
     A file's owner is the process id in its name. Linux and macOS: its files go once
-    that process is gone. Windows (where asking a process id could signal it): every
-    file is tried, and the OS refuses those that a living process holds.
+    that process is gone. Windows (files of older versions; this one makes none there,
+    and asking a process id could signal it): every file is tried, and the OS refuses
+    those that a living process holds. Never raises: a folder it cannot read is skipped.
     """
     removed = []
     for path in shared_files():
         owner = _owner(path)
         if owner == os.getpid():
             continue
-        if os.name != "nt" and (owner is None or _alive(owner)):
+        if not _WINDOWS and (owner is None or _alive(owner)):
             continue
         try:
             os.unlink(path)
@@ -292,8 +346,12 @@ def shared_files(owner=None):
     """The shared files in the folders they are made in, of every process or of the
     process id ``owner``: list of str."""
     pattern = f"{_PREFIX}*{_SUFFIX}" if owner is None else f"{_PREFIX}{int(owner)}-*{_SUFFIX}"
-    return [path for folder in (_RAM_FOLDER, tempfile.gettempdir())
-            for path in glob.glob(os.path.join(glob.escape(folder), pattern))]
+    folders = [_RAM_FOLDER] if os.access(_RAM_FOLDER, os.W_OK) else []
+    try:
+        folders.append(tempfile.gettempdir())
+    except OSError:  # no usable temporary folder: nothing made there either
+        pass
+    return [path for folder in folders for path in glob.glob(os.path.join(glob.escape(folder), pattern))]
 
 
 def _owner(path):
@@ -318,10 +376,14 @@ def _views(mapping, layout):
             for name, (offset, shape, dtype) in layout.items()}
 
 
-def attach(path, layout):
-    """A worker's views of a parent's :class:`SharedArrays`: (dict of name -> ndarray,
-    an open file descriptor for :func:`reserve_rows`, closed by the caller)."""
-    descriptor = os.open(path, os.O_RDWR | getattr(os, "O_BINARY", 0))
+def attach(address, layout):
+    """A worker's views of a parent's :class:`SharedArrays` (its ``address`` and ``layout``):
+    (dict of name -> ndarray, an open file descriptor for :func:`reserve_rows`, closed by
+    the caller; None for Windows' tagged memory)."""
+    kind, name, size = address
+    if kind == "tagname":  # opens the parent's mapping: same name, same size
+        return _views(mmap.mmap(-1, size, tagname=name), layout), None
+    descriptor = os.open(name, os.O_RDWR | getattr(os, "O_BINARY", 0))
     try:
         return _views(mmap.mmap(descriptor, 0), layout), descriptor
     except BaseException:
@@ -364,6 +426,7 @@ class WorkerPool:
 
     def __init__(self, vertices, faces, count):
         sweep_stale_files()
+        creation_flags = _CREATE_NO_WINDOW if _WINDOWS else 0  # POSIX Popen refuses any
         # The core's own folder (``core/`` in the repository and the extension,
         # ``gencoords/`` when pip-installed), two levels up from evaluation/parallel.py.
         package_folder = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -378,7 +441,7 @@ class WorkerPool:
                 # stderr is kept to quote when a worker dies, not printed in the artist's console.
                 process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                            stderr=subprocess.PIPE, env=environment,
-                                           creationflags=_CREATION_FLAGS)
+                                           creationflags=creation_flags)
                 self._processes.append(process)
                 self._stderr.append(collections.deque(maxlen=_STDERR_KEPT))
                 for target, args in ((_read_replies, (index, process.stdout, self._replies)),
@@ -468,10 +531,10 @@ class WorkerPool:
             if self._closed:
                 raise WorkerError("the worker pool is closed")
             for index in range(self.size):
-                self._send(index, ("map", shared.path, shared.layout, shared.reserved_by_writers, job))
+                self._send(index, ("map", shared.address, shared.layout, shared.reserved_by_writers, job))
             for _ in range(self.size):
                 self._receive()  # "mapped"
-            shared.remove()  # Linux, macOS: gone now, whatever happens next
+            shared.remove()  # Linux, macOS: the name gone now, whatever happens next
             pending = list(reversed(units))
             busy = [0] * self.size
             locate_only = False
@@ -584,10 +647,10 @@ def serve():
                 if descriptor is not None:
                     os.close(descriptor)
                 arrays = descriptor = None
-                path, layout, reserved, job = command[1:]
-                arrays, descriptor = attach(path, layout)
+                address, layout, reserved, job = command[1:]
+                arrays, descriptor = attach(address, layout)
                 reply("mapped")
-            elif command[0] == "release":  # the parent removes the file after this
+            elif command[0] == "release":  # a kept pool holds no memory between calls
                 if descriptor is not None:
                     os.close(descriptor)
                 arrays = descriptor = None  # the last views: unmapped

@@ -115,8 +115,8 @@ def test_bind_in_worker_processes_stores_what_one_process_computes(gc, monkeypat
 @pytest.mark.parametrize("workers", [None, 2])
 def test_bind_under_windows_semantics_leaves_nothing_behind(gc, monkeypatch, tmp_path, workers_preference,
                                                             worker_processes, workers):
-    # Windows refuses to remove a file any process holds: the shared files went only
-    # once the workers let go of them, after every chunk of the Bind.
+    # Windows refuses to remove a file any process holds: the workers share tagged
+    # memory (the paging file's, never a file), let go of it after every chunk of the Bind.
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
     monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 5000)
@@ -127,11 +127,13 @@ def test_bind_under_windows_semantics_leaves_nothing_behind(gc, monkeypatch, tmp
     monkeypatch.setattr(gc.core.evaluation.cage, "_PAIRS_PER_WORKER", 1)  # workers even for this small Bind
     monkeypatch.setattr(gc.core.evaluation.cage, "available_cores", lambda: 2)
     simulated_os.simulate(monkeypatch, "windows", tmp_path)
+    assert gc.core.evaluation.parallel._WINDOWS  # the extension's core takes its Windows branches
     assert bind(obj, cage) == {'FINISHED'}
     assert len(worker_processes.started) == 2
     np.testing.assert_allclose(coordinates_of(gc, obj), alone, rtol=0, atol=1e-6)
     garbage.collect()
     assert not gc.core.evaluation.parallel.shared_files(os.getpid())
+    assert not simulated_os.tagged_memory(tmp_path)  # the Bind keeps no view of the shared memory
 
 
 @pytest.mark.parametrize("workers", [None, 2])

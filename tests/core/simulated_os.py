@@ -7,14 +7,25 @@ the same way. Simulated, for ``system``:
 
 - ``"macos"`` and ``"windows"``: no ``os.posix_fallocate``, ``os.sched_getaffinity``,
   ``os.statvfs`` (``shutil.disk_usage`` still works, as it does there), no ``/dev/shm``.
-- ``"windows"`` also: removing a ``gencoords-*.shared`` file raises PermissionError while
-  any living process holds it open (``os.open``) or mapped (``mmap.mmap``). Holds are
-  marker files in the folder ``holds``, one per open descriptor or mapping, named with
-  the holder's process id, so that every process sees every other's (no ``/proc``); a
-  dead process's holds are void, as Windows closes its handles.
+  The temporary folder is ``holds/temp``, private to the test (a simulated Windows
+  sweep tries every file there, as Windows does, and must not meet other runs' files).
+- ``"windows"`` also: the core takes its Windows branches (its ``_WINDOWS``, set in this
+  process: workers only follow the parent), ``subprocess.Popen`` accepts (and records)
+  ``creationflags``, and removing a ``gencoords-*.shared`` file raises PermissionError
+  while any living process holds it open (``os.open``) or mapped (``mmap.mmap``). Holds
+  are marker files in the folder ``holds``, one per open descriptor or mapping, named
+  with the holder's process id, so that every process sees every other's (no
+  ``/proc``); a dead process's holds are void, as Windows closes its handles.
+  ``mmap.mmap(-1, size, tagname=name)`` (memory backed by the paging file, opened by
+  name from every process) is a file ``holds/tagged/<name>``, held like the others and
+  removed when its last living holder lets go; :func:`tagged_memory` lists those alive.
 
 ``broken_start(monkeypatch)`` makes every worker die at start-up the way an interpreter
 without numpy does.
+
+``kill_mid_call(monkeypatch, pool)`` kills a worker at a point where it certainly still
+owes rows: killing it from a progress callback raced with it (a worker whose replies
+were all in the pipe had nothing left to owe, and the call rightly succeeded).
 """
 
 import itertools
@@ -35,10 +46,36 @@ class _Plain:
 
 
 def simulate(monkeypatch, system, holds):
+    for folder in ("temp", "tagged"):
+        os.makedirs(os.path.join(holds, folder), exist_ok=True)
     monkeypatch.setenv(PRELUDE_VARIABLE, os.path.abspath(__file__))
     monkeypatch.setenv(SYSTEM_VARIABLE, system)
     monkeypatch.setenv(HOLDS_VARIABLE, str(holds))
     _apply(monkeypatch, system, str(holds))
+    if system == "windows":
+        _take_the_windows_branches(monkeypatch)
+
+
+def tagged_memory(holds):
+    """Names of the simulated tagged mappings that a living process still holds: list."""
+    return sorted(name for name in os.listdir(os.path.join(holds, "tagged"))
+                  if _held(str(holds), name))
+
+
+def _take_the_windows_branches(patch):
+    import subprocess
+
+    # The core's parallel module(s): imported as gencoords, or as the extension's core.
+    for name, module in list(sys.modules.items()):
+        if name.endswith("evaluation.parallel") and hasattr(module, "_WINDOWS"):
+            patch.setattr(module, "_WINDOWS", True)
+
+    class Popen(subprocess.Popen):
+        def __init__(self, *args, creationflags=0, **options):
+            self.creationflags = creationflags  # Linux refuses any but 0
+            super().__init__(*args, **options)
+
+    patch.setattr(subprocess, "Popen", Popen)
 
 
 def broken_start(monkeypatch):
@@ -46,8 +83,29 @@ def broken_start(monkeypatch):
     monkeypatch.setenv(BROKEN_VARIABLE, "1")
 
 
+def kill_mid_call(monkeypatch, pool, index=0, after=2):
+    """Kill worker ``index`` of ``pool`` (and wait until it is dead) just before the parent
+    sends it its unit of rows number ``after + 1`` of the next call: it has computed some
+    units (``after`` are in flight at a time), the other workers are busy, and the unit
+    being sent is one only it was to compute, so the call cannot succeed. Returns the
+    list of units sent to it (the test asserts the kill happened: longer than ``after``)."""
+    send, sent = pool._send, []
+
+    def sending(to, message):
+        if to == index and message[0] == "rows":
+            sent.append(message[1:3])
+            if len(sent) == after + 1:
+                pool._processes[index].kill()
+                pool._processes[index].wait()
+        return send(to, message)
+
+    monkeypatch.setattr(pool, "_send", sending)
+    return sent
+
+
 def _apply(patch, system, holds):
     import shutil
+    import tempfile
 
     real_statvfs, real_access = os.statvfs, os.access
 
@@ -66,6 +124,7 @@ def _apply(patch, system, holds):
         patch.delattr(os, name)
     patch.setattr(shutil, "disk_usage", disk_usage)
     patch.setattr(os, "access", access)
+    patch.setattr(tempfile, "tempdir", os.path.join(holds, "temp"))
     if system == "windows":
         _refuse_removing_held_files(patch, holds)
 
@@ -73,6 +132,20 @@ def _apply(patch, system, holds):
 def _shared(path):
     name = os.path.basename(os.fspath(path))
     return name.startswith("gencoords-") and name.endswith(".shared")
+
+
+def _held(holds, name):
+    """Whether a living process holds the file or tagged mapping ``name``."""
+    prefix = name + "."
+    for marker in os.listdir(holds):
+        if marker.startswith(prefix):
+            holder = int(marker[len(prefix):].split(".")[0])
+            try:
+                os.kill(holder, 0)
+                return True
+            except ProcessLookupError:
+                pass  # the OS closed a dead process's handles
+    return False
 
 
 def _refuse_removing_held_files(patch, holds):
@@ -94,16 +167,7 @@ def _refuse_removing_held_files(patch, holds):
             pass
 
     def held(path):
-        prefix = os.path.basename(path) + "."
-        for marker in os.listdir(holds):
-            if marker.startswith(prefix):
-                holder = int(marker[len(prefix):].split(".")[0])
-                try:
-                    os.kill(holder, 0)
-                    return True
-                except ProcessLookupError:
-                    pass  # the OS closed a dead process's handles
-        return False
+        return _held(holds, os.path.basename(path))
 
     def open_(path, flags, mode=0o777, *, dir_fd=None):
         descriptor = real_open(path, flags, mode, dir_fd=dir_fd)
@@ -123,17 +187,42 @@ def _refuse_removing_held_files(patch, holds):
                                       "used by another process (simulated Windows)", os.fspath(path))
         real_unlink(path, dir_fd=dir_fd)
 
+    def tagged(name, length):
+        """The file standing for tagged memory ``name``, made anew where no living process
+        holds one (Windows freed it), open: a descriptor."""
+        path = os.path.join(holds, "tagged", name)
+        if held(path):
+            return real_open(path, os.O_RDWR)
+        descriptor = real_open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC)
+        os.ftruncate(descriptor, length)
+        return descriptor
+
     class Mapping(real_mmap):
         # Let go in __del__, which runs before weak references are cleared: a real mmap
         # unmaps before its weak references' callbacks run.
-        def __new__(cls, fileno, length, *args, **options):
-            mapping = super().__new__(cls, fileno, length, *args, **options)
-            mapping.hold = hold(descriptors[fileno][0]) if fileno in descriptors else None
+        def __new__(cls, fileno, length, *args, tagname=None, **options):
+            if tagname is None:
+                mapping = super().__new__(cls, fileno, length, *args, **options)
+                mapping.hold = hold(descriptors[fileno][0]) if fileno in descriptors else None
+                mapping.tagged = None
+                return mapping
+            descriptor = tagged(tagname, length)
+            try:
+                mapping = super().__new__(cls, descriptor, length, *args, **options)
+            finally:
+                real_close(descriptor)
+            mapping.tagged = os.path.join(holds, "tagged", tagname)
+            mapping.hold = hold(mapping.tagged)
             return mapping
 
         def __del__(self):
             if self.hold is not None:
                 let_go(self.hold)
+            if self.tagged is not None and not held(self.tagged):  # the last handle closed
+                try:
+                    real_unlink(self.tagged)
+                except FileNotFoundError:
+                    pass
 
     patch.setattr(os, "open", open_)
     patch.setattr(os, "close", close)

@@ -9,6 +9,7 @@ import pytest
 import gencoords
 import gencoords.evaluation.rows
 import gencoords.evaluation.parallel
+import simulated_os
 from polytopes import icosphere, random_convex_polytope, random_interior_points
 
 
@@ -97,19 +98,17 @@ def test_a_cancel_stops_the_workers_and_removes_the_shared_memory(mixed_points, 
     assert shared_files() == before
 
 
-def test_a_killed_worker_raises_a_clear_error_and_leaves_nothing(mixed_points, small_chunks):
+def test_a_killed_worker_raises_a_clear_error_and_leaves_nothing(monkeypatch, mixed_points, small_chunks):
     vertices, faces, points = mixed_points
     before = shared_files()
     cage = gencoords.Cage(vertices, faces)
     cage.coordinates(points[:50], outside="project", workers=2)  # starts the pool
     processes = list(cage._pool._processes)
-
-    def kill_one(fraction):
-        processes[0].kill()
-
+    sent = simulated_os.kill_mid_call(monkeypatch, cage._pool)  # with rows still to compute
     with pytest.raises(gencoords.WorkerError, match="ended unexpectedly"):
-        cage.coordinates(points, outside="project", workers=2, progress=kill_one)
-    assert all(process.poll() is not None for process in processes)
+        cage.coordinates(points, outside="project", workers=2)
+    assert len(sent) == 3  # killed mid-call, after computing some rows
+    assert all(process.poll() is not None for process in processes)  # the other one stopped
     assert shared_files() == before
     # The next call starts fresh workers.
     np.testing.assert_array_equal(cage.coordinates(points, outside="project", workers=2),
@@ -185,7 +184,7 @@ def test_writers_reserve_their_rows_in_shared_memory(mixed_points, small_chunks)
         assert shared.reserved_by_writers == ("result",)
         # Only the points are reserved up front: the result's blocks come with its writers.
         assert os.stat(shared.path).st_blocks * 512 < shared.layout["result"][0] + 4096
-        views, descriptor = gencoords.evaluation.parallel.attach(shared.path, shared.layout)
+        views, descriptor = gencoords.evaluation.parallel.attach(shared.address, shared.layout)
         gencoords.evaluation.parallel.reserve_rows(descriptor, shared.layout, ("result",), 0, 10)
         assert os.stat(shared.path).st_blocks * 512 >= shared.layout["result"][0] + 10 * 4 * 4
         read_only = os.open(shared.path, os.O_RDONLY)
@@ -209,3 +208,16 @@ def test_without_room_in_dev_shm_the_temporary_folder_serves(monkeypatch, mixed_
         np.testing.assert_array_equal(cage.coordinates(points, outside="project", workers=2),
                                       cage.coordinates(points, outside="project", workers=1))
     assert shared_files() == before
+
+
+def test_without_a_usable_temporary_folder_dev_shm_serves(monkeypatch, mixed_points, small_chunks):
+    if not os.access("/dev/shm", os.W_OK):
+        pytest.skip("no /dev/shm here (tests/core/test_workers_on_other_systems.py covers that)")
+    vertices, faces, points = mixed_points
+
+    def no_temporary_folder():
+        raise FileNotFoundError(2, "No usable temporary directory found")
+
+    monkeypatch.setattr(tempfile, "gettempdir", no_temporary_folder)
+    np.testing.assert_array_equal(gencoords.coordinates(points, vertices, faces, outside="project", workers=2),
+                                  gencoords.coordinates(points, vertices, faces, outside="project", workers=1))
