@@ -290,7 +290,8 @@ def residual_deviations(residual, rest, fraction=DRAG_FRACTION, faces=None):
         Per cage vertex j, the deviation when j alone is dragged by ``fraction`` of the
         diagonal: ``fraction * max_i |residual_ij|`` in any direction (exact and cheap,
         so the worst vertex is found without moving each one); for Green coordinates,
-        dragged outward as :func:`vertex_drag_motion`, with the faces around j.
+        dragged outward as :func:`vertex_drag_motion`, with the faces around j (exact
+        for the worst vertex; the others may hold an upper bound below it).
 
     Examples
     --------
@@ -319,8 +320,14 @@ def residual_deviations(residual, rest, fraction=DRAG_FRACTION, faces=None):
 
 
 def _green_drag_deviations(residual, rest, faces, fraction):
-    """Per cage vertex j: ``max_i |residual_i D_j|``, D_j the Green displacements of j
-    dragged alone (its row and the rows of the faces around it), (n,) float."""
+    """Per cage vertex j, ``max_i |residual_i D_j|`` (D_j: the Green displacements of j
+    dragged alone, its row and the rows of the faces around it), or, for a vertex that
+    cannot be the worst, an upper bound of it no larger than the worst: (n,) float.
+
+    The bound ``max_i |r_ij| |D_jj| + sum_f max_i |r_if| |D_fj|`` costs one pass over the
+    residual; exact values are computed only for the vertices whose bound could exceed
+    the worst exact value found (a few, where Bind's drag is dominated by one corner),
+    so the largest entry and where it is are exact."""
     count = len(rest)
     # Each vertex's step in vertex_drag_motion: outward from the centroid.
     outward = rest - rest.mean(axis=0)
@@ -334,20 +341,19 @@ def _green_drag_deviations(residual, rest, faces, fraction):
         moved[:, corner] += steps[faces[:, corner]]
         local = np.arange(3 * len(faces)).reshape(-1, 3)
         face_rows[:, corner] = green_displacements(corners.reshape(-1, 3), moved.reshape(-1, 3), local)[-len(faces):]
-    # Sum each vertex's faces' terms with one reduceat over (face, corner) pairs sorted by vertex.
-    owner = faces.ravel()
-    order = np.argsort(owner, kind="stable")
-    starts = np.searchsorted(owner[order], np.arange(count))
-    face_of_pair = (np.arange(owner.size) // 3)[order]
-    terms = face_rows.reshape(-1, 3)[order]  # (3m, 3)
-    worst = np.zeros(count)
-    for begin in range(0, len(residual), 256):  # (rows, 3m, 3) temporaries stay small
-        block = residual[begin:begin + 256]
-        per_face = block[:, count:][:, face_of_pair]  # (rows, 3m)
-        total = np.add.reduceat(per_face[:, :, None] * terms[None], starts, axis=1)  # (rows, n, 3)
-        total += block[:, :count, None] * steps[None]
-        worst = np.maximum(worst, np.linalg.norm(total, axis=2).max(axis=0))
-    return worst
+    owner, pair_face, pair_rows = faces.ravel(), np.repeat(np.arange(len(faces)), 3), face_rows.reshape(-1, 3)
+    largest = np.maximum(residual.max(axis=0), -residual.min(axis=0))  # (n + m,)
+    drag = largest[:count] * np.linalg.norm(steps, axis=1) + np.bincount(
+        owner, weights=largest[count + pair_face] * np.linalg.norm(pair_rows, axis=1), minlength=count)
+    worst = 0.0
+    for j in np.argsort(-drag):  # by decreasing bound, until no bound can beat the worst
+        if drag[j] <= worst:
+            break
+        fan = np.flatnonzero(owner == j)
+        total = residual[:, j, None] * steps[j] + residual[:, count + pair_face[fan]] @ pair_rows[fan]
+        drag[j] = np.linalg.norm(total, axis=1).max()
+        worst = max(worst, drag[j])
+    return drag
 
 
 def smallest_size(coordinates, basis, rest, target, sizes, faces=None):

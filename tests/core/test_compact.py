@@ -6,6 +6,7 @@ import pytest
 
 import gencoords
 from gencoords.tools import compact
+from gencoords.tools.shapes import icosphere
 from polytopes import random_convex_polytope, random_interior_points
 
 
@@ -61,3 +62,27 @@ def test_an_affine_basis_reproduces_affine_motions_exactly(irregular):
     rng = np.random.default_rng(1)
     moved = vertices @ (np.eye(3) + 0.3 * rng.normal(size=(3, 3))).T + rng.normal(size=3)
     assert compact.deviation(coordinates, coordinates @ basis, basis, vertices, moved) < 1e-12
+
+
+def test_green_compact_follows_similarities_and_measures_the_worst_drag_exactly():
+    from gencoords.construction.green import green_displacements
+    vertices, faces = icosphere(2)
+    points = np.random.default_rng(0).uniform(-0.45, 0.45, (1500, 3))
+    phi, psi = gencoords.green_coordinates(points, vertices, faces)
+    rows = np.hstack([phi, psi])
+    basis = compact.green_motion_basis(vertices, faces, 24)
+    residual = rows - (rows @ basis) @ basis.T
+    rotation, _ = np.linalg.qr(np.random.default_rng(1).normal(size=(3, 3)))
+    rotation *= np.sign(np.linalg.det(rotation))
+    similarity = green_displacements(vertices, 1.3 * vertices @ rotation.T + [0.2, -0.1, 0.3], faces)
+    assert np.abs(residual @ similarity).max() < 1e-12  # the first 8 columns span them
+    smooth, drag = compact.residual_deviations(residual, vertices, faces=faces)
+    diagonal = np.linalg.norm(np.ptp(vertices, axis=0))
+    brute = np.array([np.linalg.norm(residual @ green_displacements(vertices, compact.vertex_drag_motion(vertices, j),
+                                                                     faces), axis=1).max()
+                      for j in range(len(vertices))]) / diagonal
+    assert drag.max() == pytest.approx(brute.max(), rel=1e-12) and drag.argmax() == brute.argmax()
+    assert (drag >= brute * (1 - 1e-12)).all()  # the others: exact, or upper bounds below the worst
+    moved = compact.smooth_test_motion(vertices)
+    expected = np.linalg.norm(residual @ green_displacements(vertices, moved, faces), axis=1).max() / diagonal
+    assert smooth == pytest.approx(expected, rel=1e-12) and smooth > 0.0
