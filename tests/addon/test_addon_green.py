@@ -134,7 +134,7 @@ def test_show_coordinate_paints_green_phi_and_a_second_cage_composes(gc):
     obj.data.color_attributes["GenCoords Field"].data.foreach_get("color", colors)
     phi, _ = gencoords.green_coordinates(rest, vertices, faces)
     np.testing.assert_allclose(colors.reshape(-1, 4), gc.core.tools.field_colors(phi[:, 4]), atol=2e-3)
-    # A second, mean value binding after the Green one: at rest both change nothing.
+    # A second Green binding, to an outer cage, after the first: at rest both change nothing.
     second = add_icosphere_cage(subdivisions=2, radius=2.5, name="Outer")
     assert bind_green(obj, second) == {'FINISHED'}
     assert [m.type for m in obj.modifiers] == ['NODES', 'NODES']
