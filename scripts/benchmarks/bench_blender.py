@@ -56,8 +56,8 @@ session.prepare()  # before bpy is imported: Blender reads its user folder then
 from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
+from scripts.common.playback import settle, time_updates  # noqa: E402
 
-UPDATE_REPEATS = 7
 MOVED_CAGE_VERTEX = 0  # the top vertex of every icosphere: moves many mesh vertices
 
 # A tiny watcher run in its own process: samples our resident memory, with that of our
@@ -156,47 +156,6 @@ def bind_gencoords(mesh, cage, kind, storage):
 # ---------------------------------------------------------------------------- measuring
 
 
-def update_until_changed(mesh, previous, buffer=None, max_passes=4):
-    """``view_layer.update()`` until the evaluated mesh differs from ``previous``.
-
-    Returns ``(positions, passes)``. GenCoords writes the deformed shape from a
-    depsgraph handler; Blender evaluates such writes within the same update, so one
-    pass normally suffices for both methods, and the loop is what makes the timing
-    "until the evaluated mesh shows the move" whatever a method needs.
-    """
-    for passes in range(1, max_passes + 1):
-        bpy.context.view_layer.update()
-        now = arrays.evaluated_positions(mesh, out=buffer)
-        if not np.array_equal(now, previous):
-            break
-    return now, passes
-
-
-def settle(mesh):
-    """The evaluated mesh after a cage change (made outside any timing)."""
-    return update_until_changed(mesh, arrays.evaluated_positions(mesh).copy())[0].copy()
-
-
-def time_updates(mesh, cage, rest_cage):
-    """Median seconds of one live update after moving one cage vertex, and passes used."""
-    buffer = np.empty(len(mesh.data.vertices) * 3, dtype=np.float32)
-    previous = arrays.evaluated_positions(mesh).copy()
-    times, passes_used = [], []
-    for repeat in range(UPDATE_REPEATS):
-        offset = 0.05 * (repeat + 1) * (1 if repeat % 2 else -1)
-        cage.data.vertices[MOVED_CAGE_VERTEX].co = (
-            rest_cage[MOVED_CAGE_VERTEX] + np.array([0.0, 0.0, offset]))
-        cage.data.update()  # only tags the cage: evaluation happens inside the timing
-        start = time.perf_counter()
-        now, passes = update_until_changed(mesh, previous, buffer)
-        times.append(time.perf_counter() - start)
-        passes_used.append(passes)
-        previous = now.copy()
-    arrays.write_positions(cage.data, rest_cage)
-    settle(mesh)
-    return float(np.median(times)), max(passes_used)
-
-
 def blend_size(tag):
     """Bytes of an uncompressed .blend of the current scene (written, measured, deleted)."""
     with tempfile.TemporaryDirectory(prefix="gencoords-bench-") as folder:
@@ -235,7 +194,7 @@ def run_method(level, subdivisions, method):
     bound = arrays.evaluated_positions(mesh)
     row["rest_error"] = float(np.abs(bound - rest_mesh).max()) / size
     row["blend"] = blend_size(f"{method[0]}-{method[1]}")
-    row["update"], row["passes"] = time_updates(mesh, cage, rest_cage)
+    row["update"], row["passes"] = time_updates(mesh, cage, rest_cage, MOVED_CAGE_VERTEX)
 
     # Green coordinates are exact for similarities, the others for every affine map.
     exact_map = scenes.similarity_map if method[1] == scenes.GREEN else scenes.affine_map

@@ -1,0 +1,163 @@
+"""Sparse bind-data storage: per point its K largest coordinates as (cage vertex, weight)
+pairs, renormalised to sum 1.
+
+A point with coordinates ``w`` (a row of ``W``, shape (k, n)) moves by ``w @ D`` when the
+cage's vertices move by ``D`` (n, 3). Local coordinates (harmonic, and any kind on a cage
+where each point sees few vertices) keep nearly all of ``w``'s mass in a few entries;
+sparse storage keeps the K largest (by magnitude) and divides them by their sum, so the
+stored weights still sum to 1 and translations of the cage stay exact. Evaluating costs K
+gathers per point whatever the cage (``gencoords_addon/sparse_graph.py``).
+
+Two levels (harmonic coordinates: trilinear interpolations of grid-node values): the
+grid nodes a point's cell touches carry their own sparse pairs over the cage, and each
+point keeps its cell's 8 nodes with their trilinear weights. The truncation then happens
+at the nodes only.
+
+How far the sparse form is from the exact one is measured like compact storage's
+(``compact.residual_deviations``: the standard smooth motion and the worst single-vertex
+drag, of the cage's diagonal) on the residual ``W - sparse(W)``; :func:`fewest_slots`
+finds the smallest K that keeps both under a target.
+"""
+
+import numpy as np
+
+from ..base import tolerances
+from . import compact
+
+__all__ = ["largest_pairs", "dense_weights", "interpolated", "fewest_slots", "SLOT_COUNTS"]
+
+SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
+
+
+def largest_pairs(coordinates, count):
+    """Each row's ``count`` largest-magnitude coordinates, renormalised to sum 1.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+    count : int
+        K; at most n (more are clipped to n).
+
+    Returns
+    -------
+    indices : (k, K) int32
+        Column indices, largest magnitude first.
+    weights : (k, K) float64
+        Rows sum to 1 (the kept values divided by their sum).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import largest_pairs
+    >>> indices, weights = largest_pairs(np.array([[0.1, 0.6, 0.05, 0.25]]), 2)
+    >>> indices.tolist(), weights.round(4).tolist()
+    ([[1, 3]], [[0.7059, 0.2941]])
+    """
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    count = min(int(count), coordinates.shape[1])
+    magnitude = np.abs(coordinates)
+    kept = np.argpartition(-magnitude, count - 1, axis=1)[:, :count]
+    order = np.argsort(-np.take_along_axis(magnitude, kept, axis=1), axis=1, kind="stable")
+    indices = np.take_along_axis(kept, order, axis=1)
+    values = np.take_along_axis(coordinates, indices, axis=1)
+    total = values.sum(axis=1, keepdims=True)
+    # A row whose kept values cancel (never for non-negative coordinates) keeps them as
+    # they are rather than dividing by ~0.
+    total[np.abs(total) < tolerances.WELL_DEFINED_WEIGHT_SUM] = 1.0
+    return indices.astype(np.int32), values / total
+
+
+def dense_weights(indices, weights, column_count):
+    """The (k, column_count) matrix the pairs stand for (zeros elsewhere).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import dense_weights
+    >>> dense_weights(np.array([[2, 0]]), np.array([[0.75, 0.25]]), 3).tolist()
+    [[0.25, 0.0, 0.75]]
+    """
+    dense = np.zeros((len(indices), column_count))
+    np.put_along_axis(dense, np.asarray(indices, dtype=np.int64), np.asarray(weights, dtype=np.float64), axis=1)
+    return dense
+
+
+def interpolated(values, corners, trilinear):
+    """Rows interpolated from node rows: ``sum_c trilinear[:, c] * values[corners[:, c]]``.
+
+    Parameters
+    ----------
+    values : (N, n) float
+        Per grid node.
+    corners : (k, 8) int
+        Each point's cell corners (rows of ``values``).
+    trilinear : (k, 8) float
+        Their trilinear weights.
+
+    Returns
+    -------
+    (k, n) float64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import interpolated
+    >>> nodes = np.eye(8)
+    >>> interpolated(nodes, np.arange(8)[None], np.full((1, 8), 0.125)).sum()
+    1.0
+    """
+    values = np.asarray(values, dtype=np.float64)
+    result = np.zeros((len(corners), values.shape[1]))
+    for c in range(np.shape(corners)[1]):
+        result += np.asarray(trilinear, dtype=np.float64)[:, c, None] * values[np.asarray(corners)[:, c]]
+    return result
+
+
+def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=None):
+    """The fewest pairs per row whose deviations both stay under ``target``.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+        Exact coordinates of sample points; with ``interpolation``, of the grid nodes
+        ((N, n)), the points' coordinates being their trilinear interpolation.
+    rest : (n, 3) float
+        The cage at rest.
+    target : float
+        Largest deviation allowed, of the cage's diagonal.
+    counts : increasing sequence of int
+        Candidate K.
+    interpolation : ((k, 8) int, (k, 8) float), optional
+        The points' cell corners and trilinear weights (two-level layout).
+
+    Returns
+    -------
+    count : int or None
+        The first of ``counts`` whose smooth and worst drag deviations (weights rounded
+        to float32, as stored) are below ``target``; None if none is.
+    smooth, drag : float
+        Those deviations at ``count`` (at the last count when None).
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.sparse import fewest_slots
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> w = gencoords.coordinates([[0.1, 0.2, 0.3]], vertices, faces, workers=1)
+    >>> count, smooth, drag = fewest_slots(w, vertices, 1e-3, counts=(4, 42))
+    >>> count, drag < 1e-3
+    (42, True)
+    """
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    smooth = drag = np.inf
+    for count in counts:
+        indices, weights = largest_pairs(coordinates, count)
+        residual = coordinates - dense_weights(indices, weights.astype(np.float32), coordinates.shape[1])
+        if interpolation is not None:
+            residual = interpolated(residual, *interpolation)
+        smooth, drag_per_vertex = compact.residual_deviations(residual, rest)
+        drag = float(drag_per_vertex.max(initial=0.0))
+        if smooth < target and drag < target:
+            return count, smooth, drag
+    return None, smooth, drag
