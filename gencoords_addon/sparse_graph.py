@@ -17,10 +17,11 @@ played back fastest, in 0.84x Mesh Deform p5's time at K = 16 on the 43k-vertex
 character).
 
 Two-level layout (harmonic coordinates, which are trilinear interpolations of grid-node
-values): the mesh's first N points carry the N grid nodes' own sparse pairs over the cage
-(K' slots); the group stores each node's displacement ``sum_k w'_ak (C - R)`` on those
-points, then each mesh vertex gathers its cell's 8 nodes with its trilinear weights
-(8 slots, whatever the cage). Node indices point at the mesh's points.
+values): the N grid nodes the mesh's cells touch carry their own pairs over the cage (K'
+of them, stacked in columns as long as the mesh: ``write_node_pairs``); the group makes a
+point cloud of the N nodes, stores each one's displacement ``sum_j w'_aj (C - R)`` on it,
+then each mesh vertex gathers its cell's 8 nodes with its trilinear weights (8 slots,
+whatever the cage; indices into the cloud).
 
 At rest ``C == R`` bitwise (the rest cage is read back through the group's own Object
 Info node), every gathered displacement is exactly 0 and the mesh is unchanged bitwise.
@@ -31,6 +32,7 @@ The guard, strength, mask and attribute stripping are the deformer's own
 import bpy
 import numpy as np
 
+from ..core.tools import sparse
 from . import deformer, mesh_arrays
 from .bind_layout import attribute_prefix
 
@@ -72,6 +74,16 @@ def write_pairs(mesh, key, indices, weights, level="vertex"):
     mesh_arrays.write_columns(mesh, weight_attribute_names(key, count, level), weights, 'FLOAT')
 
 
+def write_node_pairs(mesh, key, indices, weights):
+    """Store the N grid nodes' pairs ((N, K') each) stacked in columns as long as the mesh
+    (``core.tools.sparse.stacked_columns``): INT and FLOAT point attributes."""
+    rows = len(mesh.vertices)
+    for values, names, data_type in ((indices, index_attribute_names, 'INT'),
+                                     (weights, weight_attribute_names, 'FLOAT')):
+        columns, _ = sparse.stacked_columns(np.asarray(values), rows)
+        mesh_arrays.write_columns(mesh, names(key, columns.shape[1], "node"), columns, data_type)
+
+
 def read_pairs(mesh, key, slot_count, level="vertex"):
     """The pairs :func:`write_pairs` stored ((k, K) int32 and float32), or None when an
     attribute is missing."""
@@ -91,46 +103,84 @@ def _slot_attribute(build, number_text, template, data_type):
     return read.outputs["Attribute"]
 
 
-def weighted_gather(build, source, value, key, slot_count, level="vertex"):
-    """The field ``sum_k Weight_k * value(source, at Index_k)`` over the K slots of
-    ``level`` (attributes read on the geometry the field is evaluated on): a Repeat Zone
-    of K iterations, each reading its slot's attributes by name, so the group's size does
-    not depend on K."""
+def _repeat_zone(build, count):
+    """A Repeat Zone of ``count`` iterations carrying the sum and the slot number."""
     zone_in = build.add('GeometryNodeRepeatInput', "accumulate")
     zone_out = build.add('GeometryNodeRepeatOutput', "accumulate")
     zone_in.pair_with_output(zone_out)
     zone_out.repeat_items.clear()
     zone_out.repeat_items.new('VECTOR', SUM)
     zone_out.repeat_items.new('INT', SLOT)
-    zone_in.inputs["Iterations"].default_value = slot_count
-    slot = zone_in.outputs[SLOT]
-    number = build.add('FunctionNodeValueToString', "accumulate")
-    build.link(slot, number.inputs["Value"])
-    index = _slot_attribute(build, number.outputs[0], _name_template(key, level, "index"), 'INT')
-    weight = _slot_attribute(build, number.outputs[0], _name_template(key, level, "weight"), 'FLOAT')
-    gathered = build.sample_index("accumulate", source, value, index)
+    zone_in.inputs["Iterations"].default_value = count
+    return zone_in, zone_out
+
+
+def _close_zone(build, zone_in, zone_out, gathered, weight):
+    """Sum += weight * gathered, the next slot; the zone's final sum."""
     build.link(build.math("accumulate", 'MULTIPLY_ADD', gathered, weight, zone_in.outputs[SUM]),
                zone_out.inputs[SUM])
-    build.link(build.math("accumulate", 'ADD', slot, 1.0, vector=False), zone_out.inputs[SLOT])
+    build.link(build.math("accumulate", 'ADD', zone_in.outputs[SLOT], 1.0, vector=False),
+               zone_out.inputs[SLOT])
     return zone_out.outputs[SUM]
 
 
-def _node_displacements(build, mesh, cage, displacement, key, node_count, node_slot_count):
-    """The mesh with each grid node's displacement stored on its first ``node_count``
-    points (two-level layout), and that attribute's field."""
-    gathered = weighted_gather(build, cage, displacement, key, node_slot_count, "node")
-    index = build.add('GeometryNodeInputIndex', "lane_index").outputs[0]
-    is_node = build.add('FunctionNodeCompare', "lane_index", data_type='INT', operation='LESS_THAN')
-    operands = deformer.compat.compare_operands(is_node)
-    build.link(index, operands[0])
-    operands[1].default_value = node_count
-    store = build.add('GeometryNodeStoreNamedAttribute', "lane_store", data_type='FLOAT_VECTOR',
-                      domain='POINT')
-    store.inputs["Name"].default_value = node_displacement_name(key)
-    build.link(mesh, store.inputs["Geometry"])
-    build.link(is_node.outputs[0], store.inputs["Selection"])
-    build.link(gathered, store.inputs["Value"])
-    return store.outputs[0], build.named_attribute("lane_read", node_displacement_name(key))
+def _text(build, number):
+    node = build.add('FunctionNodeValueToString', "accumulate")
+    build.link(number, node.inputs["Value"])
+    return node.outputs[0]
+
+
+def weighted_gather(build, source, value, key, slot_count, level="vertex"):
+    """The field ``sum_k Weight_k * value(source, at Index_k)`` over the K slots of
+    ``level`` (attributes read on the geometry the field is evaluated on): a Repeat Zone
+    of K iterations, each reading its slot's attributes by name, so the group's size does
+    not depend on K."""
+    zone_in, zone_out = _repeat_zone(build, slot_count)
+    number = _text(build, zone_in.outputs[SLOT])
+    index = _slot_attribute(build, number, _name_template(key, level, "index"), 'INT')
+    weight = _slot_attribute(build, number, _name_template(key, level, "weight"), 'FLOAT')
+    gathered = build.sample_index("accumulate", source, value, index)
+    return _close_zone(build, zone_in, zone_out, gathered, weight)
+
+
+def _sample(build, geometry, value, index, data_type):
+    node = build.add('GeometryNodeSampleIndex', "accumulate", data_type=data_type, domain='POINT')
+    build.link(geometry, node.inputs["Geometry"])
+    build.link(value, node.inputs["Value"])
+    build.link(index, node.inputs["Index"])
+    return node.outputs[0]
+
+
+def _stacked_gather(build, mesh, cage, displacement, key, node_count, node_slot_count, per_column):
+    """On a cloud of the N grid nodes, ``sum_j w_aj (C - R)[i_aj]`` with node a's slot j
+    read from the mesh's stacked columns (``core.tools.sparse.stacked_columns``): row
+    ``(j % S) * N + a`` of column ``j // S``."""
+    zone_in, zone_out = _repeat_zone(build, node_slot_count)
+    slot = zone_in.outputs[SLOT]
+    column = build.math("accumulate", 'FLOOR', build.math(
+        "accumulate", 'DIVIDE', slot, float(per_column), vector=False), vector=False)
+    within = build.math("accumulate", 'MULTIPLY_ADD', column, -float(per_column), slot, vector=False)
+    node_index = build.add('GeometryNodeInputIndex', "accumulate").outputs[0]
+    row = build.math("accumulate", 'MULTIPLY_ADD', within, float(node_count), node_index, vector=False)
+    number = _text(build, column)
+    columns = [_slot_attribute(build, number, _name_template(key, "node", what), data_type)
+               for what, data_type in (("index", 'INT'), ("weight", 'FLOAT'))]
+    index = _sample(build, mesh, columns[0], row, 'INT')
+    weight = _sample(build, mesh, columns[1], row, 'FLOAT')
+    gathered = build.sample_index("accumulate", cage, displacement, index)
+    return _close_zone(build, zone_in, zone_out, gathered, weight)
+
+
+def _node_displacements(build, mesh, cage, displacement, key, node_count, node_slot_count,
+                        per_column):
+    """A point cloud of the N grid nodes with each one's displacement stored (two-level
+    layout), and that attribute's field."""
+    cloud = build.add('GeometryNodePoints', "lane_index")
+    cloud.inputs["Count"].default_value = node_count
+    gathered = _stacked_gather(build, mesh, cage, displacement, key, node_count, node_slot_count,
+                               per_column)
+    stored = build.store("lane_store", cloud.outputs[0], node_displacement_name(key), gathered)
+    return stored, build.named_attribute("lane_read", node_displacement_name(key))
 
 
 def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
@@ -152,10 +202,10 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
     slot_count : int
         K: the pairs per mesh vertex (8 in the two-level layout: its cell's corners).
     node_count : int
-        Two-level layout: N <= k, the grid nodes stored on the mesh's first N points;
-        0 for the direct layout (the mesh vertices' indices are cage vertices).
+        Two-level layout: N <= k, the grid nodes the mesh's cells touch (the mesh
+        vertices' indices are nodes); 0 for the direct layout (they are cage vertices).
     node_slot_count : int
-        Two-level layout: K', the pairs per grid node.
+        Two-level layout: K', the pairs per grid node (``write_node_pairs``).
     """
     rest_cage = np.asarray(rest_cage, dtype=np.float32)
     group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
@@ -167,9 +217,12 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
     mesh = group_input.outputs[deformer.GEOMETRY]
     cage, displacement = deformer._cage_displacement(build, group_input, rest_cage)
     source, value = cage, displacement
+    node_columns = 0
     if node_count:
+        per_column = mesh_vertex_count // node_count
+        node_columns = -(-node_slot_count // per_column)
         source, value = _node_displacements(build, mesh, cage, displacement, key, node_count,
-                                            node_slot_count)
+                                            node_slot_count, per_column)
     offset = weighted_gather(build, source, value, key, slot_count)
     moved = deformer._moved_mesh(build, group_input, offset)
     usable = deformer._usable(build, mesh, cage, (cage, displacement), len(rest_cage),
@@ -179,13 +232,13 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
     build.link(mesh, switch.inputs["False"])
     build.link(moved, switch.inputs["True"])
     names = (index_attribute_names(key, slot_count) + weight_attribute_names(key, slot_count)
-             + index_attribute_names(key, node_slot_count, "node")
-             + weight_attribute_names(key, node_slot_count, "node")
-             + ([node_displacement_name(key)] if node_count else []))
+             + index_attribute_names(key, node_columns, "node")
+             + weight_attribute_names(key, node_columns, "node"))
     output = deformer._strip_attributes(build, switch.outputs[0], key, names)
     build.link(output, build.add('NodeGroupOutput', "output").inputs[deformer.GEOMETRY])
     return group
 
 
 __all__ = ["build_sparse_group", "index_attribute_names", "weight_attribute_names",
-           "node_displacement_name", "weighted_gather", "write_pairs", "read_pairs"]
+           "node_displacement_name", "weighted_gather", "write_pairs", "write_node_pairs",
+           "read_pairs"]

@@ -11,7 +11,9 @@ gathers per point whatever the cage (``gencoords_addon/sparse_graph.py``).
 Two levels (harmonic coordinates: trilinear interpolations of grid-node values): the
 grid nodes a point's cell touches carry their own sparse pairs over the cage, and each
 point keeps its cell's 8 nodes with their trilinear weights. The truncation then happens
-at the nodes only.
+at the nodes only, and a node can keep many pairs cheaply: the N nodes are few beside the
+k points. Their pairs are stored stacked (:func:`stacked_columns`) in columns as long as
+the points, so they take about N x K' numbers each, not k x K'.
 
 How far the sparse form is from the exact one is measured like compact storage's
 (``compact.residual_deviations``: the standard smooth motion and the worst single-vertex
@@ -24,9 +26,13 @@ import numpy as np
 from ..base import tolerances
 from . import compact
 
-__all__ = ["largest_pairs", "dense_weights", "interpolated", "fewest_slots", "SLOT_COUNTS"]
+__all__ = ["largest_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
+           "stacked_columns", "SLOT_COUNTS", "NODE_SLOT_COUNTS"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
+# Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
+# cheap (bench_sparse_routes.py: 48 pairs on 1,286 nodes play back in 0.8x Mesh Deform's time).
+NODE_SLOT_COUNTS = (8, 16, 24, 32, 48, 64, 96, 128)
 
 
 def largest_pairs(coordinates, count):
@@ -113,6 +119,52 @@ def interpolated(values, corners, trilinear):
     return result
 
 
+def deviations(coordinates, indices, weights, rest, interpolation=None):
+    """How far the pairs as stored are from the exact coordinates, of the cage's diagonal.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+        Exact coordinates; with ``interpolation``, of the grid nodes ((N, n)).
+    indices, weights : (k, K) (or (N, K')) int and float
+        The pairs, weights as stored (float32 is measured as float32).
+    rest : (n, 3) float
+        The cage at rest.
+    interpolation : ((p, 8) int, (p, 8) float), optional
+        The points' cell corners (rows of ``coordinates``) and trilinear weights: the
+        deviations are then those of the p points.
+
+    Returns
+    -------
+    smooth : float
+        Under the standard smooth motion (``compact.smooth_test_motion``).
+    drag : float
+        Under the worst single cage vertex dragged by ``compact.DRAG_FRACTION`` of the
+        diagonal.
+    drag_vertex : int
+        That vertex.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import deviations, largest_pairs
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> exact = np.array([[0.5, 0.3, 0.2, 0.0, 0.0, 0.0]])
+    >>> smooth, drag, vertex = deviations(exact, *largest_pairs(exact, 3), vertices)
+    >>> float(drag) < 1e-15
+    True
+    """
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    residual = coordinates - dense_weights(indices, weights, coordinates.shape[1])
+    if interpolation is not None:
+        residual = interpolated(residual, *interpolation)
+    smooth, drag = compact.residual_deviations(residual, rest)
+    if len(drag) == 0 or len(residual) == 0:
+        return float(smooth), 0.0, 0
+    return float(smooth), float(drag.max()), int(np.argmax(drag))
+
+
 def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=None):
     """The fewest pairs per row whose deviations both stay under ``target``.
 
@@ -149,15 +201,75 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     >>> count, drag < 1e-3
     (42, True)
     """
-    coordinates = np.asarray(coordinates, dtype=np.float64)
     smooth = drag = np.inf
     for count in counts:
         indices, weights = largest_pairs(coordinates, count)
-        residual = coordinates - dense_weights(indices, weights.astype(np.float32), coordinates.shape[1])
-        if interpolation is not None:
-            residual = interpolated(residual, *interpolation)
-        smooth, drag_per_vertex = compact.residual_deviations(residual, rest)
-        drag = float(drag_per_vertex.max(initial=0.0))
+        smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
         if smooth < target and drag < target:
             return count, smooth, drag
     return None, smooth, drag
+
+
+def used_nodes(corners):
+    """The grid nodes the points' cells use, and the corners renumbered into them.
+
+    Parameters
+    ----------
+    corners : (k, 8) int
+        Each point's cell corners (rows of a grid's nodes).
+
+    Returns
+    -------
+    used : (N,) int
+        Sorted node rows.
+    local : (k, 8) int32
+        ``corners`` as rows of ``used``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import used_nodes
+    >>> used, local = used_nodes(np.array([[7, 3, 7, 9, 3, 3, 9, 7]]))
+    >>> used.tolist(), local.tolist()
+    ([3, 7, 9], [[1, 0, 1, 2, 0, 0, 2, 1]])
+    """
+    used, local = np.unique(np.asarray(corners), return_inverse=True)
+    return used, local.reshape(np.shape(corners)).astype(np.int32)
+
+
+def stacked_columns(values, row_count):
+    """Node slots stacked into columns of ``row_count`` rows: slot j of node a at row
+    ``(j % S) * N + a`` of column ``j // S``, with ``S = row_count // N`` slots a column.
+
+    Parameters
+    ----------
+    values : (N, K') array
+        Per node its K' slot values (indices or weights); N <= ``row_count``.
+    row_count : int
+        The column length (the mesh's vertex count).
+
+    Returns
+    -------
+    columns : (row_count, C) array of ``values``' dtype
+        ``C = ceil(K' / S)``; zeros where no slot is stored.
+    per_column : int
+        S.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import stacked_columns
+    >>> columns, per_column = stacked_columns(np.array([[1, 2, 3], [4, 5, 6]]), 5)
+    >>> per_column, columns.T.tolist()
+    (2, [[1, 4, 2, 5, 0], [3, 6, 0, 0, 0]])
+    """
+    values = np.asarray(values)
+    count, slots = values.shape
+    if count == 0 or count > row_count:
+        raise ValueError(f"{count} nodes do not fit in columns of {row_count} rows")
+    per_column = row_count // count
+    columns = np.zeros((row_count, -(-slots // per_column)), dtype=values.dtype)
+    for j in range(slots):
+        start = (j % per_column) * count
+        columns[start:start + count, j // per_column] = values[:, j]
+    return columns, per_column

@@ -14,10 +14,11 @@ pairs summing to 1; the vertex moves to ``P + sum_k w_k (C_{i_k} - R_{i_k})``. R
                the pairs as the mesh's vertex groups; the update includes the bones'
                evaluation.
   two-level    harmonic coordinates' layout: a grid of cubic cells fitted to the cage's
-               box (``--resolution`` cells along its longest side); the grid nodes the
-               mesh's cells touch carry K' = ``--node-slots`` pairs over the cage each
-               (stored on the mesh's first N points), the group stores their
-               displacements, then every vertex gathers its cell's 8 nodes (trilinear).
+               box (``--resolutions``: cells along its longest side); the N grid nodes
+               the mesh's cells touch carry K' = ``--node-slots`` pairs over the cage
+               each (stacked in columns as long as the mesh), the group stores their
+               displacements on a cloud of N points, then every vertex gathers its
+               cell's 8 nodes (trilinear).
 
 The weights are a stand-in with the access pattern of local coordinates (inverse squared
 distance to the K nearest cage vertices; the grid nodes' likewise): cost depends on K and
@@ -174,7 +175,7 @@ def gn_route(mesh, cage, rest_cage, gather, pairs, nodes=None):
     indices, weights = pairs
     graph.write_pairs(mesh.data, KEY, indices, weights)
     if nodes is not None:
-        graph.write_pairs(mesh.data, KEY, *nodes, level="node")
+        graph.write_node_pairs(mesh.data, KEY, *nodes)
     original = graph.weighted_gather
     if GATHERS[gather] is not None:
         graph.weighted_gather = GATHERS[gather]
@@ -311,9 +312,10 @@ def routes(scene, slots, resolutions, node_slots):
             print(f"  two-level at {resolution} cells: {len(nodes)} nodes > {len(points)} "
                   "vertices, skipped", flush=True)
             continue
-        node_pairs = nearest_weights(nodes, cage_points, node_slots)
-        found.append({"name": f"two-level {resolution} cells, {len(nodes)} nodes x {node_slots}",
-                      "kind": "repeat", "slots": 8, "levels": [node_pairs, (corners, trilinear)]})
+        for count in node_slots:
+            node_pairs = nearest_weights(nodes, cage_points, count)
+            found.append({"name": f"two-level {resolution} cells, {len(nodes)} nodes x {count}",
+                          "kind": "repeat", "slots": 8, "levels": [node_pairs, (corners, trilinear)]})
     bpy.data.objects.remove(mesh)
     bpy.data.objects.remove(cage)
     return points.astype(np.float32), len(cage_points), found
@@ -340,7 +342,7 @@ def main():
     parser.add_argument("--slots", nargs="+", type=int, default=[8, 16, 32])
     parser.add_argument("--precisions", nargs="+", type=int, default=[5, 6])
     parser.add_argument("--resolutions", nargs="+", type=int, default=[32, 64])
-    parser.add_argument("--node-slots", type=int, default=16)
+    parser.add_argument("--node-slots", nargs="+", type=int, default=[16, 48])
     parser.add_argument("--rounds", type=int, default=15, help="timed updates per route")
     parser.add_argument("--output", type=Path, default=session.OUT / "bench_sparse_routes.md")
     args = parser.parse_args()

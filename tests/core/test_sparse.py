@@ -74,3 +74,23 @@ def test_two_level_residual_is_the_interpolated_node_residual(cage_and_coordinat
         expected_smooth, expected_drag = compact.residual_deviations(residual, vertices)
         assert smooth == pytest.approx(expected_smooth, rel=1e-9)
         assert drag == pytest.approx(expected_drag.max(), rel=1e-9)
+
+
+def test_stacked_columns_put_every_slot_where_the_deformer_reads_it():
+    rng = np.random.default_rng(2)
+    values = rng.integers(1, 1000, (7, 11))
+    columns, per_column = sparse.stacked_columns(values, 30)
+    assert per_column == 4 and columns.shape == (30, 3)
+    for a in range(7):
+        for j in range(11):
+            assert columns[(j % per_column) * 7 + a, j // per_column] == values[a, j]
+    assert np.count_nonzero(columns) == values.size  # nothing else written
+    with pytest.raises(ValueError):
+        sparse.stacked_columns(values, 6)  # more nodes than rows
+
+
+def test_used_nodes_renumber_the_corners():
+    corners = np.random.default_rng(4).integers(0, 50, (20, 8))
+    used, local = sparse.used_nodes(corners)
+    np.testing.assert_array_equal(used[local], corners)
+    assert len(used) == len(np.unique(corners))
