@@ -1,0 +1,243 @@
+"""Local coordinates on the artist's character, against Mesh Deform (part of ``make bench``).
+
+The character (``scripts/common/character.py``): a 43k-vertex body of capsules in its
+box-modelled, non-convex T-pose quad cage (196 vertices). Methods, each bound in a fresh
+scene: Mesh Deform at precision 5 and 6, GenCoords mean value and GenCoords harmonic
+(local, positive; sparse storage), both with Automatic storage.
+
+Metrics:
+  bind       wall time of the bind operator (``meshdeform_bind`` / ``gencoords_bind``).
+  peak MB    peak resident memory growth during the bind (the process and its workers,
+             ``scripts/common/memory.py``).
+  .blend MB  uncompressed .blend size the binding adds to the unbound scene.
+  update     median live update (move one cage vertex, ``view_layer.update()``, read the
+             evaluated mesh), every method bound side by side in one scene and timed in
+             turns (``--rounds`` rounds), with the ratio to Mesh Deform p5's.
+  locality   each of the two arms, two legs and head in turn: its cage vertices
+             (``character.cage_limb_vertices``: the outer half of a limb) moved forward by
+             20 % of the cage's diagonal; the largest move of the body's vertices of the
+             four other limbs (``limb_labels``; the torso and neck, which they hang on,
+             not counted), of the diagonal; the worst over the five.
+  bend       the left forearm's cage vertices turned 60 degrees about the elbow (the
+             y axis through the middle of the arm): per triangle of the left arm, the
+             change of its three angles; mean and 99th percentile (degrees), and triangles
+             flipped (normal against both its rest normal and its rest normal turned 60
+             degrees).
+  negative   share of the mesh vertices with a negative coordinate, and the smallest
+             (GenCoords; Mesh Deform has none).
+
+Usage: bench_local.py [--precisions 5 6] [--kinds mean_value harmonic] [--rounds 15]
+"""
+
+import argparse
+import datetime
+import os
+import platform
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
+from scripts.common import session  # noqa: E402
+
+session.prepare()  # before bpy is imported
+from scripts.common import character, scenes  # noqa: E402
+import bpy  # noqa: E402
+from scripts.common import playback  # noqa: E402
+from scripts.common.memory import PeakMemory, blend_size  # noqa: E402
+from scripts.common.playback import settle  # noqa: E402
+from scripts.common.scenes import arrays  # noqa: E402
+
+MOVED_LIMBS = ("left_arm", "right_arm", "left_leg", "right_leg", "head")
+LOCALITY_MOVE = 0.2  # of the cage's diagonal
+BEND_DEGREES = 60.0
+ELBOW = np.array([-0.575, 0.0, 1.325])  # the middle of the left arm, on its axis
+
+
+def bind(mesh, cage, method):
+    """Bind ``mesh`` to ``cage`` with ``method`` (("md", precision) or ("gencoords",
+    kind)); returns the wall time."""
+    scenes.make_active(mesh)
+    start = time.perf_counter()
+    with session.quiet():
+        if method[0] == "md":
+            modifier = mesh.modifiers.new("MeshDeform", 'MESH_DEFORM')
+            modifier.object, modifier.precision = cage, method[1]
+            bpy.ops.object.meshdeform_bind(modifier=modifier.name)
+            ok = modifier.is_bound
+        else:
+            ok = "FINISHED" in scenes.bind(mesh, cage, method[1], storage='AUTO')
+    if not ok:
+        raise RuntimeError(f"{method} did not bind")
+    return time.perf_counter() - start
+
+
+def locality(mesh, cage, rest_cage, labels, size):
+    """The largest move of the other parts' vertices when one limb's cage vertices move
+    by LOCALITY_MOVE of the diagonal, of the diagonal: the worst limb and its figure."""
+    rest = settle(mesh)
+    worst = (None, 0.0)
+    for limb in MOVED_LIMBS:
+        moved = rest_cage.astype(np.float64)
+        moved[character.cage_limb_vertices(rest_cage, limb)] += (0.0, -LOCALITY_MOVE * size, 0.0)
+        arrays.write_positions(cage.data, moved)
+        now = settle(mesh)
+        other = np.isin(labels, MOVED_LIMBS) & (labels != limb)
+        figure = float(np.linalg.norm(now[other] - rest[other], axis=1).max()) / size
+        worst = max(worst, (limb, figure), key=lambda pair: pair[1])
+    arrays.write_positions(cage.data, rest_cage)
+    settle(mesh)
+    return worst
+
+
+def _rotation_y(degrees):
+    angle = np.radians(degrees)
+    cos, sin = np.cos(angle), np.sin(angle)
+    return np.array([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]])
+
+
+def triangle_angles(points, triangles):
+    """(t, 3) angles in degrees."""
+    corners = points[triangles]
+    angles = []
+    for c in range(3):
+        a = corners[:, (c + 1) % 3] - corners[:, c]
+        b = corners[:, (c + 2) % 3] - corners[:, c]
+        cosine = (a * b).sum(1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-30)
+        angles.append(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+    return np.stack(angles, axis=1)
+
+
+def normals(points, triangles):
+    corners = points[triangles]
+    return np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+
+
+def bend(mesh, cage, rest_cage, labels, triangles):
+    """The left forearm's cage vertices turned BEND_DEGREES about the elbow: the left
+    arm's triangle angle changes (mean, 99th percentile, degrees) and flipped triangles."""
+    rest = settle(mesh).astype(np.float64)
+    rotation = _rotation_y(BEND_DEGREES)
+    moved = rest_cage.astype(np.float64)
+    forearm = character.cage_limb_vertices(rest_cage, "left_arm")
+    moved[forearm] = (moved[forearm] - ELBOW) @ rotation.T + ELBOW
+    arrays.write_positions(cage.data, moved)
+    now = settle(mesh).astype(np.float64)
+    arrays.write_positions(cage.data, rest_cage)
+    settle(mesh)
+    arm = triangles[(labels[triangles] == "left_arm").all(axis=1)]
+    change = np.abs(triangle_angles(now, arm) - triangle_angles(rest, arm)).ravel()
+    before, after = normals(rest, arm), normals(now, arm)
+    flipped = ((after * before).sum(1) < 0) & ((after * (before @ rotation.T)).sum(1) < 0)
+    return float(change.mean()), float(np.percentile(change, 99)), int(flipped.sum())
+
+
+def measure(method, empty_blend, rows):
+    """Bind ``method`` in a fresh scene and measure everything but the update."""
+    scenes.reset_scene()
+    mesh, cage = scenes.add_character()
+    rest_cage = arrays.read_positions(cage.data).copy()
+    points = arrays.read_positions(mesh.data)
+    labels = character.limb_labels(points)
+    triangles = arrays.read_loop_triangles(mesh.data)
+    size = scenes.cage_size(rest_cage)
+    bpy.context.view_layer.update()
+    with PeakMemory() as memory:
+        seconds = bind(mesh, cage, method)
+    row = {"bind": seconds, "peak": memory.peak}
+    row["blend"] = blend_size("local") - empty_blend
+    row["locality_limb"], row["locality"] = locality(mesh, cage, rest_cage, labels, size)
+    row["bend_mean"], row["bend_99"], row["flipped"] = bend(mesh, cage, rest_cage, labels, triangles)
+    row["storage"], row["negative"] = stored(mesh) if method[0] == "gencoords" else ("-", "0")
+    rows[method] = row
+    print(f"  {label(method)}: bind {seconds:.2f} s, peak {memory.peak / 2**20:.0f} MB, "
+          f".blend +{row['blend'] / 2**20:.1f} MB, locality {row['locality']:.1e} "
+          f"({row['locality_limb']}), bend {row['bend_mean']:.2f} / {row['bend_99']:.1f} deg, "
+          f"{row['flipped']} flipped, {row['storage']}", flush=True)
+
+
+def stored(mesh):
+    """The storage Automatic chose, and the mesh vertices with a negative coordinate."""
+    result = session.addon_module("api").binding_result(mesh)
+    return (f"{result.storage.lower()} {result.slot_count}",
+            f"{result.negative_points / result.mesh_vertex_count:.0%} (min {result.min_coordinate:.3f})")
+
+
+def time_side_by_side(methods, rows, rounds):
+    """Every method bound in one scene, each on its own mesh and cage; median updates
+    timed in turns."""
+    scenes.reset_scene()
+    bound = []
+    for method in methods:
+        mesh, cage = scenes.add_character()
+        bpy.context.view_layer.update()
+        bind(mesh, cage, method)
+        bound.append((method, mesh, cage, arrays.read_positions(cage.data).copy()))
+    bpy.context.view_layer.update()
+    state = [settle(mesh) for _, mesh, _, _ in bound]
+    times = [[] for _ in bound]
+    for repeat in range(rounds):
+        for i, (_, mesh, cage, rest_cage) in enumerate(bound):
+            seconds, _, state[i] = playback.time_update(mesh, cage, rest_cage, repeat, state[i])
+            times[i].append(seconds)
+    for (method, *_), measured in zip(bound, times):
+        rows[method]["update"] = float(np.median(measured))
+
+
+def label(method):
+    return f"Mesh Deform p{method[1]}" if method[0] == "md" else f"GenCoords {method[1].replace('_', ' ')}"
+
+
+def table(rows):
+    reference = rows.get(("md", 5))
+    lines = ["| method | storage | bind | bind / MD p5 | peak MB | .blend MB added | update "
+             "| update / MD p5 | other limbs' largest move | bend: mean / 99th pct angle change "
+             "| flipped | negative |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for method, row in rows.items():
+        ratio = (f"{row['bind'] / reference['bind']:.2f}", f"{row['update'] / reference['update']:.2f}") \
+            if reference else ("-", "-")
+        lines.append(
+            f"| {label(method)} | {row['storage']} | {row['bind']:.2f} s | {ratio[0]} "
+            f"| {row['peak'] / 2**20:.0f} | {row['blend'] / 2**20:.1f} | {row['update'] * 1e3:.2f} ms "
+            f"| {ratio[1]} | {row['locality']:.1e} ({row['locality_limb']}) "
+            f"| {row['bend_mean']:.2f} / {row['bend_99']:.1f} deg | {row['flipped']} | {row['negative']} |")
+    return "\n".join(lines)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--precisions", nargs="+", type=int, default=[5, 6])
+    parser.add_argument("--kinds", nargs="+", default=["mean_value", "harmonic"])
+    parser.add_argument("--rounds", type=int, default=15)
+    parser.add_argument("--output", type=Path, default=session.OUT / "bench_local.md")
+    args = parser.parse_args()
+    header = [
+        "# Local coordinates on the character, against Mesh Deform", "",
+        f"Command: `{shlex.join([Path(sys.executable).name] + sys.argv)}`  ",
+        f"Date: {datetime.datetime.now().isoformat(timespec='seconds')}; "
+        f"Blender {bpy.app.version_string}, numpy {np.__version__}, "
+        f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.machine()}"]
+    print("\n".join(header), flush=True)
+    session.install_extension()
+    scenes.reset_scene()
+    mesh, cage = scenes.add_character()
+    print(f"character: {len(mesh.data.vertices)} vertices, cage {len(cage.data.vertices)} vertices",
+          flush=True)
+    empty_blend = blend_size("unbound")
+    methods = [("md", p) for p in args.precisions] + [("gencoords", kind) for kind in args.kinds]
+    rows = {}
+    for method in methods:
+        measure(method, empty_blend, rows)
+    time_side_by_side(methods, rows, args.rounds)
+    body = table(rows)
+    print("\n" + body, flush=True)
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    args.output.write_text("\n".join(header) + "\n\n" + body + "\n")
+    print(f"written to {args.output}")
+
+
+if __name__ == "__main__":
+    main()
