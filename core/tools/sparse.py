@@ -21,18 +21,24 @@ drag, of the cage's diagonal) on the residual ``W - sparse(W)``; :func:`fewest_s
 finds the smallest K that keeps both under a target.
 """
 
+from dataclasses import dataclass
+from typing import Optional
+
 import numpy as np
 
 from ..base import tolerances
 from . import compact
 
 __all__ = ["largest_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
-           "stacked_columns", "SLOT_COUNTS", "NODE_SLOT_COUNTS"]
+           "stacked_columns", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
 # cheap (bench_sparse_routes.py: 48 pairs on 1,286 nodes play back in 0.8x Mesh Deform's time).
 NODE_SLOT_COUNTS = (8, 16, 24, 32, 48, 64, 96, 128)
+CHUNK_ENTRIES = 4_000_000  # points x cage vertices of a residual block measured at once
+SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
+SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
 
 
 def largest_pairs(coordinates, count):
@@ -157,10 +163,18 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
     """
     coordinates = np.asarray(coordinates, dtype=np.float64)
     residual = coordinates - dense_weights(indices, weights, coordinates.shape[1])
-    if interpolation is not None:
-        residual = interpolated(residual, *interpolation)
-    smooth, drag = compact.residual_deviations(residual, rest)
-    if len(drag) == 0 or len(residual) == 0:
+    if interpolation is None:
+        smooth, drag = compact.residual_deviations(residual, rest)
+    else:  # the points' residuals, a chunk at a time: (k, n) float64 may be large
+        corners, trilinear = interpolation
+        smooth, drag = 0.0, np.zeros(len(rest))
+        step = max(1, CHUNK_ENTRIES // max(1, coordinates.shape[1]))
+        for start in range(0, len(corners), step):
+            part = slice(start, start + step)
+            chunk_smooth, chunk_drag = compact.residual_deviations(
+                interpolated(residual, corners[part], trilinear[part]), rest)
+            smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
+    if len(drag) == 0:
         return float(smooth), 0.0, 0
     return float(smooth), float(drag.max()), int(np.argmax(drag))
 
@@ -273,3 +287,112 @@ def stacked_columns(values, row_count):
         start = (j % per_column) * count
         columns[start:start + count, j // per_column] = values[:, j]
     return columns, per_column
+
+
+@dataclass(frozen=True, eq=False)
+class TwoLevelLayout:
+    """Sparse bind data in two levels (:func:`two_level_layout`), as written: float32
+    weights, int32 indices.
+
+    Attributes
+    ----------
+    corners : (k, 8) int32
+        Each point's cell corners, as rows of the N nodes kept.
+    trilinear : (k, 8) float32
+        Their trilinear weights.
+    node_indices : (N, K') int32
+        Each node's cage vertices, largest weight first.
+    node_weights : (N, K') float32
+        Their weights, summing to 1 per node.
+    node_coordinates_kept : (N,) int
+        The rows of the field's nodes kept (``used_nodes``).
+    deviation_smooth, deviation_drag : float
+        Of the cage's diagonal, measured on every point against the points' exact
+        (interpolated) coordinates.
+    deviation_drag_vertex : int
+    reason : str or None
+        Why K' is what it is, where the target was missed.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import two_level_layout
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> layout = two_level_layout(np.eye(6)[[0, 1, 2, 3, 4, 5, 0, 1]], np.arange(8)[None],
+    ...                           np.full((1, 8), 0.125), vertices, 1e-3, counts=(1,))
+    >>> layout.node_count, layout.node_slot_count, layout.reason is None
+    (8, 1, True)
+    """
+
+    corners: np.ndarray
+    trilinear: np.ndarray
+    node_indices: np.ndarray
+    node_weights: np.ndarray
+    node_coordinates_kept: np.ndarray
+    deviation_smooth: float
+    deviation_drag: float
+    deviation_drag_vertex: int
+    reason: Optional[str] = None
+
+    @property
+    def node_count(self):
+        return len(self.node_indices)
+
+    @property
+    def node_slot_count(self):
+        return self.node_indices.shape[1]
+
+
+def two_level_layout(node_coordinates, corners, trilinear, rest, target, counts=NODE_SLOT_COUNTS):
+    """The two-level sparse layout of points interpolated from grid nodes: the nodes
+    their cells use, with the fewest pairs each (of ``counts``) whose deviations stay
+    under ``target`` (chosen on a sample of the points, measured on all).
+
+    Parameters
+    ----------
+    node_coordinates : (g, n) float
+        Every grid node's coordinates (rows summing to 1).
+    corners : (k, 8) int
+        Each point's cell corners (rows of ``node_coordinates``).
+    trilinear : (k, 8) float
+        Their trilinear weights.
+    rest : (n, 3) float
+        The cage at rest.
+    target : float
+        Of the cage's diagonal.
+    counts : increasing sequence of int
+        Candidate K'; the last is used when none meets the target.
+
+    Returns
+    -------
+    TwoLevelLayout
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import two_level_layout
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> nodes = np.random.default_rng(0).dirichlet(np.ones(6), 20)
+    >>> corners = np.arange(16).reshape(2, 8)
+    >>> layout = two_level_layout(nodes, corners, np.full((2, 8), 0.125), vertices, 1e-3, counts=(2, 6))
+    >>> layout.node_count, layout.node_slot_count, layout.deviation_drag < 1e-6
+    (16, 6, True)
+    """
+    used, local = used_nodes(corners)
+    nodes = np.asarray(node_coordinates, dtype=np.float64)[used]
+    trilinear = np.asarray(trilinear, dtype=np.float32)
+    sample = slice(None, None, max(1, len(local) // SAMPLE_POINTS))
+    count, _, _ = fewest_slots(nodes, rest, target * SAMPLE_MARGIN, counts,
+                               interpolation=(local[sample], trilinear[sample]))
+    reason = None
+    if count is None:
+        count = counts[-1]
+    indices, weights = largest_pairs(nodes, count)
+    weights = weights.astype(np.float32)
+    smooth, drag, vertex = deviations(nodes, indices, weights, rest, (local, trilinear))
+    if max(smooth, drag) >= target:
+        reason = (f"{count} pairs per grid node deviate {max(smooth, drag):.1e} of the cage's "
+                  f"diagonal (more than {target:.0e})")
+    return TwoLevelLayout(local, trilinear, indices, weights, used, smooth, drag, vertex, reason)

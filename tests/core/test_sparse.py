@@ -94,3 +94,22 @@ def test_used_nodes_renumber_the_corners():
     used, local = sparse.used_nodes(corners)
     np.testing.assert_array_equal(used[local], corners)
     assert len(used) == len(np.unique(corners))
+
+
+def test_two_level_layout_meets_the_target_with_the_fewest_node_pairs(cage_and_coordinates):
+    vertices, _, node_coordinates = cage_and_coordinates  # 300 "grid nodes"
+    rng = np.random.default_rng(8)
+    corners = rng.integers(0, 200, (500, 8))  # the last 100 nodes unused
+    trilinear = rng.dirichlet(np.ones(8), 500)
+    layout = sparse.two_level_layout(node_coordinates, corners, trilinear, vertices, 1e-3,
+                                     counts=(4, 8, 16, 32, 40))
+    assert layout.node_count == len(np.unique(corners)) <= 200
+    np.testing.assert_array_equal(layout.node_coordinates_kept[layout.corners], corners)
+    assert max(layout.deviation_smooth, layout.deviation_drag) < 1e-3 and layout.reason is None
+    fewer = (4, 8, 16, 32, 40)[(4, 8, 16, 32, 40).index(layout.node_slot_count) - 1]
+    kept = node_coordinates[layout.node_coordinates_kept]
+    missed = sparse.deviations(kept, *sparse.largest_pairs(kept, fewer), vertices,
+                               (layout.corners, layout.trilinear))
+    assert max(missed[:2]) >= 1e-3 * sparse.SAMPLE_MARGIN  # one count fewer misses
+    assert (layout.node_weights >= 0).all()  # non-negative coordinates stay so
+    np.testing.assert_allclose(layout.node_weights.sum(axis=1), 1.0, atol=1e-6)
