@@ -92,6 +92,27 @@ def read_pairs(mesh, key, slot_count, level="vertex"):
     return None if indices is None or weights is None else (indices, weights)
 
 
+def node_column_count(mesh_vertex_count, node_count, node_slot_count):
+    """Stacked columns the grid nodes' pairs take (``core.tools.sparse.stacked_columns``)."""
+    return -(-node_slot_count // (mesh_vertex_count // node_count)) if node_count else 0
+
+
+def read_coordinates(mesh, key, cage_vertex_count, slot_count, node_count=0, node_slot_count=0):
+    """The coordinates a sparse binding's stored data stands for ((k, n) float64), or
+    None when an attribute is missing."""
+    pairs = read_pairs(mesh, key, slot_count)
+    if pairs is None:
+        return None
+    nodes = None
+    if node_count:
+        columns = read_pairs(mesh, key, node_column_count(len(mesh.vertices), node_count, node_slot_count),
+                             "node")
+        if columns is None:
+            return None
+        nodes = [sparse.unstacked(column, node_count, node_slot_count) for column in columns]
+    return sparse.layout_coordinates(*pairs, cage_vertex_count, nodes)
+
+
 def _slot_attribute(build, number_text, template, data_type):
     """The field of the attribute ``template`` names for the slot ``number_text``."""
     name = build.add('FunctionNodeReplaceString', "accumulate")
@@ -220,7 +241,7 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
     node_columns = 0
     if node_count:
         per_column = mesh_vertex_count // node_count
-        node_columns = -(-node_slot_count // per_column)
+        node_columns = node_column_count(mesh_vertex_count, node_count, node_slot_count)
         source, value = _node_displacements(build, mesh, cage, displacement, key, node_count,
                                             node_slot_count, per_column)
     offset = weighted_gather(build, source, value, key, slot_count)
@@ -241,4 +262,4 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
 
 __all__ = ["build_sparse_group", "index_attribute_names", "weight_attribute_names",
            "node_displacement_name", "weighted_gather", "write_pairs", "write_node_pairs",
-           "read_pairs"]
+           "read_pairs", "read_coordinates", "node_column_count"]

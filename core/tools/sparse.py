@@ -30,7 +30,7 @@ from ..base import tolerances
 from . import compact
 
 __all__ = ["largest_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
-           "stacked_columns", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS"]
+           "stacked_columns", "unstacked", "layout_coordinates", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
@@ -287,6 +287,52 @@ def stacked_columns(values, row_count):
         start = (j % per_column) * count
         columns[start:start + count, j // per_column] = values[:, j]
     return columns, per_column
+
+
+def unstacked(columns, node_count, slot_count):
+    """The inverse of :func:`stacked_columns`: (N, K') from the stacked columns.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import stacked_columns, unstacked
+    >>> values = np.arange(1, 7).reshape(2, 3)
+    >>> unstacked(stacked_columns(values, 5)[0], 2, 3).tolist()
+    [[1, 2, 3], [4, 5, 6]]
+    """
+    columns = np.asarray(columns)
+    per_column = len(columns) // node_count
+    values = np.empty((node_count, slot_count), dtype=columns.dtype)
+    for j in range(slot_count):
+        start = (j % per_column) * node_count
+        values[:, j] = columns[start:start + node_count, j // per_column]
+    return values
+
+
+def layout_coordinates(indices, weights, column_count, nodes=None):
+    """The coordinates sparse bind data stands for: (k, n) float64.
+
+    Parameters
+    ----------
+    indices, weights : (k, K) int and float
+        The points' pairs: cage vertices, or with ``nodes`` rows of the grid nodes.
+    column_count : int
+        n, the cage's vertex count.
+    nodes : ((N, K') int, (N, K') float), optional
+        The grid nodes' pairs over the cage (two levels).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import layout_coordinates
+    >>> nodes = (np.array([[0, 1], [2, 1]]), np.array([[0.5, 0.5], [1.0, 0.0]]))
+    >>> layout_coordinates(np.array([[0, 1]]), np.array([[0.5, 0.5]]), 3, nodes).tolist()
+    [[0.25, 0.25, 0.5]]
+    """
+    if nodes is None:
+        return dense_weights(indices, weights, column_count)
+    node_rows = dense_weights(*nodes, column_count)
+    return interpolated(node_rows, indices, weights)
 
 
 @dataclass(frozen=True, eq=False)
