@@ -278,11 +278,11 @@ def stacked_columns(values, row_count):
     (2, [[1, 4, 2, 5, 0], [3, 6, 0, 0, 0]])
     """
     values = np.asarray(values)
-    count, slots = values.shape
+    count, slots = values.shape[:2]
     if count == 0 or count > row_count:
         raise ValueError(f"{count} nodes do not fit in columns of {row_count} rows")
     per_column = row_count // count
-    columns = np.zeros((row_count, -(-slots // per_column)), dtype=values.dtype)
+    columns = np.zeros((row_count, -(-slots // per_column)) + values.shape[2:], dtype=values.dtype)
     for j in range(slots):
         start = (j % per_column) * count
         columns[start:start + count, j // per_column] = values[:, j]
@@ -302,7 +302,7 @@ def unstacked(columns, node_count, slot_count):
     """
     columns = np.asarray(columns)
     per_column = len(columns) // node_count
-    values = np.empty((node_count, slot_count), dtype=columns.dtype)
+    values = np.empty((node_count, slot_count) + columns.shape[2:], dtype=columns.dtype)
     for j in range(slot_count):
         start = (j % per_column) * node_count
         values[:, j] = columns[start:start + node_count, j // per_column]

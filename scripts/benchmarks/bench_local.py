@@ -181,10 +181,11 @@ def time_side_by_side(methods, rows, rounds):
     times = [[] for _ in bound]
     for repeat in range(rounds):
         for i, (_, mesh, cage, rest_cage) in enumerate(bound):
-            seconds, _, state[i] = playback.time_update(mesh, cage, rest_cage, repeat, state[i])
-            times[i].append(seconds)
+            seconds, _, state[i], cpu = playback.time_update(mesh, cage, rest_cage, repeat, state[i])
+            times[i].append((seconds, cpu))
     for (method, *_), measured in zip(bound, times):
-        rows[method]["update"] = float(np.median(measured))
+        wall, cpu = np.array(measured).T
+        rows[method]["update"], rows[method]["cpu"] = float(np.median(wall)), float(np.median(cpu))
 
 
 def label(method):

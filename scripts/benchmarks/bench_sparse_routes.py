@@ -31,7 +31,8 @@ build the node group / rig from Python; update = median (and min) of ``--rounds`
 updates, the routes taking turns in each round on their own mesh and cage (move one cage
 vertex, ``view_layer.update()``, read the evaluated positions:
 ``scripts/common/playback.py``, as ``bench_blender.py``), with the ratios to Mesh Deform p5's and p6's in the same run: of
-the medians, and of the minima (on a busy machine the least disturbed figure).
+the medians, and of the minima (on a busy machine the least disturbed figure); CPU = the
+process's CPU time over the update, all threads (varies far less on a shared machine).
 
 Usage: bench_sparse_routes.py [--mesh character|sphere] [--slots 8 16 32] [--precisions 5 6]
 """
@@ -169,8 +170,7 @@ GATHERS = {"repeat": None, "lane": lane_gather, "plain": plain_gather}  # None: 
 
 
 def gn_route(mesh, cage, rest_cage, gather, pairs, nodes=None):
-    """Bind a Geometry Nodes route; returns (build seconds, expected displacement
-    operator: cage displacement (n, 3) -> mesh displacement (k, 3))."""
+    """Bind a Geometry Nodes route; returns the build seconds."""
     graph = session.addon_module("sparse_graph")
     start = time.perf_counter()
     indices, weights = pairs
@@ -286,13 +286,13 @@ def time_interleaved(bound, rounds):
     times = [[] for _ in bound]
     for repeat in range(rounds):
         for i, route in enumerate(bound):
-            seconds, _, state[i] = playback.time_update(route["mesh"], route["cage"],
-                                                        route["rest_cage"], repeat, state[i])
-            times[i].append(seconds)
+            seconds, _, state[i], cpu = playback.time_update(route["mesh"], route["cage"],
+                                                             route["rest_cage"], repeat, state[i])
+            times[i].append((seconds, cpu))
     for route, measured in zip(bound, times):
         arrays.write_positions(route["cage"].data, route["rest_cage"])
-        route["update"] = float(np.median(measured))
-        route["update_min"] = float(np.min(measured))
+        wall, cpu = np.array(measured).T
+        route["update"], route["update_min"], route["cpu"] = np.median(wall), wall.min(), np.median(cpu)
 
 
 def routes(scene, slots, resolutions, node_slots):
@@ -324,15 +324,17 @@ def routes(scene, slots, resolutions, node_slots):
 
 def table(bound, references):
     lines = ["| route | K | group nodes / links | build | update median / min | median / MD p5 "
-             "| min / MD p5 min | min / MD p6 min | rest bitwise | max error (of diagonal) |",
-             "|---|---:|---|---:|---:|---:|---:|---:|---|---:|"]
+             "| min / MD p5 min | min / MD p6 min | CPU median | CPU / MD p5 | rest bitwise "
+             "| max error (of diagonal) |",
+             "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---|---:|"]
     for route in bound:
         error = "-" if route["error"] is None else f"{route['error']:.1e}"
         ratios = [f"{route[key] / references[p][key]:.2f}" if p in references else "-"
-                  for p, key in ((5, "update"), (5, "update_min"), (6, "update_min"))]
+                  for p, key in ((5, "update"), (5, "update_min"), (6, "update_min"), (5, "cpu"))]
         lines.append(
             f"| {route['name']} | {route.get('slots', '-')} | {route['size']} | {route['build']:.3f} s "
-            f"| {route['update'] * 1e3:.2f} / {route['update_min'] * 1e3:.2f} ms | {' | '.join(ratios)} "
+            f"| {route['update'] * 1e3:.2f} / {route['update_min'] * 1e3:.2f} ms | {' | '.join(ratios[:3])} "
+            f"| {route['cpu'] * 1e3:.2f} ms | {ratios[3]} "
             f"| {'yes' if route['rest'] else 'NO'} | {error} |")
     return "\n".join(lines)
 

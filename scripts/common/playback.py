@@ -35,14 +35,17 @@ def settle(mesh):
 
 
 def time_update(mesh, cage, rest_cage, repeat, previous, buffer=None, moved_vertex=0):
-    """Seconds of one live update: cage vertex ``moved_vertex`` moved by an offset that
-    changes with ``repeat``; returns (seconds, passes, positions now)."""
+    """One live update: cage vertex ``moved_vertex`` moved by an offset that changes with
+    ``repeat``; returns (wall seconds, passes, positions now, CPU seconds).
+
+    The CPU seconds are the process's, all threads together: on a shared machine they
+    vary far less than the wall time, and compare the work each method does."""
     offset = 0.05 * (repeat + 1) * (1 if repeat % 2 else -1)
     cage.data.vertices[moved_vertex].co = rest_cage[moved_vertex] + np.array([0.0, 0.0, offset])
     cage.data.update()  # only tags the cage: evaluation happens inside the timing
-    start = time.perf_counter()
+    cpu, start = time.process_time(), time.perf_counter()
     now, passes = update_until_changed(mesh, previous, buffer)
-    return time.perf_counter() - start, passes, now.copy()
+    return time.perf_counter() - start, passes, now.copy(), time.process_time() - cpu
 
 
 def time_updates(mesh, cage, rest_cage, moved_vertex=0):
@@ -52,7 +55,7 @@ def time_updates(mesh, cage, rest_cage, moved_vertex=0):
     previous = arrays.evaluated_positions(mesh).copy()
     times, passes_used = [], []
     for repeat in range(UPDATE_REPEATS):
-        seconds, passes, previous = time_update(mesh, cage, rest_cage, repeat, previous, buffer,
+        seconds, passes, previous, _ = time_update(mesh, cage, rest_cage, repeat, previous, buffer,
                                                 moved_vertex)
         times.append(seconds)
         passes_used.append(passes)

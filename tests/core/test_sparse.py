@@ -113,3 +113,10 @@ def test_two_level_layout_meets_the_target_with_the_fewest_node_pairs(cage_and_c
     assert max(missed[:2]) >= 1e-3 * sparse.SAMPLE_MARGIN  # one count fewer misses
     assert (layout.node_weights >= 0).all()  # non-negative coordinates stay so
     np.testing.assert_allclose(layout.node_weights.sum(axis=1), 1.0, atol=1e-6)
+
+
+def test_stacked_columns_of_triples_unstack_to_the_same_values():
+    values = np.random.default_rng(9).random((5, 7, 3)).astype(np.float32)
+    columns, per_column = sparse.stacked_columns(values, 12)
+    assert per_column == 2 and columns.shape == (12, 4, 3)
+    np.testing.assert_array_equal(sparse.unstacked(columns, 5, 7), values)
