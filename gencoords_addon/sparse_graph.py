@@ -192,41 +192,36 @@ def _close_triple(build, zone_in, zone_out, source, value, indices, weights):
     return _close_zone(build, zone_in, zone_out, gathered, parts[1][2], total)
 
 
-def _sample(build, geometry, value, index, data_type):
-    node = build.add('GeometryNodeSampleIndex', "accumulate", data_type=data_type, domain='POINT')
-    build.link(geometry, node.inputs["Geometry"])
-    build.link(value, node.inputs["Value"])
-    build.link(index, node.inputs["Index"])
-    return node.outputs[0]
-
-
-def _stacked_gather(build, mesh, cage, displacement, key, node_count, node_slot_count, per_column):
-    """On a cloud of the N grid nodes, ``sum_j w_aj (C - R)[i_aj]`` with node a's slot j
-    read from the mesh's stacked columns (``core.tools.sparse.stacked_columns``): row
-    ``(j % S) * N + a`` of column ``j // S``."""
-    zone_in, zone_out = _repeat_zone(build, node_slot_count)
-    slot = zone_in.outputs[SLOT]
-    column = build.math("accumulate", 'FLOOR', build.math(
-        "accumulate", 'DIVIDE', slot, float(per_column), vector=False), vector=False)
-    within = build.math("accumulate", 'MULTIPLY_ADD', column, -float(per_column), slot, vector=False)
-    node_index = build.add('GeometryNodeInputIndex', "accumulate").outputs[0]
-    row = build.math("accumulate", 'MULTIPLY_ADD', within, float(node_count), node_index, vector=False)
-    number = _text(build, column)
-    columns = [_slot_attribute(build, number, _name_template(key, "node", what), 'FLOAT_VECTOR')
-               for what in ("index", "weight")]
-    return _close_triple(build, zone_in, zone_out, cage, displacement,
-                         *(_sample(build, mesh, column, row, 'FLOAT_VECTOR') for column in columns))
-
-
-def _node_displacements(build, mesh, cage, displacement, key, node_count, node_slot_count,
-                        per_column):
+def _node_displacements(build, mesh, cage, displacement, key, node_count, column_count, blocks):
     """A point cloud of the N grid nodes with each one's displacement stored (two-level
-    layout), and that attribute's field."""
+    layout), and that attribute's field.
+
+    The nodes' pairs are stacked (``core.tools.sparse.stacked_columns``): row
+    ``s * N + a`` of each column holds triples of node a. So each mesh row p first sums
+    its columns' weighted gathers (read where they are stored: no lookup of the pairs),
+    stored on the mesh; node a then adds up its ``blocks`` rows ``s * N + a``."""
+    zone_in, zone_out = _repeat_zone(build, column_count)
+    number = _text(build, zone_in.outputs[SLOT])
+    index, weight = (_slot_attribute(build, number, _name_template(key, "node", what), 'FLOAT_VECTOR')
+                     for what in ("index", "weight"))
+    rows = build.store("lane_store", mesh, node_displacement_name(key),
+                       _close_triple(build, zone_in, zone_out, cage, displacement, index, weight))
+    # Only the rows that hold pairs: the others would add zeros.
+    used = build.add('FunctionNodeCompare', "lane_store", data_type='INT', operation='LESS_THAN')
+    operands = deformer.compat.compare_operands(used)
+    build.link(build.add('GeometryNodeInputIndex', "lane_store").outputs[0], operands[0])
+    operands[1].default_value = node_count * blocks
+    build.link(used.outputs[0], rows.node.inputs["Selection"])
+    zone_in, zone_out = _repeat_zone(build, blocks)
+    node_index = build.add('GeometryNodeInputIndex', "lane_read").outputs[0]
+    row = build.math("lane_read", 'MULTIPLY_ADD', zone_in.outputs[SLOT], float(node_count), node_index,
+                     vector=False)
+    gathered = build.sample_index("lane_read", rows, build.named_attribute("lane_read", node_displacement_name(key)),
+                                  row)
+    total = _close_zone(build, zone_in, zone_out, gathered, (1.0, 1.0, 1.0))
     cloud = build.add('GeometryNodePoints', "lane_index")
     cloud.inputs["Count"].default_value = node_count
-    gathered = _stacked_gather(build, mesh, cage, displacement, key, node_count, node_slot_count,
-                               per_column)
-    stored = build.store("lane_store", cloud.outputs[0], node_displacement_name(key), gathered)
+    stored = build.store("lane_store", cloud.outputs[0], node_displacement_name(key), total)
     return stored, build.named_attribute("lane_read", node_displacement_name(key))
 
 
@@ -266,10 +261,10 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
     source, value = cage, displacement
     node_columns = 0
     if node_count:
-        per_column = mesh_vertex_count // node_count
         node_columns = node_column_count(mesh_vertex_count, node_count, node_slot_count)
+        blocks = min(mesh_vertex_count // node_count, -(-node_slot_count // 3))  # rows per node
         source, value = _node_displacements(build, mesh, cage, displacement, key, node_count,
-                                            -(-node_slot_count // 3), per_column)
+                                            node_columns, blocks)
     offset = weighted_gather(build, source, value, key, slot_count)
     moved = deformer._moved_mesh(build, group_input, offset)
     usable = deformer._usable(build, mesh, cage, (cage, displacement), len(rest_cage),
