@@ -1,0 +1,92 @@
+"""Harmonic coordinates (core/harmonic): cost and quality against the grid's resolution.
+
+On a box-modelled T-pose cage (``gencoords.tools.shapes.t_pose_blocks``: 234 vertices,
+non-convex, limbs 2 cubes thick) and points spread through its inside, for each
+resolution: the bind's time (one process) and peak memory, the unknowns, the solver's
+iterations and mean residual reduction per iteration, negative coordinates, linear
+precision (``|sum_j w_j R_j - x|`` per cage diagonal) as solved and after
+``tools.skinning.reproduce_points`` on the 32 largest, locality (the left hand's cage
+vertices' largest coordinate in the right arm and the legs), and the weights above 1e-5
+per point. Timings are noisy on a shared machine; Blender's Mesh Deform is not in this
+script (it needs Blender: bench_blender.py).
+
+    .venv/bin/python scripts/benchmarks/bench_harmonic.py [--resolutions 32,48,64,96] [--points 20000]
+"""
+
+import os
+
+for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+import tracemalloc  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
+import gencoords  # noqa: E402
+from gencoords.tools.shapes import block_cage, t_pose_blocks  # noqa: E402
+from gencoords.tools.skinning import reproduce_points, top_k  # noqa: E402
+
+
+def body_points(count, seed=0):
+    """Points uniformly inside the T-pose's cubes, and the cubes' occupancy."""
+    occupied = t_pose_blocks()
+    rng = np.random.default_rng(seed)
+    points = rng.uniform(0.0, occupied.shape, size=(4 * count, 3))
+    points = points[occupied[tuple(np.floor(points).astype(int).T)]]
+    return points[:count]
+
+
+def measure(vertices, triangles, points, resolution):
+    diagonal = np.linalg.norm(np.ptp(vertices, axis=0))
+    tracemalloc.start()
+    start = time.perf_counter()
+    field = gencoords.harmonic_field(vertices, triangles, resolution=resolution)
+    bind = time.perf_counter() - start
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    start = time.perf_counter()
+    coordinates = field.coordinates(points)
+    lookup = time.perf_counter() - start
+    history = field.convergence
+    reduction = (history[-1] / history[0]) ** (1.0 / max(1, len(history) - 1))
+    error = np.linalg.norm(coordinates @ vertices - points, axis=1).max() / diagonal
+    indices, weights = top_k(coordinates, 32)
+    corrected, residual = reproduce_points(indices, weights, vertices, points)
+    hand = vertices[:, 0] == vertices[:, 0].min()  # the left arm's end
+    elsewhere = (points[:, 0] > 10.0) | (points[:, 2] < 4.0)  # right arm beyond the torso, legs
+    return dict(resolution=resolution, bind=bind, peak=peak / 2**20, unknowns=int(field.node_inside.sum()),
+                nodes=len(field.node_indices), iterations=len(history) - 1, reduction=reduction,
+                lookup=lookup, negative=int((coordinates < 0.0).sum()), minimum=float(coordinates.min()),
+                precision=error, corrected=float(residual.max() / diagonal),
+                corrected_negative=int((corrected < 0.0).sum()),
+                locality=float(coordinates[np.ix_(elsewhere, hand)].max()),
+                above=float((coordinates > 1e-5).sum(axis=1).mean()), spacing=field.spacing)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--resolutions", default="32,48,64,96")
+    parser.add_argument("--points", type=int, default=20000)
+    arguments = parser.parse_args()
+    vertices, quads = block_cage(t_pose_blocks())
+    triangles = gencoords.tools.triangulate_quads(vertices, quads)
+    points = body_points(arguments.points)
+    print(f"T-pose cage: {len(vertices)} vertices, {len(triangles)} triangles; {len(points)} points inside; "
+          f"box {np.ptp(vertices, axis=0).tolist()}, diagonal {np.linalg.norm(np.ptp(vertices, axis=0)):.2f}")
+    print("res  cell   bind s  peak MB  unknowns  nodes   its  red/it   lookup s  neg  lin.prec/diag  "
+          "after reproduce(32)  other-limb max  >1e-5/pt")
+    for resolution in (int(text) for text in arguments.resolutions.split(",")):
+        row = measure(vertices, triangles, points, resolution)
+        print(f"{row['resolution']:3d}  {row['spacing']:.3f}  {row['bind']:7.2f}  {row['peak']:7.0f}  "
+              f"{row['unknowns']:8d}  {row['nodes']:6d}  {row['iterations']:3d}  {row['reduction']:.3f}   "
+              f"{row['lookup']:7.2f}  {row['negative']:3d}  {row['precision']:.2e}       "
+              f"{row['corrected']:.1e} ({row['corrected_negative']} neg)      {row['locality']:.1e}        "
+              f"{row['above']:.0f}")
+
+
+if __name__ == "__main__":
+    main()
