@@ -226,7 +226,8 @@ def _boundary_nodes(grid, parts, vertices, faces):
 
 
 @checked
-def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEFAULT_TOLERANCE, progress=None):
+def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEFAULT_TOLERANCE, progress=None,
+                   workers=None):
     """Solve harmonic coordinates on a grid fitted to a closed 3D triangle cage.
 
     A 7-point Laplacian on cubic cells, ``resolution`` of them along the longest side of
@@ -249,7 +250,14 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
         Relative to the cage's box diagonal: points this close to the cage count as on it.
     progress : callable, optional
         ``progress(fraction)`` as the solve advances; an exception it raises (a cancel)
-        stops the computation and propagates.
+        stops the computation (and the workers) and propagates.
+    workers : int or None
+        Processes to solve in (the cage vertices' columns are independent): ``1`` this
+        process; ``None`` as many as the cores allow when the solve is long enough to
+        repay starting them (about a second of work each), falling back to this process
+        with a :class:`gencoords.WorkerWarning` where they cannot start (an explicit
+        count raises :class:`gencoords.WorkerError`). The result is the same whatever
+        the number.
 
     Returns
     -------
@@ -283,7 +291,8 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     unknowns = np.zeros(grid.shape, dtype=bool)
     unknowns[tuple(parts["indices"][solved].T)] = True
     rhs = dirichlet_rhs(unknowns, hat_ids, columns, values)
-    result, parts["convergence"] = solve_nodes(unknowns, rhs, len(local), progress=progress)
+    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, faces), progress=progress,
+                                               workers=workers)
     coordinates = np.zeros((len(parts["indices"]), len(local)))
     coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
     fixed = np.flatnonzero(~solved[measured])
@@ -294,7 +303,7 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
 
 @checked
 def harmonic_coordinates(points, vertices, faces, resolution=DEFAULT_RESOLUTION, outside="raise",
-                         tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64):
+                         tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64, workers=None):
     """Harmonic coordinates of points in a closed 3D triangle cage (see :func:`harmonic_field`).
 
     Parameters
@@ -303,7 +312,7 @@ def harmonic_coordinates(points, vertices, faces, resolution=DEFAULT_RESOLUTION,
     vertices : (n, 3) float
     faces : (m, 3) int
         Outward-oriented triangles; any closed cage, convex or not.
-    resolution, tolerance, progress
+    resolution, tolerance, progress, workers
         As :func:`harmonic_field`.
     outside : str
         ``"raise"`` or ``"project"`` (:meth:`HarmonicField.interpolation`).
@@ -324,5 +333,5 @@ def harmonic_coordinates(points, vertices, faces, resolution=DEFAULT_RESOLUTION,
     >>> print(b.round(1), bool(b.min() >= 0.0))
     [[0.3 0.2 0.2 0.2]] True
     """
-    field = harmonic_field(vertices, faces, resolution, tolerance, progress)
+    field = harmonic_field(vertices, faces, resolution, tolerance, progress, workers)
     return field.coordinates(points, outside, dtype)

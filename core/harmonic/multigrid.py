@@ -179,7 +179,7 @@ def _precondition(levels, residual):
     return v_cycle(levels, (residual / size).astype(np.float32)).astype(np.float64) * size
 
 
-def solve(levels, rhs, tolerance, progress=None):
+def solve(levels, rhs, tolerance, progress=None, max_iterations=200):
     """Solve ``A x = rhs`` for every column by V-cycle preconditioned conjugate gradients.
 
     Parameters
@@ -193,6 +193,7 @@ def solve(levels, rhs, tolerance, progress=None):
     progress : callable, optional
         ``progress(fraction)`` after each iteration, the fraction estimated from the
         residual's decrease; an exception from it stops the solve.
+    max_iterations : int
 
     Returns
     -------
@@ -215,7 +216,7 @@ def solve(levels, rhs, tolerance, progress=None):
         history.append(float(np.max(np.linalg.norm(residual, axis=0) / np.where(norms > 0, norms, 1.0))))
         if progress is not None:
             progress(min(1.0, np.log(max(history[-1], tolerance)) / np.log(tolerance)))
-        if not active.any() or len(history) > 200:
+        if not active.any() or len(history) > max_iterations:
             return x, history
         apply_matrix(level, direction, product)
         curvature = np.einsum("uc,uc->c", direction, product)

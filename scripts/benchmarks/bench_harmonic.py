@@ -40,14 +40,19 @@ def body_points(count, seed=0):
     return points[:count]
 
 
-def measure(vertices, triangles, points, resolution):
+def measure(vertices, triangles, points, resolution, workers=1):
     diagonal = np.linalg.norm(np.ptp(vertices, axis=0))
     tracemalloc.start()
     start = time.perf_counter()
-    field = gencoords.harmonic_field(vertices, triangles, resolution=resolution)
+    field = gencoords.harmonic_field(vertices, triangles, resolution=resolution, workers=1)
     bind = time.perf_counter() - start
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
+    spread = None
+    if workers > 1:
+        start = time.perf_counter()
+        gencoords.harmonic_field(vertices, triangles, resolution=resolution, workers=workers)
+        spread = time.perf_counter() - start
     start = time.perf_counter()
     coordinates = field.coordinates(points)
     lookup = time.perf_counter() - start
@@ -64,24 +69,28 @@ def measure(vertices, triangles, points, resolution):
                 precision=error, corrected=float(residual.max() / diagonal),
                 corrected_negative=int((corrected < 0.0).sum()),
                 locality=float(coordinates[np.ix_(elsewhere, hand)].max()),
-                above=float((coordinates > 1e-5).sum(axis=1).mean()), spacing=field.spacing)
+                above=float((coordinates > 1e-5).sum(axis=1).mean()), spacing=field.spacing, spread=spread)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--resolutions", default="32,48,64,96")
     parser.add_argument("--points", type=int, default=20000)
+    parser.add_argument("--workers", type=int, default=0, help="also bind in this many processes (0: the cores)")
     arguments = parser.parse_args()
     vertices, quads = block_cage(t_pose_blocks())
     triangles = gencoords.tools.triangulate_quads(vertices, quads)
     points = body_points(arguments.points)
+    workers = arguments.workers or gencoords.evaluation.parallel.available_cores()
     print(f"T-pose cage: {len(vertices)} vertices, {len(triangles)} triangles; {len(points)} points inside; "
           f"box {np.ptp(vertices, axis=0).tolist()}, diagonal {np.linalg.norm(np.ptp(vertices, axis=0)):.2f}")
-    print("res  cell   bind s  peak MB  unknowns  nodes   its  red/it   lookup s  neg  lin.prec/diag  "
+    print(f"bind s: one process; w={workers}: {workers} worker processes (started per bind)")
+    print(f"res  cell   bind s  w={workers} s  peak MB  unknowns  nodes   its  red/it   lookup s  neg  lin.prec/diag  "
           "after reproduce(32)  other-limb max  >1e-5/pt")
     for resolution in (int(text) for text in arguments.resolutions.split(",")):
-        row = measure(vertices, triangles, points, resolution)
-        print(f"{row['resolution']:3d}  {row['spacing']:.3f}  {row['bind']:7.2f}  {row['peak']:7.0f}  "
+        row = measure(vertices, triangles, points, resolution, workers)
+        spread = f"{row['spread']:6.2f}" if row["spread"] is not None else "     -"
+        print(f"{row['resolution']:3d}  {row['spacing']:.3f}  {row['bind']:7.2f}  {spread}  {row['peak']:7.0f}  "
               f"{row['unknowns']:8d}  {row['nodes']:6d}  {row['iterations']:3d}  {row['reduction']:.3f}   "
               f"{row['lookup']:7.2f}  {row['negative']:3d}  {row['precision']:.2e}       "
               f"{row['corrected']:.1e} ({row['corrected_negative']} neg)      {row['locality']:.1e}        "

@@ -226,3 +226,14 @@ def test_top_k_keeps_the_largest_renormalised_and_truncate_agrees():
     dense = np.zeros_like(coordinates)
     np.put_along_axis(dense, indices, weights, axis=1)
     np.testing.assert_array_equal(dense, truncate(coordinates, 4))
+
+
+def test_workers_give_what_one_process_gives():
+    vertices, triangles = cage_of(t_pose_blocks())
+    alone = gencoords.harmonic_field(vertices, triangles, resolution=40, workers=1)
+    fractions = []
+    spread = gencoords.harmonic_field(vertices, triangles, resolution=40, workers=2, progress=fractions.append)
+    # The same blocks of columns in every process; only BLAS threads may round differently.
+    np.testing.assert_allclose(spread.node_coordinates, alone.node_coordinates, rtol=0, atol=1e-13)
+    assert fractions[-1] == pytest.approx(1.0)
+    assert len(spread.convergence) == len(alone.convergence)
