@@ -1,13 +1,11 @@
 """Harmonic coordinates (core/harmonic): cost and quality against the grid's resolution.
 
-On a box-modelled T-pose cage (``gencoords.tools.shapes.t_pose_blocks``: 234 vertices,
-non-convex, limbs 2 cubes thick) and points spread through its inside, for each
+On the artist's character (scripts/common/character.py: a box-modelled, non-convex T-pose
+quad cage, 196 vertices, arms 0.15 thick across 1.9) and points inside its body, for each
 resolution: the bind's time (one process) and peak memory, the unknowns, the solver's
 iterations and mean residual reduction per iteration, negative coordinates, linear
 precision (``|sum_j w_j R_j - x|`` per cage diagonal) as solved and after
-``tools.skinning.reproduce_points`` on the 32 largest, locality (the left hand's cage
-vertices' largest coordinate in the right arm and the legs), and the weights above 1e-5
-per point. Timings are noisy on a shared machine; Blender's Mesh Deform is not in this
+``tools.skinning.reproduce_points`` on the 32 largest, locality, and the weights above 1e-5 per point. Timings are noisy on a shared machine; Blender's Mesh Deform is not in this
 script (it needs Blender: bench_blender.py).
 
     .venv/bin/python scripts/benchmarks/bench_harmonic.py [--resolutions 32,48,64,96] [--points 20000]
@@ -27,17 +25,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
-from gencoords.tools.shapes import block_cage, t_pose_blocks  # noqa: E402
+from scripts.common.character import body_points, cage_limb_vertices, character_cage, limb_labels  # noqa: E402
 from gencoords.tools.skinning import reproduce_points, top_k  # noqa: E402
-
-
-def body_points(count, seed=0):
-    """Points uniformly inside the T-pose's cubes, and the cubes' occupancy."""
-    occupied = t_pose_blocks()
-    rng = np.random.default_rng(seed)
-    points = rng.uniform(0.0, occupied.shape, size=(4 * count, 3))
-    points = points[occupied[tuple(np.floor(points).astype(int).T)]]
-    return points[:count]
 
 
 def measure(vertices, triangles, points, resolution, workers=1):
@@ -61,8 +50,8 @@ def measure(vertices, triangles, points, resolution, workers=1):
     error = np.linalg.norm(coordinates @ vertices - points, axis=1).max() / diagonal
     indices, weights = top_k(coordinates, 32)
     corrected, residual = reproduce_points(indices, weights, vertices, points)
-    hand = vertices[:, 0] == vertices[:, 0].min()  # the left arm's end
-    elsewhere = (points[:, 0] > 10.0) | (points[:, 2] < 4.0)  # right arm beyond the torso, legs
+    hand = cage_limb_vertices(vertices, "left_arm")
+    elsewhere = np.isin(limb_labels(points), ["right_arm", "right_leg", "left_leg"])
     return dict(resolution=resolution, bind=bind, peak=peak / 2**20, unknowns=int(field.node_inside.sum()),
                 nodes=len(field.node_indices), iterations=len(history) - 1, reduction=reduction,
                 lookup=lookup, negative=int((coordinates < 0.0).sum()), minimum=float(coordinates.min()),
@@ -78,11 +67,11 @@ def main():
     parser.add_argument("--points", type=int, default=20000)
     parser.add_argument("--workers", type=int, default=0, help="also bind in this many processes (0: the cores)")
     arguments = parser.parse_args()
-    vertices, quads = block_cage(t_pose_blocks())
+    vertices, quads = character_cage()
     triangles = gencoords.tools.triangulate_quads(vertices, quads)
     points = body_points(arguments.points)
     workers = arguments.workers or gencoords.evaluation.parallel.available_cores()
-    print(f"T-pose cage: {len(vertices)} vertices, {len(triangles)} triangles; {len(points)} points inside; "
+    print(f"character cage: {len(vertices)} vertices, {len(triangles)} triangles; {len(points)} points inside; "
           f"box {np.ptp(vertices, axis=0).tolist()}, diagonal {np.linalg.norm(np.ptp(vertices, axis=0)):.2f}")
     print(f"bind s: one process; w={workers}: {workers} worker processes (started per bind)")
     print(f"res  cell   bind s  w={workers} s  peak MB  unknowns  nodes   its  red/it   lookup s  neg  lin.prec/diag  "

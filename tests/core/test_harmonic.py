@@ -237,3 +237,19 @@ def test_workers_give_what_one_process_gives():
     np.testing.assert_allclose(spread.node_coordinates, alone.node_coordinates, rtol=0, atol=1e-13)
     assert fractions[-1] == pytest.approx(1.0)
     assert len(spread.convergence) == len(alone.convergence)
+
+
+def test_on_the_artists_character_a_hand_moves_nothing_elsewhere_and_sparse_weights_are_exact():
+    from scripts.common.character import body_points, cage_limb_vertices, character_cage, limb_labels
+    vertices, quads = character_cage()
+    triangles = gencoords.tools.triangulate_quads(vertices, quads)
+    points = body_points(3000, seed=1)
+    coordinates = gencoords.harmonic_coordinates(points, vertices, triangles, resolution=48)
+    assert coordinates.min() >= 0.0
+    hand = cage_limb_vertices(vertices, "left_arm")
+    elsewhere = np.isin(limb_labels(points), ["right_arm", "right_leg", "left_leg"])
+    print("character, left hand in the other limbs:", coordinates[np.ix_(elsewhere, hand)].max())
+    assert coordinates[np.ix_(elsewhere, hand)].max() < 1e-5
+    indices, weights = top_k(coordinates, 32)
+    corrected, residual = reproduce_points(indices, weights, vertices, points)
+    assert residual.max() < 1e-12 and corrected.min() >= 0.0
