@@ -13,9 +13,9 @@ the everyday API; the paper's advanced API is :mod:`gencoords.advanced`, the too
 (storage compression, skinning, example shapes, reports, colours) :mod:`gencoords.tools`.
 Layers, bottom up: ``base`` (frames, topology, input checks, tolerances, errors),
 ``surfaces`` (named, power and numerical generating surfaces), ``construction`` (the
-general construction, boundary limits, Floater, completeness, Green), ``harmonic``
-(harmonic coordinates on a grid: local and non-negative in any closed 3D cage),
-``evaluation`` (the cage object, row evaluation, workers), ``tools``.
+general construction, boundary limits, Floater, completeness, Green), ``evaluation``
+(the cage object, row evaluation, workers), ``harmonic`` (harmonic coordinates on a
+grid: local and non-negative in any closed 3D cage), ``tools``.
 """
 
 from .base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError, WorkerWarning
