@@ -19,12 +19,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Level", "build_levels", "apply_matrix", "v_cycle", "solve"]
+__all__ = ["STEPS", "Level", "build_levels", "apply_matrix", "v_cycle", "solve"]
 
 _COARSEST = 700  # unknowns solved with a dense inverse
 _JACOBI_WEIGHT = 6.0 / 7.0  # the best smoothing factor (5/7) for the 3D 7-point stencil
 _SWEEPS = 2  # before and after the coarse correction
-_STEPS = [(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
+# The 7-point stencil's neighbours, as grid index steps.
+STEPS = [(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
           if abs(dx) + abs(dy) + abs(dz) == 1]
 
 
@@ -64,7 +65,7 @@ def _indices(mask):
 def _neighbours(mask, ids):
     count = np.count_nonzero(mask)
     nodes = np.argwhere(mask) + 1  # in the padded grid
-    table = np.stack([ids[tuple((nodes + step).T)] for step in _STEPS], axis=1)
+    table = np.stack([ids[tuple((nodes + step).T)] for step in STEPS], axis=1)
     table[table < 0] = count
     return table
 

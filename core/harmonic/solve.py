@@ -17,7 +17,7 @@ import numpy as np
 from ..base.errors import WorkerError
 from ..evaluation.parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead,
                                    dispatch_units, python_executable)
-from .multigrid import build_levels, solve
+from .multigrid import STEPS, build_levels, solve
 
 __all__ = ["SOLVER_TOLERANCE", "dirichlet_rhs", "solve_nodes", "solve_columns_task", "worker_count"]
 
@@ -33,8 +33,7 @@ _BLOCK_ENTRIES = 1 << 21
 _PAIRS_PER_WORKER = 1 << 21
 _MAX_ITERATIONS = 200
 _levels_cache = {}  # a worker's hierarchy, built once per solve
-_STEPS = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
-                   if abs(dx) + abs(dy) + abs(dz) == 1])
+_STEPS = np.array(STEPS)
 
 
 def dirichlet_rhs(inside, node_ids, hat_columns, hat_values):
