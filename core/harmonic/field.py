@@ -213,8 +213,10 @@ def _boundary_nodes(grid, parts, vertices, faces):
 
     Returns
     -------
+    measured : (b,) int
+        The nodes measured: those outside and those at cells the surface may cross.
     columns, values : (b, 3) int, (b, 3) float
-        For the nodes ``~solved | near_surface``, in node order.
+        Their nearest boundary point's hat values.
     solved : (g,) bool
     """
     measured = np.flatnonzero(~parts["inside"] | parts["near_surface"])
@@ -222,7 +224,7 @@ def _boundary_nodes(grid, parts, vertices, faces):
         node_positions(grid, parts["indices"][measured]), vertices, faces, 1.75 * grid.spacing)
     solved = parts["inside"].copy()
     solved[measured[distance < _SOLVED_DEPTH * grid.spacing]] = False
-    return columns, values, solved
+    return measured, columns, values, solved
 
 
 @checked
@@ -284,9 +286,8 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     grid = fit_grid(prepared.vertices, resolution)
     local = prepared.vertices
     parts = _grid_nodes(grid, local[faces], tolerance * prepared.size)
-    columns, values, solved = _boundary_nodes(grid, parts, local, faces)
+    measured, columns, values, solved = _boundary_nodes(grid, parts, local, faces)
     hat_ids = np.full(grid.shape, -1, dtype=np.int64)
-    measured = np.flatnonzero(~solved | parts["near_surface"])
     hat_ids[tuple(parts["indices"][measured].T)] = np.arange(len(measured))
     unknowns = np.zeros(grid.shape, dtype=bool)
     unknowns[tuple(parts["indices"][solved].T)] = True
