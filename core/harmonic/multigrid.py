@@ -113,12 +113,17 @@ def build_levels(mask):
 
 def apply_matrix(level, x, out=None, scratch=None):
     """``A x`` for (u + 1, c) ``x``: (u + 1, c), its last row zero."""
-    out = np.multiply(x, 6.0 * level.scale, out=out)
-    gathered = np.empty((level.count, x.shape[1]), x.dtype) if scratch is None else scratch[:-1]
-    for column in level.neighbours.T:
+    out = np.multiply(x, 6.0, out=out)
+    total = np.empty((level.count, x.shape[1]), x.dtype) if scratch is None else scratch[:-1]
+    gathered = np.empty_like(total)
+    columns = level.neighbours.T
+    np.take(x, columns[0], axis=0, out=total)
+    for column in columns[1:]:
         np.take(x, column, axis=0, out=gathered)
-        gathered *= level.scale
-        out[:-1] -= gathered
+        total += gathered
+    out[:-1] -= total
+    if level.scale != 1.0:
+        out *= level.scale
     out[-1] = 0.0
     return out
 
