@@ -362,13 +362,12 @@ class TwoLevelLayout:
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import two_level_layout
-    >>> from gencoords.tools.shapes import octahedron
-    >>> vertices, _ = octahedron()
-    >>> layout = two_level_layout(np.eye(6)[[0, 1, 2, 3, 4, 5, 0, 1]], np.arange(8)[None],
-    ...                           np.full((1, 8), 0.125), vertices, 1e-3, counts=(1,))
-    >>> layout.node_count, layout.node_slot_count, layout.reason is None
-    (8, 1, True)
+    >>> from gencoords.tools.sparse import TwoLevelLayout
+    >>> one_node = TwoLevelLayout(np.zeros((1, 8), np.int32), np.full((1, 8), 0.125, np.float32),
+    ...                           np.zeros((1, 4), np.int32), np.full((1, 4), 0.25, np.float32),
+    ...                           np.array([7]), 0.0, 0.0, 0)
+    >>> one_node.node_count, one_node.node_slot_count
+    (1, 4)
     """
 
     corners: np.ndarray

@@ -36,10 +36,6 @@ Usage: bench_blender.py [--quick | --full] [--kinds mean_value ...] [--precision
 """
 
 import argparse
-import datetime
-import os
-import platform
-import shlex
 import sys
 import time
 from pathlib import Path
@@ -204,14 +200,7 @@ def main():
     else:
         everywhere, smallest_only = ([5, 6], []) if args.full else ([5], [6])
 
-    header = [
-        "# GenCoords vs Mesh Deform (Blender)",
-        "",
-        f"Command: `{shlex.join([Path(sys.executable).name] + sys.argv)}`  ",
-        f"Date: {datetime.datetime.now().isoformat(timespec='seconds')}; "
-        f"Blender {bpy.app.version_string}, numpy {np.__version__}, "
-        f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.machine()}",
-    ]
+    header = session.report_header("GenCoords vs Mesh Deform (Blender)")
     print("\n".join(header), flush=True)
     zip_path = session.install_extension()
     print(f"extension: {zip_path.relative_to(session.REPO)}\n", flush=True)

@@ -30,10 +30,6 @@ Usage: bench_local.py [--precisions 5 6] [--kinds mean_value harmonic] [--rounds
 """
 
 import argparse
-import datetime
-import os
-import platform
-import shlex
 import sys
 import time
 from pathlib import Path
@@ -215,12 +211,7 @@ def main():
     parser.add_argument("--rounds", type=int, default=15)
     parser.add_argument("--output", type=Path, default=session.OUT / "bench_local.md")
     args = parser.parse_args()
-    header = [
-        "# Local coordinates on the character, against Mesh Deform", "",
-        f"Command: `{shlex.join([Path(sys.executable).name] + sys.argv)}`  ",
-        f"Date: {datetime.datetime.now().isoformat(timespec='seconds')}; "
-        f"Blender {bpy.app.version_string}, numpy {np.__version__}, "
-        f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.machine()}"]
+    header = session.report_header("Local coordinates on the character, against Mesh Deform")
     print("\n".join(header), flush=True)
     session.install_extension()
     scenes.reset_scene()

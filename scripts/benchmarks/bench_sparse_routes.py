@@ -38,10 +38,6 @@ Usage: bench_sparse_routes.py [--mesh character|sphere] [--slots 8 16 32] [--pre
 """
 
 import argparse
-import datetime
-import os
-import platform
-import shlex
 import sys
 import time
 from pathlib import Path
@@ -349,12 +345,7 @@ def main():
     parser.add_argument("--rounds", type=int, default=15, help="timed updates per route")
     parser.add_argument("--output", type=Path, default=session.OUT / "bench_sparse_routes.md")
     args = parser.parse_args()
-    header = [
-        "# Sparse storage's native routes against Mesh Deform (Blender)", "",
-        f"Command: `{shlex.join([Path(sys.executable).name] + sys.argv)}`  ",
-        f"Date: {datetime.datetime.now().isoformat(timespec='seconds')}; "
-        f"Blender {bpy.app.version_string}, numpy {np.__version__}, "
-        f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.machine()}"]
+    header = session.report_header("Sparse storage's native routes against Mesh Deform (Blender)")
     print("\n".join(header), flush=True)
     session.install_extension()
     rest_mesh, cage_vertices, found = routes(args.mesh, args.slots, args.resolutions, args.node_slots)
