@@ -58,6 +58,7 @@ class BindingResult:
         return self.format == _layout.FORMAT
 
 
+# The BindData fields a script reads here (the rest: ``metadata``).
 _STORED_FIELDS = tuple(f.name for f in fields(BindingResult)
                        if f.name not in ("modifier", "cage", "metadata"))
 
@@ -72,14 +73,14 @@ def _frozen(value):
 
 
 def _result(found):
-    info = found.info
-    stored = {name: info.get(name) for name in _STORED_FIELDS}
+    data = found.data
+    stored = {name: getattr(data, name) for name in _STORED_FIELDS}
     for name in _ENUM_FIELDS:
         if isinstance(stored[name], str):
             stored[name] = stored[name].upper()
     cage = found.cage
     return BindingResult(modifier=found.modifier.name, cage=cage.name if cage is not None else None,
-                         metadata=_frozen(info), **stored)
+                         metadata=_frozen(data.to_properties()), **stored)
 
 
 def binding_results(obj):

@@ -13,7 +13,7 @@ carries ``METADATA`` (see ``Binding``).
 
 import secrets
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional
 
 import bpy
@@ -22,9 +22,7 @@ import numpy as np
 from .. import core
 from ..core.tools import compact
 from . import compat, deformer, mesh_arrays, mesh_io, messages, preferences
-from .bind_layout import (CAGE_FACE_COUNT, CAGE_NAME, CAGE_VERTEX_COUNT, DELETED_CAGE, FORMAT, FORMAT_KEY,
-                          GAMMA, KEY, KIND, MESH_VERTEX_COUNT, METADATA, OUTSIDE, SLOT_COUNT, STORAGE,
-                          basis_attribute_names, slot_attribute_names, triangle_attribute_name)
+from .bind_layout import FORMAT, METADATA, BindData
 from .enums import core_name, is_green, kind_label, kind_parameter
 
 # Blender stores positions as float32: a flat cage face after Apply Rotation, or a mesh
@@ -64,11 +62,11 @@ class Binding:
 
     modifier: bpy.types.Modifier
     group: bpy.types.NodeTree
-    info: dict  # METADATA, as plain Python values
+    data: BindData  # its METADATA
 
     @property
     def key(self):
-        return self.info[KEY]
+        return self.data.key
 
     @property
     def cage(self):
@@ -78,46 +76,33 @@ class Binding:
     @property
     def deleted_cage(self):
         """Name of the cage deleted while bound (see ``follow_cage``), or None."""
-        return self.info.get(DELETED_CAGE) if self.cage is None else None
-
-    @property
-    def slot_names(self):
-        return slot_attribute_names(self.key, self.info[SLOT_COUNT])
-
-    @property
-    def basis_names(self):
-        if self.info[STORAGE] != 'COMPACT':
-            return None
-        return basis_attribute_names(self.key, self.info[SLOT_COUNT])
+        return self.data.deleted_cage if self.cage is None else None
 
     @property
     def rest_cage(self):
         """The cage at bind time ((n, 3) float32, the mesh's local space), as the deformer
         keeps it; None when the node group lost it."""
-        return deformer.read_rest_cage(self.group, self.info[CAGE_VERTEX_COUNT])
+        return deformer.read_rest_cage(self.group, self.data.cage_vertex_count)
 
     def coordinates(self, mesh):
         """The (k, rows) float32 coordinates the mesh deforms with (compact: as reproduced
         by its slots and basis), or None when the bind data is missing."""
-        slots = mesh_arrays.read_triples(mesh, self.slot_names, self.info[SLOT_COUNT])
-        if slots is None or self.basis_names is None:
+        data = self.data
+        slots = mesh_arrays.read_triples(mesh, data.slot_names, data.slot_count)
+        if slots is None or data.basis_names is None:
             return slots
-        basis = mesh_arrays.read_triples(mesh, self.basis_names, self.info[SLOT_COUNT])
-        return None if basis is None else slots @ basis[:self.rows].T
-
-    @property
-    def rows(self):
-        """Coordinates per mesh vertex: n, or n + m for Green coordinates ([phi, psi])."""
-        return self.info[CAGE_VERTEX_COUNT] + self.info.get(CAGE_FACE_COUNT, 0)
+        basis = mesh_arrays.read_triples(mesh, data.basis_names, data.slot_count)
+        return None if basis is None else slots @ basis[:data.rows].T
 
     def coordinate_column(self, mesh, cage_vertex):
         """Every mesh vertex's coordinate for ``cage_vertex`` ((k,) float32), or None."""
-        slots = mesh_arrays.read_triples(mesh, self.slot_names, self.info[SLOT_COUNT])
+        data = self.data
+        slots = mesh_arrays.read_triples(mesh, data.slot_names, data.slot_count)
         if slots is None:
             return None
-        if self.basis_names is None:
+        if data.basis_names is None:
             return slots[:, cage_vertex]
-        basis = mesh_arrays.read_triples(mesh, self.basis_names, self.info[SLOT_COUNT])
+        basis = mesh_arrays.read_triples(mesh, data.basis_names, data.slot_count)
         return None if basis is None else slots @ basis[cage_vertex]
 
 
@@ -126,9 +111,9 @@ def bindings(obj):
     found = []
     for modifier in getattr(obj, "modifiers", ()):
         group = getattr(modifier, "node_group", None) if modifier.type == 'NODES' else None
-        info = group.get(METADATA) if group is not None else None
-        if info is not None:
-            found.append(Binding(modifier, group, info.to_dict()))
+        stored = group.get(METADATA) if group is not None else None
+        if stored is not None:
+            found.append(Binding(modifier, group, BindData.from_properties(stored.to_dict())))
     return found
 
 
@@ -160,18 +145,24 @@ def follow_cage(obj, found):
     if is_deleted(cage):
         compat.set_modifier_input(found.modifier, deformer.CAGE, None)
         cage = None
-    metadata = found.group[METADATA]
+    data = found.data
     if cage is not None:
-        if found.info.get(CAGE_NAME) != cage.name:  # renamed since Bind
-            metadata[CAGE_NAME] = found.info[CAGE_NAME] = cage.name
+        if data.cage_name != cage.name:  # renamed since Bind
+            _store(found, replace(data, cage_name=cage.name))
         return None
-    if DELETED_CAGE in found.info or CAGE_NAME not in found.info:
+    if data.deleted_cage is not None or data.cage_name is None:
         return None
-    metadata[DELETED_CAGE] = found.info[DELETED_CAGE] = found.info[CAGE_NAME]
+    _store(found, replace(data, deleted_cage=data.cage_name))
     # Blender's Delete clears the input without re-evaluating the mesh, which then
     # shows the last deformation until something else changes.
     obj.update_tag()
-    return found.info[CAGE_NAME]
+    return data.cage_name
+
+
+def _store(found, data):
+    """Write ``data`` as the binding ``found``'s metadata."""
+    found.group[METADATA] = data.to_properties()
+    found.data = data
 
 
 def remove_orphaned_groups():
@@ -304,7 +295,7 @@ class BindResult:
     basis: np.ndarray  # (n, s) float64 ((n + m, s) for Green), or None for exact storage
     triangles: np.ndarray  # (m, 3) int: Green coordinates' cage triangles, else None
     rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
-    info: dict  # METADATA
+    data: BindData  # METADATA
 
 
 @dataclass(frozen=True)
@@ -351,16 +342,12 @@ class BindJob:
         self.worker_failure = None
         geometry = self._read_scene(context)
         self._choose_storage()
-        self.info = {
-            FORMAT_KEY: FORMAT, KIND: self.kind, OUTSIDE: self.outside,
-            STORAGE: self.storage, CAGE_VERTEX_COUNT: len(self.cage_vertices),
-            MESH_VERTEX_COUNT: len(self.points), "cage_faces_hash": geometry.faces_hash,
-            "cage_non_triangles": geometry.non_triangles, CAGE_NAME: self.cage.name,
-        }
-        if self.gamma is not None:  # ID properties hold no None
-            self.info[GAMMA] = self.gamma
-        if self.green:
-            self.info[CAGE_FACE_COUNT] = len(self.triangles)
+        self.data = BindData(
+            format=FORMAT, kind=self.kind, gamma=self.gamma, outside=self.outside,
+            storage=self.storage, cage_vertex_count=len(self.cage_vertices),
+            mesh_vertex_count=len(self.points), cage_faces_hash=geometry.faces_hash,
+            cage_non_triangles=geometry.non_triangles, cage_name=self.cage.name,
+            cage_face_count=len(self.triangles) if self.green else None)
         self.started = started
         self.result = None
 
@@ -559,19 +546,17 @@ class BindJob:
             tolerance=FLOAT32_TOLERANCE)
         slot_count = written.pop("slot_count")
         slots, locations = written.pop("slots"), written.pop("locations")
-        self.info.update({STORAGE: self.storage, SLOT_COUNT: slot_count,
-                          KEY: secrets.token_hex(3)})
-        self.info.update(
+        self.data = replace(
+            self.data, storage=self.storage, slot_count=slot_count, key=secrets.token_hex(3),
+            storage_choice=self.storage_choice,
             report=("Green: similarity invariant, shape-preserving; any closed cage" if report is None
                     else report.headline),
             points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
             points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
             nbytes=int(stored_bytes(count, slot_count, self.basis is not None)),
             bind_seconds=time.perf_counter() - self.started, **written)
-        if self.storage_choice is not None:
-            self.info["storage_choice"] = self.storage_choice
         self.result = BindResult(self.storage, slots, self.basis, self.triangles if self.green else None,
-                                 self.rest_cage, self.info)
+                                 self.rest_cage, self.data)
 
     def _compute_slots(self, cage, workers):
         """Compute the slots in ``self.storage`` chunk by chunk, yielding the fraction done;
@@ -635,17 +620,13 @@ class BindJob:
         # another cage replaces it.
         earlier = binding(obj, self.cage) or binding(obj, missing_cage=True)
         others = bindings(obj)
-        key = result.info[KEY]
-        names = slot_attribute_names(key, result.info[SLOT_COUNT])
-        basis_names = None
-        if result.basis is not None:
-            basis_names = basis_attribute_names(key, result.info[SLOT_COUNT])
-        triangle_name = None if result.triangles is None else triangle_attribute_name(key)
+        data = result.data
+        key, names, basis_names, triangle_name = data.key, data.slot_names, data.basis_names, data.triangle_name
         group = modifier = None
         try:
             group = deformer.build_group(f"GenCoords: {obj.name} in {self.cage.name}", key,
-                                         result.rest_cage, result.info[MESH_VERTEX_COUNT],
-                                         result.info[SLOT_COUNT], basis_names, triangle_name,
+                                         result.rest_cage, data.mesh_vertex_count,
+                                         data.slot_count, basis_names, triangle_name,
                                          0 if result.triangles is None else len(result.triangles))
             mesh_arrays.write_triples(obj.data, names, result.slots)
             if basis_names is not None:
@@ -662,7 +643,7 @@ class BindJob:
             else:
                 position = stack.index(others[-1].modifier) + 1 if others else 0
             compat.move_modifier(obj, modifier, position)
-            group[METADATA] = result.info
+            group[METADATA] = data.to_properties()
         except Exception:
             if modifier is not None:
                 compat.remove_nodes_modifier(obj, modifier)

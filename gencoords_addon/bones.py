@@ -34,10 +34,10 @@ def bone_names(count):
 
 
 def negative_message(obj, found, count, smallest):
-    kind = kind_label(found.info["kind"])
+    kind = kind_label(found.data.kind)
     compact_note = (" (this binding uses Compact storage, which reproduces coordinates "
                     "approximately: Storage Exact may help)"
-                    if found.info.get("storage") == 'COMPACT' else "")
+                    if found.data.storage == 'COMPACT' else "")
     return (f"Cannot bake '{obj.name}' to bones: {count} of its {kind} coordinates are "
             f"negative (down to {smallest:.3g}){compact_note}, and vertex-group weights "
             "cannot be (Blender clamps them to 0 to 1). Bind with Type Wachspress, or Mean "
@@ -238,7 +238,7 @@ def _bake_inputs(obj, max_influences):
     found = bindings_module.binding(obj)
     if found.cage is None:
         raise bindings_module.BindError("The binding's cage is missing: Bind again first")
-    if is_green(found.info["kind"]):
+    if is_green(found.data.kind):
         raise bindings_module.BindError(
             f"Cannot bake '{obj.name}' to bones: it is bound with Green coordinates, which also "
             "follow the cage's face normals and stretch, and bones (linear blend skinning) "
@@ -246,7 +246,7 @@ def _bake_inputs(obj, max_influences):
     coordinates = found.coordinates(obj.data)
     rest_local = found.rest_cage
     if coordinates is None or rest_local is None \
-            or len(obj.data.vertices) != found.info["mesh_vertex_count"]:
+            or len(obj.data.vertices) != found.data.mesh_vertex_count:
         raise bindings_module.BindError(f"The bind data of '{obj.name}' is missing or no "
                                         "longer matches its vertices: Bind again")
     # On every coordinate, before Max Influences drops the smallest: a truncation would

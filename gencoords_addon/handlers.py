@@ -43,7 +43,7 @@ def _needs_rebind(obj):
     """Whether the bound mesh ``obj`` (out of Edit Mode) has another vertex count than
     at Bind."""
     found = binding.binding(obj)
-    return found is not None and len(obj.data.vertices) != found.info.get("mesh_vertex_count")
+    return found is not None and len(obj.data.vertices) != found.data.mesh_vertex_count
 
 
 def _in_window():

@@ -83,9 +83,9 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         job = self._job
         with object_mode(context, job.obj):
             job.commit()
-        info = job.result.info
-        headline = (f"Bound '{job.obj.name}' ({info['mesh_vertex_count']} vertices) to "
-                    f"'{job.cage.name}' in {info['bind_seconds']:.2f} s ({info['storage'].lower()} storage)")
+        data = job.result.data
+        headline = (f"Bound '{job.obj.name}' ({data.mesh_vertex_count} vertices) to "
+                    f"'{job.cage.name}' in {data.bind_seconds:.2f} s ({data.storage.lower()} storage)")
         if job.worker_failure is None:
             self.report({'INFO'}, headline)
         else:

@@ -21,10 +21,10 @@ def field_problem(obj):
     found = binding.binding(obj)
     if found is None:
         return f"'{obj.name}' is not bound: Bind it to a cage first"
-    count = found.info["cage_vertex_count"]
+    count = found.data.cage_vertex_count
     if obj.gencoords.field_vertex >= count:
         return f"Cage Vertex must be below {count}: the cage has {count} vertices"
-    if len(obj.data.vertices) != found.info["mesh_vertex_count"]:
+    if len(obj.data.vertices) != found.data.mesh_vertex_count:
         return f"'{obj.name}' was edited since Bind (vertices added or deleted): Bind again"
     return None
 

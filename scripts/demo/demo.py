@@ -334,7 +334,7 @@ def deform_each_kind(kinds):
     rows = []
     for kind in kinds:
         seconds = bind(mesh, cage, kind)
-        smallest = binding.binding(mesh).info["min_coordinate"]
+        smallest = binding.binding(mesh).data.min_coordinate
         # Affine check: exact coordinates move the mesh exactly like the cage.
         arrays.write_positions(cage.data, scenes.affine_map(rest_cage))
         settle()

@@ -250,7 +250,7 @@ def test_the_panel_of_a_cage_says_whose_cage_it_is(gc):
 
 def test_slots_show_only_where_the_storage_is_compact(gc):
     obj, cage = bound(gc)
-    assert gc.binding.binding(obj).info["storage"] == 'EXACT'
+    assert gc.binding.binding(obj).data.storage == 'EXACT'
     assert obj.gencoords.storage == 'AUTO'  # resolved to exact: the Slots do nothing
     assert ("prop", "compact_size") not in drawn_panel(obj)
     obj.gencoords.storage = 'COMPACT'
@@ -376,9 +376,9 @@ def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeyp
         result = running.modal(context, SimpleNamespace(type='TIMER'))
     assert result == {'FINISHED'}
     (found,) = gc.binding.bindings(obj)
-    assert found.cage == cage and found.info["kind"] == "mean_value" and "gamma" not in found.info
-    assert found.info["outside"] == "raise" and found.info["storage"] == 'EXACT'
-    assert found.info["slot_count"] == len(cage.data.vertices)
+    assert found.cage == cage and found.data.kind == "mean_value" and found.data.gamma is None
+    assert found.data.outside == "raise" and found.data.storage == 'EXACT'
+    assert found.data.slot_count == len(cage.data.vertices)
 
 
 def test_bind_and_unbind_leave_the_cage_with_the_users_it_had(gc):

@@ -63,7 +63,7 @@ def test_affine_cage_motion_moves_the_mesh_affinely(gc, kind, storage):
     obj.gencoords.storage, obj.gencoords.compact_size = storage, 12
     rest = read_positions(obj.data).astype(np.float64)
     assert bind(obj, cage, kind=kind) == {'FINISHED'}
-    assert gc.binding.binding(obj).info["storage"] == storage
+    assert gc.binding.binding(obj).data.storage == storage
     linear, shift = random_affine(1)
     write_positions(cage.data, read_positions(cage.data) @ linear.T + shift)
     np.testing.assert_allclose(evaluated_positions(obj), rest @ linear.T + shift, atol=2e-5)
@@ -75,8 +75,8 @@ def test_compact_storage_is_close_for_smooth_motions_and_reports_its_deviation(g
     obj.gencoords.storage, obj.gencoords.compact_size = 'COMPACT', 24
     assert bind(obj, cage) == {'FINISHED'}
     found = gc.binding.binding(obj)
-    info = found.info
-    assert info["slot_count"] == 24 and 0 < info["deviation_smooth"] < info["deviation_drag"]
+    info = found.data
+    assert info.slot_count == 24 and 0 < info.deviation_smooth < info.deviation_drag
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
     assert "Storage: Compact, 24 per vertex" in text and "Deviation:" in text
 
@@ -86,7 +86,7 @@ def test_compact_storage_is_close_for_smooth_motions_and_reports_its_deviation(g
     exact = gc.core.coordinates(read_positions(obj.data), rest_cage, triangles_of(cage))
     deviation = np.linalg.norm(evaluated_positions(obj) - exact @ moved, axis=1).max()
     diagonal = np.linalg.norm(np.ptp(rest_cage, axis=0))
-    assert deviation / diagonal < 2 * info["deviation_smooth"] + 1e-6  # a sample measured it
+    assert deviation / diagonal < 2 * info.deviation_smooth + 1e-6  # a sample measured it
     assert deviation / diagonal < 1e-3
 
 
@@ -151,14 +151,14 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
         cage = obj.gencoords.cage
         obj.gencoords.storage = 'AUTO'
         assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
-    info = gc.binding.binding(obj).info
+    info = gc.binding.binding(obj).data
     cage_count = len(cage.data.vertices)
-    assert info["storage"] == 'EXACT' and info["slot_count"] == cage_count
-    assert info["storage_choice"].startswith("Automatic: exact (compact would need ")
-    assert "for 1e-3)" in info["storage_choice"]
+    assert info.storage == 'EXACT' and info.slot_count == cage_count
+    assert info.storage_choice.startswith("Automatic: exact (compact would need ")
+    assert "for 1e-3)" in info.storage_choice
     text = [line for line, _ in gc.status.status_lines(obj)]
-    assert info["storage_choice"] in text
-    worst = info["deviation_drag_vertex"]
+    assert info.storage_choice in text
+    worst = info.deviation_drag_vertex
     smooth, drag = deviations_in_blender(gc, obj, cage, worst)
     assert smooth < 1e-3 and drag < 1e-3
     # A sample that promised too much (a wide margin here): measured on every vertex,
@@ -166,34 +166,34 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     margin = gc.binding.AUTO_SAMPLE_MARGIN
     monkeypatch.setattr(gc.binding, "AUTO_SAMPLE_MARGIN", 100.0)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
-    info = gc.binding.binding(obj).info
-    assert info["storage"] == 'EXACT' and info["slot_count"] == cage_count
-    assert info["storage_choice"].startswith("Automatic: exact (compact with ")
-    assert info["storage_choice"].endswith(" on the whole mesh)")
+    info = gc.binding.binding(obj).data
+    assert info.storage == 'EXACT' and info.slot_count == cage_count
+    assert info.storage_choice.startswith("Automatic: exact (compact with ")
+    assert info.storage_choice.endswith(" on the whole mesh)")
     # Exact storage over Automatic's memory cap: compact with half the cage's vertices
     # as slots, and the panel says it misses and what exact would take.
     monkeypatch.setattr(gc.binding, "AUTO_SAMPLE_MARGIN", margin)
     monkeypatch.setattr(gc.binding, "AUTO_EXACT_MAX_BYTES", 1_000_000)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
-    info = gc.binding.binding(obj).info
+    info = gc.binding.binding(obj).data
     slots = 3 * (cage_count // 2 // 3)
-    assert info["storage"] == 'COMPACT' and info["slot_count"] == slots
-    worst = short(max(info["deviation_smooth"], info["deviation_drag"]))
-    assert info["storage_choice"] == (
+    assert info.storage == 'COMPACT' and info.slot_count == slots
+    worst = short(max(info.deviation_smooth, info.deviation_drag))
+    assert info.storage_choice == (
         f"Automatic: compact, {slots} slots (deviation {worst} > 1e-3; exact would take "
-        f"{info['mesh_vertex_count'] * 3 * -(-cage_count // 3) * 4 / 1e9:.1f} GB: choose "
+        f"{info.mesh_vertex_count * 3 * -(-cage_count // 3) * 4 / 1e9:.1f} GB: choose "
         "Exact for it)")
     # The compact form Automatic turned down would have missed: 36 slots deviate.
     obj.gencoords.storage, obj.gencoords.compact_size = 'COMPACT', 36
     make_active(obj)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
-    info = gc.binding.binding(obj).info
-    assert info["storage"] == 'COMPACT' and "storage_choice" not in info
-    smooth, drag = deviations_in_blender(gc, obj, cage, info["deviation_drag_vertex"])
+    info = gc.binding.binding(obj).data
+    assert info.storage == 'COMPACT' and info.storage_choice is None
+    smooth, drag = deviations_in_blender(gc, obj, cage, info.deviation_drag_vertex)
     assert max(smooth, drag) > 1e-3
     # The reported figures are what Blender deforms (float32 rounding apart).
-    assert smooth == pytest.approx(info["deviation_smooth"], rel=1e-2, abs=2e-6)
-    assert drag == pytest.approx(info["deviation_drag"], rel=1e-2, abs=2e-6)
+    assert smooth == pytest.approx(info.deviation_smooth, rel=1e-2, abs=2e-6)
+    assert drag == pytest.approx(info.deviation_drag, rel=1e-2, abs=2e-6)
 
 
 def test_automatic_storage_chooses_compact_where_few_slots_suffice(gc, monkeypatch):
@@ -207,19 +207,19 @@ def test_automatic_storage_chooses_compact_where_few_slots_suffice(gc, monkeypat
     bpy.ops.object.transform_apply(scale=True)
     obj.gencoords.storage = 'AUTO'
     assert bind(obj, cage) == {'FINISHED'}
-    info = gc.binding.binding(obj).info
-    assert info["storage"] == 'COMPACT', info.get("storage_choice")
-    slots = info["slot_count"]
+    info = gc.binding.binding(obj).data
+    assert info.storage == 'COMPACT', info.storage_choice
+    slots = info.slot_count
     assert slots % 3 == 0 and slots <= len(cage.data.vertices) // 2
-    assert max(info["deviation_smooth"], info["deviation_drag"]) < 1e-3
-    assert info["storage_choice"].startswith(f"Automatic: compact, {slots} slots (deviation ")
+    assert max(info.deviation_smooth, info.deviation_drag) < 1e-3
+    assert info.storage_choice.startswith(f"Automatic: compact, {slots} slots (deviation ")
     text = [line for line, _ in gc.status.status_lines(obj)]
-    assert info["storage_choice"] in text
+    assert info.storage_choice in text
     assert any(line.startswith("Deviation: ") for line in text)
-    smooth, drag = deviations_in_blender(gc, obj, cage, info["deviation_drag_vertex"])
+    smooth, drag = deviations_in_blender(gc, obj, cage, info.deviation_drag_vertex)
     assert smooth < 1e-3 and drag < 1e-3
-    assert smooth == pytest.approx(info["deviation_smooth"], rel=1e-2, abs=2e-6)
-    assert drag == pytest.approx(info["deviation_drag"], rel=1e-2, abs=2e-6)
+    assert smooth == pytest.approx(info.deviation_smooth, rel=1e-2, abs=2e-6)
+    assert drag == pytest.approx(info.deviation_drag, rel=1e-2, abs=2e-6)
     # It is the worst: other dragged cage vertices deviate less.
     for other in (0, 57, 161):
         assert deviations_in_blender(gc, obj, cage, other)[1] <= drag + 2e-6
@@ -441,7 +441,7 @@ def test_outside_vertices_do_not_move_at_bind(gc, outside):
     cage = add_icosphere_cage(radius=1.0)
     obj = add_sphere(radius=1.1)
     assert bind(obj, cage, outside=outside) == {'FINISHED'}
-    assert gc.binding.binding(obj).info["points_outside"] > 0
+    assert gc.binding.binding(obj).data.points_outside > 0
     np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
     write_positions(cage.data, read_positions(cage.data) + (0.0, 0.0, 1.0))  # translations still exact
     np.testing.assert_allclose(evaluated_positions(obj), read_positions(obj.data) + (0, 0, 1), atol=1e-5)
@@ -495,12 +495,12 @@ def test_status_reports_the_core_summary(gc):
     obj = add_sphere()
     bind(obj, cage, kind="VORONOI")
     summary = gc.core.tools.coordinate_summary(coordinates_of(gc, obj))
-    info = gc.binding.binding(obj).info
-    assert info["min_coordinate"] == pytest.approx(summary["min"], abs=1e-6)
+    info = gc.binding.binding(obj).data
+    assert info.min_coordinate == pytest.approx(summary["min"], abs=1e-6)
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
     for expected in ("Bound to 'Cage'", "Coordinates: Voronoi", "Cage: 12 vertices",
                      f"Mesh: {len(obj.data.vertices)} vertices", "Storage: Exact, 12 per vertex",
-                     f"Smallest coordinate: {info['min_coordinate']:.4g}", "Bind time"):
+                     f"Smallest coordinate: {info.min_coordinate:.4g}", "Bind time"):
         assert expected in text
     assert all(len(line) < 110 for line in text.splitlines())
 
@@ -511,8 +511,8 @@ def test_power_coordinates_bind_with_the_artists_gamma_and_report_positivity(gc)
     obj.gencoords.gamma = -1.0  # Wachspress
     bind(obj, cage, kind="POWER")
     power = coordinates_of(gc, obj)
-    info = gc.binding.binding(obj).info
-    assert info["kind"] == "power" and info["gamma"] == -1.0
+    info = gc.binding.binding(obj).data
+    assert info.kind == "power" and info.gamma == -1.0
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
     assert "Coordinates: Power (gamma -1)" in text and "In this cage: positive" in text
     other = add_sphere(name="Wachspress")
@@ -538,7 +538,7 @@ def test_a_failure_while_committing_leaves_the_earlier_binding(gc, monkeypatch):
     with pytest.raises(RuntimeError, match="nothing was changed"):
         bind(obj, cage, kind="WACHSPRESS")
     found = gc.binding.binding(obj)
-    assert found.key == key and found.info["kind"] == "mean_value"
+    assert found.key == key and found.data.kind == "mean_value"
     assert mesh_state(obj)[1] == state and len(obj.modifiers) == 1
 
 
@@ -581,7 +581,7 @@ def test_auto_rebind_binds_again_on_leaving_edit_mode(gc):
     bind(obj, cage)
     subdivide_in_edit_mode(obj)
     assert not bpy.app.timers.is_registered(gc.handlers.rebind_in_window)
-    assert gc.binding.binding(obj).info["mesh_vertex_count"] == len(obj.data.vertices)
+    assert gc.binding.binding(obj).data.mesh_vertex_count == len(obj.data.vertices)
     write_positions(cage.data, read_positions(cage.data) * 1.2)
     np.testing.assert_allclose(evaluated_positions(obj), read_positions(obj.data) * 1.2, atol=1e-5)
 
@@ -618,13 +618,13 @@ def test_auto_rebind_in_a_window_hands_over_to_the_bind_operator(gc, as_in_a_win
     subdivide_in_edit_mode(obj)
     make_active(cage)
     assert bpy.app.timers.is_registered(as_in_a_window.rebind_in_window)
-    assert gc.binding.binding(obj).info["mesh_vertex_count"] == count  # not yet
+    assert gc.binding.binding(obj).data.mesh_vertex_count == count  # not yet
     update()  # more updates before the timer fires: still one rebind
     assert as_in_a_window.rebind_in_window() is None  # the timer, once
     assert len(invoked) == 1
     caller, active, window, area = invoked[0]
     assert caller == "_start" and active == obj and window is not None and area is not None
-    assert gc.binding.binding(obj).info["mesh_vertex_count"] == len(obj.data.vertices) > count
+    assert gc.binding.binding(obj).data.mesh_vertex_count == len(obj.data.vertices) > count
     assert [m.name for m in obj.modifiers] == ["GenCoords"]
     update()
     assert not invoked[1:]  # the rebind's own updates start no other
@@ -652,7 +652,7 @@ def test_auto_rebind_in_a_window_leaves_a_mesh_changed_before_the_timer_alone(
     assert as_in_a_window.rebind_in_window() is None
     assert set(bpy.data.objects.keys()) == objects
     if meanwhile == "editing":
-        assert gc.binding.binding(obj).info["mesh_vertex_count"] != len(obj.data.vertices)
+        assert gc.binding.binding(obj).data.mesh_vertex_count != len(obj.data.vertices)
         bpy.ops.object.mode_set(mode='OBJECT')
     if meanwhile != "deleted":
         assert len(gc.binding.bindings(obj)) == (meanwhile == "editing")
