@@ -20,7 +20,7 @@ import bpy
 import numpy as np
 
 from .. import core
-from ..core.tools import compact
+from ..core.tools import bind_plan
 from . import compat, deformer, mesh_arrays, mesh_io, messages, preferences
 from .bind_layout import FORMAT, METADATA, BindData
 from .enums import core_name, is_green, kind_label, kind_parameter
@@ -30,26 +30,6 @@ from .enums import core_name, is_green, kind_label, kind_parameter
 # core's float64 default would call non-convex or outside.
 FLOAT32_TOLERANCE = core.base.tolerances.FLOAT32
 MODIFIER_NAME = "GenCoords"
-# Automatic storage is exact without measuring while its per-evaluation cost and node
-# group stay moderate: k x n multiply-adds (about 1.5 ns each on two cores) and a node
-# per three cage vertices.
-EXACT_MAX_PRODUCT = 8_000_000
-EXACT_MAX_CAGE_VERTICES = 400
-# Beyond, it measures: compact with the fewest slots that keep both standard deviations
-# (core.tools.compact: smooth motion, worst single-vertex drag) under AUTO_DEVIATION of the
-# cage's diagonal, else exact. Slots are chosen on a sample of the mesh with
-# AUTO_SAMPLE_MARGIN to spare for the vertices it skipped; after Bind the deviations are
-# measured on every vertex, and compact that still misses goes exact.
-AUTO_DEVIATION = 1e-3
-AUTO_SAMPLE_MARGIN = 0.8
-# Exact storage Automatic still chooses when compact deviates more: attribute bytes (a
-# million vertices x 642 cage vertices, 2.6 GB, stay compact and the panel says so).
-AUTO_EXACT_MAX_BYTES = 2**31
-# Coordinates computed per chunk of points: progress and cancel granularity, and the
-# bound on the dense float64 block a chunk makes (points x cage vertices).
-CHUNK_ENTRIES = 4_000_000  # per worker process
-DEVIATION_SAMPLES = 2000  # mesh vertices Automatic chooses compact storage's slots on
-REPORT_SAMPLES = 1000  # points inside the cage core.tools.coordinate_report examines at Bind
 
 
 class BindError(Exception):
@@ -233,34 +213,6 @@ def zero_scale_axes(matrix):
             if not length > FLOAT32_TOLERANCE * lengths.max()]
 
 
-def choose_storage(setting, mesh_vertices, cage_vertices, compact_size):
-    """'EXACT', 'COMPACT' or 'AUTO' (measure at Bind) for the Storage setting ``setting``.
-
-    Compact storage keeps its basis on the mesh's first n points and needs more cage
-    vertices than slots to save anything, so small meshes and cages are always exact;
-    Automatic is exact while exact storage is cheap, and measures beyond.
-    """
-    if mesh_vertices < cage_vertices or cage_vertices <= compact_size:
-        return 'EXACT'
-    if setting != 'AUTO':
-        return setting
-    small = (mesh_vertices * cage_vertices <= EXACT_MAX_PRODUCT
-             and cage_vertices <= EXACT_MAX_CAGE_VERTICES)
-    return 'EXACT' if small else 'AUTO'
-
-
-def stored_bytes(mesh_vertices, slot_count, compact_storage):
-    """Bytes of the bind data's attributes: three float32 slots per vector attribute (the
-    last one padded), and compact storage's basis in as many attributes again."""
-    stored = mesh_vertices * 3 * -(-slot_count // 3) * 4
-    return stored * (2 if compact_storage else 1)
-
-
-def short_number(value, digits=2):
-    """``9.6e-4`` for 0.00096 (``digits`` significant): deviations in few characters."""
-    return f"{value:.{digits - 1}e}".replace("e-0", "e-").replace("e+0", "e")
-
-
 CAPTURE_GROUP = ".GenCoords capture"
 
 
@@ -333,21 +285,18 @@ class BindJob:
         check_inputs(obj)
         self.obj = obj
         self.settings = settings = BindSettings.of(obj)
-        self.cage, self.kind, self.gamma = settings.cage, settings.kind, settings.gamma
-        self.outside, self.kind_label = settings.outside, settings.kind_label
-        self.green = is_green(self.kind)
-        # Worker processes (None: the core's choice for the whole job; 1: in Blender).
-        self.workers = preferences.worker_count(context)
+        self.cage, self.kind_label = settings.cage, settings.kind_label
+        self.green = is_green(settings.kind)
         # Set when the workers failed and Blender computed instead: what to tell the artist.
         self.worker_failure = None
         geometry = self._read_scene(context)
-        self._choose_storage()
+        self.request = self._request(context)
+        # Bind data as far as the scene tells; the plan adds the storage and the figures.
         self.data = BindData(
-            format=FORMAT, kind=self.kind, gamma=self.gamma, outside=self.outside,
-            storage=self.storage, cage_vertex_count=len(self.cage_vertices),
-            mesh_vertex_count=len(self.points), cage_faces_hash=geometry.faces_hash,
-            cage_non_triangles=geometry.non_triangles, cage_name=self.cage.name,
-            cage_face_count=len(self.triangles) if self.green else None)
+            format=FORMAT, kind=settings.kind, gamma=settings.gamma, outside=settings.outside,
+            cage_vertex_count=len(self.cage_vertices), mesh_vertex_count=len(self.points),
+            cage_faces_hash=geometry.faces_hash, cage_non_triangles=geometry.non_triangles,
+            cage_name=self.cage.name, cage_face_count=len(self.triangles) if self.green else None)
         self.started = started
         self.result = None
 
@@ -395,7 +344,7 @@ class BindJob:
         """Green coordinates are similarity invariant, not affine: they are computed where
         the deformer evaluates them, in the mesh's local space (a mirroring object
         transform turns the cage's triangles inside out there: they are flipped)."""
-        if self.outside == 'extrapolate':
+        if self.settings.outside == 'extrapolate':
             raise BindError("Green coordinates do not extrapolate outside the cage: set Outside "
                             "to Report Error or Project, then Bind")
         self.points, self.cage_vertices = rest, self.rest_cage.astype(np.float64)
@@ -406,36 +355,23 @@ class BindJob:
                             f"mesh's vertices, and '{self.obj.name}' has only {len(self.points)}: "
                             "subdivide the mesh, use a cage with fewer faces or another type")
 
-    @property
-    def rows(self):
-        """Coordinates per mesh vertex: n, or n + m for Green coordinates ([phi, psi])."""
-        return len(self.cage_vertices) + (len(self.triangles) if self.green else 0)
-
-    def _basis(self, size):
-        """Compact storage's basis of cage motions, (rows, size) float64."""
-        if self.green:
-            return compact.green_motion_basis(self.cage_vertices, self.triangles, size)
-        return compact.motion_basis(self.cage_vertices, self.triangles, size)
-
-    def _choose_storage(self):
-        """Set ``storage`` (AUTO: measure in ``steps``), ``storage_choice``, ``measured``
-        and, for compact storage, ``basis``."""
+    def _request(self, context):
+        """What the core plans: the settings in its terms, the workers the preferences ask
+        for, and the fallback to Blender's process where they fail."""
         settings = self.settings
-        count, cage_count = len(self.points), self.rows
-        # Green's basis starts with the 8 columns that keep similarities exact.
-        compact_size = max(settings.compact_size, 8) if self.green else settings.compact_size
-        self.storage = choose_storage(settings.storage, count, cage_count, compact_size)
-        self.storage_choice = None  # why, in the panel's words (set where there is a why)
-        self.measured = self.storage == 'AUTO'
-        if settings.storage != 'EXACT' and self.storage == 'EXACT':
-            small = count < cage_count or cage_count <= settings.compact_size
-            why = ("compact saves nothing with this few vertices" if small else
-                   f"{count} x {cage_count} coordinates: cheap enough to store them all")
-            label = "Automatic: exact" if settings.storage == 'AUTO' else "Exact, not compact"
-            self.storage_choice = f"{label} ({why})"
-        self.basis = None
-        if self.storage == 'COMPACT':
-            self.basis = self._basis(min(compact_size, cage_count))
+
+        def run(compute, workers):
+            if self.worker_failure is not None:  # they failed once: the rest in Blender too
+                workers = 1
+            result, failure = preferences.in_workers_or_blender(compute, workers)
+            if failure is not None:
+                self.worker_failure = failure
+            return result
+
+        return bind_plan.BindRequest(
+            kind=settings.kind, outside=settings.outside, gamma=settings.gamma, storage=settings.storage,
+            compact_size=settings.compact_size, workers=preferences.worker_count(context),
+            tolerance=FLOAT32_TOLERANCE, run=run)
 
     def steps(self):
         """Compute the bind data chunk by chunk, yielding the fraction done (0 to 1).
@@ -444,159 +380,25 @@ class BindJob:
         early (a cancel) stops the core's worker processes and leaves nothing behind.
         """
         try:
-            cage = core.Cage(self.cage_vertices, self.triangles, tolerance=FLOAT32_TOLERANCE)
-        except ValueError as error:  # every core error about the input is a ValueError
-            raise BindError(self._core_message(error)) from None
-        try:
-            yield from self._compute(cage)
-        finally:
-            cage.close()
-
-    def _core_message(self, error):
-        return messages.core_error(self.cage.name, error, self.kind_label, len(self.points),
-                                   self.triangle_faces)
-
-    def _coordinates(self, cage, points, workers, locations=None):
-        """The core's coordinates of ``points`` ((k, n) float64), its errors as BindError."""
-        if self.worker_failure is not None:  # they failed once: the rest in Blender too
-            workers = 1
-
-        def compute(count):
-            if self.green:  # phi and psi side by side: the slots' n + m rows
-                return np.hstack(cage.green_coordinates(points, outside=self.outside, locations=locations,
-                                                        workers=count))
-            return cage.coordinates(points, kind=self.kind, outside=self.outside, locations=locations,
-                                    workers=count, gamma=self.gamma)
-
-        try:
-            coordinates, failure = preferences.in_workers_or_blender(compute, workers)
+            plan = yield from bind_plan.plan_bind(self.points, self.cage_vertices, self.triangles,
+                                                  self.request)
         except core.OutsideCageError:
-            raise BindError(self._outside_message(cage)) from None
-        except ValueError as error:  # every other core error is a ValueError
-            raise BindError(self._core_message(error)) from None
-        if failure is not None:
-            self.worker_failure = failure
-        if not np.isfinite(coordinates).all():
+            raise BindError(self._outside_message()) from None
+        except bind_plan.UndefinedCoordinatesError:
             raise BindError(f"Binding to '{self.cage.name}' gave undefined coordinates: "
-                            "check the cage for tiny or overlapping faces")
-        return coordinates
+                            "check the cage for tiny or overlapping faces") from None
+        except ValueError as error:  # every other core error is a ValueError
+            raise BindError(messages.core_error(self.cage.name, error, self.kind_label, len(self.points),
+                                                self.triangle_faces)) from None
+        data = replace(self.data, storage=plan.storage, slot_count=plan.slot_count, key=secrets.token_hex(3),
+                       nbytes=int(bind_plan.stored_bytes(len(self.points), plan.slot_count, plan.basis is not None)),
+                       bind_seconds=time.perf_counter() - self.started, **plan.figures())
+        self.result = BindResult(plan.storage, plan.slots, plan.basis, self.triangles if self.green else None,
+                                 self.rest_cage, data)
 
-    def _choose_by_measuring(self, cage):
-        """Automatic storage beyond the cheap sizes: compact with the fewest slots (a
-        multiple of three: an attribute holds three) that keep both deviations under the
-        target on a sample of the mesh, or exact when compact needs more than half the
-        cage's vertices (its slots and basis then take as much as exact storage) and
-        exact storage fits AUTO_EXACT_MAX_BYTES; when it does not, compact with that half."""
-        count, cage_count = len(self.points), self.rows
-        sample = self.points[::max(1, count // DEVIATION_SAMPLES)]
-        coordinates = self._coordinates(cage, sample, None)
-        basis = self._basis(cage_count)
-        smallest = 8 if self.green else self.cage_vertices.shape[1] + 1
-        sizes = [size for size in range(3, cage_count, 3) if size >= smallest]
-        size, _, _ = compact.smallest_size(coordinates, basis, self.cage_vertices,
-                                           AUTO_DEVIATION * AUTO_SAMPLE_MARGIN, sizes, self._green_faces)
-        saving = [each for each in sizes if each <= cage_count // 2]
-        if size is None or size > cage_count // 2:
-            exact_bytes = stored_bytes(count, cage_count, False)
-            if exact_bytes <= AUTO_EXACT_MAX_BYTES or not saving:
-                needed = f"all {cage_count}" if size is None else f"{size} of the {cage_count}"
-                self.storage = 'EXACT'
-                self.storage_choice = (f"Automatic: exact (compact would need {needed} slots "
-                                       f"for {short_number(AUTO_DEVIATION, 1)})")
-                return
-            size = saving[-1]
-        # Compact: its line waits for the deviations measured on every vertex.
-        self.storage, self.basis = 'COMPACT', basis[:, :size]
-
-    @property
-    def _green_faces(self):
-        """The triangles the deviations are measured with for Green coordinates, else None."""
-        return self.triangles if self.green else None
-
-    def _compute(self, cage):
-        count, cage_count = len(self.points), self.rows
-        # Workers are chosen once for the whole job; each call gives every one a chunk.
-        workers = cage.suggested_workers(count) if self.workers is None else self.workers
-        if self.storage == 'AUTO':
-            self._choose_by_measuring(cage)
-        written = yield from self._compute_slots(cage, workers)
-        if self.measured and self.storage == 'COMPACT':
-            slot_count, target = self.basis.shape[1], short_number(AUTO_DEVIATION, 1)
-            worst = max(written["deviation_smooth"], written["deviation_drag"])
-            exact_bytes = stored_bytes(count, cage_count, False)
-            if worst < AUTO_DEVIATION:
-                self.storage_choice = (f"Automatic: compact, {slot_count} slots "
-                                       f"(deviation {short_number(worst)} < {target})")
-            elif exact_bytes <= AUTO_EXACT_MAX_BYTES:
-                # The sample missed where compact deviates most: exact after all.
-                self.storage_choice = (f"Automatic: exact (compact with {slot_count} "
-                                       f"slots deviated {short_number(worst)} on the whole "
-                                       "mesh)")
-                self.storage, self.basis = 'EXACT', None
-                written = yield from self._compute_slots(cage, workers)
-            else:
-                self.storage_choice = (
-                    f"Automatic: compact, {slot_count} slots (deviation {short_number(worst)} "
-                    f"> {target}; exact would take {exact_bytes / 1e9:.1f} GB: choose Exact "
-                    "for it)")
-        # How this kind behaves in this cage, away from the mesh's own vertices (the
-        # summary covers those): positivity and well-definedness on a sample.
-        report = None if self.green else core.tools.coordinate_report(
-            self.cage_vertices, self.triangles, self.kind, gamma=self.gamma, samples=REPORT_SAMPLES,
-            tolerance=FLOAT32_TOLERANCE)
-        slot_count = written.pop("slot_count")
-        slots, locations = written.pop("slots"), written.pop("locations")
-        self.data = replace(
-            self.data, storage=self.storage, slot_count=slot_count, key=secrets.token_hex(3),
-            storage_choice=self.storage_choice,
-            report=("Green: similarity invariant, shape-preserving; any closed cage" if report is None
-                    else report.headline),
-            points_outside=int(np.count_nonzero(locations == core.OUTSIDE)),
-            points_on_boundary=int(np.count_nonzero(locations == core.BOUNDARY)),
-            nbytes=int(stored_bytes(count, slot_count, self.basis is not None)),
-            bind_seconds=time.perf_counter() - self.started, **written)
-        self.result = BindResult(self.storage, slots, self.basis, self.triangles if self.green else None,
-                                 self.rest_cage, self.data)
-
-    def _compute_slots(self, cage, workers):
-        """Compute the slots in ``self.storage`` chunk by chunk, yielding the fraction done;
-        returns them with the figures measured on them, as they will be written: the
-        deviations from the exact coordinates (slots and basis in float32) on every vertex."""
-        count, cage_count = len(self.points), self.rows
-        slot_count = cage_count if self.basis is None else self.basis.shape[1]
-        slots = np.empty((count, slot_count), dtype=np.float32)
-        locations = np.empty(count, dtype=np.int8)
-        stored_basis = (None if self.basis is None else  # as written: float32
-                        self.basis.astype(np.float32).astype(np.float64))
-        smallest, negative, affine_error = np.inf, 0, 0.0
-        smooth, drag = 0.0, np.zeros(len(self.cage_vertices))
-        chunk = max(1, CHUNK_ENTRIES * workers // cage_count)
-        for start in range(0, count, chunk):
-            rows = slice(start, min(start + chunk, count))
-            coordinates = self._coordinates(cage, self.points[rows], workers, locations[rows])
-            # Green's phi (the first n) sum to 1 and weigh the vertices as the others do.
-            summary = core.tools.coordinate_summary(coordinates[:, :len(self.cage_vertices)])
-            smallest = min(smallest, summary["min"])
-            negative += summary["negative_points"]
-            affine_error = max(affine_error, summary["max_affine_error"])
-            slots[rows] = coordinates if self.basis is None else coordinates @ self.basis
-            reproduced = (slots[rows].astype(np.float64) if stored_basis is None else
-                          slots[rows] @ stored_basis.T)
-            residual = np.subtract(coordinates, reproduced, out=reproduced)
-            chunk_smooth, chunk_drag = compact.residual_deviations(residual, self.cage_vertices,
-                                                                   faces=self._green_faces)
-            smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
-            # With workers, shared memory: freed before the next chunk's.
-            del coordinates, reproduced, residual
-            yield rows.stop / count
-        return {"slot_count": slot_count, "slots": slots, "locations": locations,
-                "min_coordinate": float(smallest), "negative_points": int(negative),
-                "max_affine_error": float(affine_error), "deviation_smooth": float(smooth),
-                "deviation_drag": float(drag.max(initial=0.0)),
-                "deviation_drag_vertex": int(np.argmax(drag))}
-
-    def _outside_message(self, cage):
-        where = cage.point_locations(self.points)
+    def _outside_message(self):
+        where = core.point_locations(self.points, self.cage_vertices, self.triangles,
+                                     tolerance=FLOAT32_TOLERANCE)
         return messages.outside_error(self.cage.name, int(np.count_nonzero(where == core.OUTSIDE)),
                                       len(self.points))
 

@@ -95,15 +95,6 @@ def triangles_of(cage):
     return np.array([t.vertices[:] for t in cage.data.loop_triangles])
 
 
-def test_automatic_storage_is_exact_for_moderate_sizes_and_measures_beyond(gc):
-    choose = gc.binding.choose_storage
-    assert choose('AUTO', 31_658, 162, 36) == 'EXACT'
-    assert choose('AUTO', 1_000_000, 642, 36) == 'AUTO'  # measured at Bind
-    assert choose('COMPACT', 1_000_000, 642, 36) == 'COMPACT'
-    assert choose('COMPACT', 20, 42, 36) == 'EXACT'  # fewer mesh than cage vertices
-    assert choose('COMPACT', 5000, 12, 36) == 'EXACT'  # nothing to save
-
-
 def short(value):
     return f"{value:.1e}".replace("e-0", "e-")
 
@@ -143,7 +134,7 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     then deforms is within 1e-3 of the cage diagonal of exact mean value coordinates."""
     # The measuring path starts at 8 million coordinates (Suzanne with 4 subdivisions
     # in this cage): a smaller Suzanne takes it from 0 to keep the test fast.
-    monkeypatch.setattr(gc.binding, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "EXACT_MAX_PRODUCT", 0)
     obj = add_subdivided_suzanne(2)  # 7958 vertices
     make_active(obj)
     with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
@@ -163,8 +154,8 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     assert smooth < 1e-3 and drag < 1e-3
     # A sample that promised too much (a wide margin here): measured on every vertex,
     # compact misses, and Automatic binds exactly after all.
-    margin = gc.binding.AUTO_SAMPLE_MARGIN
-    monkeypatch.setattr(gc.binding, "AUTO_SAMPLE_MARGIN", 100.0)
+    margin = gc.core.tools.bind_plan.AUTO_SAMPLE_MARGIN
+    monkeypatch.setattr(gc.core.tools.bind_plan, "AUTO_SAMPLE_MARGIN", 100.0)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
     info = gc.binding.binding(obj).data
     assert info.storage == 'EXACT' and info.slot_count == cage_count
@@ -172,8 +163,8 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     assert info.storage_choice.endswith(" on the whole mesh)")
     # Exact storage over Automatic's memory cap: compact with half the cage's vertices
     # as slots, and the panel says it misses and what exact would take.
-    monkeypatch.setattr(gc.binding, "AUTO_SAMPLE_MARGIN", margin)
-    monkeypatch.setattr(gc.binding, "AUTO_EXACT_MAX_BYTES", 1_000_000)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "AUTO_SAMPLE_MARGIN", margin)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "AUTO_EXACT_MAX_BYTES", 1_000_000)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
     info = gc.binding.binding(obj).data
     slots = 3 * (cage_count // 2 // 3)
@@ -200,7 +191,7 @@ def test_automatic_storage_chooses_compact_where_few_slots_suffice(gc, monkeypat
     """A regular cage well away from the mesh: Automatic picks compact with the slots it
     measured, the panel says so with the measured deviation, and Blender's deformation for
     the smooth motion and for the worst dragged cage vertex stays within it."""
-    monkeypatch.setattr(gc.binding, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "EXACT_MAX_PRODUCT", 0)
     cage = add_icosphere_cage(radius=2.0, subdivisions=3)  # 162 vertices
     obj = add_subdivided_sphere(levels=1)
     obj.scale = (0.6, 0.6, 0.6)
@@ -546,7 +537,7 @@ def test_a_failure_in_the_middle_of_the_compute_changes_nothing(gc, monkeypatch)
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
     before = mesh_state(obj)
-    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 3000)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 3000)
     calls = []
     original = gc.core.Cage.coordinates
 
