@@ -11,7 +11,7 @@ from types import MappingProxyType
 from typing import Mapping
 
 from . import bind_layout as _layout
-from . import binding as _binding
+from .bind import bindings as _bindings
 
 # Stored as the core's names ('mean_value'); given as the ``obj.gencoords`` enum
 # identifiers ('MEAN_VALUE') a script sets.
@@ -86,11 +86,11 @@ def _result(found):
 def binding_results(obj):
     """Every binding of ``obj`` in modifier stack order: a tuple of ``BindingResult``,
     empty when ``obj`` is not bound (or is not a mesh object)."""
-    return tuple(_result(found) for found in _binding.bindings(obj))
+    return tuple(_result(found) for found in _bindings.bindings(obj))
 
 
 def binding_result(obj, cage=None):
     """The binding of ``obj`` to the object ``cage`` (by default its first binding) as a
     ``BindingResult``, or None when there is none."""
-    found = _binding.binding(obj, cage)
+    found = _bindings.binding(obj, cage)
     return None if found is None else _result(found)

@@ -21,7 +21,8 @@ import bpy
 import numpy as np
 
 from ..core.tools import compact, skinning
-from . import binding as bindings_module
+from .bind import bindings as bindings_module
+from .errors import BindError
 from . import compat, mesh_io
 from .enums import is_green, kind_label
 
@@ -237,9 +238,9 @@ def _bake_inputs(obj, max_influences):
     float64, world space as seen from the mesh now); BindError when it cannot be baked."""
     found = bindings_module.binding(obj)
     if found.cage is None:
-        raise bindings_module.BindError("The binding's cage is missing: Bind again first")
+        raise BindError("The binding's cage is missing: Bind again first")
     if is_green(found.data.kind):
-        raise bindings_module.BindError(
+        raise BindError(
             f"Cannot bake '{obj.name}' to bones: it is bound with Green coordinates, which also "
             "follow the cage's face normals and stretch, and bones (linear blend skinning) "
             "cannot: Bind with another Type (Mean Value, say), then Bake to Bones")
@@ -247,13 +248,13 @@ def _bake_inputs(obj, max_influences):
     rest_local = found.rest_cage
     if coordinates is None or rest_local is None \
             or len(obj.data.vertices) != found.data.mesh_vertex_count:
-        raise bindings_module.BindError(f"The bind data of '{obj.name}' is missing or no "
+        raise BindError(f"The bind data of '{obj.name}' is missing or no "
                                         "longer matches its vertices: Bind again")
     # On every coordinate, before Max Influences drops the smallest: a truncation would
     # otherwise drop negatives silently, and the kept weights would not be the binding.
     negative, smallest = skinning.negative_weights(coordinates)
     if negative:
-        raise bindings_module.BindError(negative_message(obj, found, negative, smallest))
+        raise BindError(negative_message(obj, found, negative, smallest))
     weights = skinning.truncate(coordinates, max_influences)
     # The rig sits at the world origin: the bones rest where the bind-time cage is seen
     # from the mesh now (the deformer reads the cage relative to the mesh too).

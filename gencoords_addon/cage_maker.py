@@ -13,7 +13,7 @@ import numpy as np
 from .. import core
 from ..core.tools import enclosing
 from . import mesh_io, preferences
-from .binding import FLOAT32_TOLERANCE
+from .bind.scene import FLOAT32_TOLERANCE
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one

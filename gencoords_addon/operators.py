@@ -10,7 +10,10 @@ import traceback
 
 import bpy
 
-from . import binding, bones, cage_maker, visualise
+from . import bones, cage_maker, visualise
+from .bind import bindings
+from .bind import job as bind_job
+from .errors import BindError
 
 
 class MeshOperator:
@@ -73,8 +76,8 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         obj = context.active_object
         try:
             with object_mode(context, obj):
-                self._job = binding.BindJob(obj, context)
-        except binding.BindError as error:
+                self._job = bind_job.BindJob(obj, context)
+        except BindError as error:
             self.report({'ERROR'}, str(error))
             return False
         return True
@@ -111,7 +114,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
 
             self._job.run(report)
             return self._finish(context)
-        except binding.BindError as error:
+        except BindError as error:
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
         except Exception as error:  # the file is unchanged: commit cleans up after itself
@@ -123,7 +126,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         if not interactive(context):
             return self.execute(context)
         obj = context.active_object
-        if not self.replace_confirmed and binding.binding(obj, obj.gencoords.cage) is not None:
+        if not self.replace_confirmed and bindings.binding(obj, obj.gencoords.cage) is not None:
             self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
             return context.window_manager.invoke_confirm(
                 self, event, title="Replace Binding",
@@ -160,7 +163,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             if fraction is None:
                 self._stop(context)
                 return self._finish(context)
-        except binding.BindError as error:
+        except BindError as error:
             self._stop(context)
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
@@ -187,7 +190,7 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
 
     def execute(self, context):
         obj = context.active_object
-        found = [b for b in binding.bindings(obj)
+        found = [b for b in bindings.bindings(obj)
                  if not self.modifier or b.modifier.name == self.modifier]
         if not found:
             what = f"bound with the modifier '{self.modifier}'" if self.modifier else "bound"
@@ -199,7 +202,7 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
             return {'CANCELLED'}
         try:
             with object_mode(context, obj):
-                binding.remove(obj, found)
+                bindings.remove(obj, found)
         except Exception as error:
             removed = getattr(error, "gencoords_removed", [])
             if not removed:
@@ -313,7 +316,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     def poll(cls, context):
         if not super().poll(context):
             return False
-        if binding.binding(context.active_object) is None:
+        if bindings.binding(context.active_object) is None:
             cls.poll_message_set(f"'{context.active_object.name}' is not bound: Bind it first")
             return False
         return True
@@ -329,7 +332,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         try:
             with object_mode(context, obj):
                 rig, deviation = bones.bake(obj, context, self.max_influences, self.keyframes)
-        except binding.BindError as error:
+        except BindError as error:
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
         except Exception as error:

@@ -6,7 +6,8 @@ Every figure comes from the binding's metadata, which holds what the core comput
 import bpy
 import numpy as np
 
-from . import binding, mesh_io
+from . import mesh_io
+from .bind import bindings
 from .enums import STORAGE_ITEMS, enum_label, kind_label
 
 OUTSIDE_VERBS = {"project": "projected onto the cage", "extrapolate": "extrapolated"}
@@ -53,7 +54,7 @@ def deformation_problem(obj, found, depsgraph=None):
 
 def status_lines(obj, depsgraph=None):
     """Lines describing the bindings of ``obj``, for the panel and scripts."""
-    found_all = binding.bindings(obj)
+    found_all = bindings.bindings(obj)
     if not found_all:
         return [("Not bound", 'UNLINKED')]
     lines = []

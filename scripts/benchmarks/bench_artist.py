@@ -37,7 +37,7 @@ def bind(mesh, cage, kind="mean_value", storage="AUTO"):
         result = scenes.bind(mesh, cage, kind, storage=storage)
     if "FINISHED" not in result:
         raise RuntimeError(f"gencoords_bind returned {result}")
-    return session.addon_module("binding").binding(mesh)
+    return session.addon_module("bind.bindings").binding(mesh)
 
 
 def evaluation_ms(mesh, cage):

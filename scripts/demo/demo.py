@@ -330,7 +330,7 @@ def deform_each_kind(kinds):
     size = scenes.cage_size(rest_cage)
     corner_label("rest", scene.camera)
     render_with_cage_wire(cage, session.OUT / "before.png")
-    binding = session.addon_module("binding")
+    binding = session.addon_module("bind.bindings")
     rows = []
     for kind in kinds:
         seconds = bind(mesh, cage, kind)

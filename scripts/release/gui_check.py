@@ -227,7 +227,7 @@ def leave_edit_mode():
 
 def after_auto_rebind():
     mesh, _ = mesh_and_cage()
-    found = addon("binding").binding(mesh)
+    found = addon("bind.bindings").binding(mesh)
     bound = found.data.mesh_vertex_count if found else None
     check("Tab out of Edit Mode rebinds (Auto Rebind)",
           mesh.mode == 'OBJECT' and bound == len(mesh.data.vertices) == VERTEX_COUNT[0] - 1,
@@ -257,7 +257,7 @@ def green_rebind():
 
 def after_green_bind():
     mesh, cage = mesh_and_cage()
-    found = addon("binding").binding(mesh)
+    found = addon("bind.bindings").binding(mesh)
     kind = found.data.kind if found else None
     check("Bind with Type Green binds Green coordinates", kind == "green", f"kind {kind}")
     check("Green binding at rest equals the mesh", moved_by(mesh) < 1e-5, f"max move {moved_by(mesh):.2e}")

@@ -598,13 +598,13 @@ def test_auto_rebind_in_a_window_hands_over_to_the_bind_operator(gc, as_in_a_win
     bind(obj, cage)
     count = len(obj.data.vertices)
     invoked = []
-    original = gc.binding.BindJob
+    original = gc.job.BindJob
 
     def spy(obj, context):  # who starts the job, in which context
         invoked.append((sys._getframe(1).f_code.co_name, context.active_object, context.window,
                         context.area))
         return original(obj, context)
-    monkeypatch.setattr(gc.binding, "BindJob", spy)
+    monkeypatch.setattr(gc.job, "BindJob", spy)
     make_active(cage)  # the rebind acts on the mesh, whatever is active
     subdivide_in_edit_mode(obj)
     make_active(cage)
@@ -753,14 +753,14 @@ def test_a_failing_unbind_of_two_bindings_changes_nothing(gc, monkeypatch):
     bind(obj, big)
     bind(obj, small)
     modifiers, before = [m.name for m in obj.modifiers], attribute_values(obj)
-    original, calls = gc.deformer.park_slots, []
+    original, calls = gc.attributes.park_slots, []
 
     def fails_the_second_time(mesh, key):
         calls.append(key)
         if len(calls) == 2:
             raise RuntimeError("injected fault")
         return original(mesh, key)
-    monkeypatch.setattr(gc.deformer, "park_slots", fails_the_second_time)
+    monkeypatch.setattr(gc.attributes, "park_slots", fails_the_second_time)
     make_active(obj)
     with pytest.raises(RuntimeError, match="nothing was changed.*injected fault"):
         bpy.ops.object.gencoords_unbind()

@@ -77,7 +77,7 @@ def test_bind_computes_in_chunks_and_a_cancel_changes_nothing(gc, monkeypatch, w
     monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 3000)  # 250 points a chunk per worker
     workers_preference(workers)
     make_active(obj)
-    job = gc.binding.BindJob(obj, bpy.context)
+    job = gc.job.BindJob(obj, bpy.context)
     steps = job.steps()
     fractions = [next(steps) for _ in range(3)]
     assert fractions == sorted(fractions) and fractions[-1] < 1.0
@@ -86,7 +86,7 @@ def test_bind_computes_in_chunks_and_a_cancel_changes_nothing(gc, monkeypatch, w
     assert not worker_processes.live()
     assert mesh_state(obj)[1] == before[1] and not obj.modifiers
     assert not [g for g in bpy.data.node_groups if "GenCoords" in g.name]
-    job = gc.binding.BindJob(obj, bpy.context)
+    job = gc.job.BindJob(obj, bpy.context)
     assert list(job.steps())[-1] == 1.0
     job.commit()
     assert gc.binding.binding(obj) is not None
