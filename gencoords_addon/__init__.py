@@ -44,10 +44,11 @@ deviations (``api.BindingResult``); ``binding_results(obj)`` every binding in st
 
 import bpy
 
-from . import handlers, operators, panel
+from . import handlers
 from .api import BindingResult, binding_result, binding_results  # noqa: F401 (public)
-from .preferences import GenCoordsPreferences
-from .properties import GenCoordsSettings
+from .ui import operators, panel
+from .ui.preferences import GenCoordsPreferences
+from .ui.properties import GenCoordsSettings
 
 CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *panel.CLASSES)
 

@@ -4,7 +4,7 @@ fails or dropped once the modifier is gone, and removed when a Bind fails half-w
 
 import numpy as np
 
-from .. import mesh_arrays
+from ..blender_io import mesh_arrays
 from ..bind_layout import PARKED_PREFIX, attribute_prefix
 
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 
 import bpy
 
-from .. import compat, mesh_arrays
+from ..blender_io import compat, mesh_arrays
 from ..bind_layout import METADATA, BindData
 from ..graph import deformer, helpers
 from . import attributes

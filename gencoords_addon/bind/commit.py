@@ -4,7 +4,7 @@ all or nothing."""
 
 import bpy
 
-from .. import compat
+from ..blender_io import compat
 from ..bind_layout import METADATA
 from ..graph import deformer
 from . import attributes

@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from ... import core
-from .. import compat, mesh_io
+from ..blender_io import compat, mesh_io
 from ..enums import core_name, is_green, kind_label, kind_parameter
 from ..errors import BindError
 from ..graph import deformer, helpers

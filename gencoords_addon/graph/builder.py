@@ -4,7 +4,7 @@ patterns the groups repeat (vector maths, stored and read attributes, Sample Ind
 
 import bpy
 
-from ..compat import compare_operands, new_index_switch_items
+from ..blender_io.compat import compare_operands, new_index_switch_items
 
 COLUMN_WIDTH, ROW_HEIGHT = 220.0, 160.0
 

@@ -37,11 +37,11 @@ import bpy
 import numpy as np
 
 from ..bind_layout import attribute_prefix, slot_attribute_names
-from ..compat import set_wildcard_removal
+from ..blender_io.compat import set_wildcard_removal
 from .builder import Builder
 from .green import green_displacements
-from .helpers import (CAGE, DISPLACEMENT, GEOMETRY, LANE_NAMES, LANES, REST, SUMS, accumulate_group, cage_info,
-                      cloud_lanes_group)
+from .helpers import (CAGE, DISPLACEMENT, GEOMETRY, LANE_NAMES, LANES, REST, SUMS, accumulate_group,
+                      cage_info, cloud_lanes_group)
 
 STRENGTH = "Strength"
 MASK = "Mask"

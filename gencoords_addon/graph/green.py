@@ -4,7 +4,7 @@ corners have not moved."""
 
 import numpy as np
 
-from ..compat import compare_operands
+from ..blender_io.compat import compare_operands
 from .helpers import DISPLACEMENT, REST
 
 

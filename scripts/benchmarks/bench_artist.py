@@ -62,7 +62,7 @@ def strength_and_mask(level, subdivisions, storage):
     cage = scenes.add_icosphere_cage(subdivisions)
     found = bind(mesh, cage, storage=storage)
     plain = evaluation_ms(mesh, cage)
-    compat = session.addon_module("compat")
+    compat = session.addon_module("blender_io.compat")
     upper = np.flatnonzero(arrays.read_positions(mesh.data)[:, 2] > 0.0)
     group = mesh.vertex_groups.new(name="Upper")
     group.add(upper.tolist(), 1.0, 'REPLACE')

@@ -75,7 +75,7 @@ def moved_by(obj):
 
 
 def status_text(obj):
-    return " | ".join(text for text, _ in addon("status").status_lines(obj))
+    return " | ".join(text for text, _ in addon("ui.status").status_lines(obj))
 
 
 def select_only(obj):

@@ -62,7 +62,7 @@ report["cage_not_bound"] = gencoords.binding_result(near) is None
 internal = gencoords.gencoords_addon.bind.bindings.binding(mesh, near)
 report["stored_min_coordinate"] = float(internal.coordinates(mesh.data).min())
 report["stored_slot_count"] = internal.coordinates(mesh.data).shape[1]
-report["panel"] = [text for text, _ in gencoords.gencoords_addon.status.status_lines(mesh)]
+report["panel"] = [text for text, _ in gencoords.gencoords_addon.ui.status.status_lines(mesh)]
 
 immutable = []
 try:

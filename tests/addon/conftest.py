@@ -26,10 +26,10 @@ import bpy  # noqa: E402
 
 # The add-on's modules the tests reach as ``gc.<name>``.
 ADDON_MODULES = (("binding", "bind.bindings"), ("job", "bind.job"), ("attributes", "bind.attributes"),
-                 ("bones", "bones"), ("compat", "compat"), ("deformer", "graph.deformer"),
-                 ("status", "status"), ("visualise", "visualise"), ("enums", "enums"),
-                 ("bind_layout", "bind_layout"), ("mesh_arrays", "mesh_arrays"), ("handlers", "handlers"),
-                 ("operators", "operators"))
+                 ("bones", "bake.bones"), ("compat", "blender_io.compat"), ("deformer", "graph.deformer"),
+                 ("status", "ui.status"), ("visualise", "ui.visualise"), ("enums", "enums"),
+                 ("bind_layout", "bind_layout"), ("mesh_arrays", "blender_io.mesh_arrays"), ("handlers", "handlers"),
+                 ("operators", "ui.operators"))
 
 
 @pytest.fixture(scope="session")

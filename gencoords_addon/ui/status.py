@@ -6,9 +6,9 @@ Every figure comes from the binding's metadata, which holds what the core comput
 import bpy
 import numpy as np
 
-from . import mesh_io
-from .bind import bindings
-from .enums import STORAGE_ITEMS, enum_label, kind_label
+from ..blender_io import mesh_io
+from ..bind import bindings
+from ..enums import STORAGE_ITEMS, enum_label, kind_label
 
 OUTSIDE_VERBS = {"project": "projected onto the cage", "extrapolate": "extrapolated"}
 

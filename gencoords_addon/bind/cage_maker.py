@@ -10,10 +10,11 @@ import bmesh
 import bpy
 import numpy as np
 
-from .. import core
-from ..core.tools import enclosing
-from . import mesh_io, preferences
-from .bind.scene import FLOAT32_TOLERANCE
+from ... import core
+from ...core.tools import enclosing
+from ..blender_io import mesh_io
+from ..ui import preferences
+from .scene import FLOAT32_TOLERANCE
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one

@@ -20,11 +20,11 @@ import bmesh
 import bpy
 import numpy as np
 
-from ..core.tools import compact, skinning
-from .bind import bindings as bindings_module
-from .errors import BindError
-from . import compat, mesh_io
-from .enums import is_green, kind_label
+from ...core.tools import compact, skinning
+from ..bind import bindings as bindings_module
+from ..blender_io import compat, mesh_io
+from ..enums import is_green, kind_label
+from ..errors import BindError
 
 BONE_PREFIX = "GenCoords "
 BAKE_INFO = "gencoords_bake"  # ID property of the rig's armature: the bake's figures

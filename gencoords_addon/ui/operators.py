@@ -10,10 +10,11 @@ import traceback
 
 import bpy
 
-from . import bones, cage_maker, visualise
-from .bind import bindings
-from .bind import job as bind_job
-from .errors import BindError
+from ..bake import bones
+from ..bind import bindings, cage_maker
+from ..bind import job as bind_job
+from ..errors import BindError
+from . import visualise
 
 
 class MeshOperator:

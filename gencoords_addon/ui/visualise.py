@@ -3,9 +3,9 @@ mark that vertex on the cage."""
 
 import bpy
 
-from .. import core
-from .bind import bindings
-from .mesh_arrays import write_point_colors
+from ... import core
+from ..bind import bindings
+from ..blender_io.mesh_arrays import write_point_colors
 
 FIELD_ATTRIBUTE = "GenCoords Field"
 # On the mesh data, beside the colours: (lowest, highest) of the field shown, from
