@@ -5,7 +5,8 @@ housekeeping after the artist's Delete and Apply, also on opening a file (``load
 In a window, Auto Rebind hands the rebind to the Bind operator's invoke path (progress
 bar, Esc cancels), started by a timer just after the update that noticed it (a
 depsgraph handler must not run operators, and would block the window); in background
-mode (no timers run, nothing to show) it binds there and then.
+mode (no timers run, nothing to show) it binds there and then, through the same Bind
+service as the operator (``bind.service.bind``).
 
 Blender's Delete of a bound cage (X, the outliner) either clears the references to it,
 without re-evaluating the mesh (which keeps its last deformation), or, where it keeps
@@ -22,8 +23,7 @@ import traceback
 import bpy
 from bpy.app.handlers import persistent
 
-from .bind import bindings
-from .bind import job as bind_job
+from .bind import bindings, service
 from .errors import BindError
 
 _was_editing = set()  # Object.session_uid of bound meshes seen in Edit Mode
@@ -64,9 +64,7 @@ def _rebind(obj):
             bpy.app.timers.register(rebind_in_window, first_interval=0.0)
         return
     try:
-        job = bind_job.BindJob(obj, bpy.context)
-        job.run()
-        job.commit()
+        service.bind(obj, bpy.context)
     except BindError as error:
         print(f"GenCoords: Auto Rebind of '{obj.name}' failed: {error}")
 

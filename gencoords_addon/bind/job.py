@@ -41,7 +41,7 @@ class BindJob:
     computed by ``steps()``, written by ``commit()``. It reads the object's settings once,
     on creation (``self.settings``, a ``BindSettings``)."""
 
-    def __init__(self, obj, context):
+    def __init__(self, obj, context, in_workers=None):
         started = time.perf_counter()
         check_inputs(obj)
         self.obj = obj
@@ -51,7 +51,7 @@ class BindJob:
         # Set when the workers failed and Blender computed instead: what to tell the artist.
         self.worker_failure = None
         self.input = scene = read_bind_input(obj, settings, context)
-        self.request = self._request(context)
+        self.request = self._request(context, in_workers)
         # Bind data as far as the scene tells; the plan adds the storage and the figures.
         self.data = BindData(
             format=FORMAT, kind=settings.kind, gamma=settings.gamma, outside=settings.outside,
@@ -61,15 +61,18 @@ class BindJob:
         self.started = started
         self.result = None
 
-    def _request(self, context):
+    def _request(self, context, in_workers):
         """What the core plans: the settings in its terms, the workers the preferences ask
-        for, and the fallback to Blender's process where they fail."""
+        for, and ``in_workers(compute, workers)`` -> (result, failure message or None): the
+        fallback to Blender's process where they fail (``bind.service``; None: no fallback)."""
         settings = self.settings
 
         def run(compute, workers):
             if self.worker_failure is not None:  # they failed once: the rest in Blender too
                 workers = 1
-            result, failure = preferences.in_workers_or_blender(compute, workers)
+            if in_workers is None:
+                return compute(workers)
+            result, failure = in_workers(compute, workers)
             if failure is not None:
                 self.worker_failure = failure
             return result

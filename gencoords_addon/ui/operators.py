@@ -5,15 +5,14 @@ Every operator either finishes or leaves the file as it found it: errors become 
 report saying what to do (in scripts, ``bpy.ops`` raises RuntimeError with it).
 """
 
-import contextlib
 import traceback
 
 import bpy
 
 from ..bake import bones
-from ..bind import bindings, cage_maker
-from ..bind import job as bind_job
-from ..errors import BindError
+from ..bind import bindings, cage_maker, service
+from ..bind.service import object_mode
+from ..errors import BakeError, BindError, CageError
 from . import visualise
 
 
@@ -29,20 +28,6 @@ class MeshOperator:
             cls.poll_message_set("The active object must be a mesh")
             return False
         return True
-
-
-@contextlib.contextmanager
-def object_mode(context, obj):
-    """Leave Edit Mode for the block (bind data are written to the mesh, which Edit Mode
-    would overwrite on exit), and return to it afterwards."""
-    editing = obj.mode == 'EDIT'
-    if editing:
-        bpy.ops.object.mode_set(mode='OBJECT')  # also writes the edit into the mesh
-    try:
-        yield
-    finally:
-        if editing and context.view_layer.objects.active == obj:
-            bpy.ops.object.mode_set(mode='EDIT')
 
 
 def interactive(context):
@@ -74,26 +59,16 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         description="The artist already confirmed replacing the binding: do not ask again")
 
     def _start(self, context):
-        obj = context.active_object
         try:
-            with object_mode(context, obj):
-                self._job = bind_job.BindJob(obj, context)
+            self._job = service.begin(context.active_object, context)
         except BindError as error:
             self.report({'ERROR'}, str(error))
             return False
         return True
 
     def _finish(self, context):
-        job = self._job
-        with object_mode(context, job.obj):
-            job.commit()
-        data = job.result.data
-        headline = (f"Bound '{job.obj.name}' ({data.mesh_vertex_count} vertices) to "
-                    f"'{job.cage.name}' in {data.bind_seconds:.2f} s ({data.storage.lower()} storage)")
-        if job.worker_failure is None:
-            self.report({'INFO'}, headline)
-        else:
-            self.report({'WARNING'}, f"{headline}; {job.worker_failure}")
+        report = service.finish(self._job, context)
+        self.report({report.level}, report.message)
         return {'FINISHED'}
 
     def execute(self, context):
@@ -104,22 +79,14 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', replace_confirmed=True)
             return {'CANCELLED'}
         try:
-            if not self._start(context):
-                return {'CANCELLED'}
-            printed = [0.0]
-
-            def report(fraction):
-                if bpy.app.background and fraction - printed[0] >= 0.1 and fraction < 1.0:
-                    printed[0] = fraction
-                    print(f"GenCoords: binding '{self._job.obj.name}' {fraction:.0%}", flush=True)
-
-            self._job.run(report)
-            return self._finish(context)
+            report = service.bind(context.active_object, context)
         except BindError as error:
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
         except Exception as error:  # the file is unchanged: commit cleans up after itself
             return _internal_error(self, error)
+        self.report({report.level}, report.message)
+        return {'FINISHED'}
 
     def invoke(self, context, event):
         """In the UI: compute between events, with a progress bar; Esc cancels. Binding a
@@ -282,7 +249,7 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
             with object_mode(context, obj):
                 cage, worker_failure = cage_maker.make_cage(obj, context, self.target_vertices,
                                                             self.margin)
-        except cage_maker.CageError as error:
+        except CageError as error:
             self.report({'ERROR'}, f"Cannot make a cage: {error}")
             return {'CANCELLED'}
         except Exception as error:
@@ -333,7 +300,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         try:
             with object_mode(context, obj):
                 rig, deviation = bones.bake(obj, context, self.max_influences, self.keyframes)
-        except BindError as error:
+        except BakeError as error:
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
         except Exception as error:

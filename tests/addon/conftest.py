@@ -26,6 +26,7 @@ import bpy  # noqa: E402
 
 # The add-on's modules the tests reach as ``gc.<name>``.
 ADDON_MODULES = (("binding", "bind.bindings"), ("job", "bind.job"), ("attributes", "bind.attributes"),
+                 ("service", "bind.service"), ("errors", "errors"),
                  ("bones", "bake.bones"), ("compat", "blender_io.compat"), ("deformer", "graph.deformer"),
                  ("status", "ui.status"), ("visualise", "ui.visualise"), ("enums", "enums"),
                  ("bind_layout", "bind_layout"), ("mesh_arrays", "blender_io.mesh_arrays"), ("handlers", "handlers"),

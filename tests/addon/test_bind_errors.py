@@ -263,3 +263,17 @@ def test_status_names_negative_coordinates_only_when_there_are_some(gc):
     lines = gc.status.status_lines(inside)
     assert (f"Smallest coordinate: {info.min_coordinate:.4g}", 'CHECKMARK') in lines
     assert not any("negative" in text for text, _ in lines)
+
+
+def test_scripts_bind_through_the_service_and_catch_one_error_family(gc):
+    obj = add_sphere()
+    with pytest.raises(gc.errors.GenCoordsError, match="Choose a cage for 'Mesh' first"):
+        gc.service.bind(obj, bpy.context)
+    assert not obj.modifiers
+    cage = add_icosphere_cage()
+    obj.gencoords.cage = cage
+    report = gc.service.bind(obj, bpy.context)
+    assert report.level == 'INFO' and report.message.startswith("Bound 'Mesh' (")
+    assert gc.binding.binding(obj, cage).data.mesh_vertex_count == len(obj.data.vertices)
+    for error in (gc.errors.BindError, gc.errors.BakeError, gc.errors.CageError):
+        assert issubclass(error, gc.errors.GenCoordsError)
