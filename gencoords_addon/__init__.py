@@ -47,7 +47,7 @@ import bpy
 from . import handlers
 from .api import BindingResult, binding_result, binding_results  # noqa: F401 (public)
 from .ui import operators, panel
-from .ui.preferences import GenCoordsPreferences
+from .preferences import GenCoordsPreferences
 from .ui.properties import GenCoordsSettings
 
 CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *panel.CLASSES)

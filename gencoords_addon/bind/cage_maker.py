@@ -13,8 +13,8 @@ import numpy as np
 from ... import core
 from ...core.tools import enclosing
 from ..blender_io import mesh_io
+from .. import preferences
 from ..errors import CageError
-from ..ui import preferences
 from .scene import FLOAT32_TOLERANCE
 from .service import in_workers_or_blender
 

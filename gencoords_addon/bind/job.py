@@ -15,11 +15,10 @@ import numpy as np
 
 from ... import core
 from ...core.tools import bind_plan
-from .. import messages
+from .. import messages, preferences
 from ..bind_layout import FORMAT, BindData
 from ..enums import is_green
 from ..errors import BindError
-from ..ui import preferences
 from . import commit
 from .scene import FLOAT32_TOLERANCE, BindSettings, check_inputs, read_bind_input
 

@@ -10,10 +10,9 @@ from the start.
 import bpy
 
 
-# The extension's top package (bl_ext.<repository>.gencoords, above gencoords_addon.ui):
-# Blender files an add-on's preferences under the name it was enabled by, not under this
-# subpackage.
-ADDON = __package__.rsplit(".", 2)[0]
+# The extension's top package (bl_ext.<repository>.gencoords): Blender files an add-on's
+# preferences under the name it was enabled by, not under this subpackage.
+ADDON = __package__.rpartition(".")[0]
 
 WORKER_ITEMS = [
     ('AUTO', "Automatic", "As many processes as the cores, for Binds long enough to repay "
