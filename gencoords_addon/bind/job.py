@@ -27,7 +27,6 @@ from .scene import FLOAT32_TOLERANCE, BindSettings, check_inputs, read_bind_inpu
 class BindResult:
     """Everything ``commit`` writes: arrays for the mesh and the node group, and figures."""
 
-    storage: str
     slots: np.ndarray  # (k, s) float32
     basis: np.ndarray  # (n, s) float64 ((n + m, s) for Green), or None for exact storage
     triangles: np.ndarray  # (m, 3) int: Green coordinates' cage triangles, else None
@@ -102,7 +101,7 @@ class BindJob:
         data = replace(self.data, storage=plan.storage, slot_count=plan.slot_count, key=secrets.token_hex(3),
                        nbytes=int(bind_plan.stored_bytes(len(scene.points), plan.slot_count, plan.basis is not None)),
                        bind_seconds=time.perf_counter() - self.started, **plan.figures())
-        self.result = BindResult(plan.storage, plan.slots, plan.basis, scene.triangles if self.green else None,
+        self.result = BindResult(plan.slots, plan.basis, scene.triangles if self.green else None,
                                  scene.rest_cage, data)
 
     def _outside_message(self):
