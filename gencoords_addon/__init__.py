@@ -36,7 +36,7 @@ it as a warning.
 Failures are reported as errors and change nothing; in background scripts ``bpy.ops``
 then raises RuntimeError with the message. The deformation is Blender's own evaluation
 of the modifier: no handler runs at playback or render, and a file opened without the
-extension still deforms. ``gencoords_addon.status.status_lines(obj)`` gives the panel's
+extension still deforms. ``gencoords_addon.ui.status.status_lines(obj)`` gives the panel's
 status lines; ``binding_result(obj)`` (also ``bl_ext.user_default.gencoords.binding_result``)
 what Bind measured and stored, read-only: kind, storage chosen, smallest coordinate,
 deviations (``api.BindingResult``); ``binding_results(obj)`` every binding in stack order.
@@ -44,10 +44,11 @@ deviations (``api.BindingResult``); ``binding_results(obj)`` every binding in st
 
 import bpy
 
-from . import handlers, operators, panel
+from . import handlers
 from .api import BindingResult, binding_result, binding_results  # noqa: F401 (public)
+from .ui import operators, panel
 from .preferences import GenCoordsPreferences
-from .properties import GenCoordsSettings
+from .ui.properties import GenCoordsSettings
 
 CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *panel.CLASSES)
 

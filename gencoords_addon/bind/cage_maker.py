@@ -10,17 +10,16 @@ import bmesh
 import bpy
 import numpy as np
 
-from .. import core
-from ..core.tools import enclosing
-from . import mesh_io, preferences
-from .binding import FLOAT32_TOLERANCE
+from ... import core
+from ...core.tools import enclosing
+from ..blender_io import mesh_io
+from .. import preferences
+from ..errors import CageError
+from .scene import FLOAT32_TOLERANCE
+from .service import in_workers_or_blender
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
-
-
-class CageError(Exception):
-    """No usable cage could be made; the message says why."""
 
 
 def _hull(points):
@@ -87,7 +86,7 @@ def make_cage_geometry(points, target_vertices, margin):
 def make_cage(obj, context, target_vertices=100, margin=0.05):
     """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
     None or what to say about worker processes that failed, see
-    :func:`preferences.in_workers_or_blender`)."""
+    :func:`service.in_workers_or_blender`)."""
     depsgraph = context.evaluated_depsgraph_get()
     with mesh_io.evaluated_mesh(obj, depsgraph) as evaluated:
         local = mesh_io.read_positions(evaluated).astype(np.float64)
@@ -96,7 +95,7 @@ def make_cage(obj, context, target_vertices=100, margin=0.05):
     world = np.array(obj.matrix_world, dtype=np.float64)
     points = local @ world[:3, :3].T + world[:3, 3]
     stored, triangles = make_cage_geometry(points, target_vertices, margin)
-    outside, worker_failure = preferences.in_workers_or_blender(
+    outside, worker_failure = in_workers_or_blender(
         lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
                                              workers=workers), preferences.worker_count(context))
     if (outside == core.OUTSIDE).any():

@@ -5,12 +5,15 @@ Every operator either finishes or leaves the file as it found it: errors become 
 report saying what to do (in scripts, ``bpy.ops`` raises RuntimeError with it).
 """
 
-import contextlib
 import traceback
 
 import bpy
 
-from . import binding, bones, cage_maker, visualise
+from ..bake import bones
+from ..bind import bindings, cage_maker, service
+from ..bind.service import object_mode
+from ..errors import BakeError, BindError, CageError
+from . import visualise
 
 
 class MeshOperator:
@@ -25,20 +28,6 @@ class MeshOperator:
             cls.poll_message_set("The active object must be a mesh")
             return False
         return True
-
-
-@contextlib.contextmanager
-def object_mode(context, obj):
-    """Leave Edit Mode for the block (bind data are written to the mesh, which Edit Mode
-    would overwrite on exit), and return to it afterwards."""
-    editing = obj.mode == 'EDIT'
-    if editing:
-        bpy.ops.object.mode_set(mode='OBJECT')  # also writes the edit into the mesh
-    try:
-        yield
-    finally:
-        if editing and context.view_layer.objects.active == obj:
-            bpy.ops.object.mode_set(mode='EDIT')
 
 
 def interactive(context):
@@ -70,26 +59,16 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         description="The artist already confirmed replacing the binding: do not ask again")
 
     def _start(self, context):
-        obj = context.active_object
         try:
-            with object_mode(context, obj):
-                self._job = binding.BindJob(obj, context)
-        except binding.BindError as error:
+            self._job = service.begin(context.active_object, context)
+        except BindError as error:
             self.report({'ERROR'}, str(error))
             return False
         return True
 
     def _finish(self, context):
-        job = self._job
-        with object_mode(context, job.obj):
-            job.commit()
-        info = job.result.info
-        headline = (f"Bound '{job.obj.name}' ({info['mesh_vertex_count']} vertices) to "
-                    f"'{job.cage.name}' in {info['bind_seconds']:.2f} s ({info['storage'].lower()} storage)")
-        if job.worker_failure is None:
-            self.report({'INFO'}, headline)
-        else:
-            self.report({'WARNING'}, f"{headline}; {job.worker_failure}")
+        report = service.finish(self._job, context)
+        self.report({report.level}, report.message)
         return {'FINISHED'}
 
     def execute(self, context):
@@ -100,22 +79,14 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', replace_confirmed=True)
             return {'CANCELLED'}
         try:
-            if not self._start(context):
-                return {'CANCELLED'}
-            printed = [0.0]
-
-            def report(fraction):
-                if bpy.app.background and fraction - printed[0] >= 0.1 and fraction < 1.0:
-                    printed[0] = fraction
-                    print(f"GenCoords: binding '{self._job.obj.name}' {fraction:.0%}", flush=True)
-
-            self._job.run(report)
-            return self._finish(context)
-        except binding.BindError as error:
+            report = service.bind(context.active_object, context)
+        except BindError as error:
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
         except Exception as error:  # the file is unchanged: commit cleans up after itself
             return _internal_error(self, error)
+        self.report({report.level}, report.message)
+        return {'FINISHED'}
 
     def invoke(self, context, event):
         """In the UI: compute between events, with a progress bar; Esc cancels. Binding a
@@ -123,7 +94,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         if not interactive(context):
             return self.execute(context)
         obj = context.active_object
-        if not self.replace_confirmed and binding.binding(obj, obj.gencoords.cage) is not None:
+        if not self.replace_confirmed and bindings.binding(obj, obj.gencoords.cage) is not None:
             self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
             return context.window_manager.invoke_confirm(
                 self, event, title="Replace Binding",
@@ -160,7 +131,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             if fraction is None:
                 self._stop(context)
                 return self._finish(context)
-        except binding.BindError as error:
+        except BindError as error:
             self._stop(context)
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
@@ -187,7 +158,7 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
 
     def execute(self, context):
         obj = context.active_object
-        found = [b for b in binding.bindings(obj)
+        found = [b for b in bindings.bindings(obj)
                  if not self.modifier or b.modifier.name == self.modifier]
         if not found:
             what = f"bound with the modifier '{self.modifier}'" if self.modifier else "bound"
@@ -199,7 +170,7 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
             return {'CANCELLED'}
         try:
             with object_mode(context, obj):
-                binding.remove(obj, found)
+                bindings.remove(obj, found)
         except Exception as error:
             removed = getattr(error, "gencoords_removed", [])
             if not removed:
@@ -278,7 +249,7 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
             with object_mode(context, obj):
                 cage, worker_failure = cage_maker.make_cage(obj, context, self.target_vertices,
                                                             self.margin)
-        except cage_maker.CageError as error:
+        except CageError as error:
             self.report({'ERROR'}, f"Cannot make a cage: {error}")
             return {'CANCELLED'}
         except Exception as error:
@@ -313,7 +284,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     def poll(cls, context):
         if not super().poll(context):
             return False
-        if binding.binding(context.active_object) is None:
+        if bindings.binding(context.active_object) is None:
             cls.poll_message_set(f"'{context.active_object.name}' is not bound: Bind it first")
             return False
         return True
@@ -329,7 +300,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         try:
             with object_mode(context, obj):
                 rig, deviation = bones.bake(obj, context, self.max_influences, self.keyframes)
-        except binding.BindError as error:
+        except BakeError as error:
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
         except Exception as error:

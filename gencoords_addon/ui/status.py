@@ -6,9 +6,9 @@ Every figure comes from the binding's metadata, which holds what the core comput
 import bpy
 import numpy as np
 
-from . import binding, mesh_io
-from .bind_layout import FORMAT
-from .enums import STORAGE_ITEMS, enum_label, kind_label
+from ..blender_io import mesh_io
+from ..bind import bindings
+from ..enums import STORAGE_ITEMS, enum_label, kind_label
 
 OUTSIDE_VERBS = {"project": "projected onto the cage", "extrapolate": "extrapolated"}
 
@@ -19,8 +19,8 @@ def deformation_problem(obj, found, depsgraph=None):
     The node group checks the same conditions it can see (vertex counts, finite cage);
     this says them in words, and also notices cage face changes it cannot see.
     """
-    info = found.info
-    if info.get("format") != FORMAT:
+    data = found.data
+    if not data.is_current:
         return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
                 "Bind again or Unbind")
     cage = found.cage
@@ -30,7 +30,7 @@ def deformation_problem(obj, found, depsgraph=None):
     if cage is None:
         return ("The cage was deleted or cleared: the mesh is not deformed; pick a cage "
                 "and Bind again, or Unbind")
-    change = len(obj.data.vertices) - info["mesh_vertex_count"]
+    change = len(obj.data.vertices) - data.mesh_vertex_count
     if change and obj.mode != 'EDIT':
         verb = "added" if change > 0 else "deleted"
         return (f"Mesh edited since Bind: {abs(change)} vertices {verb}; it is not deformed "
@@ -40,10 +40,10 @@ def deformation_problem(obj, found, depsgraph=None):
         count = len(cage_mesh.vertices)
         faces_hash = mesh_io.faces_hash(cage_mesh)
         finite = bool(np.isfinite(mesh_io.read_positions(cage_mesh)).all())
-    if count != info["cage_vertex_count"]:
+    if count != data.cage_vertex_count:
         return (f"The cage '{cage.name}' now has {count} vertices (bound with "
-                f"{info['cage_vertex_count']}): the mesh is not deformed; Bind again or Unbind")
-    if faces_hash != info["cage_faces_hash"]:
+                f"{data.cage_vertex_count}): the mesh is not deformed; Bind again or Unbind")
+    if faces_hash != data.cage_faces_hash:
         return (f"The faces of cage '{cage.name}' changed since Bind: the deformation no "
                 "longer matches it; Bind again or Unbind")
     if not finite:
@@ -54,7 +54,7 @@ def deformation_problem(obj, found, depsgraph=None):
 
 def status_lines(obj, depsgraph=None):
     """Lines describing the bindings of ``obj``, for the panel and scripts."""
-    found_all = binding.bindings(obj)
+    found_all = bindings.bindings(obj)
     if not found_all:
         return [("Not bound", 'UNLINKED')]
     lines = []
@@ -72,8 +72,8 @@ def binding_lines(obj, found, depsgraph=None):
     problem = deformation_problem(obj, found, depsgraph)
     if problem:
         lines.append((problem, 'ERROR'))
-    info = found.info
-    if info.get("format") != FORMAT:
+    data = found.data
+    if not data.is_current:
         return lines
     cage = found.cage
     if cage is not None:
@@ -83,36 +83,36 @@ def binding_lines(obj, found, depsgraph=None):
     else:
         bound_to = "Bound to a missing cage"
     lines.append((f"{bound_to} (modifier '{found.modifier.name}')", 'LINKED'))
-    kind_name = kind_label(info['kind'])
-    if "gamma" in info:
-        kind_name += f" (gamma {info['gamma']:g})"
+    kind_name = kind_label(data.kind)
+    if data.gamma is not None:
+        kind_name += f" (gamma {data.gamma:g})"
     lines.append((f"Coordinates: {kind_name}", 'MOD_LATTICE'))
-    lines.append((f"Cage: {info['cage_vertex_count']} vertices", 'MESH_ICOSPHERE'))
-    lines.append((f"Mesh: {info['mesh_vertex_count']} vertices", 'MESH_DATA'))
-    if info["cage_non_triangles"]:
-        lines.append((f"Cage triangulated: {info['cage_non_triangles']} quads/n-gons",
+    lines.append((f"Cage: {data.cage_vertex_count} vertices", 'MESH_ICOSPHERE'))
+    lines.append((f"Mesh: {data.mesh_vertex_count} vertices", 'MESH_DATA'))
+    if data.cage_non_triangles:
+        lines.append((f"Cage triangulated: {data.cage_non_triangles} quads/n-gons",
                       'MOD_TRIANGULATE'))
-    storage = enum_label(STORAGE_ITEMS, info["storage"])
-    lines.append((f"Storage: {storage}, {info['slot_count']} per vertex, "
-                  f"{info['nbytes'] / 2**20:.1f} MB", 'DISK_DRIVE'))
-    if "storage_choice" in info:  # what Automatic chose and why
-        lines.append((info["storage_choice"], 'INFO'))
-    if info["storage"] == 'COMPACT':  # measured on every vertex, as written
-        worst = info.get("deviation_drag_vertex")  # absent from earlier versions' binds
+    storage = enum_label(STORAGE_ITEMS, data.storage)
+    lines.append((f"Storage: {storage}, {data.slot_count} per vertex, "
+                  f"{data.nbytes / 2**20:.1f} MB", 'DISK_DRIVE'))
+    if data.storage_choice is not None:  # what Automatic chose and why
+        lines.append((data.storage_choice, 'INFO'))
+    if data.storage == 'COMPACT':  # measured on every vertex, as written
+        worst = data.deviation_drag_vertex  # absent from earlier versions' binds
         drag = "vertex drag" if worst is None else f"drag of cage vertex {worst}"
-        lines.append((f"Deviation: {info['deviation_smooth']:.1e} (smooth), "
-                      f"{info['deviation_drag']:.1e} ({drag}) of the cage diagonal", 'INFO'))
-    lines.append((f"Bind time: {info['bind_seconds']:.2f} s", 'TIME'))
-    if info["negative_points"]:
-        lines.append((f"Smallest coordinate {info['min_coordinate']:.4g}: negative at "
-                      f"{info['negative_points']} vertices", 'ERROR'))
+        lines.append((f"Deviation: {data.deviation_smooth:.1e} (smooth), "
+                      f"{data.deviation_drag:.1e} ({drag}) of the cage diagonal", 'INFO'))
+    lines.append((f"Bind time: {data.bind_seconds:.2f} s", 'TIME'))
+    if data.negative_points:
+        lines.append((f"Smallest coordinate {data.min_coordinate:.4g}: negative at "
+                      f"{data.negative_points} vertices", 'ERROR'))
     else:
-        lines.append((f"Smallest coordinate: {info['min_coordinate']:.4g}", 'CHECKMARK'))
-    if "report" in info:  # inside the whole cage, not only at the mesh's vertices
-        lines.append((f"In this cage: {info['report'].split(': ', 1)[-1]}", 'INFO'))
-    if info["points_outside"]:
-        verb = OUTSIDE_VERBS.get(info["outside"], info["outside"])
-        lines.append((f"{info['points_outside']} vertices outside the cage ({verb})", 'INFO'))
-    if info["points_on_boundary"]:
-        lines.append((f"{info['points_on_boundary']} vertices on the cage boundary", 'INFO'))
+        lines.append((f"Smallest coordinate: {data.min_coordinate:.4g}", 'CHECKMARK'))
+    if data.report is not None:  # inside the whole cage, not only at the mesh's vertices
+        lines.append((f"In this cage: {data.report.split(': ', 1)[-1]}", 'INFO'))
+    if data.points_outside:
+        verb = OUTSIDE_VERBS.get(data.outside, data.outside)
+        lines.append((f"{data.points_outside} vertices outside the cage ({verb})", 'INFO'))
+    if data.points_on_boundary:
+        lines.append((f"{data.points_on_boundary} vertices on the cage boundary", 'INFO'))
     return lines

@@ -20,10 +20,11 @@ import bmesh
 import bpy
 import numpy as np
 
-from ..core.tools import compact, skinning
-from . import binding as bindings_module
-from . import compat, mesh_io
-from .enums import is_green, kind_label
+from ...core.tools import compact, skinning
+from ..bind import bindings as bindings_module
+from ..blender_io import compat, mesh_io
+from ..enums import is_green, kind_label
+from ..errors import BakeError
 
 BONE_PREFIX = "GenCoords "
 BAKE_INFO = "gencoords_bake"  # ID property of the rig's armature: the bake's figures
@@ -34,10 +35,10 @@ def bone_names(count):
 
 
 def negative_message(obj, found, count, smallest):
-    kind = kind_label(found.info["kind"])
+    kind = kind_label(found.data.kind)
     compact_note = (" (this binding uses Compact storage, which reproduces coordinates "
                     "approximately: Storage Exact may help)"
-                    if found.info.get("storage") == 'COMPACT' else "")
+                    if found.data.storage == 'COMPACT' else "")
     return (f"Cannot bake '{obj.name}' to bones: {count} of its {kind} coordinates are "
             f"negative (down to {smallest:.3g}){compact_note}, and vertex-group weights "
             "cannot be (Blender clamps them to 0 to 1). Bind with Type Wachspress, or Mean "
@@ -234,26 +235,26 @@ def bake(obj, context, max_influences=0, keyframes=True):
 def _bake_inputs(obj, max_influences):
     """The binding of ``obj`` a bake replaces, its coordinates ((k, n) float32), the
     bone weights ((k, n), truncated to ``max_influences``) and the rest cage ((n, 3)
-    float64, world space as seen from the mesh now); BindError when it cannot be baked."""
+    float64, world space as seen from the mesh now); BakeError when it cannot be baked."""
     found = bindings_module.binding(obj)
     if found.cage is None:
-        raise bindings_module.BindError("The binding's cage is missing: Bind again first")
-    if is_green(found.info["kind"]):
-        raise bindings_module.BindError(
+        raise BakeError("The binding's cage is missing: Bind again first")
+    if is_green(found.data.kind):
+        raise BakeError(
             f"Cannot bake '{obj.name}' to bones: it is bound with Green coordinates, which also "
             "follow the cage's face normals and stretch, and bones (linear blend skinning) "
             "cannot: Bind with another Type (Mean Value, say), then Bake to Bones")
     coordinates = found.coordinates(obj.data)
     rest_local = found.rest_cage
     if coordinates is None or rest_local is None \
-            or len(obj.data.vertices) != found.info["mesh_vertex_count"]:
-        raise bindings_module.BindError(f"The bind data of '{obj.name}' is missing or no "
+            or len(obj.data.vertices) != found.data.mesh_vertex_count:
+        raise BakeError(f"The bind data of '{obj.name}' is missing or no "
                                         "longer matches its vertices: Bind again")
     # On every coordinate, before Max Influences drops the smallest: a truncation would
     # otherwise drop negatives silently, and the kept weights would not be the binding.
     negative, smallest = skinning.negative_weights(coordinates)
     if negative:
-        raise bindings_module.BindError(negative_message(obj, found, negative, smallest))
+        raise BakeError(negative_message(obj, found, negative, smallest))
     weights = skinning.truncate(coordinates, max_influences)
     # The rig sits at the world origin: the bones rest where the bind-time cage is seen
     # from the mesh now (the deformer reads the cage relative to the mesh too).
