@@ -100,23 +100,23 @@ def grid_layout(points, cage_points, resolution):
 
 
 def add_nodes_modifier(mesh, cage, group):
-    deformer = session.addon_module("deformer")
     modifier = mesh.modifiers.new("Sparse", 'NODES')
     modifier.node_group = group
-    session.addon_module("compat").set_modifier_input(modifier, deformer.CAGE, cage)
+    session.addon_module("blender_io.compat").set_modifier_input(
+        modifier, session.addon_module("graph.helpers").CAGE, cage)
     return modifier
 
 
 def _lane_group(build):
     """A helper group: ``Sum + Weight(name) * Value(Source, at Index(name))``."""
-    deformer = session.addon_module("deformer")
     group = bpy.data.node_groups.get(".Sparse lane helper")
     if group is not None:
         return group
-    group, lane, group_input, group_output = deformer._new_group(
+    group, lane, group_input, group_output = session.addon_module("graph.builder").new_group(
         ".Sparse lane helper", [("Source", 'NodeSocketGeometry'), ("Value", 'NodeSocketVector'),
                         ("Index Name", 'NodeSocketString'), ("Weight Name", 'NodeSocketString'),
-                        ("Sum", 'NodeSocketVector')], [("Sum", 'NodeSocketVector')], "lane")
+                        ("Sum", 'NodeSocketVector')], [("Sum", 'NodeSocketVector')], "lane",
+        session.addon_module("graph.helpers").HELPER_COLUMNS)
     index = lane.add('GeometryNodeInputNamedAttribute', "read", data_type='INT')
     lane.link(group_input.outputs["Index Name"], index.inputs["Name"])
     weight = lane.add('GeometryNodeInputNamedAttribute', "read", data_type='FLOAT')
@@ -130,7 +130,7 @@ def _lane_group(build):
 
 def slot_names(key, slot_count, level):
     """(index attribute, weight attribute) of each slot."""
-    graph = session.addon_module("sparse_graph")
+    graph = session.addon_module("graph.sparse")
     return zip(graph.index_attribute_names(key, slot_count, level),
                graph.weight_attribute_names(key, slot_count, level))
 
@@ -167,7 +167,7 @@ GATHERS = {"repeat": None, "lane": lane_gather, "plain": plain_gather}  # None: 
 
 def gn_route(mesh, cage, rest_cage, gather, pairs, nodes=None):
     """Bind a Geometry Nodes route; returns the build seconds."""
-    graph = session.addon_module("sparse_graph")
+    graph = session.addon_module("graph.sparse")
     start = time.perf_counter()
     indices, weights = pairs
     graph.write_pairs(mesh.data, KEY, indices, weights)
@@ -189,7 +189,7 @@ def gn_route(mesh, cage, rest_cage, gather, pairs, nodes=None):
 
 def armature_route(mesh, cage, rest_cage, pairs):
     """One bone per cage vertex following it; the pairs as vertex groups."""
-    bones = session.addon_module("bones")
+    bones = session.addon_module("bake.bones")
     start = time.perf_counter()
     names = bones.bone_names(len(rest_cage))
     for j, name in enumerate(names):

@@ -34,9 +34,13 @@ The guard, strength, mask and attribute stripping are the deformer's own
 import bpy
 import numpy as np
 
-from ..core.tools import sparse
-from . import deformer, mesh_arrays
-from .bind_layout import attribute_prefix
+from ...core.tools import sparse
+from ..bind_layout import attribute_prefix
+from ..blender_io import mesh_arrays
+from ..blender_io.compat import compare_operands
+from . import deformer
+from .builder import Builder
+from .helpers import GEOMETRY
 
 SUM, SLOT = "Sum", "Slot"  # the Repeat Zone's state
 NODE_DISPLACEMENT_SUFFIX = "node_displacement"
@@ -208,7 +212,7 @@ def _node_displacements(build, mesh, cage, displacement, key, node_count, column
                        _close_triple(build, zone_in, zone_out, cage, displacement, index, weight))
     # Only the rows that hold pairs: the others would add zeros.
     used = build.add('FunctionNodeCompare', "lane_store", data_type='INT', operation='LESS_THAN')
-    operands = deformer.compat.compare_operands(used)
+    operands = compare_operands(used)
     build.link(build.add('GeometryNodeInputIndex', "lane_store").outputs[0], operands[0])
     operands[1].default_value = node_count * blocks
     build.link(used.outputs[0], rows.node.inputs["Selection"])
@@ -254,9 +258,9 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
     group.description = ("GenCoords cage deformation (sparse storage): moves the mesh with "
                          "its cage (bind data in the mesh's point attributes)")
     deformer._deformer_interface(group.interface)
-    build = deformer._Builder(group, deformer.DEFORMER_COLUMNS)
+    build = Builder(group, deformer.DEFORMER_COLUMNS)
     group_input = build.add('NodeGroupInput', "input")
-    mesh = group_input.outputs[deformer.GEOMETRY]
+    mesh = group_input.outputs[GEOMETRY]
     cage, displacement = deformer._cage_displacement(build, group_input, rest_cage)
     source, value = cage, displacement
     node_columns = 0
@@ -277,7 +281,7 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
              + index_attribute_names(key, node_columns, "node")
              + weight_attribute_names(key, node_columns, "node"))
     output = deformer._strip_attributes(build, switch.outputs[0], key, names)
-    build.link(output, build.add('NodeGroupOutput', "output").inputs[deformer.GEOMETRY])
+    build.link(output, build.add('NodeGroupOutput', "output").inputs[GEOMETRY])
     return group
 
 
