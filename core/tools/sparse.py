@@ -199,8 +199,8 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     Returns
     -------
     count : int or None
-        The first of ``counts`` whose smooth and worst drag deviations (weights rounded
-        to float32, as stored) are below ``target``; None if none is.
+        The first of ``counts`` (at most n) whose smooth and worst drag deviations
+        (weights rounded to float32, as stored) are below ``target``; None if none is.
     smooth, drag : float
         Those deviations at ``count`` (at the last count when None).
 
@@ -216,7 +216,8 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     (42, True)
     """
     smooth = drag = np.inf
-    for count in counts:
+    columns = np.shape(coordinates)[1]
+    for count in sorted({min(count, columns) for count in counts}):  # K beyond n keeps n
         indices, weights = largest_pairs(coordinates, count)
         smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
         if smooth < target and drag < target:
