@@ -5,6 +5,7 @@ fails or dropped once the modifier is gone, and removed when a Bind fails half-w
 import numpy as np
 
 from ..blender_io import mesh_arrays
+from ..graph import sparse
 from ..bind_layout import PARKED_PREFIX, attribute_prefix
 
 
@@ -16,6 +17,14 @@ def write(mesh, data, slots, basis=None, triangles=None):
         mesh_arrays.write_triples(mesh, data.basis_names, basis)
     if data.triangle_name is not None:  # vertex indices, exact in float32 below 2^24
         mesh_arrays.write_triples(mesh, [data.triangle_name], triangles.astype(np.float32))
+
+
+def write_sparse(mesh, data, weights, indices, nodes=None):
+    """Write a sparse binding's pairs: each vertex's ``indices`` and ``weights`` ((k, K)),
+    and in two levels the grid nodes' pairs (``nodes``: (N, K') indices and weights)."""
+    sparse.write_pairs(mesh, data.key, indices, weights)
+    if nodes is not None:
+        sparse.write_node_pairs(mesh, data.key, *nodes)
 
 
 def remove_slots(mesh, key):

@@ -6,7 +6,7 @@ import bpy
 
 from ..blender_io import compat
 from ..bind_layout import METADATA
-from ..graph import deformer
+from ..graph import deformer, sparse
 from . import attributes
 from .bindings import binding, bindings, remove
 
@@ -29,11 +29,16 @@ def write(obj, cage, result):
     key, basis_names, triangle_name = data.key, data.basis_names, data.triangle_name
     group = modifier = None
     try:
-        group = deformer.build_group(f"GenCoords: {obj.name} in {cage.name}", key,
-                                     result.rest_cage, data.mesh_vertex_count,
-                                     data.slot_count, basis_names, triangle_name,
-                                     0 if result.triangles is None else len(result.triangles))
-        attributes.write(obj.data, data, result.slots, result.basis, result.triangles)
+        name = f"GenCoords: {obj.name} in {cage.name}"
+        if data.storage == 'SPARSE':
+            group = sparse.build_sparse_group(name, key, result.rest_cage, data.mesh_vertex_count, data.slot_count,
+                                              data.node_count, data.node_slot_count)
+            attributes.write_sparse(obj.data, data, result.slots, result.indices, result.nodes)
+        else:
+            group = deformer.build_group(name, key, result.rest_cage, data.mesh_vertex_count, data.slot_count,
+                                         basis_names, triangle_name,
+                                         0 if result.triangles is None else len(result.triangles))
+            attributes.write(obj.data, data, result.slots, result.basis, result.triangles)
         modifier = obj.modifiers.new(MODIFIER_NAME, 'NODES')
         modifier.node_group = group
         modifier.show_in_editmode = True

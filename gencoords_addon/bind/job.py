@@ -10,6 +10,7 @@ they were.
 import secrets
 import time
 from dataclasses import dataclass, replace
+from typing import Optional
 
 import numpy as np
 
@@ -32,6 +33,10 @@ class BindResult:
     triangles: np.ndarray  # (m, 3) int: Green coordinates' cage triangles, else None
     rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
     data: BindData  # METADATA
+    # Sparse storage: each vertex's pairs' columns ((k, K) int32, their weights are the
+    # slots); in two levels grid nodes, whose own pairs are ``nodes`` ((N, K') each).
+    indices: Optional[np.ndarray] = None
+    nodes: Optional[tuple] = None
 
 
 class BindJob:
@@ -55,7 +60,8 @@ class BindJob:
             format=FORMAT, kind=settings.kind, gamma=settings.gamma, outside=settings.outside,
             cage_vertex_count=len(scene.cage_vertices), mesh_vertex_count=len(scene.points),
             cage_faces_hash=scene.faces_hash, cage_non_triangles=scene.non_triangles,
-            cage_name=self.cage.name, cage_face_count=len(scene.triangles) if self.green else None)
+            cage_name=self.cage.name, cage_face_count=len(scene.triangles) if self.green else None,
+            resolution=settings.resolution)
         self.started = started
         self.result = None
 
@@ -77,7 +83,8 @@ class BindJob:
 
         return bind_plan.BindRequest(
             kind=settings.kind, outside=settings.outside, gamma=settings.gamma, storage=settings.storage,
-            compact_size=settings.compact_size, workers=preferences.worker_count(context),
+            compact_size=settings.compact_size, sparse_size=settings.sparse_size,
+            resolution=settings.resolution, workers=preferences.worker_count(context),
             tolerance=FLOAT32_TOLERANCE, run=run)
 
     def steps(self):
@@ -99,10 +106,11 @@ class BindJob:
             raise BindError(messages.core_error(self.cage.name, error, self.kind_label, len(scene.points),
                                                 scene.triangle_faces)) from None
         data = replace(self.data, storage=plan.storage, slot_count=plan.slot_count, key=secrets.token_hex(3),
-                       nbytes=int(bind_plan.stored_bytes(len(scene.points), plan.slot_count, plan.basis is not None)),
-                       bind_seconds=time.perf_counter() - self.started, **plan.figures())
+                       nbytes=int(bind_plan.plan_bytes(plan)), bind_seconds=time.perf_counter() - self.started,
+                       **plan.figures())
+        nodes = None if plan.node_indices is None else (plan.node_indices, plan.node_weights)
         self.result = BindResult(plan.slots, plan.basis, scene.triangles if self.green else None,
-                                 scene.rest_cage, data)
+                                 scene.rest_cage, data, plan.indices, nodes)
 
     def _outside_message(self):
         scene = self.input

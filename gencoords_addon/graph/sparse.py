@@ -35,7 +35,8 @@ import bpy
 import numpy as np
 
 from ...core.tools import sparse
-from ..bind_layout import attribute_prefix
+from ..bind_layout import (SLOT_MARK, index_attribute_names, name_template, node_column_count,
+                           node_displacement_name, sparse_attribute_names, weight_attribute_names)
 from ..blender_io import mesh_arrays
 from ..blender_io.compat import compare_operands
 from . import deformer
@@ -43,34 +44,6 @@ from .builder import Builder
 from .helpers import GEOMETRY
 
 SUM, SLOT = "Sum", "Slot"  # the Repeat Zone's state
-NODE_DISPLACEMENT_SUFFIX = "node_displacement"
-SLOT_MARK = "#"  # stands for the slot number in a name template
-
-
-def _name_template(key, level, what):
-    return f"{attribute_prefix(key)}{level}_{what}{SLOT_MARK}"
-
-
-def index_attribute_names(key, slot_count, level="vertex"):
-    """Names of the K INT attributes holding each point's gathered indices: ``level``
-    'vertex' for the mesh vertices' slots, 'node' for the grid nodes' (two-level)."""
-    template = _name_template(key, level, "index")
-    return [template.replace(SLOT_MARK, str(k)) for k in range(slot_count)]
-
-
-def weight_attribute_names(key, slot_count, level="vertex"):
-    """Names of the K FLOAT attributes holding the weights matching
-    ``index_attribute_names``."""
-    template = _name_template(key, level, "weight")
-    return [template.replace(SLOT_MARK, str(k)) for k in range(slot_count)]
-
-
-def node_displacement_name(key):
-    """The attribute the two-level group stores its grid nodes' displacements in (on the
-    mesh's first N points, inside the group only: stripped from the output)."""
-    return attribute_prefix(key) + NODE_DISPLACEMENT_SUFFIX
-
-
 def write_pairs(mesh, key, indices, weights, level="vertex"):
     """Store sparse pairs on ``mesh``: ``indices`` ((rows, K) int, rows <= its vertex
     count) as INT and ``weights`` ((rows, K) float) as FLOAT point attributes (zeros
@@ -98,15 +71,6 @@ def read_pairs(mesh, key, slot_count, level="vertex"):
     indices = mesh_arrays.read_columns(mesh, index_attribute_names(key, slot_count, level), 'INT')
     weights = mesh_arrays.read_columns(mesh, weight_attribute_names(key, slot_count, level), 'FLOAT')
     return None if indices is None or weights is None else (indices, weights)
-
-
-def node_column_count(mesh_vertex_count, node_count, node_slot_count):
-    """Stacked vector columns the grid nodes' pairs take, three to a vector
-    (``core.tools.sparse.stacked_columns``)."""
-    if not node_count:
-        return 0
-    triples, per_column = -(-node_slot_count // 3), mesh_vertex_count // node_count
-    return -(-triples // per_column)
 
 
 def read_coordinates(mesh, key, cage_vertex_count, slot_count, node_count=0, node_slot_count=0):
@@ -174,8 +138,8 @@ def weighted_gather(build, source, value, key, slot_count, level="vertex"):
     not depend on K."""
     zone_in, zone_out = _repeat_zone(build, slot_count)
     number = _text(build, zone_in.outputs[SLOT])
-    index = _slot_attribute(build, number, _name_template(key, level, "index"), 'INT')
-    weight = _slot_attribute(build, number, _name_template(key, level, "weight"), 'FLOAT')
+    index = _slot_attribute(build, number, name_template(key, level, "index"), 'INT')
+    weight = _slot_attribute(build, number, name_template(key, level, "weight"), 'FLOAT')
     gathered = build.sample_index("accumulate", source, value, index)
     return _close_zone(build, zone_in, zone_out, gathered, weight)
 
@@ -206,7 +170,7 @@ def _node_displacements(build, mesh, cage, displacement, key, node_count, column
     stored on the mesh; node a then adds up its ``blocks`` rows ``s * N + a``."""
     zone_in, zone_out = _repeat_zone(build, column_count)
     number = _text(build, zone_in.outputs[SLOT])
-    index, weight = (_slot_attribute(build, number, _name_template(key, "node", what), 'FLOAT_VECTOR')
+    index, weight = (_slot_attribute(build, number, name_template(key, "node", what), 'FLOAT_VECTOR')
                      for what in ("index", "weight"))
     rows = build.store("lane_store", mesh, node_displacement_name(key),
                        _close_triple(build, zone_in, zone_out, cage, displacement, index, weight))
@@ -263,7 +227,6 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
     mesh = group_input.outputs[GEOMETRY]
     cage, displacement = deformer._cage_displacement(build, group_input, rest_cage)
     source, value = cage, displacement
-    node_columns = 0
     if node_count:
         node_columns = node_column_count(mesh_vertex_count, node_count, node_slot_count)
         blocks = min(mesh_vertex_count // node_count, -(-node_slot_count // 3))  # rows per node
@@ -277,14 +240,11 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
     build.link(usable, switch.inputs["Switch"])
     build.link(mesh, switch.inputs["False"])
     build.link(moved, switch.inputs["True"])
-    names = (index_attribute_names(key, slot_count) + weight_attribute_names(key, slot_count)
-             + index_attribute_names(key, node_columns, "node")
-             + weight_attribute_names(key, node_columns, "node"))
-    output = deformer._strip_attributes(build, switch.outputs[0], key, names)
+    output = deformer._strip_attributes(build, switch.outputs[0], key, sparse_attribute_names(
+        key, slot_count, mesh_vertex_count, node_count, node_slot_count))
     build.link(output, build.add('NodeGroupOutput', "output").inputs[GEOMETRY])
     return group
 
 
-__all__ = ["build_sparse_group", "index_attribute_names", "weight_attribute_names",
-           "node_displacement_name", "weighted_gather", "write_pairs", "write_node_pairs",
-           "read_pairs", "read_coordinates", "node_column_count"]
+__all__ = ["build_sparse_group", "weighted_gather", "write_pairs", "write_node_pairs", "read_pairs",
+           "read_coordinates"]

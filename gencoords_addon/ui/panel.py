@@ -6,7 +6,7 @@ import textwrap
 import bpy
 
 from ..bind.bindings import binding, bindings, meshes_driven_by
-from ..enums import is_green, kind_parameter
+from ..enums import is_green, is_harmonic, kind_parameter
 from .status import status_lines
 from .visualise import field_range
 
@@ -38,13 +38,21 @@ def draw_settings(layout, obj, width=None):
     column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
     if kind_parameter(settings.kind) == "gamma":
         column.prop(settings, "gamma")
-    if is_green(settings.kind):  # the one type that is not affine invariant: say what it does
-        for number, line in enumerate(wrapped("Keeps details' shape when the cage stretches", width)):
+    if is_harmonic(settings.kind):
+        column.prop(settings, "resolution")
+    # Green: the one type that is not affine invariant; Harmonic: the local one.
+    explanation = ("Keeps details' shape when the cage stretches" if is_green(settings.kind) else
+                   "Local, never negative: a limb's cage moves that limb alone"
+                   if is_harmonic(settings.kind) else None)
+    if explanation is not None:
+        for number, line in enumerate(wrapped(explanation, width)):
             column.label(text=line, icon='INFO' if number == 0 else 'BLANK1')
     column.prop(settings, "outside")
     column.prop(settings, "storage")
     if settings.storage == 'COMPACT':  # Automatic picks its own slots, by measuring
         column.prop(settings, "compact_size", text="Slots")
+    if settings.storage == 'SPARSE':
+        column.prop(settings, "sparse_size", text="Pairs")
     column.prop(settings, "auto_rebind")
 
     row = layout.row(align=True)

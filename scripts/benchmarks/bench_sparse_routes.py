@@ -130,9 +130,9 @@ def _lane_group(build):
 
 def slot_names(key, slot_count, level):
     """(index attribute, weight attribute) of each slot."""
-    graph = session.addon_module("graph.sparse")
-    return zip(graph.index_attribute_names(key, slot_count, level),
-               graph.weight_attribute_names(key, slot_count, level))
+    layout = session.addon_module("bind_layout")
+    return zip(layout.index_attribute_names(key, slot_count, level),
+               layout.weight_attribute_names(key, slot_count, level))
 
 
 def lane_gather(build, source, value, key, slot_count, level="vertex"):

@@ -86,7 +86,7 @@ def test_harmonic_binding_is_sparse_positive_bitwise_at_rest_and_translates_exac
     assert (result.kind, result.storage) == ("HARMONIC", "SPARSE")
     assert result.min_coordinate >= 0.0 and result.negative_points == 0
     assert max(result.deviation_smooth, result.deviation_drag) < 1e-3  # Automatic's target
-    weights = stored_weights(obj, gc.binding.binding(obj).info["key"])
+    weights = stored_weights(obj, gc.binding.binding(obj).key)
     assert len(weights) and (weights >= 0).all()
     np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
     cage_rest = read_positions(cage.data).copy()
@@ -95,10 +95,10 @@ def test_harmonic_binding_is_sparse_positive_bitwise_at_rest_and_translates_exac
     np.testing.assert_allclose(evaluated_positions(obj), rest + shift, atol=2e-6 * diagonal(cage))
     write_positions(cage.data, cage_rest)
     np.testing.assert_array_equal(evaluated_positions(obj), rest)
-    assert "Harmonic" in " ".join(gc.status.status_lines(obj))
+    assert "Harmonic" in " ".join(text for text, _ in gc.status.status_lines(obj))
 
 
-@pytest.mark.parametrize("limb", ["left_arm", "right_leg", "head"])
+@pytest.mark.parametrize("limb", ["left_arm", "right_arm", "right_leg"])
 def test_moving_one_limb_leaves_the_other_limbs_still(gc, bound_character, limb):
     obj, cage, labels, rest = bound_character
     cage_rest = read_positions(cage.data).astype(np.float64)
@@ -119,16 +119,23 @@ def test_strength_and_mask_scale_the_harmonic_displacement(gc, bound_character):
     full = evaluated_positions(obj).copy()
     modifier = gc.binding.binding(obj).modifier
     gc.compat.set_modifier_input(modifier, "Strength", 0.5)
+    obj.data.update()
     np.testing.assert_allclose(evaluated_positions(obj), rest + 0.5 * (full - rest), atol=1e-5)
     gc.compat.set_modifier_input(modifier, "Strength", 1.0)
     group = obj.vertex_groups.new(name="Upper")
     upper = np.flatnonzero(rest[:, 2] > 1.0)
     group.add(upper.tolist(), 1.0, 'REPLACE')
     gc.compat.set_modifier_input_attribute(modifier, "Mask", "Upper")
+    obj.data.update()
     now = evaluated_positions(obj)
     lower = np.setdiff1d(np.arange(len(rest)), upper)
-    np.testing.assert_array_equal(now[lower], rest[lower])
+    np.testing.assert_array_equal(now[lower], rest[lower])  # masked out: bitwise
     np.testing.assert_allclose(now[upper], full[upper], atol=1e-6)
+    gc.compat.set_modifier_input(modifier, "Invert Mask", True)
+    obj.data.update()
+    now = evaluated_positions(obj)
+    np.testing.assert_array_equal(now[upper], rest[upper])
+    np.testing.assert_allclose(now[lower], full[lower], atol=1e-6)
 
 
 def test_two_harmonic_cages_compose_and_unbind_restores_bitwise(gc):
@@ -147,8 +154,7 @@ def test_two_harmonic_cages_compose_and_unbind_restores_bitwise(gc):
     np.testing.assert_allclose(evaluated_positions(obj), rest + (0.3, 0.0, 0.0), atol=2e-6 * 5)
     outer.location = (0.0, 0.0, 0.9)
     bpy.context.view_layer.update()
-    for _ in range(2):
-        assert unbind(obj) == {'FINISHED'}
+    assert unbind(obj) == {'FINISHED'}  # Unbind All
     assert list(obj.modifiers) == [] and {a.name for a in obj.data.attributes} == before
     np.testing.assert_array_equal(read_positions(obj.data), rest)
     np.testing.assert_array_equal(evaluated_positions(obj), rest)
@@ -196,5 +202,5 @@ def test_sparse_storage_keeps_the_largest_pairs_and_translations_exact(gc, kind)
 def test_mean_value_in_a_non_convex_cage_states_its_negative_share_and_points_to_harmonic(gc):
     obj, cage, _ = add_character(detail=0.2)
     assert bind(obj, cage, kind="MEAN_VALUE") == {'FINISHED'}
-    lines = " ".join(gc.status.status_lines(obj))
+    lines = " ".join(text for text, _ in gc.status.status_lines(obj))
     assert "negative" in lines and "%" in lines and "Harmonic" in lines
