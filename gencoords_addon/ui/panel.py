@@ -20,6 +20,23 @@ def wrapped(text, width):
     return [text] if width is None else textwrap.wrap(text, max(width, 16)) or [""]
 
 
+def draw_type(column, settings, width=None):
+    """The Type setting, its parameter (Gamma, Resolution) and, for the types that differ
+    most, a line saying what they do."""
+    column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
+    if kind_parameter(settings.kind) == "gamma":
+        column.prop(settings, "gamma")
+    if is_harmonic(settings.kind):
+        column.prop(settings, "resolution")
+    # Green: the one type that is not affine invariant; Harmonic: the local one.
+    explanation = ("Keeps details' shape when the cage stretches" if is_green(settings.kind) else
+                   "Local, never negative: a limb's cage moves that limb alone"
+                   if is_harmonic(settings.kind) else None)
+    if explanation is not None:
+        for number, line in enumerate(wrapped(explanation, width)):
+            column.label(text=line, icon='INFO' if number == 0 else 'BLANK1')
+
+
 def draw_settings(layout, obj, width=None):
     """Everything the panel shows for the mesh object ``obj``; ``width``: characters that
     fit on a status line (None: no wrapping)."""
@@ -35,18 +52,7 @@ def draw_settings(layout, obj, width=None):
     else:
         # Artists keep cages out of the way: as wires or bounds, or hidden (still driving).
         column.prop(settings.cage, "display_type", text="Display")
-    column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
-    if kind_parameter(settings.kind) == "gamma":
-        column.prop(settings, "gamma")
-    if is_harmonic(settings.kind):
-        column.prop(settings, "resolution")
-    # Green: the one type that is not affine invariant; Harmonic: the local one.
-    explanation = ("Keeps details' shape when the cage stretches" if is_green(settings.kind) else
-                   "Local, never negative: a limb's cage moves that limb alone"
-                   if is_harmonic(settings.kind) else None)
-    if explanation is not None:
-        for number, line in enumerate(wrapped(explanation, width)):
-            column.label(text=line, icon='INFO' if number == 0 else 'BLANK1')
+    draw_type(column, settings, width)
     column.prop(settings, "outside")
     column.prop(settings, "storage")
     if settings.storage == 'COMPACT':  # Automatic picks its own slots, by measuring
