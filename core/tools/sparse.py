@@ -36,7 +36,6 @@ SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
 # cheap (bench_sparse_routes.py: 48 pairs on 1,286 nodes play back in 0.8x Mesh Deform's time).
 NODE_SLOT_COUNTS = (8, 16, 24, 32, 48, 64, 96, 128)
-CHUNK_ENTRIES = 4_000_000  # points x cage vertices of a residual block measured at once
 SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
 SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
 
@@ -165,18 +164,36 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
     residual = coordinates - dense_weights(indices, weights, coordinates.shape[1])
     if interpolation is None:
         smooth, drag = compact.residual_deviations(residual, rest)
-    else:  # the points' residuals, a chunk at a time: (k, n) float64 may be large
-        corners, trilinear = interpolation
-        smooth, drag = 0.0, np.zeros(len(rest))
-        step = max(1, CHUNK_ENTRIES // max(1, coordinates.shape[1]))
-        for start in range(0, len(corners), step):
-            part = slice(start, start + step)
-            chunk_smooth, chunk_drag = compact.residual_deviations(
-                interpolated(residual, corners[part], trilinear[part]), rest)
-            smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
-    if len(drag) == 0:
-        return float(smooth), 0.0, 0
-    return float(smooth), float(drag.max()), int(np.argmax(drag))
+        if len(drag) == 0:
+            return float(smooth), 0.0, 0
+        return float(smooth), float(drag.max()), int(np.argmax(drag))
+    return _interpolated_deviations(residual, *interpolation, rest)
+
+
+def _interpolated_deviations(residual, corners, trilinear, rest):
+    """``deviations`` of the points interpolated from node ``residual`` ((N, n)) without
+    the (k, n) point residual: the smooth motion is linear (interpolate the nodes' moves),
+    and a dragged vertex j deviates ``DRAG_FRACTION * max_i |point residual_ij|``, bounded
+    by the nodes' largest ``|residual_aj|`` (the trilinear weights are a convex
+    combination): exact columns are computed in decreasing bound order until no bound
+    can beat the worst found, so the largest and where it is are exact."""
+    rest = np.asarray(rest, dtype=np.float64)
+    diagonal = np.linalg.norm(np.ptp(rest, axis=0))
+    if len(corners) == 0 or residual.shape[1] == 0:
+        return 0.0, 0.0, 0
+    moves = interpolated(residual @ (compact.smooth_test_motion(rest) - rest), corners, trilinear)
+    smooth = float(np.linalg.norm(moves, axis=1).max() / diagonal)
+    used = np.unique(np.asarray(corners))
+    bounds = np.abs(residual[used]).max(axis=0)
+    worst, worst_column = -1.0, 0
+    for j in np.argsort(-bounds):
+        if bounds[j] <= worst:
+            break
+        column = interpolated(residual[:, j:j + 1], corners, trilinear)
+        largest = float(np.abs(column).max())
+        if largest > worst:
+            worst, worst_column = largest, int(j)
+    return smooth, compact.DRAG_FRACTION * worst, worst_column
 
 
 def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=None):
