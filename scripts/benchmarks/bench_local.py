@@ -10,14 +10,17 @@ Metrics:
   peak MB    peak resident memory growth during the bind (the process and its workers,
              ``scripts/common/memory.py``).
   .blend MB  uncompressed .blend size the binding adds to the unbound scene.
-  update     median live update (move one cage vertex, ``view_layer.update()``, read the
+  update     live update (move one cage vertex, ``view_layer.update()``, read the
              evaluated mesh), every method bound side by side in one scene and timed in
-             turns (``--rounds`` rounds), with the ratio to Mesh Deform p5's.
+             turns (``--rounds`` rounds): median and least wall time, and the ratio of the
+             median CPU time (the process's, all threads: steadier on a shared machine)
+             to Mesh Deform p5's.
   locality   each of the two arms, two legs and head in turn: its cage vertices
              (``character.cage_limb_vertices``: the outer half of a limb) moved forward by
              20 % of the cage's diagonal; the largest move of the body's vertices of the
              four other limbs (``limb_labels``; the torso and neck, which they hang on,
-             not counted), of the diagonal; the worst over the five.
+             not counted), of the diagonal: the worst over the arms and legs, and the
+             head's (its cage's lowest vertices sit a cell above the shoulders).
   bend       the left forearm's cage vertices turned 60 degrees about the elbow (the
              y axis through the middle of the arm): per triangle of the left arm, the
              change of its three angles; mean and 99th percentile (degrees), and triangles
@@ -55,7 +58,7 @@ ELBOW = np.array([-0.575, 0.0, 1.325])  # the middle of the left arm, on its axi
 
 def bind(mesh, cage, method):
     """Bind ``mesh`` to ``cage`` with ``method`` (("md", precision) or ("gencoords",
-    kind)); returns the wall time."""
+    kind[:resolution])); returns the wall time."""
     scenes.make_active(mesh)
     start = time.perf_counter()
     with session.quiet():
@@ -65,28 +68,30 @@ def bind(mesh, cage, method):
             bpy.ops.object.meshdeform_bind(modifier=modifier.name)
             ok = modifier.is_bound
         else:
-            ok = "FINISHED" in scenes.bind(mesh, cage, method[1], storage='AUTO')
+            kind, _, resolution = method[1].partition(":")
+            if resolution:
+                mesh.gencoords.resolution = int(resolution)
+            ok = "FINISHED" in scenes.bind(mesh, cage, kind, storage='AUTO')
     if not ok:
         raise RuntimeError(f"{method} did not bind")
     return time.perf_counter() - start
 
 
 def locality(mesh, cage, rest_cage, labels, size):
-    """The largest move of the other parts' vertices when one limb's cage vertices move
-    by LOCALITY_MOVE of the diagonal, of the diagonal: the worst limb and its figure."""
+    """The largest move of the other limbs' vertices when one limb's cage vertices move
+    by LOCALITY_MOVE of the diagonal, of the diagonal: {limb: figure}."""
     rest = settle(mesh)
-    worst = (None, 0.0)
+    moves = {}
     for limb in MOVED_LIMBS:
         moved = rest_cage.astype(np.float64)
         moved[character.cage_limb_vertices(rest_cage, limb)] += (0.0, -LOCALITY_MOVE * size, 0.0)
         arrays.write_positions(cage.data, moved)
         now = settle(mesh)
         other = np.isin(labels, MOVED_LIMBS) & (labels != limb)
-        figure = float(np.linalg.norm(now[other] - rest[other], axis=1).max()) / size
-        worst = max(worst, (limb, figure), key=lambda pair: pair[1])
+        moves[limb] = float(np.linalg.norm(now[other] - rest[other], axis=1).max()) / size
     arrays.write_positions(cage.data, rest_cage)
     settle(mesh)
-    return worst
+    return moves
 
 
 def _rotation_y(degrees):
@@ -145,13 +150,15 @@ def measure(method, empty_blend, rows):
         seconds = bind(mesh, cage, method)
     row = {"bind": seconds, "peak": memory.peak}
     row["blend"] = blend_size("local") - empty_blend
-    row["locality_limb"], row["locality"] = locality(mesh, cage, rest_cage, labels, size)
+    moves = locality(mesh, cage, rest_cage, labels, size)
+    row["locality"] = max(moves[limb] for limb in MOVED_LIMBS if limb != "head")
+    row["locality_head"] = moves["head"]
     row["bend_mean"], row["bend_99"], row["flipped"] = bend(mesh, cage, rest_cage, labels, triangles)
     row["storage"], row["negative"] = stored(mesh) if method[0] == "gencoords" else ("-", "0")
     rows[method] = row
     print(f"  {label(method)}: bind {seconds:.2f} s, peak {memory.peak / 2**20:.0f} MB, "
           f".blend +{row['blend'] / 2**20:.1f} MB, locality {row['locality']:.1e} "
-          f"({row['locality_limb']}), bend {row['bend_mean']:.2f} / {row['bend_99']:.1f} deg, "
+          f"(head {row['locality_head']:.1e}), bend {row['bend_mean']:.2f} / {row['bend_99']:.1f} deg, "
           f"{row['flipped']} flipped, {row['storage']}", flush=True)
 
 
@@ -182,24 +189,30 @@ def time_side_by_side(methods, rows, rounds):
     for (method, *_), measured in zip(bound, times):
         wall, cpu = np.array(measured).T
         rows[method]["update"], rows[method]["cpu"] = float(np.median(wall)), float(np.median(cpu))
+        rows[method]["update_min"] = float(wall.min())
 
 
 def label(method):
-    return f"Mesh Deform p{method[1]}" if method[0] == "md" else f"GenCoords {method[1].replace('_', ' ')}"
+    if method[0] == "md":
+        return f"Mesh Deform p{method[1]}"
+    kind, _, resolution = method[1].partition(":")
+    return f"GenCoords {kind.replace('_', ' ')}" + (f" (resolution {resolution})" if resolution else "")
 
 
 def table(rows):
     reference = rows.get(("md", 5))
-    lines = ["| method | storage | bind | bind / MD p5 | peak MB | .blend MB added | update "
-             "| update / MD p5 | other limbs' largest move | bend: mean / 99th pct angle change "
-             "| flipped | negative |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    lines = ["| method | storage | bind | bind / MD p5 | peak MB | .blend MB added | update median / min "
+             "| CPU / MD p5 | arms and legs: other limbs' largest move | head: other limbs' largest move "
+             "| bend: mean / 99th pct angle change | flipped | negative |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for method, row in rows.items():
-        ratio = (f"{row['bind'] / reference['bind']:.2f}", f"{row['update'] / reference['update']:.2f}") \
+        ratio = (f"{row['bind'] / reference['bind']:.2f}", f"{row['cpu'] / reference['cpu']:.2f}") \
             if reference else ("-", "-")
         lines.append(
             f"| {label(method)} | {row['storage']} | {row['bind']:.2f} s | {ratio[0]} "
-            f"| {row['peak'] / 2**20:.0f} | {row['blend'] / 2**20:.1f} | {row['update'] * 1e3:.2f} ms "
-            f"| {ratio[1]} | {row['locality']:.1e} ({row['locality_limb']}) "
+            f"| {row['peak'] / 2**20:.0f} | {row['blend'] / 2**20:.1f} "
+            f"| {row['update'] * 1e3:.1f} / {row['update_min'] * 1e3:.1f} ms | {ratio[1]} "
+            f"| {row['locality']:.1e} | {row['locality_head']:.1e} "
             f"| {row['bend_mean']:.2f} / {row['bend_99']:.1f} deg | {row['flipped']} | {row['negative']} |")
     return "\n".join(lines)
 
@@ -207,7 +220,8 @@ def table(rows):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--precisions", nargs="+", type=int, default=[5, 6])
-    parser.add_argument("--kinds", nargs="+", default=["mean_value", "harmonic"])
+    parser.add_argument("--kinds", nargs="+", default=["mean_value", "harmonic"],
+                        help="GenCoords kinds; harmonic:<resolution> for another grid")
     parser.add_argument("--rounds", type=int, default=15)
     parser.add_argument("--output", type=Path, default=session.OUT / "bench_local.md")
     args = parser.parse_args()
