@@ -26,8 +26,8 @@ Metrics:
              change of its three angles; mean and 99th percentile (degrees), and triangles
              flipped (normal against both its rest normal and its rest normal turned 60
              degrees).
-  negative   share of the mesh vertices with a negative coordinate, and the smallest
-             (GenCoords; Mesh Deform has none).
+  negative   share of the (mesh vertex, cage vertex) coordinates below 0, and the
+             smallest (GenCoords; Mesh Deform has none).
 
 Usage: bench_local.py [--precisions 5 6] [--kinds mean_value harmonic] [--rounds 15]
 """
@@ -163,10 +163,10 @@ def measure(method, empty_blend, rows):
 
 
 def stored(mesh):
-    """The storage Automatic chose, and the mesh vertices with a negative coordinate."""
+    """The storage Automatic chose, and the share of negative coordinates."""
     result = session.addon_module("api").binding_result(mesh)
-    return (f"{result.storage.lower()} {result.slot_count}",
-            f"{result.negative_points / result.mesh_vertex_count:.0%} (min {result.min_coordinate:.3f})")
+    share = (result.negative_entries or 0) / (result.mesh_vertex_count * result.cage_vertex_count)
+    return f"{result.storage.lower()} {result.slot_count}", f"{share:.1%} (min {result.min_coordinate:.3f})"
 
 
 def time_side_by_side(methods, rows, rounds):
