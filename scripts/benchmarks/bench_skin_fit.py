@@ -1,0 +1,104 @@
+"""A fitted linear blend skin (gencoords.tools.skin_fit) against GenCoords' deformation.
+
+Issue 26's scene: Suzanne subdivided twice (7,958 vertices, made with bpy) in a
+162-vertex icosphere cage, mean value coordinates, the cage keyframed through a twist
+about Z and then a squash along Z over 24 frames; the mesh's positions at each frame are
+the coordinates times the cage. The skin is fitted with 4 influences and at most 255
+bones, once on all 24 frames and once on every other frame (the others held out: their
+bone transforms solved with the weights fixed, as a rig replays poses it was not fitted
+on). Printed: worst and RMS distance to GenCoords' positions as fractions of the mesh's
+bounding-box diagonal, and the fit's time (noisy on a shared machine).
+
+    .venv/bin/python scripts/benchmarks/bench_skin_fit.py [--bones 64] [--iterations 12]
+"""
+
+import os
+
+for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
+from scripts.common import session  # noqa: E402
+
+FRAMES = 24
+
+
+def suzanne_vertices(level=2):
+    """Suzanne as the other benchmarks make her (scripts/common/scenes.py), (n, 3)."""
+    session.prepare()
+    from scripts.common import scenes
+    scenes.reset_scene()
+    obj = scenes.add_suzanne(level)
+    return scenes.arrays.read_positions(obj.data).astype(np.float64)
+
+
+def twist_and_squash(cage, frames=FRAMES):
+    """The cage at each frame ((frames, n, 3)): the first half twists it about Z (up to
+    90 degrees at the top, -90 at the bottom), the second half squashes the twisted cage
+    along Z (to 60 %, widening 1.2x)."""
+    height = np.ptp(cage[:, 2])
+    poses = []
+    for frame in range(1, frames + 1):
+        twist = min(frame / (frames / 2), 1.0)
+        squash = max(frame - frames / 2, 0.0) / (frames / 2)
+        angle = twist * 0.5 * np.pi * cage[:, 2] / (0.5 * height)
+        c, s = np.cos(angle), np.sin(angle)
+        x, y = c * cage[:, 0] - s * cage[:, 1], s * cage[:, 0] + c * cage[:, 1]
+        widen = 1.0 + 0.2 * squash
+        poses.append(np.column_stack([x * widen, y * widen, cage[:, 2] * (1.0 - 0.4 * squash)]))
+    return np.array(poses)
+
+
+def report(label, rest, frames, fit, skin_fit):
+    worst, rms = skin_fit.deviations(rest, frames, fit)
+    print(f"  {label:<30} worst {100 * worst:6.3f} %   RMS {100 * rms:6.3f} % of the diagonal")
+    return worst, rms
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--bones", type=int, default=64)
+    parser.add_argument("--iterations", type=int, default=12)
+    parser.add_argument("--influences", type=int, default=4)
+    args = parser.parse_args()
+
+    import gencoords
+    from gencoords.tools import shapes, skin_fit
+    rest = suzanne_vertices()
+    cage, faces = shapes.icosphere(2, radius=2.0)
+    start = time.perf_counter()
+    coordinates = gencoords.coordinates(rest, cage, faces, kind="mean_value")
+    bind_time = time.perf_counter() - start
+    frames = coordinates @ twist_and_squash(cage)
+    print(f"Suzanne {len(rest)} vertices, icosphere cage {len(cage)} vertices, mean value "
+          f"({100 * np.mean(coordinates < 0):.1f} % negative; {bind_time:.1f} s), {FRAMES} frames "
+          f"twist and squash; {args.influences} influences, {args.bones} bones seeded, "
+          f"{args.iterations} iterations")
+
+    start = time.perf_counter()
+    fit = skin_fit.fit_skin(rest, frames, bones=args.bones, max_influences=args.influences,
+                            iterations=args.iterations)
+    seconds = time.perf_counter() - start
+    print(f"fit on all {FRAMES} frames: {seconds:.1f} s, {fit.transforms.shape[1]} bones kept")
+    report("fitted frames", rest, frames, fit, skin_fit)
+
+    fitted, held = frames[0::2], frames[1::2]
+    start = time.perf_counter()
+    half = skin_fit.fit_skin(rest, fitted, bones=args.bones, max_influences=args.influences,
+                             iterations=args.iterations)
+    seconds = time.perf_counter() - start
+    print(f"fit on the {len(fitted)} odd frames: {seconds:.1f} s, {half.transforms.shape[1]} bones kept")
+    report("fitted (odd) frames", rest, fitted, half, skin_fit)
+    transforms = skin_fit.fit_transforms(rest, held, half.indices, half.weights)
+    held_fit = skin_fit.SkinFit(half.rest_matrices, transforms, half.indices, half.weights)
+    report("held-out (even) frames", rest, held, held_fit, skin_fit)
+
+
+if __name__ == "__main__":
+    main()
