@@ -61,6 +61,16 @@ def report(label, rest, frames, fit, skin_fit):
     return worst, rms
 
 
+def timed_fit(rest, frames, args, label):
+    from gencoords.tools import skin_fit
+    start = time.perf_counter()
+    fit = skin_fit.fit_skin(rest, frames, bones=args.bones, max_influences=args.influences,
+                            iterations=args.iterations)
+    seconds = time.perf_counter() - start
+    print(f"fit on {label}: {seconds:.1f} s, {fit.transforms.shape[1]} bones kept")
+    return fit
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bones", type=int, default=64)
@@ -81,19 +91,10 @@ def main():
           f"twist and squash; {args.influences} influences, {args.bones} bones seeded, "
           f"{args.iterations} iterations")
 
-    start = time.perf_counter()
-    fit = skin_fit.fit_skin(rest, frames, bones=args.bones, max_influences=args.influences,
-                            iterations=args.iterations)
-    seconds = time.perf_counter() - start
-    print(f"fit on all {FRAMES} frames: {seconds:.1f} s, {fit.transforms.shape[1]} bones kept")
+    fit = timed_fit(rest, frames, args, f"all {FRAMES} frames")
     report("fitted frames", rest, frames, fit, skin_fit)
-
     fitted, held = frames[0::2], frames[1::2]
-    start = time.perf_counter()
-    half = skin_fit.fit_skin(rest, fitted, bones=args.bones, max_influences=args.influences,
-                             iterations=args.iterations)
-    seconds = time.perf_counter() - start
-    print(f"fit on the {len(fitted)} odd frames: {seconds:.1f} s, {half.transforms.shape[1]} bones kept")
+    half = timed_fit(rest, fitted, args, f"the {len(fitted)} odd frames")
     report("fitted (odd) frames", rest, fitted, half, skin_fit)
     transforms = skin_fit.fit_transforms(rest, held, half.indices, half.weights)
     held_fit = skin_fit.SkinFit(half.rest_matrices, transforms, half.indices, half.weights)
