@@ -10,7 +10,7 @@ import traceback
 
 import bpy
 
-from . import binding, bones, cage_maker, visualise
+from . import bake_fitted, binding, bones, cage_maker, visualise
 
 
 class MeshOperator:
@@ -293,7 +293,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
 
 class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     """Replace the binding by an armature (a bone per cage vertex, following it, keyframed
-    over the scene's frame range) and vertex groups holding the coordinates, for game
+    over the scene's frame range) and vertex groups holding the coordinates, or (Fitted)
+    a few rotating bones and 4 weights per vertex fitted to the deformation, for game
     engines and exporters such as glTF"""
 
     bl_idname = "object.gencoords_bake_bones"
@@ -303,6 +304,25 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         name="Max Influences", default=0, min=0, soft_max=8,
         description="Weights kept per vertex, renormalised (game engines take 4 or 8; "
                     "three.js reads 4); 0 keeps all, which is exact")
+    mode: bpy.props.EnumProperty(
+        name="Mode", default='CAGE_VERTICES', items=(
+            ('CAGE_VERTICES', "Bone per Cage Vertex",
+             "A bone per cage vertex, following it; the coordinates as weights (exact with "
+             "every weight kept; game engines keep 4, which cannot follow the cage)"),
+            ('FITTED', "Fitted (game engines)",
+             "A few rotating bones and at most Max Influences weights per vertex (0: 4), "
+             "fitted to the deformation over the frame range and keyframed; any kind")))
+    bones: bpy.props.IntProperty(
+        name="Bones", default=bake_fitted.DEFAULT_BONES, min=1, max=255,
+        description="Fitted: bones to seed (those left weighing no vertex are dropped); "
+                    "more follow the cage more closely, and cost more to fit and to play")
+    use_scene_range: bpy.props.BoolProperty(
+        name="Scene Frame Range", default=True,
+        description="Fitted: sample the scene's frame range; off: Start to End")
+    frame_start: bpy.props.IntProperty(name="Start", default=1,
+                                       description="Fitted: the first frame sampled")
+    frame_end: bpy.props.IntProperty(name="End", default=250,
+                                     description="Fitted: the last frame sampled")
     keyframes: bpy.props.BoolProperty(
         name="Keyframe Cage Motion", default=True,
         description="Also keyframe the bones on the cage at every frame of the scene's "
@@ -325,6 +345,8 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
+        if self.mode == 'FITTED':
+            return self._bake_fitted(context)
         obj = context.active_object
         try:
             with object_mode(context, obj):
@@ -345,6 +367,26 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
                               f"bones{keyed}): deviation {deviation:.2e} of the cage size for "
                               "the standard smooth cage motion, measured on the weights "
                               f"written{over}")
+        return {'FINISHED'}
+
+    def _bake_fitted(self, context):
+        obj, window_manager = context.active_object, context.window_manager
+        window_manager.progress_begin(0.0, 1.0)
+        try:
+            frames = (None if self.use_scene_range else
+                      bake_fitted.frame_range(context.scene, self.frame_start, self.frame_end))
+            with object_mode(context, obj):
+                rig, figures = bake_fitted.bake(
+                    obj, context, self.bones, self.max_influences or bake_fitted.DEFAULT_INFLUENCES,
+                    frames, progress=window_manager.progress_update)
+        except binding.BindError as error:
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+        except Exception as error:
+            return _internal_error(self, error)
+        finally:
+            window_manager.progress_end()
+        self.report({'INFO'}, bake_fitted.summary(obj, rig, figures))
         return {'FINISHED'}
 
 
