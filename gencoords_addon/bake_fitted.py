@@ -16,6 +16,7 @@ tied to a cage vertex). Any kind of binding can be baked so, Green and negative
 coordinates included: the fit's weights are never negative.
 """
 
+import threading
 import time
 
 import bpy
@@ -63,6 +64,68 @@ def sample_deformation(obj, context, frames):
     return np.array(positions)
 
 
+class Cancelled(Exception):
+    """The fit was cancelled (Esc): nothing was changed."""
+
+
+class FittedBakeJob:
+    """A fitted bake in three steps: sample the deformation (at creation, in Blender),
+    fit (``run``, or ``start`` in a thread so that the window stays live; numpy only),
+    ``commit`` (in Blender: write, measure, replace the binding)."""
+
+    def __init__(self, obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENCES,
+                 frames=None, iterations=12, seed=0):
+        self.obj, self.found = obj, bindings_module.binding(obj)
+        self.frames = frame_range(context.scene) if frames is None else np.asarray(frames)
+        world = np.array(obj.matrix_world, dtype=np.float64)
+        self.rest = mesh_io.read_positions(obj.data).astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+        self.sampled = sample_deformation(obj, context, self.frames)
+        self.options = {"bones": min(bone_count, len(self.rest)), "max_influences": max_influences,
+                        "iterations": iterations, "seed": seed}
+        self.bone_count, self.fraction, self.fit, self.error = int(bone_count), 0.0, None, None
+        self.fit_seconds, self._cancel, self._thread = 0.0, threading.Event(), None
+
+    def run(self, progress=None):
+        """Fit here; ``progress(fraction)`` as it goes (an exception it raises cancels)."""
+        def report(fraction):
+            if self._cancel.is_set():
+                raise Cancelled
+            self.fraction = fraction
+            if progress is not None:
+                progress(fraction)
+        start = time.perf_counter()
+        self.fit = skin_fit.fit_skin(self.rest, self.sampled, progress=report, **self.options)
+        self.fit_seconds = time.perf_counter() - start
+
+    def start(self):
+        """Fit in a thread; ``done`` says when it has ended, ``error`` how, if it failed."""
+        def target():
+            try:
+                self.run()
+            except BaseException as error:  # handed to the operator, in Blender's thread
+                self.error = error
+        self._thread = threading.Thread(target=target, name="GenCoords fitted bake", daemon=True)
+        self._thread.start()
+
+    @property
+    def done(self):
+        return self._thread is not None and not self._thread.is_alive()
+
+    def cancel(self):
+        """Stop the fit at its next round and wait for it."""
+        self._cancel.set()
+        if self._thread is not None:
+            self._thread.join()
+
+    def commit(self, context):
+        """Write the rig (see ``bake``): returns (rig, figures)."""
+        rig, figures = _write(self.obj, context, self.found, self.fit, self.rest, self.sampled,
+                              self.frames)
+        figures.update({"fit_seconds": self.fit_seconds, "seeded_bones": self.bone_count})
+        rig.data[bones.BAKE_INFO] = figures
+        return rig, figures
+
+
 def bake(obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENCES,
          frames=None, iterations=12, seed=0, progress=None):
     """Replace the (first) binding of ``obj`` by a fitted, keyframed armature.
@@ -74,20 +137,9 @@ def bake(obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENC
     (fraction) is called during the fit; an exception it raises cancels the bake with
     nothing changed.
     """
-    found = bindings_module.binding(obj)
-    frames = frame_range(context.scene) if frames is None else np.asarray(frames)
-    world = np.array(obj.matrix_world, dtype=np.float64)
-    rest = mesh_io.read_positions(obj.data).astype(np.float64) @ world[:3, :3].T + world[:3, 3]
-    sampled = sample_deformation(obj, context, frames)
-    start = time.perf_counter()
-    fit = skin_fit.fit_skin(rest, sampled, bones=min(bone_count, len(rest)),
-                            max_influences=max_influences, iterations=iterations, seed=seed,
-                            progress=progress)
-    fit_seconds = time.perf_counter() - start
-    rig, figures = _write(obj, context, found, fit, rest, sampled, frames)
-    figures.update({"fit_seconds": fit_seconds, "seeded_bones": int(bone_count)})
-    rig.data[bones.BAKE_INFO] = figures
-    return rig, figures
+    job = FittedBakeJob(obj, context, bone_count, max_influences, frames, iterations, seed)
+    job.run(progress)
+    return job.commit(context)
 
 
 def _write(obj, context, found, fit, rest, sampled, frames):

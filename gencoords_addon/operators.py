@@ -323,6 +323,9 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
                                        description="Fitted: the first frame sampled")
     frame_end: bpy.props.IntProperty(name="End", default=250,
                                      description="Fitted: the last frame sampled")
+    fitted_confirmed: bpy.props.BoolProperty(
+        name="Fitted Confirmed", options={'HIDDEN', 'SKIP_SAVE'},
+        description="Set on the modal Fitted bake that the options dialog hands over to")
     keyframes: bpy.props.BoolProperty(
         name="Keyframe Cage Motion", default=True,
         description="Also keyframe the bones on the cage at every frame of the scene's "
@@ -339,12 +342,18 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         return True
 
     def invoke(self, context, event):
-        """In the UI: ask for the options first."""
-        if bpy.app.background or context.window is None:
+        """In the UI: ask for the options first (Fitted: then fit with progress and Esc)."""
+        if not interactive(context):
             return self.execute(context)
+        if self.mode == 'FITTED' and self.fitted_confirmed:
+            return self._start_fitted(context)
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
+        if self.mode == 'FITTED' and interactive(context) and not self.fitted_confirmed:
+            bpy.ops.object.gencoords_bake_bones('INVOKE_DEFAULT', fitted_confirmed=True,
+                                                **self._fitted_options())
+            return {'CANCELLED'}  # this call ends here: the modal bake does the work
         if self.mode == 'FITTED':
             return self._bake_fitted(context)
         obj = context.active_object
@@ -369,25 +378,79 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
                               f"written{over}")
         return {'FINISHED'}
 
-    def _bake_fitted(self, context):
-        obj, window_manager = context.active_object, context.window_manager
-        window_manager.progress_begin(0.0, 1.0)
+    # Fitted, in a window: the options dialog's OK calls execute(), which would block the
+    # window for the whole fit; it hands over to a modal bake (progress, Esc) instead.
+    def _fitted_options(self):
+        return {name: getattr(self, name) for name in ("mode", "bones", "max_influences",
+                                                        "use_scene_range", "frame_start", "frame_end")}
+
+    def _guarded(self, step, *args):
+        """``step(*args)``, its errors reported: {'CANCELLED'} on one."""
         try:
-            frames = (None if self.use_scene_range else
-                      bake_fitted.frame_range(context.scene, self.frame_start, self.frame_end))
-            with object_mode(context, obj):
-                rig, figures = bake_fitted.bake(
-                    obj, context, self.bones, self.max_influences or bake_fitted.DEFAULT_INFLUENCES,
-                    frames, progress=window_manager.progress_update)
+            return step(*args)
         except binding.BindError as error:
             self.report({'ERROR'}, str(error))
-            return {'CANCELLED'}
+        except bake_fitted.Cancelled:
+            self.report({'WARNING'}, "Bake to Bones cancelled: nothing was changed")
         except Exception as error:
             return _internal_error(self, error)
-        finally:
-            window_manager.progress_end()
-        self.report({'INFO'}, bake_fitted.summary(obj, rig, figures))
+        return {'CANCELLED'}
+
+    def _fitted_job(self, context):
+        obj = context.active_object
+        frames = (None if self.use_scene_range else
+                  bake_fitted.frame_range(context.scene, self.frame_start, self.frame_end))
+        with object_mode(context, obj):
+            return bake_fitted.FittedBakeJob(
+                obj, context, self.bones, self.max_influences or bake_fitted.DEFAULT_INFLUENCES, frames)
+
+    def _commit_fitted(self, context, job):
+        if job.error is not None:
+            raise job.error
+        with object_mode(context, job.obj):
+            rig, figures = job.commit(context)
+        self.report({'INFO'}, bake_fitted.summary(job.obj, rig, figures))
         return {'FINISHED'}
+
+    def _bake_fitted(self, context):
+        """At once (scripts, background): progress only where a window shows it."""
+        def run():
+            job = self._fitted_job(context)
+            job.run(context.window_manager.progress_update)
+            return self._commit_fitted(context, job)
+        context.window_manager.progress_begin(0.0, 1.0)
+        try:
+            return self._guarded(run)
+        finally:
+            context.window_manager.progress_end()
+
+    def _start_fitted(self, context):
+        self._job = self._guarded(self._fitted_job, context)
+        if isinstance(self._job, set):
+            return self._job
+        self._job.start()
+        window_manager = context.window_manager
+        self._timer = window_manager.event_timer_add(0.1, window=context.window)
+        window_manager.progress_begin(0.0, 1.0)
+        window_manager.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == 'ESC':
+            job.cancel()
+            job.error = bake_fitted.Cancelled()
+        elif event.type != 'TIMER':
+            return {'RUNNING_MODAL'}  # nothing else is edited while the fit runs
+        elif not job.done:
+            context.window_manager.progress_update(job.fraction)
+            context.workspace.status_text_set(f"GenCoords: fitting bones to '{job.obj.name}' "
+                                              f"{job.fraction:.0%} (Esc to cancel)")
+            return {'RUNNING_MODAL'}
+        context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+        context.workspace.status_text_set(None)
+        return self._guarded(self._commit_fitted, context, job)
 
 
 def draw_menu(self, context):

@@ -9,7 +9,14 @@ bone transforms solved with the weights fixed, as a rig replays poses it was not
 on). Printed: worst and RMS distance to GenCoords' positions as fractions of the mesh's
 bounding-box diagonal, and the fit's time (noisy on a shared machine).
 
+The same on the character (scripts/common/character.py: a non-convex, box-modelled T-pose
+cage of 196 vertices, mean value coordinates partly negative there) around its capsule
+body at about 8,000 vertices, the cage animated over 24 frames: the arms bend up from the
+shoulders (up to 60 degrees at the hands), the legs swing forward and back from the hips
+(30 degrees at the feet) and the head turns (40 degrees).
+
     .venv/bin/python scripts/benchmarks/bench_skin_fit.py [--bones 64] [--iterations 12]
+        [--scene suzanne|character|both]
 """
 
 import os
@@ -55,6 +62,56 @@ def twist_and_squash(cage, frames=FRAMES):
     return np.array(poses)
 
 
+def turn(points, pivot, axis, angles):
+    """``points`` ((n, 3)) turned by ``angles`` ((n,) radians) about ``axis`` (0, 1, 2)
+    through ``pivot``."""
+    a, b = [k for k in range(3) if k != axis]
+    moved = points.copy()
+    u, v = points[:, a] - pivot[a], points[:, b] - pivot[b]
+    moved[:, a] = pivot[a] + np.cos(angles) * u - np.sin(angles) * v
+    moved[:, b] = pivot[b] + np.sin(angles) * u + np.cos(angles) * v
+    return moved
+
+
+def character_motion(cage, frames=FRAMES):
+    """The character's cage at each frame ((frames, n, 3)): arms, legs and head."""
+    x, z = cage[:, 0], cage[:, 2]
+    poses = []
+    for frame in range(1, frames + 1):
+        amount = np.sin(0.5 * np.pi * frame / frames)
+        arm = np.clip((np.abs(x) - 0.2) / 0.75, 0.0, 1.0) * (z > 1.2)
+        pose = turn(cage, np.array([0.0, 0.0, 1.325]), 1, -np.sign(x) * arm * np.radians(60) * amount)
+        leg = np.clip((0.8 - z) / 0.8, 0.0, 1.0) * (np.abs(x) > 0.05)
+        pose = turn(pose, np.array([0.0, 0.0, 0.8]), 0, np.sign(x) * leg * np.radians(30) * amount)
+        head = np.clip((z - 1.4) / 0.35, 0.0, 1.0)
+        poses.append(turn(pose, np.zeros(3), 2, head * np.radians(40) * amount))
+    return np.array(poses)
+
+
+def suzanne_scene():
+    """Suzanne in a 162-vertex icosphere: (label, rest (n, 3), coordinates, cage poses)."""
+    import gencoords
+    from gencoords.tools import shapes
+    rest = suzanne_vertices()
+    cage, faces = shapes.icosphere(2, radius=2.0)
+    coordinates = gencoords.coordinates(rest, cage, faces, kind="mean_value")
+    label = f"Suzanne {len(rest)} vertices, icosphere cage {len(cage)} vertices, twist and squash"
+    return label, rest, coordinates, twist_and_squash(cage)
+
+
+def character_scene():
+    """The character's body in its cage: (label, rest, coordinates, cage poses)."""
+    import gencoords
+    from gencoords.tools import triangulate_quads
+    from scripts.common import character
+    rest, _, _ = character.body_mesh(detail=0.42)
+    cage, quads = character.character_cage()
+    coordinates = gencoords.coordinates(rest, cage, triangulate_quads(cage, quads), kind="mean_value")
+    label = (f"character body {len(rest)} vertices, non-convex cage {len(cage)} vertices, "
+             "arms, legs and head")
+    return label, rest, coordinates, character_motion(cage)
+
+
 def report(label, rest, frames, fit, skin_fit):
     worst, rms = skin_fit.deviations(rest, frames, fit)
     print(f"  {label:<30} worst {100 * worst:6.3f} %   RMS {100 * rms:6.3f} % of the diagonal")
@@ -76,21 +133,20 @@ def main():
     parser.add_argument("--bones", type=int, default=64)
     parser.add_argument("--iterations", type=int, default=12)
     parser.add_argument("--influences", type=int, default=4)
+    parser.add_argument("--scene", choices=("suzanne", "character", "both"), default="both")
     args = parser.parse_args()
 
-    import gencoords
-    from gencoords.tools import shapes, skin_fit
-    rest = suzanne_vertices()
-    cage, faces = shapes.icosphere(2, radius=2.0)
-    start = time.perf_counter()
-    coordinates = gencoords.coordinates(rest, cage, faces, kind="mean_value")
-    bind_time = time.perf_counter() - start
-    frames = coordinates @ twist_and_squash(cage)
-    print(f"Suzanne {len(rest)} vertices, icosphere cage {len(cage)} vertices, mean value "
-          f"({100 * np.mean(coordinates < 0):.1f} % negative; {bind_time:.1f} s), {FRAMES} frames "
-          f"twist and squash; {args.influences} influences, {args.bones} bones seeded, "
-          f"{args.iterations} iterations")
+    scenes = {"suzanne": suzanne_scene, "character": character_scene}
+    for name in (scenes if args.scene == "both" else [args.scene]):
+        fit_scene(*scenes[name](), args)
 
+
+def fit_scene(label, rest, coordinates, cage_poses, args):
+    from gencoords.tools import skin_fit
+    frames = coordinates @ cage_poses
+    print(f"\n{label}: mean value ({100 * np.mean(coordinates < -1e-9):.1f} % negative), "
+          f"{len(frames)} frames; {args.influences} influences, {args.bones} bones seeded, "
+          f"{args.iterations} iterations")
     fit = timed_fit(rest, frames, args, f"all {FRAMES} frames")
     report("fitted frames", rest, frames, fit, skin_fit)
     fitted, held = frames[0::2], frames[1::2]

@@ -4,13 +4,14 @@ options, skinned by our own numpy reader that reads only JOINTS_0/WEIGHTS_0)."""
 
 import importlib
 import json
+import time
 
 import bpy
 import numpy as np
 import pytest
 
 from fresh_process import PACKAGE, report_of, run_blender_script
-from scene_helpers import add_icosphere_cage, add_sphere, bind, read_positions
+from scene_helpers import add_icosphere_cage, add_sphere, bind, make_active, read_positions
 from test_addon_bones import (animate_cage, apply_matrix, binding_motion, pose_at_time, read_accessor,
                               read_glb, skinned_positions, validate, y_up)
 
@@ -176,3 +177,69 @@ def test_the_exported_glb_plays_the_fit_for_a_4_influence_reader(gc, tmp_path):
     info = rig.data["gencoords_bake"].to_dict()
     assert gaps.max() == pytest.approx(info["worst"], abs=1e-4)
     assert np.sqrt(np.mean(gaps ** 2)) == pytest.approx(info["rms"], abs=1e-4)
+
+
+def fitted_operator_stand_in(operators, **options):
+    """The Bake to Bones operator's methods on a plain object (Blender operators cannot
+    be made outside a call), with Fitted options and its reports."""
+    cls = operators.OBJECT_OT_gencoords_bake_bones
+    methods = {name: vars(cls)[name] for name in (
+        "execute", "invoke", "modal", "_fitted_options", "_guarded", "_fitted_job", "_commit_fitted",
+        "_bake_fitted", "_start_fitted")}
+    stand_in = type("BakeStandIn", (), methods)()
+    defaults = {"mode": 'FITTED', "bones": 8, "max_influences": 0, "use_scene_range": True,
+                "frame_start": 1, "frame_end": 250, "fitted_confirmed": False}
+    for name, value in {**defaults, **options}.items():
+        setattr(stand_in, name, value)
+    stand_in.reports = []
+    stand_in.report = lambda kind, text: stand_in.reports.append(text)
+    return stand_in
+
+
+def run_modal(operator, context, timer):
+    result = {'RUNNING_MODAL'}
+    while result == {'RUNNING_MODAL'}:
+        time.sleep(0.02)
+        result = operator.modal(context, timer)
+    return result
+
+
+def test_in_a_window_the_fit_runs_modal_with_progress_and_esc(gc, monkeypatch):
+    """OK in the options dialog -> execute hands over -> a modal bake whose fit runs in a
+    thread: nothing is written until it ends, Esc changes nothing, other events are held."""
+    from types import SimpleNamespace
+
+    from test_addon_artist import ContextStandIn, WindowStandIn
+    operators = importlib.import_module(f"{PACKAGE}.gencoords_addon.operators")
+    obj, expected = bound_animated_scene(gc)
+    make_active(obj)
+    monkeypatch.setattr(operators, "interactive", lambda context: True)
+    window_manager = WindowStandIn()
+    context = ContextStandIn(window_manager)
+
+    asking = fitted_operator_stand_in(operators)
+    handed_over = []
+    fake_ops = SimpleNamespace(object=SimpleNamespace(
+        gencoords_bake_bones=lambda *args, **kwargs: handed_over.append((args, kwargs))))
+    with monkeypatch.context() as patch:
+        patch.setattr(operators.bpy, "ops", fake_ops)
+        assert asking.execute(context) == {'CANCELLED'}
+    ((args, kwargs),) = handed_over
+    assert args == ('INVOKE_DEFAULT',) and kwargs["fitted_confirmed"] and kwargs["bones"] == 8
+    assert kwargs["mode"] == 'FITTED' and obj.parent is None
+
+    escaped = fitted_operator_stand_in(operators, fitted_confirmed=True)
+    assert escaped.invoke(context, None) == {'RUNNING_MODAL'}
+    assert escaped.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
+    assert escaped.reports == ["Bake to Bones cancelled: nothing was changed"]
+    assert gc.binding.binding(obj) is not None and obj.parent is None and not obj.vertex_groups
+
+    running = fitted_operator_stand_in(operators, fitted_confirmed=True)
+    assert running.invoke(context, None) == {'RUNNING_MODAL'}
+    assert {"event_timer_add", "progress_begin", "modal_handler_add"} <= set(window_manager.calls)
+    assert running.modal(context, SimpleNamespace(type='LEFTMOUSE')) == {'RUNNING_MODAL'}
+    assert run_modal(running, context, SimpleNamespace(type='TIMER')) == {'FINISHED'}
+    assert "progress_end" in window_manager.calls and obj.parent.type == 'ARMATURE'
+    assert running.reports[-1].startswith("Baked 'Mesh' to 'Mesh fitted rig' (")
+    worst, _ = deviations(obj, expected, mesh_diagonal(obj))
+    assert worst < WORST
