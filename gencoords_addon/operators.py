@@ -303,7 +303,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     max_influences: bpy.props.IntProperty(
         name="Max Influences", default=0, min=0, soft_max=8,
         description="Weights kept per vertex, renormalised (game engines take 4 or 8; "
-                    "three.js reads 4); 0 keeps all, which is exact")
+                    "three.js reads 4); 0 keeps all, which is exact (Fitted: 0 fits 4)")
     mode: bpy.props.EnumProperty(
         name="Mode", default='CAGE_VERTICES', items=(
             ('CAGE_VERTICES', "Bone per Cage Vertex",
@@ -340,6 +340,21 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             cls.poll_message_set(f"'{context.active_object.name}' is not bound: Bind it first")
             return False
         return True
+
+    def draw(self, context):
+        """The options dialog: each mode's own options."""
+        layout = self.layout
+        layout.prop(self, "mode")
+        layout.prop(self, "max_influences")
+        if self.mode != 'FITTED':
+            layout.prop(self, "keyframes")
+            return
+        layout.prop(self, "bones")
+        layout.prop(self, "use_scene_range")
+        row = layout.row(align=True)
+        row.enabled = not self.use_scene_range
+        row.prop(self, "frame_start")
+        row.prop(self, "frame_end")
 
     def invoke(self, context, event):
         """In the UI: ask for the options first (Fitted: then fit with progress and Esc)."""

@@ -442,14 +442,7 @@ def _best_subsets(gram, width):
     weights[:, 0] = 1.0
     for size in range(1, min(width, pool) + 1):
         subsets = np.array(list(itertools.combinations(range(pool), size)))
-        system = np.ones((count, len(subsets), size + 1, size + 1))
-        system[:, :, :size, :size] = gram[:, subsets[:, :, None], subsets[:, None, :]] \
-            + ridge[:, None, None, None] * np.eye(size)
-        system[:, :, size, size] = 0.0
-        right = np.zeros((count, len(subsets), size + 1, 1))
-        right[:, :, size] = 1.0
-        w = np.linalg.solve(system, right)[..., :size, 0]
-        error = np.einsum("csi,csij,csj->cs", w, system[:, :, :size, :size], w)
+        w, error = _subset_optima(gram, subsets, ridge)
         error[(w < 0.0).any(axis=2)] = np.inf
         pick = error.argmin(axis=1)
         better = error[np.arange(count), pick] < best
@@ -457,6 +450,27 @@ def _best_subsets(gram, width):
         columns[better] = np.pad(subsets[pick[better]], ((0, 0), (0, width - size)), mode="edge")
         weights[better] = np.pad(w[better, pick[better]], ((0, 0), (0, width - size)))
     return columns, weights
+
+
+def _subset_optima(gram, subsets, ridge):
+    """argmin w^T G_S w over sum(w) = 1 for each subset S ((s, size) columns) of each
+    Gram matrix ((c, pool, pool), plus ``ridge`` (c,) on the diagonal): weights
+    (c, s, size) and errors (c, s); one and two columns in closed form."""
+    size = subsets.shape[1]
+    g = gram[:, subsets[:, :, None], subsets[:, None, :]] + ridge[:, None, None, None] * np.eye(size)
+    if size == 1:
+        return np.ones(g.shape[:3]), g[:, :, 0, 0]
+    if size == 2:
+        first = (g[..., 1, 1] - g[..., 0, 1]) / (g[..., 0, 0] + g[..., 1, 1] - 2.0 * g[..., 0, 1])
+        w = np.stack([first, 1.0 - first], axis=2)
+    else:
+        system = np.ones(g.shape[:2] + (size + 1, size + 1))
+        system[..., :size, :size] = g
+        system[..., size, size] = 0.0
+        right = np.zeros(g.shape[:2] + (size + 1, 1))
+        right[..., size, 0] = 1.0
+        w = np.linalg.solve(system, right)[..., :size, 0]
+    return w, np.einsum("csi,csij,csj->cs", w, g, w)
 
 
 def _canonical(indices, weights):

@@ -89,18 +89,18 @@ def character_motion(cage, frames=FRAMES):
 
 
 def suzanne_scene():
-    """Suzanne in a 162-vertex icosphere: (label, rest (n, 3), coordinates, cage poses)."""
+    """Suzanne in a 162-vertex icosphere: (label, rest (n, 3), coordinates, cage, cage poses)."""
     import gencoords
     from gencoords.tools import shapes
     rest = suzanne_vertices()
     cage, faces = shapes.icosphere(2, radius=2.0)
     coordinates = gencoords.coordinates(rest, cage, faces, kind="mean_value")
     label = f"Suzanne {len(rest)} vertices, icosphere cage {len(cage)} vertices, twist and squash"
-    return label, rest, coordinates, twist_and_squash(cage)
+    return label, rest, coordinates, cage, twist_and_squash(cage)
 
 
 def character_scene():
-    """The character's body in its cage: (label, rest, coordinates, cage poses)."""
+    """The character's body in its cage: (label, rest, coordinates, cage, cage poses)."""
     import gencoords
     from gencoords.tools import triangulate_quads
     from scripts.common import character
@@ -109,7 +109,7 @@ def character_scene():
     coordinates = gencoords.coordinates(rest, cage, triangulate_quads(cage, quads), kind="mean_value")
     label = (f"character body {len(rest)} vertices, non-convex cage {len(cage)} vertices, "
              "arms, legs and head")
-    return label, rest, coordinates, character_motion(cage)
+    return label, rest, coordinates, cage, character_motion(cage)
 
 
 def report(label, rest, frames, fit, skin_fit):
@@ -141,12 +141,18 @@ def main():
         fit_scene(*scenes[name](), args)
 
 
-def fit_scene(label, rest, coordinates, cage_poses, args):
-    from gencoords.tools import skin_fit
+def fit_scene(label, rest, coordinates, cage, cage_poses, args):
+    from gencoords.tools import skin_fit, skinning
     frames = coordinates @ cage_poses
     print(f"\n{label}: mean value ({100 * np.mean(coordinates < -1e-9):.1f} % negative), "
           f"{len(frames)} frames; {args.influences} influences, {args.bones} bones seeded, "
           f"{args.iterations} iterations")
+    # The baseline, in the same run: a bone per cage vertex, the coordinates truncated
+    # to the largest few (what 4 influences of a Bone per Cage Vertex bake play).
+    truncated = rest + skinning.truncate(coordinates, args.influences) @ (cage_poses - cage)
+    gaps = np.linalg.norm(truncated - frames, axis=2) / np.linalg.norm(np.ptp(rest, axis=0))
+    print(f"  {'bone per cage vertex, truncated':<30} worst {100 * gaps.max():6.3f} %   "
+          f"RMS {100 * np.sqrt(np.mean(gaps ** 2)):6.3f} % of the diagonal")
     fit = timed_fit(rest, frames, args, f"all {FRAMES} frames")
     report("fitted frames", rest, frames, fit, skin_fit)
     fitted, held = frames[0::2], frames[1::2]
