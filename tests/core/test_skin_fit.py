@@ -174,3 +174,31 @@ def test_bad_input_is_refused_with_a_message(bones, influences, frames_shape, me
     with pytest.raises(ValueError, match="finite"):
         skin_fit.fit_skin(rest, np.full((1, 300, 3), np.nan), bones=4)
 
+
+
+def test_dem_bones_skins_the_same_deformation_no_closer():
+    """An independent SSDR implementation (py-dem-bones, EA SEED's Dem Bones; optional:
+    its wheels are for Python 3.11 only) on a twisted sphere: our skinning of its
+    transforms and weights reproduces the deformation (the conventions agree), and our
+    fit is at least as close with the same bones and influences."""
+    dem_bones = pytest.importorskip("py_dem_bones")
+    cage, faces = shapes.icosphere(1, radius=2.0)
+    points, triangles = shapes.icosphere(2, radius=1.3)
+    points = points * [1.0, 0.8, 1.1]
+    coordinates = gencoords.coordinates(points, cage, faces, kind="mean_value")
+    poses = []
+    for angle in np.linspace(0.2, 1.2, 6):
+        turn = angle * cage[:, 2] / 2.0
+        poses.append(np.column_stack([np.cos(turn) * cage[:, 0] - np.sin(turn) * cage[:, 1],
+                                      np.sin(turn) * cage[:, 0] + np.cos(turn) * cage[:, 1], cage[:, 2]]))
+    frames = coordinates @ np.array(poses)
+    theirs = dem_bones.solve_skinning(points, frames, 6, faces=triangles, max_influences=4, iterations=10)
+    dense = theirs.weights.T
+    indices = np.argsort(-dense, axis=1)[:, :4]
+    weights = np.take_along_axis(dense, indices, 1)
+    assert np.count_nonzero(dense, axis=1).max() <= 4 and dense.min() >= 0.0
+    rest_matrices = np.broadcast_to(np.eye(4), (dense.shape[1], 4, 4))
+    their_worst, their_rms = skin_fit.deviations(
+        points, frames, skin_fit.SkinFit(rest_matrices, theirs.transforms, indices, weights))
+    ours = skin_fit.deviations(points, frames, skin_fit.fit_skin(points, frames, bones=6))
+    assert their_rms < 0.02 and ours[1] <= their_rms and ours[0] <= their_worst
