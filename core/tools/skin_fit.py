@@ -463,14 +463,16 @@ def _subset_optima(gram, subsets, ridge):
     if size == 2:
         first = (g[..., 1, 1] - g[..., 0, 1]) / (g[..., 0, 0] + g[..., 1, 1] - 2.0 * g[..., 0, 1])
         w = np.stack([first, 1.0 - first], axis=2)
-    else:
-        system = np.ones(g.shape[:2] + (size + 1, size + 1))
-        system[..., :size, :size] = g
-        system[..., size, size] = 0.0
-        right = np.zeros(g.shape[:2] + (size + 1, 1))
-        right[..., size, 0] = 1.0
-        w = np.linalg.solve(system, right)[..., :size, 0]
-    return w, np.einsum("csi,csij,csj->cs", w, g, w)
+        return w, np.einsum("csi,csij,csj->cs", w, g, w)
+    # KKT: G w + mu 1 = 0, 1^T w = 1; then w^T G w = -mu.
+    system = np.empty(g.shape[:2] + (size + 1, size + 1))
+    system[..., :size, :size] = g
+    system[..., size, :] = system[..., :, size] = 1.0
+    system[..., size, size] = 0.0
+    right = np.zeros(g.shape[:2] + (size + 1, 1))
+    right[..., size, 0] = 1.0
+    solution = np.linalg.solve(system, right)[..., 0]
+    return solution[..., :size], -solution[..., size]
 
 
 def _canonical(indices, weights):
