@@ -38,6 +38,7 @@ from ..base import tolerances
 __all__ = ["SkinFit", "fit_skin", "fit_transforms", "skin", "deviations", "MAX_BONES"]
 
 MAX_BONES = 255  # bone indices fit a byte (glTF's JOINTS_0 as UNSIGNED_BYTE)
+_TRIMS = 3  # rounds of the clusters' trimmed rigid fits
 _CHUNK = 2048  # vertices a batch of the weight solve (memory: chunk x subsets x K^2)
 
 
@@ -297,19 +298,21 @@ def _initial_transforms(rest, frames, indices, weights, count):
 
 
 def _cluster_transforms(rest, frames, labels, count):
-    """Each cluster's rigid motion, fitted again to the half of its vertices that the
-    first fit moves best (a cluster's edge often straddles two bones' blend): rotations
-    (F, B, 3, 3), translations (F, B, 3)."""
-    single = np.ones((len(rest), 1))
-    rotations, translations = _initial_transforms(rest, frames, labels[:, None], single, count)
-    moved = np.einsum("fnij,nj->fni", rotations[:, labels], rest) + translations[:, labels]
-    residual = ((moved - frames) ** 2).sum(axis=(0, 2))
-    order = np.lexsort((residual, labels))
+    """Each cluster's rigid motion, fitted again (a few times) to the half of its
+    vertices that the previous fit moves best: a cluster's edge often straddles two
+    bones' blend, and its rigid core is what gives a bone's motion. Returns rotations
+    (F, B, 3, 3) and translations (F, B, 3)."""
+    kept = np.ones(len(rest))
     sizes = np.bincount(labels, minlength=count)
-    rank = np.empty(len(rest), dtype=np.int64)
-    rank[order] = np.arange(len(rest)) - np.repeat(np.cumsum(sizes) - sizes, sizes)
-    kept = rank < np.maximum(3, (sizes[labels] + 1) // 2)
-    return _initial_transforms(rest, frames, labels[:, None], kept[:, None].astype(float), count)
+    for _ in range(_TRIMS):
+        rotations, translations = _initial_transforms(rest, frames, labels[:, None], kept[:, None], count)
+        moved = np.einsum("fnij,nj->fni", rotations[:, labels], rest) + translations[:, labels]
+        residual = ((moved - frames) ** 2).sum(axis=(0, 2))
+        order = np.lexsort((residual, labels))
+        rank = np.empty(len(rest), dtype=np.int64)
+        rank[order] = np.arange(len(rest)) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+        kept = (rank < np.maximum(3, (sizes[labels] + 1) // 2)).astype(float)
+    return _initial_transforms(rest, frames, labels[:, None], kept[:, None], count)
 
 
 # -------------------------------------------------------------------------- transforms

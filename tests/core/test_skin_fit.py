@@ -77,7 +77,7 @@ def test_a_blended_skin_is_recovered_closely_and_better_with_more_rounds():
         check_weights(fit, len(rest), 4)
         errors.append(skin_fit.deviations(rest, frames, fit))
     assert errors[0][0] > errors[1][0] > errors[2][0]
-    assert errors[2][0] < 1e-3 and errors[2][1] < 2e-4
+    assert errors[2][0] < 1e-4 and errors[2][1] < 2e-5
 
 
 def test_the_skin_reproduces_held_out_frames_of_a_skin():
