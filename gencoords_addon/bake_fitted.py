@@ -3,8 +3,9 @@ fitted to what the binding shows over a frame range.
 
 Truncating coordinates to the 4 largest per vertex (what a game engine reads of a bone
 per cage vertex) cannot follow the cage; fitting can (``core.tools.skin_fit``, SSDR as in
-Dem Bones). The bake samples the mesh as Blender evaluates it (the GenCoords modifier's
-deformation, world space) at every frame of the range, fits a skin, and writes an
+Dem Bones). The bake samples the mesh as Blender evaluates it with the binding's
+modifier alone (its deformation, world space; other modifiers stay where they are and
+apply to the rig's result as they did to the binding's) at every frame of the range, fits a skin, and writes an
 armature whose bones are keyframed (location and rotation) at those frames, so that
 exporters write the animation with their default options; the vertex groups hold the
 fitted weights; an Armature modifier takes the GenCoords modifier's place. The figures
@@ -16,6 +17,7 @@ tied to a cage vertex). Any kind of binding can be baked so, Green and negative
 coordinates included: the fit's weights are never negative.
 """
 
+import contextlib
 import threading
 import time
 
@@ -42,25 +44,41 @@ def frame_range(scene, start=None, end=None):
     return np.arange(first, last + 1)
 
 
-def sample_deformation(obj, context, frames):
-    """The mesh's evaluated vertices in world space at each of ``frames``: (F, n, 3) float64;
-    BindError when the evaluated mesh has other vertices than the mesh (a modifier adds some)."""
+@contextlib.contextmanager
+def alone(obj, modifier):
+    """The block sees ``obj`` deformed by ``modifier`` alone: the others are hidden from
+    the viewport (what is sampled and measured), and shown again afterwards."""
+    hidden = [m for m in obj.modifiers if m != modifier and m.show_viewport]
+    shown = modifier.show_viewport
+    for other in hidden:
+        other.show_viewport = False
+    modifier.show_viewport = True
+    try:
+        yield
+    finally:
+        modifier.show_viewport = shown
+        for other in hidden:
+            other.show_viewport = True
+
+
+def sample_deformation(obj, context, frames, modifier):
+    """The mesh's vertices in world space at each of ``frames``, deformed by ``modifier``
+    alone (the binding's: its deformation is what is baked, and the Armature modifier
+    that replaces it sees what it saw): (F, n, 3) float64."""
     scene = context.scene
     current = scene.frame_current, scene.frame_subframe
     count = len(obj.data.vertices)
     positions = []
     try:
-        for frame in frames:
-            scene.frame_set(int(frame))
-            sampled = bones.evaluated_world_positions(obj, context.evaluated_depsgraph_get())
-            if len(sampled) != count:
-                raise bindings_module.BindError(
-                    f"Cannot bake '{obj.name}' to fitted bones: its modifiers give {len(sampled)} "
-                    f"vertices, its mesh has {count} (a modifier such as Subdivision adds "
-                    "vertices): apply or remove that modifier, or move it below, then bake")
-            positions.append(sampled)
+        with alone(obj, modifier):
+            for frame in frames:
+                scene.frame_set(int(frame))
+                positions.append(bones.evaluated_world_positions(obj, context.evaluated_depsgraph_get()))
     finally:
         scene.frame_set(current[0], subframe=current[1])
+    if any(len(sampled) != count for sampled in positions):
+        raise bindings_module.BindError(f"Cannot bake '{obj.name}' to fitted bones: its binding "
+                                        "changes its vertex count: Bind again")
     return np.array(positions)
 
 
@@ -79,7 +97,7 @@ class FittedBakeJob:
         self.frames = frame_range(context.scene) if frames is None else np.asarray(frames)
         world = np.array(obj.matrix_world, dtype=np.float64)
         self.rest = mesh_io.read_positions(obj.data).astype(np.float64) @ world[:3, :3].T + world[:3, 3]
-        self.sampled = sample_deformation(obj, context, self.frames)
+        self.sampled = sample_deformation(obj, context, self.frames, self.found.modifier)
         self.options = {"bones": min(bone_count, len(self.rest)), "max_influences": max_influences,
                         "iterations": iterations, "seed": seed}
         self.bone_count, self.fraction, self.fit, self.error = int(bone_count), 0.0, None, None
@@ -166,7 +184,7 @@ def _write(obj, context, found, fit, rest, sampled, frames):
         if obj.parent is None:  # exporters (glTF) expect a skinned mesh under its armature
             obj.parent = rig  # the rig sits at the world origin: the mesh does not move
         found.modifier.show_viewport = False  # measure the rig alone
-        played = sample_deformation(obj, context, frames)
+        played = sample_deformation(obj, context, frames, skin)
         gaps = np.linalg.norm(played - sampled, axis=2) / max(diagonal, 1e-300)
         figures = {"mode": "FITTED", "worst": float(gaps.max()),
                    "rms": float(np.sqrt(np.mean(gaps ** 2))), "frames": [int(frames[0]), int(frames[-1])],

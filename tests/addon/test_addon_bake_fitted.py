@@ -243,3 +243,18 @@ def test_in_a_window_the_fit_runs_modal_with_progress_and_esc(gc, monkeypatch):
     assert running.reports[-1].startswith("Baked 'Mesh' to 'Mesh fitted rig' (")
     worst, _ = deviations(obj, expected, mesh_diagonal(obj))
     assert worst < WORST
+
+
+def test_other_modifiers_stay_and_the_fit_is_of_the_binding_alone(gc):
+    """A Subdivision after the binding (it changes the vertex count) and a hidden
+    binding modifier: the bake samples the binding's deformation alone, the Armature
+    takes its place, the Subdivision stays after it and is shown as before."""
+    obj, expected = bound_animated_scene(gc)
+    subdivision = obj.modifiers.new("Subdivision", 'SUBSURF')
+    gc.binding.binding(obj).modifier.show_viewport = False
+    assert bake_fitted(obj, bones=16) == {'FINISHED'}
+    assert [(m.type, m.show_viewport) for m in obj.modifiers] == [('ARMATURE', True), ('SUBSURF', True)]
+    subdivision.show_viewport = False
+    worst, rms = deviations(obj, expected, mesh_diagonal(obj))
+    assert worst < WORST and rms < RMS
+    assert obj.parent.data["gencoords_bake"]["worst"] == pytest.approx(worst, rel=1e-3, abs=1e-7)
