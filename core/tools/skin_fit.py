@@ -19,7 +19,9 @@ the vertices' trajectories), then the fit alternates between
   held fixed; bones that share no vertex are solved together (a colouring of the bones'
   overlap graph), which is Gauss-Seidel order, vectorised;
 
-and re-seeds bones that lost every vertex where the fit is worst. Game engines and glTF
+and re-seeds bones that lost every vertex where the fit is worst. The rounds are
+Anderson-accelerated (alternating least squares converges linearly, slowly where
+blends are wide), with steps that would fit worse rejected. Game engines and glTF
 read 4 weights per vertex and at most 255 or so bones per skin: ``max_influences`` 4,
 ``bones`` up to :data:`MAX_BONES`.
 
@@ -187,11 +189,23 @@ def fit_skin(rest, frames, bones=32, max_influences=4, iterations=12, seed=0, pr
     labels = _trajectory_clusters(rest, frames, bones, rng)
     count = int(labels.max()) + 1
     rotations, translations = _cluster_transforms(rest, frames, labels, count)
+    accelerate, plain = _Anderson(), None
     for round_ in range(iterations):
         indices, weights = _fit_weights(rest, frames, rotations, translations, max_influences)
+        if plain is not None and _skin_errors(rest, frames, indices, weights, rotations,
+                                              translations).sum() > plain[2]:
+            # The extrapolated transforms fit worse than the round they came from: take that.
+            rotations, translations = plain[0], plain[1]
+            accelerate.reset()
+            indices, weights = _fit_weights(rest, frames, rotations, translations, max_influences)
+        if round_ < iterations - 1 and _reseed_unused_bones(rest, frames, indices, weights,
+                                                            rotations, translations):
+            accelerate.reset()
+        before = rotations.copy(), translations.copy()
+        error = _gauss_seidel_sweep(rest, frames, indices, weights, rotations, translations)
+        plain = rotations, translations, error
         if round_ < iterations - 1:
-            _reseed_unused_bones(rest, frames, indices, weights, rotations, translations)
-        _gauss_seidel_sweep(rest, frames, indices, weights, rotations, translations)
+            rotations, translations = accelerate.step(before, plain[:2])
         if progress is not None:
             progress((round_ + 1) / max(iterations, 1))
     return _pruned_fit(rest, indices, weights, rotations, translations)
@@ -374,7 +388,8 @@ def _colour_classes(indices, weights, count):
 
 
 def _gauss_seidel_sweep(rest, frames, indices, weights, rotations, translations):
-    """One update of every bone's transforms with the others' fixed (in place)."""
+    """One update of every bone's transforms with the others' fixed (in place); returns
+    the skin's summed squared error after it."""
     count = rotations.shape[1]
     predicted = np.array([_skin_frame(rest, indices, weights, r, t)
                           for r, t in zip(rotations, translations)]).reshape(frames.shape)
@@ -390,6 +405,7 @@ def _gauss_seidel_sweep(rest, frames, indices, weights, rotations, translations)
         _procrustes(bone, w * w, rest[vertex], w[None, :, None] * carried, rotations, translations)
         new = np.einsum("fmij,mj->fmi", rotations[:, bone], rest[vertex]) + translations[:, bone]
         predicted[:, vertex] += w[None, :, None] * (new - own)  # a vertex is in one pair here
+    return float(((predicted - frames) ** 2).sum())
 
 
 # ----------------------------------------------------------------------------- weights
@@ -491,15 +507,13 @@ def _canonical(indices, weights):
 
 def _reseed_unused_bones(rest, frames, indices, weights, rotations, translations):
     """Move each bone that weighs no vertex onto the rigid motion of the neighbourhood
-    (in rest positions) of a vertex the skin fits worst (in place)."""
+    (in rest positions) of a vertex the skin fits worst (in place); whether any moved."""
     used = np.zeros(rotations.shape[1], dtype=bool)
     used[indices[weights > 0.0]] = True
     unused = np.flatnonzero(~used)
     if len(unused) == 0:
-        return
-    predicted = np.array([_skin_frame(rest, indices, weights, r, t)
-                          for r, t in zip(rotations, translations)])
-    error = ((predicted - frames) ** 2).sum(axis=(0, 2))
+        return False
+    error = _skin_errors(rest, frames, indices, weights, rotations, translations)
     worst = np.argsort(-error, kind="stable")[:len(unused)]
     size = min(len(rest), max(4, len(rest) // rotations.shape[1]))
     distances = ((rest[worst][:, None] - rest[None]) ** 2).sum(axis=2)
@@ -507,6 +521,45 @@ def _reseed_unused_bones(rest, frames, indices, weights, rotations, translations
     bone = np.repeat(unused[:len(worst)], size)
     vertex = nearest.reshape(-1)
     _procrustes(bone, np.ones(len(vertex)), rest[vertex], frames[:, vertex], rotations, translations)
+    return True
+
+
+def _skin_errors(rest, frames, indices, weights, rotations, translations):
+    """Each vertex's squared distance to the frames, summed over them ((n,))."""
+    predicted = np.array([_skin_frame(rest, indices, weights, r, t)
+                          for r, t in zip(rotations, translations)]).reshape(frames.shape)
+    return ((predicted - frames) ** 2).sum(axis=(0, 2))
+
+
+class _Anderson:
+    """Anderson acceleration of the rounds, a fixed-point map x -> g(x) on the bones'
+    transforms: the next x is the combination of the last few g that the linearised
+    map sends closest to a fixed point (alternating least squares alone converges
+    linearly, and slowly where blends are wide). Rotations are projected back onto
+    rotations; the caller rejects steps that fit worse."""
+
+    def __init__(self, memory=5):
+        self.memory = memory
+        self.reset()
+
+    def reset(self):
+        self.points, self.residuals = [], []
+
+    def step(self, before, after):
+        """``before`` and ``after`` (rotations (F, B, 3, 3), translations (F, B, 3)) of a
+        round: the transforms to start the next round from."""
+        x, g = (np.concatenate([r.ravel(), t.ravel()]) for r, t in (before, after))
+        self.points, self.residuals = self.points[-self.memory:] + [x], self.residuals[-self.memory:] + [g - x]
+        if len(self.points) < 2:
+            return after
+        residuals = np.diff(np.array(self.residuals), axis=0).T
+        images = np.diff(np.array(self.points) + np.array(self.residuals), axis=0).T
+        gamma = np.linalg.lstsq(residuals, g - x, rcond=None)[0]
+        mixed = g - images @ gamma
+        size = after[0].size
+        u, _, vt = np.linalg.svd(mixed[:size].reshape(after[0].shape))
+        u[..., :, 2] *= np.where(np.linalg.det(u @ vt) < 0.0, -1.0, 1.0)[..., None]
+        return u @ vt, mixed[size:].reshape(after[1].shape)
 
 
 def _pruned_fit(rest, indices, weights, rotations, translations):

@@ -64,20 +64,21 @@ def test_a_skin_of_rigid_parts_is_recovered_exactly():
     assert worst < 1e-9 and rms < 1e-9
 
 
-def test_a_blended_skin_is_recovered_closely_and_better_with_more_rounds():
-    """Blended between neighbouring bones over half their spacing (38 % of the points):
-    the alternation converges linearly (slowly where blends are wide), so the test asks
-    for a close fit and a falling error, not rounding."""
+def test_a_blended_skin_is_recovered_and_closer_with_more_rounds():
+    """Blended between neighbouring bones over half their spacing (38 % of the points),
+    random turns per bone and frame: recovered to 1e-6 of its size in 60 rounds (plain
+    alternation converges linearly, slowly where blends are wide: the rounds are
+    Anderson-accelerated), and closer with every few rounds on the way."""
     rng = np.random.default_rng(1)
     rest, indices, weights = bar_skin(rng)
     frames = skin_fit.skin(rest, indices, weights, random_transforms(rng, 6, 4))
     errors = []
-    for rounds in (2, 6, 12):
+    for rounds in (2, 12, 60):
         fit = skin_fit.fit_skin(rest, frames, bones=4, max_influences=4, iterations=rounds)
         check_weights(fit, len(rest), 4)
         errors.append(skin_fit.deviations(rest, frames, fit))
     assert errors[0][0] > errors[1][0] > errors[2][0]
-    assert errors[2][0] < 1e-4 and errors[2][1] < 2e-5
+    assert errors[2][0] < 1e-6 and errors[2][1] < 2e-7
 
 
 def test_the_skin_reproduces_held_out_frames_of_a_skin():
