@@ -79,6 +79,12 @@ def sample_deformation(obj, context, frames, modifier):
     if any(len(sampled) != count for sampled in positions):
         raise bindings_module.BindError(f"Cannot bake '{obj.name}' to fitted bones: its binding "
                                         "changes its vertex count: Bind again")
+    broken = [int(frame) for frame, sampled in zip(frames, positions) if not np.isfinite(sampled).all()]
+    if broken:
+        raise bindings_module.BindError(
+            f"Cannot bake '{obj.name}' to fitted bones: its deformed vertices are not finite "
+            f"at frame {broken[0]} ({len(broken)} of the {len(frames)} frames sampled): check the cage's positions and "
+            "keyframes there, or bake another frame range")
     return np.array(positions)
 
 

@@ -258,3 +258,23 @@ def test_other_modifiers_stay_and_the_fit_is_of_the_binding_alone(gc):
     worst, rms = deviations(obj, expected, mesh_diagonal(obj))
     assert worst < WORST and rms < RMS
     assert obj.parent.data["gencoords_bake"]["worst"] == pytest.approx(worst, rel=1e-3, abs=1e-7)
+
+
+def test_a_deformation_that_is_not_finite_is_refused_and_changes_nothing(gc, monkeypatch):
+    """A cage keyed to infinity somewhere (or NaN) makes the binding's vertices not
+    finite at those frames: the bake says which, and writes nothing."""
+    obj, _ = bound_animated_scene(gc)
+    module = fitted_module()
+    finite = gc.bones.evaluated_world_positions
+
+    def broken_at_frame_4(obj, depsgraph):
+        positions = finite(obj, depsgraph)
+        if bpy.context.scene.frame_current == 4:
+            positions[3] = np.nan
+        return positions
+    monkeypatch.setattr(module.bones, "evaluated_world_positions", broken_at_frame_4)
+    objects = set(bpy.data.objects.keys())
+    with pytest.raises(RuntimeError, match=r"not finite at frame 4 \(1 of the 10 frames sampled\)"):
+        bake_fitted(obj, bones=8)
+    assert set(bpy.data.objects.keys()) == objects and gc.binding.binding(obj) is not None
+    assert not obj.vertex_groups and obj.parent is None
