@@ -46,11 +46,11 @@ import bpy
 
 from . import handlers
 from .api import BindingResult, binding_result, binding_results  # noqa: F401 (public)
-from .ui import operators, panel
+from .ui import bake_operator, operators, panel
 from .preferences import GenCoordsPreferences
 from .ui.properties import GenCoordsSettings
 
-CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *panel.CLASSES)
+CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *bake_operator.CLASSES, *panel.CLASSES)
 
 
 def register():
@@ -59,13 +59,13 @@ def register():
     bpy.types.Object.gencoords = bpy.props.PointerProperty(
         type=GenCoordsSettings, name="GenCoords",
         description="GenCoords cage deformation settings of this object (read when binding)")
-    operators.MENU.append(operators.draw_menu)
+    bake_operator.MENU.append(bake_operator.draw_menu)
     handlers.register()
 
 
 def unregister():
     handlers.unregister()
-    operators.MENU.remove(operators.draw_menu)
+    bake_operator.MENU.remove(bake_operator.draw_menu)
     del bpy.types.Object.gencoords
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)
