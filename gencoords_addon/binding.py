@@ -376,7 +376,10 @@ class BindJob:
             raise BindError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or "
                             f"infinite) positions (first: vertex {undefined[0]}): fix or "
                             "delete them, then Bind")
-        geometry = mesh_io.read_evaluated_cage(self.cage, depsgraph)
+        try:
+            geometry = mesh_io.read_evaluated_cage(self.cage, depsgraph)
+        except core.CageError as error:  # NaN or infinite vertices: caught before triangles
+            raise BindError(messages.cage_error(self.cage.name, error, self.kind_label, ())) from None
         if len(geometry.triangles) == 0:
             raise BindError(f"The cage '{self.cage.name}' has no faces: it must be a closed "
                             "surface around the mesh (add faces, e.g. Mesh > Convex Hull)")

@@ -1,0 +1,38 @@
+"""Issue 27's outside findings: each through the operator an artist or a script uses."""
+
+import bpy
+import numpy as np
+import pytest
+
+from scene_helpers import (add_cube_cage, add_icosphere_cage, add_sphere, bind, evaluated_positions,
+                           make_active, mesh_state,
+                           read_positions, write_positions)
+
+
+def assert_refused(operator, obj, message, **options):
+    """``operator`` on ``obj`` inside temp_override raises ``message``; nothing changed."""
+    before, modifiers = mesh_state(obj), [m.name for m in obj.modifiers]
+    make_active(obj)
+    with bpy.context.temp_override(active_object=obj, object=obj), \
+            pytest.raises(RuntimeError, match=message) as error:
+        operator(**options)
+    assert "internal error" not in str(error.value)
+    after = mesh_state(obj)
+    np.testing.assert_array_equal(after[0], before[0])
+    assert after[1] == before[1] and [m.name for m in obj.modifiers] == modifiers
+
+
+def break_vertex(obj, value=np.nan, vertex=3):
+    positions = read_positions(obj.data).copy()
+    positions[vertex] = value
+    write_positions(obj.data, positions)
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_bind_to_a_cage_with_an_undefined_vertex_says_so(gc, value):
+    cage = add_icosphere_cage()
+    break_vertex(cage, value)
+    obj = add_sphere()
+    obj.gencoords.cage = cage
+    assert_refused(bpy.ops.object.gencoords_bind, obj, r"Cage .Cage. has vertices at infinite or undefined \(NaN\) positions \(vertices 3\)")
+
