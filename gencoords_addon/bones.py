@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core.tools import compact, skinning
 from . import binding as bindings_module
-from . import compat, mesh_io
+from . import compat, mesh_io, status
 from .enums import is_green, kind_label
 
 BONE_PREFIX = "GenCoords "
@@ -184,6 +184,11 @@ def bake(obj, context, max_influences=0, keyframes=True):
     names = bone_names(len(rest))
     # Read before anything is written: each frame then costs what playback does.
     motion = cage_motion(cage, context) if keyframes else None
+    if motion is not None and not np.isfinite(motion[1]).all():
+        frame = int(motion[0][np.flatnonzero(~np.isfinite(motion[1]).all(axis=(1, 2)))[0]])
+        raise bindings_module.BindError(
+            f"Cannot bake '{obj.name}' to bones: the cage '{cage.name}' has undefined (NaN or "
+            f"infinite) positions at frame {frame}: fix its animation, or untick Keyframe Cage Motion")
 
     # All or nothing: what this adds is removed again on a failure, and the binding goes
     # last (its removal is all or nothing itself).
@@ -238,6 +243,11 @@ def _bake_inputs(obj, max_influences):
     found = bindings_module.binding(obj)
     if found.cage is None:
         raise bindings_module.BindError("The binding's cage is missing: Bind again first")
+    # Whatever stops the deformer (a NaN cage vertex, changed counts) would bake a rig
+    # that does something else: the rig would follow what the binding does not.
+    problem = status.deformation_problem(obj, found)
+    if problem is not None:
+        raise bindings_module.BindError(f"Cannot bake '{obj.name}' to bones: {problem}")
     if is_green(found.info["kind"]):
         raise bindings_module.BindError(
             f"Cannot bake '{obj.name}' to bones: it is bound with Green coordinates, which also "

@@ -36,3 +36,26 @@ def test_bind_to_a_cage_with_an_undefined_vertex_says_so(gc, value):
     obj.gencoords.cage = cage
     assert_refused(bpy.ops.object.gencoords_bind, obj, r"Cage .Cage. has vertices at infinite or undefined \(NaN\) positions \(vertices 3\)")
 
+
+def bake_in_override(obj, **options):
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        return bpy.ops.object.gencoords_bake_bones(**options)
+
+
+def assert_bake_refused(gc, obj, cage, message):
+    objects, cage_groups = set(bpy.data.objects.keys()), len(cage.vertex_groups)
+    make_active(obj)
+    with pytest.raises(RuntimeError, match=message) as error:
+        bake_in_override(obj)
+    assert "internal error" not in str(error.value)
+    assert set(bpy.data.objects.keys()) == objects and gc.binding.binding(obj) is not None
+    assert not obj.vertex_groups and len(cage.vertex_groups) == cage_groups and obj.parent is None
+
+
+def test_bake_to_bones_refuses_a_cage_with_an_undefined_vertex(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    assert bind(obj, cage) == {'FINISHED'}
+    break_vertex(cage)
+    assert_bake_refused(gc, obj, cage, r"Cannot bake 'Mesh' to bones: .*undefined \(NaN or infinite\)")
+    assert np.isfinite(evaluated_positions(obj)).all()
