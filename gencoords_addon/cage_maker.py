@@ -84,17 +84,34 @@ def make_cage_geometry(points, target_vertices, margin):
     raise CageError("the cage stayed non-convex after hulling again: try another vertex count")
 
 
-def make_cage(obj, context, target_vertices=100, margin=0.05):
-    """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
-    None or what to say about worker processes that failed, see
-    :func:`preferences.in_workers_or_blender`)."""
+def _enclosed_points(obj, context):
+    """The mesh's vertices to enclose, in world space ((k, 3) float64); CageError when
+    they cannot be."""
     depsgraph = context.evaluated_depsgraph_get()
     with mesh_io.evaluated_mesh(obj, depsgraph) as evaluated:
         local = mesh_io.read_positions(evaluated).astype(np.float64)
     if len(local) < 4:
         raise CageError(f"'{obj.name}' needs at least 4 vertices to make a cage around")
+    undefined = np.flatnonzero(~np.isfinite(local).all(axis=1))
+    if len(undefined):
+        raise CageError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or infinite) "
+                        f"positions (first: vertex {undefined[0]}): fix or delete them first")
     world = np.array(obj.matrix_world, dtype=np.float64)
-    points = local @ world[:3, :3].T + world[:3, 3]
+    return local @ world[:3, :3].T + world[:3, 3]
+
+
+def make_cage(obj, context, target_vertices=100, margin=0.05):
+    """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
+    None or what to say about worker processes that failed, see
+    :func:`preferences.in_workers_or_blender`).
+
+    The cage object sits at the middle of the mesh's bounds (a float32 location) and its
+    vertices are relative to it: float32 vertices then keep the cage's shape however far
+    from the origin and however small the mesh.
+    """
+    points = _enclosed_points(obj, context)
+    centre = ((points.min(axis=0) + points.max(axis=0)) / 2).astype(np.float32).astype(np.float64)
+    points = points - centre
     stored, triangles = make_cage_geometry(points, target_vertices, margin)
     outside, worker_failure = preferences.in_workers_or_blender(
         lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
@@ -108,6 +125,7 @@ def make_cage(obj, context, target_vertices=100, margin=0.05):
         mesh.from_pydata(stored.tolist(), [], triangles.tolist())
         mesh.update()
         cage = bpy.data.objects.new(f"{obj.name} cage", mesh)
+        cage.location = centre.tolist()
         cage.display_type = 'WIRE'
         for collection in obj.users_collection:
             collection.objects.link(cage)

@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 
-from scene_helpers import (add_cube_cage, add_icosphere_cage, add_sphere, bind, evaluated_positions,
+from scene_helpers import (add_icosphere_cage, add_sphere, bind, evaluated_positions,
                            make_active, mesh_state,
                            read_positions, write_positions)
 
@@ -59,3 +59,32 @@ def test_bake_to_bones_refuses_a_cage_with_an_undefined_vertex(gc):
     break_vertex(cage)
     assert_bake_refused(gc, obj, cage, r"Cannot bake 'Mesh' to bones: .*undefined \(NaN or infinite\)")
     assert np.isfinite(evaluated_positions(obj)).all()
+
+
+def make_cage_in_override(obj, **options):
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        return bpy.ops.object.gencoords_make_cage(**options)
+
+
+def test_make_cage_on_a_mesh_with_an_undefined_vertex_says_so(gc):
+    obj = add_sphere()
+    break_vertex(obj)
+    objects = set(bpy.data.objects.keys())
+    with pytest.raises(RuntimeError, match=r"Cannot make a cage: 'Mesh' has 1 vertices at undefined "
+                                           r"\(NaN or infinite\) positions \(first: vertex 3\)"):
+        make_cage_in_override(obj)
+    assert set(bpy.data.objects.keys()) == objects and obj.gencoords.cage is None
+
+
+def test_make_cage_around_a_micro_mesh_far_from_the_origin_binds_and_follows(gc):
+    """A mesh of radius 1e-6 whose object sits at 1000: float32 world positions there are
+    6e-5 apart, coarser than the mesh."""
+    obj = add_sphere(radius=1e-6, location=(1000.0, 0.0, 0.0))
+    assert make_cage_in_override(obj, target_vertices=40) == {'FINISHED'}
+    cage = obj.gencoords.cage
+    assert cage is not None and len(cage.data.vertices) >= 8
+    assert bind(obj, cage) == {'FINISHED'}
+    rest = read_positions(obj.data).astype(np.float64)
+    write_positions(cage.data, read_positions(cage.data) * 1.5)
+    moved = evaluated_positions(obj).astype(np.float64)
+    np.testing.assert_allclose(moved, rest * 1.5, atol=2e-3 * 1e-6)
