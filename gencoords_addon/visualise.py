@@ -21,6 +21,9 @@ def field_problem(obj):
     found = binding.binding(obj)
     if found is None:
         return f"'{obj.name}' is not bound: Bind it to a cage first"
+    if found.cage is None:  # the field's marker sits on the cage
+        gone = f"The cage '{found.deleted_cage}' was" if found.deleted_cage else "The cage was"
+        return f"{gone} deleted: pick another cage and Bind, then Show Coordinate"
     count = found.info["cage_vertex_count"]
     if obj.gencoords.field_vertex >= count:
         return f"Cage Vertex must be below {count}: the cage has {count} vertices"

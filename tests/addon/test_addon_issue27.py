@@ -88,3 +88,37 @@ def test_make_cage_around_a_micro_mesh_far_from_the_origin_binds_and_follows(gc)
     write_positions(cage.data, read_positions(cage.data) * 1.5)
     moved = evaluated_positions(obj).astype(np.float64)
     np.testing.assert_allclose(moved, rest * 1.5, atol=2e-3 * 1e-6)
+
+
+def test_show_coordinate_after_the_cage_was_deleted_says_so_and_leaves_nothing(gc, capfd):
+    from test_addon_artist import delete_as_the_artist
+
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    assert bind(obj, cage) == {'FINISHED'}
+    delete_as_the_artist(cage)
+    make_active(obj)
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]), \
+            pytest.raises(RuntimeError, match="The cage 'Cage' was deleted: pick another cage and Bind") as error:
+        bpy.ops.object.gencoords_show_field()
+    assert "internal error" not in str(error.value)
+    assert "GenCoords Field" not in obj.data.color_attributes
+    obj.gencoords.field_vertex = 3  # the property's update repaints only a field shown
+    assert "Traceback" not in capfd.readouterr().err
+
+
+def test_changing_cage_vertex_of_a_shown_field_after_the_cage_was_deleted_is_quiet(gc, capfd):
+    from test_addon_artist import delete_as_the_artist
+
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    assert bind(obj, cage) == {'FINISHED'}
+    make_active(obj)
+    assert bpy.ops.object.gencoords_show_field() == {'FINISHED'}
+    delete_as_the_artist(cage)
+    capfd.readouterr()
+    obj.gencoords.field_vertex = 3
+    assert "Error" not in capfd.readouterr().err
+    make_active(obj)
+    assert bpy.ops.object.gencoords_clear_field() == {'FINISHED'}
+    assert "GenCoords Field" not in obj.data.color_attributes
