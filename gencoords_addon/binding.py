@@ -680,6 +680,14 @@ class BindJob:
         return binding(obj, self.cage)
 
 
+def keys_used_elsewhere(obj):
+    """Keys of the bindings that other objects sharing the mesh of ``obj`` (linked
+    duplicates, Alt+D) deform with: their bind data on the shared mesh must stay."""
+    return {found.key for other in bpy.data.objects
+            if other != obj and other.type == 'MESH' and other.data == obj.data
+            for found in bindings(other)}
+
+
 def remove(obj, bindings):
     """Delete ``bindings`` of ``obj`` (their modifiers, node groups and attributes), all
     or, as far as Blender lets anything fail, none.
@@ -698,9 +706,10 @@ def remove(obj, bindings):
     """
     names = [each.modifier.name for each in bindings]  # a removed modifier's RNA is gone
     parked, removed = {}, []
+    shared = keys_used_elsewhere(obj)
     try:
-        for each in bindings:
-            parked[each.key] = deformer.park_slots(obj.data, each.key)
+        for each in bindings:  # bind data a linked duplicate deforms with stays
+            parked[each.key] = {} if each.key in shared else deformer.park_slots(obj.data, each.key)
         for name, each in zip(names, bindings):
             group = each.group
             compat.remove_nodes_modifier(obj, each.modifier)

@@ -23,6 +23,10 @@ def deformation_problem(obj, found, depsgraph=None):
     if info.get("format") != FORMAT:
         return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
                 "Bind again or Unbind")
+    mesh_attributes = obj.data.attributes
+    if any(name not in mesh_attributes for name in found.slot_names + (found.basis_names or [])):
+        return (f"The bind data of '{obj.name}' is missing from its mesh (removed through an object "
+                "sharing it?): the mesh is not deformed; Bind again or Unbind")
     cage = found.cage
     if cage is None and found.deleted_cage is not None:
         return (f"The cage '{found.deleted_cage}' was deleted: the mesh is not deformed; "

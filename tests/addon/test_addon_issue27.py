@@ -122,3 +122,61 @@ def test_changing_cage_vertex_of_a_shown_field_after_the_cage_was_deleted_is_qui
     make_active(obj)
     assert bpy.ops.object.gencoords_clear_field() == {'FINISHED'}
     assert "GenCoords Field" not in obj.data.color_attributes
+
+
+def linked_duplicate(obj):
+    """Alt+D: a second object sharing the mesh (and with it the bind data)."""
+    make_active(obj)
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj],
+                                   selected_editable_objects=[obj]):
+        assert bpy.ops.object.duplicate(linked=True) == {'FINISHED'}
+    copy = bpy.context.view_layer.objects.active
+    assert copy != obj and copy.data == obj.data
+    return copy
+
+
+def follows(obj, cage, offset=(0.3, 0.0, 0.0)):
+    """Whether ``obj`` (at the cage's place) follows a translation of the cage's vertices."""
+    rest_cage = read_positions(cage.data).copy()
+    write_positions(cage.data, rest_cage + np.array(offset, dtype=np.float32))
+    moved = evaluated_positions(obj) - read_positions(obj.data)
+    write_positions(cage.data, rest_cage)
+    return np.allclose(moved, offset, atol=1e-5)
+
+
+@pytest.mark.parametrize("operation", ["unbind", "rebind", "bake"])
+def test_an_operation_on_one_linked_duplicate_keeps_the_other_following(gc, operation):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    before = mesh_state(obj)
+    assert bind(obj, cage) == {'FINISHED'}
+    copy = linked_duplicate(obj)
+    assert gc.binding.binding(copy) is not None and follows(copy, cage)
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        make_active(obj)
+        if operation == "unbind":
+            assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+        elif operation == "rebind":
+            assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+        else:
+            assert bpy.ops.object.gencoords_bake_bones() == {'FINISHED'}
+    assert follows(copy, cage)
+    assert not [text for text, icon in gc.status.status_lines(copy) if icon == 'ERROR']
+    if operation == "rebind":
+        assert follows(obj, cage)
+    # Unbinding the last user leaves the mesh's attributes as before the first Bind.
+    make_active(copy)
+    assert bpy.ops.object.gencoords_unbind() == {'FINISHED'}
+    if operation == "unbind":
+        after = mesh_state(obj)
+        np.testing.assert_array_equal(after[0], before[0])
+        assert after[1] == before[1]
+
+
+def test_the_panel_says_when_the_bind_data_is_gone_from_a_shared_mesh(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    assert bind(obj, cage) == {'FINISHED'}
+    gc.deformer.remove_slots(obj.data, gc.binding.binding(obj).key)
+    errors = [text for text, icon in gc.status.status_lines(obj) if icon == 'ERROR']
+    assert errors and "bind data of 'Mesh' is missing" in errors[0]
