@@ -27,6 +27,8 @@ from .enums import is_green, kind_label
 
 BONE_PREFIX = "GenCoords "
 BAKE_INFO = "gencoords_bake"  # ID property of the rig's armature: the bake's figures
+# Bones on their cage vertices (float32 positions, constraint evaluation), per cage diagonal.
+FOLLOW_TOLERANCE = 1e-5
 
 
 def bone_names(count):
@@ -204,6 +206,7 @@ def bake(obj, context, max_influences=0, keyframes=True):
         for collection in obj.users_collection:
             collection.objects.link(rig)
         _add_following_bones(rig, cage, names, rest)
+        following = _following_error(rig, cage, names, rest, context)
         write_weights(obj, names, weights)
         position = list(obj.modifiers).index(found.modifier)
         skin = obj.modifiers.new("Armature", 'ARMATURE')
@@ -218,7 +221,7 @@ def bake(obj, context, max_influences=0, keyframes=True):
         heads = np.array([rig.data.bones[name].head_local for name in names], dtype=np.float64)
         deviation = skinning.deviation(coordinates, rest, written, heads,
                                        compact.smooth_test_motion(rest))
-        rig.data[BAKE_INFO] = {"deviation": deviation, "max_influences": int(max_influences),
+        rig.data[BAKE_INFO] = {"deviation": deviation, "following": following, "max_influences": int(max_influences),
                                "vertices_over_4": int(np.count_nonzero(
                                    np.count_nonzero(written, axis=1) > 4)),
                                **({"frames": [int(motion[0][0]), int(motion[0][-1])]}
@@ -253,6 +256,12 @@ def _bake_inputs(obj, max_influences):
             f"Cannot bake '{obj.name}' to bones: it is bound with Green coordinates, which also "
             "follow the cage's face normals and stretch, and bones (linear blend skinning) "
             "cannot: Bind with another Type (Mean Value, say), then Bake to Bones")
+    bound, own = found.info["cage_vertex_count"], len(found.cage.data.vertices)
+    if own != bound:
+        raise bindings_module.BindError(
+            f"Cannot bake '{obj.name}' to bones: the cage '{found.cage.name}' has {bound} vertices "
+            f"with its modifiers and {own} without: bones follow the cage's own vertices. Apply "
+            "the cage's modifiers (or remove them), Bind again, then Bake to Bones")
     coordinates = found.coordinates(obj.data)
     rest_local = found.rest_cage
     if coordinates is None or rest_local is None \
@@ -279,6 +288,26 @@ def _add_following_bones(rig, cage, names, rest):
     for name in names:
         follow = rig.pose.bones[name].constraints.new('COPY_LOCATION')
         follow.target, follow.subtarget = cage, name
+
+
+def _following_error(rig, cage, names, rest, context):
+    """How far (per cage diagonal) the rig's evaluated bones are from the evaluated cage
+    vertices the binding follows; BindError beyond FOLLOW_TOLERANCE (the rig would move
+    the mesh otherwise than the binding did)."""
+    depsgraph = context.evaluated_depsgraph_get()
+    evaluated = rig.evaluated_get(depsgraph)
+    world = np.array(evaluated.matrix_world, dtype=np.float64)
+    heads = np.array([evaluated.pose.bones[name].head for name in names], dtype=np.float64)
+    heads = heads @ world[:3, :3].T + world[:3, 3]
+    cage_now = evaluated_world_positions(cage, depsgraph)
+    diagonal = float(np.linalg.norm(np.ptp(rest, axis=0)))
+    error = float(np.linalg.norm(heads - cage_now, axis=1).max()) / diagonal
+    if not error <= FOLLOW_TOLERANCE:
+        raise bindings_module.BindError(
+            f"Cannot bake to bones: the bones of '{rig.name}' would sit {error:.2g} of the cage's size away from "
+            f"the cage vertices the binding follows (modifiers or constraints on '{cage.name}'?): "
+            "apply them, Bind again, then Bake to Bones")
+    return error
 
 
 def _remove_rig(rig):

@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 
-from scene_helpers import (add_icosphere_cage, add_sphere, bind, evaluated_positions,
+from scene_helpers import (add_cube_cage, add_icosphere_cage, add_sphere, bind, evaluated_positions,
                            make_active, mesh_state,
                            read_positions, write_positions)
 
@@ -180,3 +180,30 @@ def test_the_panel_says_when_the_bind_data_is_gone_from_a_shared_mesh(gc):
     gc.deformer.remove_slots(obj.data, gc.binding.binding(obj).key)
     errors = [text for text, icon in gc.status.status_lines(obj) if icon == 'ERROR']
     assert errors and "bind data of 'Mesh' is missing" in errors[0]
+
+
+def test_bake_to_bones_refuses_a_cage_whose_modifiers_change_its_vertex_count(gc):
+    """Bones follow the cage's own vertices (vertex groups); a Subdivision Surface on the
+    cage makes the binding follow vertices the cage's mesh does not have."""
+    cage = add_cube_cage(size=5.0)
+    cage.modifiers.new("Subdivision", 'SUBSURF').levels = 1
+    obj = add_sphere()
+    assert bind(obj, cage) == {'FINISHED'}
+    assert gc.binding.binding(obj).info["cage_vertex_count"] == 26
+    assert_bake_refused(gc, obj, cage, r"Cannot bake 'Mesh' to bones: the cage 'Cage' has 26 vertices "
+                                       r"with its modifiers and 8 without: .*Apply")
+
+
+def test_bake_to_bones_measures_that_the_bones_written_follow_the_cage(gc, monkeypatch):
+    """The check is on the rig as Blender evaluates it: bones that do not follow their
+    cage vertices (here: written without their constraints) are refused."""
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    assert bind(obj, cage) == {'FINISHED'}
+    write_positions(cage.data, read_positions(cage.data) + np.float32(0.3))
+    monkeypatch.setattr(gc.bones, "_add_following_bones",
+                        lambda rig, cage, names, rest: gc.bones.add_bones(rig, names, rest, 1.0))
+    assert_bake_refused(gc, obj, cage, r"bones of .Mesh cage rig. would sit 0.08. of the cage's size away")
+    monkeypatch.undo()
+    assert bake_in_override(obj) == {'FINISHED'}
+    assert obj.parent.data["gencoords_bake"]["following"] < 1e-6
