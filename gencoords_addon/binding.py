@@ -555,6 +555,7 @@ class BindJob:
                     f"Automatic: compact, {slot_count} slots (deviation {short_number(worst)} "
                     f"> {target}; exact would take {exact_bytes / 1e9:.1f} GB: choose Exact "
                     "for it)")
+        self._check_linear_precision(written)  # on what will be written
         # How this kind behaves in this cage, away from the mesh's own vertices (the
         # summary covers those): positivity and well-definedness on a sample.
         report = None if self.green else core.tools.coordinate_report(
@@ -586,7 +587,7 @@ class BindJob:
         locations = np.empty(count, dtype=np.int8)
         stored_basis = (None if self.basis is None else  # as written: float32
                         self.basis.astype(np.float32).astype(np.float64))
-        smallest, negative, affine_error = np.inf, 0, 0.0
+        smallest, negative, affine_error, precision = np.inf, 0, 0.0, 0.0
         smooth, drag = 0.0, np.zeros(len(self.cage_vertices))
         chunk = max(1, CHUNK_ENTRIES * workers // cage_count)
         for start in range(0, count, chunk):
@@ -600,6 +601,7 @@ class BindJob:
             slots[rows] = coordinates if self.basis is None else coordinates @ self.basis
             reproduced = (slots[rows].astype(np.float64) if stored_basis is None else
                           slots[rows] @ stored_basis.T)
+            precision = max(precision, self._linear_precision(reproduced, rows, locations[rows]))
             residual = np.subtract(coordinates, reproduced, out=reproduced)
             chunk_smooth, chunk_drag = compact.residual_deviations(residual, self.cage_vertices,
                                                                    faces=self._green_faces)
@@ -609,9 +611,31 @@ class BindJob:
             yield rows.stop / count
         return {"slot_count": slot_count, "slots": slots, "locations": locations,
                 "min_coordinate": float(smallest), "negative_points": int(negative),
-                "max_affine_error": float(affine_error), "deviation_smooth": float(smooth),
+                "max_affine_error": float(affine_error), "linear_precision": float(precision),
+                "deviation_smooth": float(smooth),
                 "deviation_drag": float(drag.max(initial=0.0)),
                 "deviation_drag_vertex": int(np.argmax(drag))}
+
+    def _linear_precision(self, stored, rows, locations):
+        """``core.tools.linear_precision`` of coordinates as stored, for ``self.points[rows]``
+        (Green coordinates also weigh normals: 0; projected points are not placed where
+        they are: left out)."""
+        if self.green:
+            return 0.0
+        placed = slice(None) if self.outside != 'project' else locations != core.OUTSIDE
+        return core.tools.linear_precision(stored[placed], self.cage_vertices, self.points[rows][placed])
+
+    def _check_linear_precision(self, written):
+        """BindError when the coordinates as stored do not place the mesh's vertices."""
+        error = written["linear_precision"]
+        if error <= core.base.tolerances.LINEAR_PRECISION:
+            return
+        raise BindError(
+            f"{self.kind_label} coordinates{messages.gamma_words(self.gamma)} in the cage "
+            f"'{self.cage.name}' are too large to store (smallest {written['min_coordinate']:.3g}): as "
+            f"stored they place the vertices of '{self.obj.name}' only to {short_number(error)} of the "
+            "cage's size, and the mesh would stray as the cage moves. Choose a Gamma between -1 and "
+            "-0.5, or another Type")
 
     def _outside_message(self, cage):
         where = cage.point_locations(self.points)

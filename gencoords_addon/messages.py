@@ -66,3 +66,8 @@ def worker_fallback():
     return ("worker processes failed, so GenCoords computed in Blender instead (the same "
             "result, slower; the cause is in the system console). If this repeats, set "
             "Preferences > Add-ons > GenCoords > Worker Processes to '1: Compute in Blender'")
+
+
+def gamma_words(gamma):
+    """`` (gamma -8)`` for messages about a kind with that parameter; empty for None."""
+    return "" if gamma is None else f" (gamma {gamma:g})"

@@ -135,6 +135,37 @@ def _srgb_to_linear(srgb):
 
 
 @checked
+def linear_precision(coordinates, vertices, points):
+    """How far the coordinates place their points: the worst ``|sum_j b_j v_j - x|``,
+    relative to the cage's size (its bounding-box diagonal).
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+        One row per point, e.g. as stored (float32) and read back.
+    vertices : (n, N) float
+    points : (k, N) float
+
+    Returns
+    -------
+    error : float
+        0 for no points; compare with ``tolerances.LINEAR_PRECISION``.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> b = np.array([[0.25, 0.25, 0.25, 0.25]])
+    >>> gencoords.tools.linear_precision(b, square, [[0.5, 0.5]]), gencoords.tools.linear_precision(b, square, [[0.5, 0.6]]) > 0.07
+    (0.0, True)
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    placed = np.asarray(coordinates, dtype=np.float64) @ vertices
+    error = np.abs(placed - np.asarray(points, dtype=np.float64)).max(initial=0.0)
+    return float(error) / size
+
+
 def coordinate_summary(coordinates):
     """Figures an artist checks after binding.
 

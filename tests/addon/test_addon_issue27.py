@@ -207,3 +207,30 @@ def test_bake_to_bones_measures_that_the_bones_written_follow_the_cage(gc, monke
     monkeypatch.undo()
     assert bake_in_override(obj) == {'FINISHED'}
     assert obj.parent.data["gencoords_bake"]["following"] < 1e-6
+
+
+
+def add_points_object(points, name="Mesh"):
+    """A mesh object of loose vertices at ``points`` (what Bind binds: its vertices)."""
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([tuple(p) for p in points], [], [])
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.collection.objects.link(obj)
+    return obj
+
+
+def test_power_bindings_that_lose_linear_precision_in_storage_are_refused(gc):
+    """Power coordinates with gamma -16 reach -1711 at this point of a cube cage: float32
+    storage places it 4.7e-5 of the cage's size off (gamma -8: -1.4, exact to 6e-8)."""
+    cage = add_cube_cage()
+    spot = np.array([-0.64592897, -0.72009573, -0.31435936])
+    obj = add_points_object(spot + 0.01 * np.vstack([np.eye(3), np.zeros(3)]))
+    obj.gencoords.cage, obj.gencoords.kind, obj.gencoords.gamma = cage, 'POWER', -16.0
+    assert_refused(bpy.ops.object.gencoords_bind, obj, r"Power coordinates \(gamma -16\) in the cage 'Cage' are "
+                                                       r"too large to store \(smallest -\d+\): as stored they "
+                                                       r"place the vertices of 'Mesh' only to \d.\de-5 of the")
+    obj.gencoords.gamma = -8.0
+    make_active(obj)
+    assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+    assert gc.binding.binding(obj).info["linear_precision"] < 1e-6
+    assert follows(obj, cage)
