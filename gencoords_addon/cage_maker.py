@@ -17,6 +17,11 @@ from .binding import FLOAT32_TOLERANCE
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
+# The cage is checked convex this much more strictly than Bind checks it: Bind reads it
+# again through float32 transforms (its object's location, the mesh's space), whose
+# rounding must not turn a nearly flat pair of faces non-convex.
+STRICTER = 0.1
+HULL_TRIES = 64  # hulls, each without the corners the last one left not convex
 
 
 class CageError(Exception):
@@ -65,7 +70,7 @@ def make_cage_geometry(points, target_vertices, margin):
     rounded = np.round(corners / (size * CORNER_MERGE)).astype(np.int64)
     _, keep = np.unique(rounded, axis=0, return_index=True)
     vertices = corners[np.sort(keep)].astype(np.float32).astype(np.float64)
-    for _ in range(8):
+    for _ in range(HULL_TRIES):
         triangles = _hull(vertices)
         used = np.unique(triangles)
         remap = np.full(len(vertices), -1)
@@ -73,7 +78,8 @@ def make_cage_geometry(points, target_vertices, margin):
         vertices, triangles = vertices[used], core.tools.orient_facets_outward(vertices[used],
                                                                          remap[triangles])
         try:
-            core.advanced.validate_cage(vertices, triangles, convex=True, tolerance=FLOAT32_TOLERANCE)
+            core.advanced.validate_cage(vertices, triangles, convex=True,
+                                        tolerance=FLOAT32_TOLERANCE * STRICTER)
             return vertices, triangles
         except core.CageError as error:
             if error.problem != "non_convex" or not error.vertices:
