@@ -376,6 +376,9 @@ class BindJob:
             raise BindError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or "
                             f"infinite) positions (first: vertex {undefined[0]}): fix or "
                             "delete them, then Bind")
+        flat_axes = zero_scale_axes(obj.evaluated_get(depsgraph).matrix_world)
+        if flat_axes:  # its vertices would be flat in world space, and huge in its own
+            raise BindError(messages.zero_scale("mesh", obj.name, flat_axes, "Bind"))
         try:
             geometry = mesh_io.read_evaluated_cage(self.cage, depsgraph)
         except core.CageError as error:  # NaN or infinite vertices: caught before triangles
@@ -385,10 +388,7 @@ class BindJob:
                             "surface around the mesh (add faces, e.g. Mesh > Convex Hull)")
         flat_axes = zero_scale_axes(self.cage.evaluated_get(depsgraph).matrix_world)
         if flat_axes:
-            raise BindError(f"The cage object '{self.cage.name}' is scaled to zero on its "
-                            f"{' and '.join(flat_axes)} {'axes' if len(flat_axes) > 1 else 'axis'} "
-                            "(or its parent is): give it a "
-                            "non-zero Scale (Object Properties > Transform), then Bind")
+            raise BindError(messages.zero_scale("cage", self.cage.name, flat_axes, "Bind"))
         self.triangle_faces = geometry.triangle_faces
         self.rest_cage = capture_rest_cage(obj, self.cage, context)
         if len(self.rest_cage) != len(geometry.positions):

@@ -12,8 +12,8 @@ import numpy as np
 
 from .. import core
 from ..core.tools import enclosing
-from . import mesh_io, preferences
-from .binding import FLOAT32_TOLERANCE
+from . import mesh_io, messages, preferences
+from .binding import FLOAT32_TOLERANCE, zero_scale_axes
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
@@ -102,6 +102,9 @@ def _enclosed_points(obj, context):
     if len(undefined):
         raise CageError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or infinite) "
                         f"positions (first: vertex {undefined[0]}): fix or delete them first")
+    flat_axes = zero_scale_axes(obj.matrix_world)
+    if flat_axes:  # the cage would be flat
+        raise CageError(messages.zero_scale("mesh", obj.name, flat_axes, "Make Cage"))
     world = np.array(obj.matrix_world, dtype=np.float64)
     return local @ world[:3, :3].T + world[:3, 3]
 

@@ -71,3 +71,10 @@ def worker_fallback():
 def gamma_words(gamma):
     """`` (gamma -8)`` for messages about a kind with that parameter; empty for None."""
     return "" if gamma is None else f" (gamma {gamma:g})"
+
+
+def zero_scale(what, name, axes, then):
+    """Message for an object (``what``: "cage", "mesh") scaled to zero on ``axes``."""
+    plural = "axes" if len(axes) > 1 else "axis"
+    return (f"The {what} object '{name}' is scaled to zero on its {' and '.join(axes)} {plural} (or its "
+            f"parent is): give it a non-zero Scale (Object Properties > Transform), then {then}")

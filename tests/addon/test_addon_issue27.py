@@ -1,5 +1,7 @@
 """Issue 27's outside findings: each through the operator an artist or a script uses."""
 
+import re
+
 import bpy
 import numpy as np
 import pytest
@@ -234,3 +236,18 @@ def test_power_bindings_that_lose_linear_precision_in_storage_are_refused(gc):
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
     assert gc.binding.binding(obj).info["linear_precision"] < 1e-6
     assert follows(obj, cage)
+
+
+def test_a_mesh_object_scaled_to_zero_is_told_so_by_bind_and_make_cage(gc):
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    obj.scale[2] = 0.0
+    obj.gencoords.cage = cage
+    said = ("The mesh object 'Mesh' is scaled to zero on its Z axis (or its parent is): give it a "
+            "non-zero Scale (Object Properties > Transform), then ")
+    assert_refused(bpy.ops.object.gencoords_bind, obj, re.escape(said + "Bind"))
+    obj.gencoords.cage = None
+    objects = set(bpy.data.objects.keys())
+    with pytest.raises(RuntimeError, match=re.escape("Cannot make a cage: " + said + "Make Cage")):
+        make_cage_in_override(obj)
+    assert set(bpy.data.objects.keys()) == objects
