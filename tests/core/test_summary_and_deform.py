@@ -51,3 +51,12 @@ def test_linear_precision_is_zero_for_exact_coordinates_and_finds_float32_losses
     for gamma, fails in ((-16.0, True), (-1.0, False)):
         stored = gencoords.coordinates(spot, cube, triangles, kind="power", gamma=gamma).astype(np.float32)
         assert (gencoords.tools.linear_precision(stored, cube, spot) > limit) == fails
+
+
+def test_linear_precision_does_not_depend_on_where_the_cage_is():
+    vertices, faces = octahedron()
+    points = random_interior_points(np.random.default_rng(3), vertices, 20)
+    stored = gencoords.coordinates(points, vertices, faces).astype(np.float32)
+    near = gencoords.tools.linear_precision(stored, vertices, points)
+    far = gencoords.tools.linear_precision(stored, vertices * 1e-6 + 1000.0, points * 1e-6 + 1000.0)
+    assert near < 1e-6 and far < 1e-6  # about the origin, float32 rounding of sums ~ 1 would give 50
