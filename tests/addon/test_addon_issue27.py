@@ -5,6 +5,7 @@ import re
 import bpy
 import numpy as np
 import pytest
+from mathutils import Vector
 
 from scene_helpers import (add_cube_cage, add_icosphere_cage, add_sphere, bind, evaluated_positions,
                            make_active, mesh_state,
@@ -251,3 +252,19 @@ def test_a_mesh_object_scaled_to_zero_is_told_so_by_bind_and_make_cage(gc):
     with pytest.raises(RuntimeError, match=re.escape("Cannot make a cage: " + said + "Make Cage")):
         make_cage_in_override(obj)
     assert set(bpy.data.objects.keys()) == objects
+
+
+@pytest.mark.parametrize("move", [5e-7, 1e-7])
+def test_moving_a_micro_cage_object_by_less_than_its_size_is_followed(gc, move):
+    """Object Info's Relative space skips transforms within ~1e-6 of the identity."""
+    cage = add_icosphere_cage(radius=1e-6)
+    obj = add_sphere(radius=5e-7)
+    obj.rotation_euler = (0.3, 0.0, 0.7)  # the mesh's space is not the world's
+    assert bind(obj, cage) == {'FINISHED'}
+    rest = evaluated_positions(obj).astype(np.float64)
+    np.testing.assert_array_equal(rest, read_positions(obj.data))
+    cage.location = (move, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    expected = rest + np.array(obj.matrix_world.inverted().to_3x3() @ Vector((move, 0.0, 0.0)))
+    error = np.abs(evaluated_positions(obj) - expected).max() / 2e-6
+    assert error < 1e-4
