@@ -17,10 +17,10 @@ from .binding import FLOAT32_TOLERANCE, zero_scale_axes
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
-# The cage is checked convex this much more strictly than Bind checks it: Bind reads it
-# again through float32 transforms (its object's location, the mesh's space), whose
-# rounding must not turn a nearly flat pair of faces non-convex.
-STRICTER = 0.1
+# Margin 0 still keeps this gap (of the mesh's size): merging corners and float32 rounding
+# move the cage's faces by up to ~2 CORNER_MERGE, which must not cut a vertex off.
+MIN_MARGIN = 4 * CORNER_MERGE
+MARGIN_TRIES, MARGIN_GROWTH = 4, 4.0
 HULL_TRIES = 64  # hulls, each without the corners the last one left not convex
 
 
@@ -61,7 +61,7 @@ def make_cage_geometry(points, target_vertices, margin):
     if size == 0.0:
         raise CageError("the mesh has no extent: a cage needs a volume to enclose")
     directions = enclosing.sphere_directions(max(4, target_vertices // 2 + 2))
-    offsets = enclosing.supporting_offsets(points, directions, margin * size)
+    offsets = enclosing.supporting_offsets(points, directions, max(margin, MIN_MARGIN) * size)
     dual = enclosing.dual_points(directions, offsets, points.mean(axis=0))
     corners = enclosing.facet_vertices(directions, offsets, _hull(dual))
     # Facets of one dual face meet at one corner, and nearly parallel planes at corners
@@ -78,8 +78,7 @@ def make_cage_geometry(points, target_vertices, margin):
         vertices, triangles = vertices[used], core.tools.orient_facets_outward(vertices[used],
                                                                          remap[triangles])
         try:
-            core.advanced.validate_cage(vertices, triangles, convex=True,
-                                        tolerance=FLOAT32_TOLERANCE * STRICTER)
+            core.advanced.validate_cage(vertices, triangles, convex=True, tolerance=FLOAT32_TOLERANCE)
             return vertices, triangles
         except core.CageError as error:
             if error.problem != "non_convex" or not error.vertices:
@@ -91,17 +90,21 @@ def make_cage_geometry(points, target_vertices, margin):
 
 
 def _enclosed_points(obj, context):
-    """The mesh's vertices to enclose, in world space ((k, 3) float64); CageError when
-    they cannot be."""
+    """The mesh's vertices to enclose, in world space ((k, 3) float64): those Bind binds
+    (the mesh data) and those the artist sees (with modifiers and shape keys); CageError
+    when they cannot be."""
     depsgraph = context.evaluated_depsgraph_get()
     with mesh_io.evaluated_mesh(obj, depsgraph) as evaluated:
-        local = mesh_io.read_positions(evaluated).astype(np.float64)
-    if len(local) < 4:
+        seen = mesh_io.read_positions(evaluated).astype(np.float64)
+    bound = mesh_io.read_positions(obj.data).astype(np.float64)
+    if len(bound) < 4:
         raise CageError(f"'{obj.name}' needs at least 4 vertices to make a cage around")
-    undefined = np.flatnonzero(~np.isfinite(local).all(axis=1))
-    if len(undefined):
-        raise CageError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or infinite) "
-                        f"positions (first: vertex {undefined[0]}): fix or delete them first")
+    for local, where in ((bound, ""), (seen, " with its modifiers and shape keys")):
+        undefined = np.flatnonzero(~np.isfinite(local).all(axis=1))
+        if len(undefined):
+            raise CageError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or infinite) "
+                            f"positions{where} (first: vertex {undefined[0]}): fix or delete them first")
+    local = np.concatenate([bound, seen])
     flat_axes = zero_scale_axes(obj.matrix_world)
     if flat_axes:  # the cage would be flat
         raise CageError(messages.zero_scale("mesh", obj.name, flat_axes, "Make Cage"))
@@ -109,25 +112,38 @@ def _enclosed_points(obj, context):
     return local @ world[:3, :3].T + world[:3, 3]
 
 
+def _enclosing_cage(obj, points, target_vertices, margin, context):
+    """``make_cage_geometry`` around ``points``, checked to enclose them; where corners
+    dropped to keep it convex cut a vertex off (small margins), made again with a margin
+    MARGIN_GROWTH times larger, up to MARGIN_TRIES times. Returns (vertices, triangles,
+    worker failure or None)."""
+    for _ in range(MARGIN_TRIES):
+        stored, triangles = make_cage_geometry(points, target_vertices, margin)
+        outside, worker_failure = preferences.in_workers_or_blender(
+            lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
+                                                 workers=workers), preferences.worker_count(context))
+        count = int(np.count_nonzero(outside == core.OUTSIDE))
+        if count == 0:
+            return stored, triangles, worker_failure
+        margin = max(margin, MIN_MARGIN) * MARGIN_GROWTH
+    raise CageError(f"{count} vertices of '{obj.name}' ended outside the cage: raise the margin")
+
+
 def make_cage(obj, context, target_vertices=100, margin=0.05):
     """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
     None or what to say about worker processes that failed, see
     :func:`preferences.in_workers_or_blender`).
 
-    The cage object sits at the middle of the mesh's bounds (a float32 location) and its
-    vertices are relative to it: float32 vertices then keep the cage's shape however far
-    from the origin and however small the mesh.
+    A mesh farther from the origin than its size gets its cage object at the middle of
+    its bounds (a float32 location), with vertices relative to it: float32 vertices then
+    keep the cage's shape however far from the origin and however small the mesh.
     """
     points = _enclosed_points(obj, context)
     centre = ((points.min(axis=0) + points.max(axis=0)) / 2).astype(np.float32).astype(np.float64)
+    if np.linalg.norm(centre) <= np.linalg.norm(np.ptp(points, axis=0)):
+        centre[:] = 0.0  # near the origin: the cage object there, read back without a transform
     points = points - centre
-    stored, triangles = make_cage_geometry(points, target_vertices, margin)
-    outside, worker_failure = preferences.in_workers_or_blender(
-        lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
-                                             workers=workers), preferences.worker_count(context))
-    if (outside == core.OUTSIDE).any():
-        raise CageError(f"{int((outside == core.OUTSIDE).sum())} vertices of '{obj.name}' "
-                        "ended outside the cage: raise the margin")
+    stored, triangles, worker_failure = _enclosing_cage(obj, points, target_vertices, margin, context)
     mesh = bpy.data.meshes.new(f"{obj.name} cage")
     cage = None
     try:  # all or nothing: what was added goes again on a failure

@@ -9,7 +9,7 @@ from mathutils import Vector
 
 from scene_helpers import (add_cube_cage, add_icosphere_cage, add_sphere, bind, evaluated_positions,
                            make_active, mesh_state,
-                           read_positions, write_positions)
+                           read_positions, write_positions, write_shape_key)
 
 
 def assert_refused(operator, obj, message, **options):
@@ -268,3 +268,24 @@ def test_moving_a_micro_cage_object_by_less_than_its_size_is_followed(gc, move):
     expected = rest + np.array(obj.matrix_world.inverted().to_3x3() @ Vector((move, 0.0, 0.0)))
     error = np.abs(evaluated_positions(obj) - expected).max() / 2e-6
     assert error < 1e-4
+
+
+def test_a_made_cage_binds_when_the_mesh_is_seen_elsewhere_than_its_data(gc):
+    """Make Cage encloses the mesh data Bind binds and the evaluated mesh the artist sees
+    (a shape key here moves every vertex 3 along X)."""
+    obj = add_sphere()
+    obj.shape_key_add(name="Basis")
+    moved = obj.shape_key_add(name="Moved")
+    write_shape_key(moved, read_positions(obj.data) + np.float32((3.0, 0.0, 0.0)))
+    moved.value = 1.0
+    assert make_cage_in_override(obj, target_vertices=40) == {'FINISHED'}
+    assert bind(obj, obj.gencoords.cage) == {'FINISHED'}
+
+
+@pytest.mark.parametrize("target", [20, 60, 100])
+def test_a_cage_made_with_margin_0_binds(gc, target):
+    obj = add_sphere()
+    obj.rotation_euler = (0.3, 0.2, 0.9)
+    obj.scale = (2.0, 0.7, 0.5)
+    assert make_cage_in_override(obj, target_vertices=target, margin=0.0) == {'FINISHED'}
+    assert bind(obj, obj.gencoords.cage) == {'FINISHED'}
