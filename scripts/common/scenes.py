@@ -115,6 +115,16 @@ def add_demo_mesh_and_cage():
     return mesh, add_fitted_cage(mesh, subdivisions=2)
 
 
+def add_character(detail=1.0):
+    """The artist's character (``scripts.common.character``): a ~45k-vertex body of capsules
+    in its box-modelled, non-convex quad cage (196 vertices). Returns (mesh, cage)."""
+    from . import character
+    body_vertices, body_triangles, _ = character.body_mesh(detail)
+    cage_vertices, cage_quads = character.character_cage()
+    return (add_mesh_object("Character", body_vertices, body_triangles),
+            add_mesh_object("CharacterCage", cage_vertices, cage_quads))
+
+
 def add_mesh_object(name, vertices, faces=(), edges=(), collection=None):
     """A mesh object from arrays, linked to ``collection`` (the scene's by default)."""
     mesh = bpy.data.meshes.new(name)

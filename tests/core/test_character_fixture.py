@@ -1,0 +1,44 @@
+"""The artist's character fixture (scripts/common/character.py): a closed, outward,
+non-convex quad cage with every body vertex strictly inside it."""
+
+from collections import Counter
+
+import numpy as np
+
+import gencoords
+from scripts.common import character
+
+
+def _triangles():
+    vertices, quads = character.character_cage()
+    return vertices, gencoords.tools.triangulate_quads(vertices, quads)
+
+
+def test_cage_is_closed_manifold_and_outward():
+    vertices, triangles = _triangles()
+    assert 150 <= len(vertices) <= 300
+    edges = Counter(map(tuple, np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]],
+                                                triangles[:, [2, 0]]])))
+    assert max(edges.values()) == 1 and all((b, a) in edges for a, b in edges)
+    a, b, c = (vertices[triangles[:, i]] for i in range(3))
+    assert np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6 > 0.1  # outward: positive volume
+
+
+def test_cage_is_not_convex():
+    vertices, triangles = _triangles()
+    a, b, c = (vertices[triangles[:, i]] for i in range(3))
+    normals = np.cross(b - a, c - a)
+    heights = np.einsum("vj,fj->vf", vertices, normals) - np.einsum("fj,fj->f", a, normals)
+    assert (heights.max(axis=0) > 1e-9).any()  # some vertex lies beyond some face's plane
+
+
+def test_body_is_inside_the_cage_and_labelled():
+    vertices, triangles = _triangles()
+    body, body_triangles, labels = character.body_mesh(detail=0.3)
+    assert (gencoords.point_locations(body, vertices, triangles) == gencoords.INSIDE).all()
+    assert set(labels) == set(character.LIMBS)
+    assert (character.limb_labels(body) == labels).mean() > 0.9  # the shells overlap at the joints
+    points = character.body_points(500, seed=1)
+    assert (gencoords.point_locations(points, vertices, triangles) == gencoords.INSIDE).all()
+    for limb in ("left_arm", "right_arm", "left_leg", "right_leg", "head"):
+        assert len(character.cage_limb_vertices(vertices, limb)) >= 8
