@@ -78,3 +78,23 @@ def zero_scale(what, name, axes, then):
     plural = "axes" if len(axes) > 1 else "axis"
     return (f"The {what} object '{name}' is scaled to zero on its {' and '.join(axes)} {plural} (or its "
             f"parent is): give it a non-zero Scale (Object Properties > Transform), then {then}")
+
+
+# What keeps weights positive, for the panel's note on negative ones. A kind that stays
+# positive in any closed cage (Harmonic, being added) belongs in this sentence once it lands.
+POSITIVE_WEIGHTS = "A convex cage (Make Cage) keeps weights positive; Type Green follows a bent cage smoothly"
+
+
+def negative_weights(info, kind_label):
+    """Panel lines (text, icon) explaining a binding's negative coordinates, from its
+    metadata ``info``: how many, why, what keeps them positive."""
+    share = 100.0 * info["negative_points"] / max(info["mesh_vertex_count"], 1)
+    if info["points_outside"] and info["outside"] == "extrapolate":
+        why = "Vertices outside the cage are extrapolated"
+    elif info["kind"] == "mean_value":
+        why = "The cage is not convex"
+    else:
+        why = f"{kind_label} coordinates can be negative in this cage"
+    return [(f"{share:.2g} % of vertices have negative weights (smallest {info['min_coordinate']:.3g})", 'INFO'),
+            (f"{why}: parts of the mesh may move against the cage", 'BLANK1'),
+            (POSITIVE_WEIGHTS, 'BLANK1')]

@@ -6,7 +6,7 @@ Every figure comes from the binding's metadata, which holds what the core comput
 import bpy
 import numpy as np
 
-from . import binding, mesh_io
+from . import binding, mesh_io, messages
 from .bind_layout import FORMAT
 from .enums import STORAGE_ITEMS, enum_label, kind_label
 
@@ -108,8 +108,7 @@ def binding_lines(obj, found, depsgraph=None):
                       f"{info['deviation_drag']:.1e} ({drag}) of the cage diagonal", 'INFO'))
     lines.append((f"Bind time: {info['bind_seconds']:.2f} s", 'TIME'))
     if info["negative_points"]:
-        lines.append((f"Smallest coordinate {info['min_coordinate']:.4g}: negative at "
-                      f"{info['negative_points']} vertices", 'ERROR'))
+        lines.extend(messages.negative_weights(info, kind_label(info["kind"])))
     else:
         lines.append((f"Smallest coordinate: {info['min_coordinate']:.4g}", 'CHECKMARK'))
     if "report" in info:  # inside the whole cage, not only at the mesh's vertices

@@ -289,3 +289,25 @@ def test_a_cage_made_with_margin_0_binds(gc, target):
     obj.scale = (2.0, 0.7, 0.5)
     assert make_cage_in_override(obj, target_vertices=target, margin=0.0) == {'FINISHED'}
     assert bind(obj, obj.gencoords.cage) == {'FINISHED'}
+
+
+def test_negative_mean_value_weights_in_a_non_convex_cage_are_explained_not_an_error(gc):
+    """The artist's character: a box-modelled T-pose cage, points of the body inside."""
+    from scripts.common.character import body_points, character_cage
+
+    vertices, quads = character_cage()
+    mesh = bpy.data.meshes.new("Cage")
+    mesh.from_pydata(vertices.tolist(), [], quads.tolist())
+    cage = bpy.data.objects.new("Cage", mesh)
+    bpy.context.collection.objects.link(cage)
+    obj = add_points_object(body_points(400, seed=1))
+    assert bind(obj, cage) == {'FINISHED'}
+    info = gc.binding.binding(obj).info
+    assert info["negative_points"] > 0
+    lines = gc.status.status_lines(obj)
+    assert not [text for text, icon in lines if icon == 'ERROR']
+    texts = [text for text, _ in lines]
+    share = 100 * info["negative_points"] / info["mesh_vertex_count"]
+    assert f"{share:.2g} % of vertices have negative weights (smallest {info['min_coordinate']:.3g})" in texts
+    assert "The cage is not convex: parts of the mesh may move against the cage" in texts
+    assert any("convex cage (Make Cage) keeps weights positive" in text for text in texts)
