@@ -59,11 +59,13 @@ def register():
         type=GenCoordsSettings, name="GenCoords",
         description="GenCoords cage deformation settings of this object (read when binding)")
     operators.MENU.append(operators.draw_menu)
+    operators.SELECT_MENU.append(operators.draw_select_menu)
     handlers.register()
 
 
 def unregister():
     handlers.unregister()
+    operators.SELECT_MENU.remove(operators.draw_select_menu)
     operators.MENU.remove(operators.draw_menu)
     del bpy.types.Object.gencoords
     for cls in reversed(CLASSES):

@@ -469,8 +469,12 @@ class BindJob:
             cage.close()
 
     def _core_message(self, error):
+        dented = None
+        if isinstance(error, core.CageError) and error.problem == "non_convex":
+            dented = np.unique(self.triangle_faces[core.advanced.concave_facets(
+                self.cage_vertices, self.triangles, FLOAT32_TOLERANCE)])
         return messages.core_error(self.cage.name, error, self.kind_label, len(self.points),
-                                   self.triangle_faces)
+                                   self.triangle_faces, dented)
 
     def _coordinates(self, cage, points, workers, locations=None):
         """The core's coordinates of ``points`` ((k, n) float64), its errors as BindError."""

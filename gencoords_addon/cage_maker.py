@@ -12,7 +12,7 @@ import numpy as np
 
 from .. import core
 from ..core.tools import enclosing
-from . import mesh_io, messages, preferences
+from . import mesh_arrays, mesh_io, messages, preferences
 from .binding import FLOAT32_TOLERANCE, zero_scale_axes
 
 
@@ -161,3 +161,16 @@ def make_cage(obj, context, target_vertices=100, margin=0.05):
         bpy.data.meshes.remove(mesh)
         raise
     return cage, worker_failure
+
+
+def select_dented_faces(obj):
+    """Select exactly the faces of the mesh object ``obj`` that dent inward
+    (``core.advanced.concave_facets``); returns how many. Object Mode only."""
+    mesh = obj.data
+    positions = mesh_io.read_positions(mesh)
+    triangles, triangle_faces = mesh_io.read_triangles(mesh, positions)
+    dented = np.unique(triangle_faces[core.advanced.concave_facets(positions, triangles, FLOAT32_TOLERANCE)])
+    faces = np.zeros(len(mesh.polygons), dtype=bool)
+    faces[dented] = True
+    mesh_arrays.select_faces(mesh, faces)
+    return len(dented)

@@ -132,3 +132,22 @@ def evaluated_positions(obj, depsgraph=None, out=None):
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     return read_positions(obj.evaluated_get(depsgraph).data, out)
 
+
+
+def read_edges(mesh):
+    """Each edge's two vertices: (e, 2) int32."""
+    edges = np.empty(2 * len(mesh.edges), dtype=np.int32)
+    mesh.edges.foreach_get("vertices", edges)
+    return edges.reshape(-1, 2)
+
+
+def select_faces(mesh, faces):
+    """Select exactly the faces where ``faces`` ((f,) bool) is True, with their edges and
+    vertices (what Edit Mode shows as those faces selected)."""
+    starts, sizes, corners = read_faces(mesh)
+    vertices = np.zeros(len(mesh.vertices), dtype=bool)
+    vertices[corners[np.repeat(np.asarray(faces, dtype=bool), sizes)]] = True
+    mesh.vertices.foreach_set("select", vertices)
+    mesh.edges.foreach_set("select", vertices[read_edges(mesh)].all(axis=1))
+    mesh.polygons.foreach_set("select", np.asarray(faces, dtype=bool))
+    mesh.update()

@@ -1,8 +1,10 @@
 """The core's errors phrased in Blender's terms, with the way out."""
 
 from ..core import CageError, OutsideCageError
+from ..core.surfaces.named import MEAN_VALUE
 
 RECALCULATE_NORMALS = "in Edit Mode use Mesh > Normals > Recalculate Outside"
+SELECT_DENTED = "Select > Select Dented Faces"
 CAGE_PROBLEMS = {
     "non_finite": "has vertices at infinite or undefined (NaN) positions",
     "too_few_vertices": "needs at least 4 vertices enclosing a volume",
@@ -23,15 +25,19 @@ CAGE_PROBLEMS = {
 }
 
 
-def cage_error(cage_name, error, kind_label, triangle_faces):
+def cage_error(cage_name, error, kind_label, triangle_faces, dented=None):
     """Message for a ``core.CageError`` raised on the cage called ``cage_name``.
 
     The core numbers triangles; ``triangle_faces`` maps them to the cage's own faces,
-    which the artist can select.
+    which the artist can select. ``dented``: for a non-convex cage, its faces that dent
+    inward (``core.advanced.concave_facets``, as cage faces).
     """
     problem = CAGE_PROBLEMS.get(error.problem, str(error)).format(kind=kind_label)
     where = ""
-    if error.faces:
+    if dented is not None and len(dented):
+        where = (f" ({len(dented)} faces dent inward: {_first_indices([int(f) for f in dented])}; "
+                 f"with the cage in Edit Mode, {SELECT_DENTED} selects them)")
+    elif error.faces:
         faces = list(dict.fromkeys(int(triangle_faces[t]) for t in error.faces))
         where = f" (faces {_first_indices(faces)})"
     elif error.vertices:
@@ -45,11 +51,11 @@ def outside_error(cage_name, outside_count, total):
             "enlarge the cage, or set Outside to Project or Extrapolate")
 
 
-def core_error(cage_name, error, kind_label, total, triangle_faces):
-    """Message for any error the core raised while binding (``triangle_faces``: see
-    ``cage_error``)."""
+def core_error(cage_name, error, kind_label, total, triangle_faces, dented=None):
+    """Message for any error the core raised while binding (``triangle_faces``, ``dented``:
+    see ``cage_error``)."""
     if isinstance(error, CageError):
-        return cage_error(cage_name, error, kind_label, triangle_faces)
+        return cage_error(cage_name, error, kind_label, triangle_faces, dented)
     if isinstance(error, OutsideCageError):
         return outside_error(cage_name, len(error.indices), total)
     return f"Cannot bind to cage '{cage_name}': {error}"
@@ -91,7 +97,7 @@ def negative_weights(info, kind_label):
     share = 100.0 * info["negative_points"] / max(info["mesh_vertex_count"], 1)
     if info["points_outside"] and info["outside"] == "extrapolate":
         why = "Vertices outside the cage are extrapolated"
-    elif info["kind"] == "mean_value":
+    elif info["kind"] == MEAN_VALUE:
         why = "The cage is not convex"
     else:
         why = f"{kind_label} coordinates can be negative in this cage"

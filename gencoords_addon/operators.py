@@ -349,6 +349,33 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         return {'FINISHED'}
 
 
+class MESH_OT_gencoords_select_dented_faces(MeshOperator, bpy.types.Operator):
+    """Select the faces of the active cage that dent inward (meet a neighbour at an edge
+    bent inward): what keeps it from being convex"""
+
+    bl_idname = "mesh.gencoords_select_dented_faces"
+    bl_label = "Select Dented Faces"
+
+    def execute(self, context):
+        obj = context.active_object
+        with object_mode(context, obj):
+            count = cage_maker.select_dented_faces(obj)
+        if count == 0:
+            self.report({'INFO'}, f"No face of '{obj.name}' dents inward: it is convex")
+        else:
+            self.report({'INFO'}, f"Selected the {count} faces of '{obj.name}' that dent inward")
+        return {'FINISHED'}
+
+
+def draw_select_menu(self, context):
+    """Edit Mode's Select menu."""
+    self.layout.separator()
+    self.layout.operator(MESH_OT_gencoords_select_dented_faces.bl_idname)
+
+
+SELECT_MENU = bpy.types.VIEW3D_MT_select_edit_mesh
+
+
 def draw_menu(self, context):
     """Object > Animation, beside Bake Action (F3 search finds it there too)."""
     self.layout.separator()
@@ -366,4 +393,5 @@ CLASSES = (
     OBJECT_OT_gencoords_unbind,
     OBJECT_OT_gencoords_show_field,
     OBJECT_OT_gencoords_clear_field,
+    MESH_OT_gencoords_select_dented_faces,
 )

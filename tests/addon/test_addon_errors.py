@@ -82,7 +82,7 @@ def test_non_convex_cage_suggests_mean_value(gc):
     # The faces named are the cage's own (quads an artist can select), around the dent.
     with pytest.raises(RuntimeError) as error:
         bind(obj, cage, kind="WACHSPRESS")
-    named = [int(index) for index in re.search(r"\(faces ([\d, ]+)", str(error.value)).group(1).split(",")]
+    named = [int(index) for index in re.search(r"faces dent inward: ([\d, ]+);", str(error.value)).group(1).split(",")]
     assert all(0 in cage.data.polygons[face].vertices for face in named)
     assert bind(obj, cage, kind="MEAN_VALUE") == {'FINISHED'}
 

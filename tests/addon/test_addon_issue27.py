@@ -311,3 +311,27 @@ def test_negative_mean_value_weights_in_a_non_convex_cage_are_explained_not_an_e
     assert f"{share:.2g} % of vertices have negative weights (smallest {info['min_coordinate']:.3g})" in texts
     assert "The cage is not convex: parts of the mesh may move against the cage" in texts
     assert any("convex cage (Make Cage) keeps weights positive" in text for text in texts)
+
+
+def test_the_convexity_refusal_counts_the_dented_faces_and_select_dented_faces_selects_them(gc):
+    cage = add_cube_cage()
+    positions = read_positions(cage.data).copy()
+    positions[0] *= 0.2
+    write_positions(cage.data, positions)
+    obj = add_sphere(radius=0.5)
+    obj.gencoords.cage, obj.gencoords.kind = cage, 'WACHSPRESS'
+    make_active(obj)
+    with bpy.context.temp_override(object=obj, active_object=obj), pytest.raises(RuntimeError) as error:
+        bpy.ops.object.gencoords_bind()
+    found = re.search(r"\((\d+) faces dent inward: ([\d, ]+); with the cage in Edit Mode, "
+                      r"Select > Select Dented Faces selects them\)", str(error.value))
+    assert found, str(error.value)
+    named = sorted(int(face) for face in found.group(2).split(","))
+    touching = sorted(face.index for face in cage.data.polygons if 0 in face.vertices)
+    assert int(found.group(1)) == len(named) and named == touching  # the three quads at the dent
+    make_active(cage)
+    bpy.ops.object.mode_set(mode='EDIT')
+    with bpy.context.temp_override(object=cage, active_object=cage):
+        assert bpy.ops.mesh.gencoords_select_dented_faces() == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert sorted(face.index for face in cage.data.polygons if face.select) == touching
