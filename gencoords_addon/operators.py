@@ -46,6 +46,9 @@ def interactive(context):
     return not bpy.app.background and context.window is not None
 
 
+ALL_INFLUENCES = "0: All influences, every weight kept (exact)"
+
+
 def _internal_error(operator, error, changed="nothing was changed"):
     traceback.print_exc()
     operator.report({'ERROR'}, f"GenCoords internal error, {changed} (details in the "
@@ -318,6 +321,14 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             cls.poll_message_set(f"'{context.active_object.name}' is not bound: Bind it first")
             return False
         return True
+
+    def draw(self, context):
+        """The options dialog: Max Influences 0 reads as "All"."""
+        layout = self.layout
+        layout.prop(self, "max_influences")
+        if self.max_influences == 0:
+            layout.label(text=ALL_INFLUENCES, icon='INFO')
+        layout.prop(self, "keyframes")
 
     def invoke(self, context, event):
         """In the UI: ask for the options first."""

@@ -262,7 +262,7 @@ def after_green_bind():
     check("Bind with Type Green binds Green coordinates", kind == "green", f"kind {kind}")
     check("Green binding at rest equals the mesh", moved_by(mesh) < 1e-5, f"max move {moved_by(mesh):.2e}")
     text = status_text(mesh)
-    check("the panel names Green", "Green (shape-preserving)" in text, text)
+    check("the panel names Green", "Coordinates: Green" in text, text)
     positions = arrays.read_positions(cage.data).astype(np.float64)
     centre = positions.mean(axis=0)
     arrays.write_positions(cage.data, centre + (positions - centre) * (1.6, 1.0, 1.0))

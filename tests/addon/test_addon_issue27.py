@@ -335,3 +335,22 @@ def test_the_convexity_refusal_counts_the_dented_faces_and_select_dented_faces_s
         assert bpy.ops.mesh.gencoords_select_dented_faces() == {'FINISHED'}
     bpy.ops.object.mode_set(mode='OBJECT')
     assert sorted(face.index for face in cage.data.polygons if face.select) == touching
+
+
+def test_labels_fit_the_default_properties_width_and_bakes_max_influences_0_reads_all(gc):
+    from types import SimpleNamespace
+
+    from test_addon_package import RecordingLayout
+
+    kinds = bpy.types.Object.bl_rna.properties["gencoords"].fixed_type.properties["kind"]
+    assert kinds.enum_items['GREEN'].name == "Green"
+    assert "Shape-preserving" in kinds.enum_items['GREEN'].description
+    assert max(len(item.name) for item in kinds.enum_items) <= len("Discrete Harmonic")
+    operator = bpy.types.OBJECT_OT_gencoords_bake_bones
+    rna = bpy.ops.object.gencoords_bake_bones.get_rna_type()
+    for count, says_all in ((0, True), (4, False)):
+        drawn = []
+        operator.draw(SimpleNamespace(layout=RecordingLayout(drawn), max_influences=count, keyframes=True,
+                                      bl_rna=rna), bpy.context)
+        assert ("prop", "max_influences") in drawn and ("prop", "keyframes") in drawn
+        assert (("label", "0: All influences, every weight kept (exact)") in drawn) == says_all
