@@ -50,3 +50,29 @@ def test_no_tracked_file_names_a_package_registry_host():
              for path in files if path.is_file()
              for line, host in registry_hosts_in(path.read_bytes())]
     assert not found, "package-registry host names in tracked files:\n" + "\n".join(found)
+
+
+def test_the_core_package_says_its_version_licence_and_authors_as_the_manifest_does():
+    """Issue 27 item 16: one version (gencoords.__version__, which pyproject.toml reads and
+    the extension's manifest repeats), the repository's licence, the authors."""
+    import importlib.metadata
+    import tomllib
+
+    import gencoords
+
+    pyproject = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))
+    manifest = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))
+    project = pyproject["project"]
+    assert "version" in project["dynamic"] and "version" not in project
+    assert pyproject["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "gencoords.__version__"}
+    assert gencoords.__version__ == manifest["version"] == importlib.metadata.version("gencoords")
+    licence = (REPO / "LICENSE").read_text(encoding="utf-8")
+    assert "GNU GENERAL PUBLIC LICENSE" in licence and "Version 3" in licence
+    assert manifest["license"] == [f"SPDX:{project['license']}"] and project["license"] == "GPL-3.0-or-later"
+    assert project["license-files"] == ["LICENSE"]
+    assert [author["name"] for author in project["authors"]] == [manifest["maintainer"]]
+    minor = int(project["requires-python"].removeprefix(">=3."))
+    assert {f"Programming Language :: Python :: 3.{v}" for v in range(minor, 15)} <= set(project["classifiers"])
+    assert "urls" not in project or not registry_hosts_in(str(project["urls"]).encode())
+    installed = importlib.metadata.metadata("gencoords")
+    assert installed.get("License-Expression") == project["license"]
