@@ -354,3 +354,22 @@ def test_labels_fit_the_default_properties_width_and_bakes_max_influences_0_read
                                       bl_rna=rna), bpy.context)
         assert ("prop", "max_influences") in drawn and ("prop", "keyframes") in drawn
         assert (("label", "0: All influences, every weight kept (exact)") in drawn) == says_all
+
+
+def test_the_documented_bake_to_bones_script_runs_and_does_what_it_says(gc, capsys):
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "SCRIPTING.md").read_text(encoding="utf-8")
+    (block,) = [b for b in re.findall(r"```python\n(.*?)```", text, re.DOTALL) if "gencoords_bake_bones" in b]
+    cage = add_icosphere_cage()
+    mesh_obj = add_sphere()
+    assert bind(mesh_obj, cage) == {'FINISHED'}
+    make_active(cage)  # the view layer's active object is another one: the override decides
+    exec(block, {"bpy": bpy, "mesh_obj": mesh_obj})  # noqa: S102
+    rig = mesh_obj.parent
+    bake = rig.data["gencoords_bake"].to_dict()
+    assert rig.type == 'ARMATURE' and len(rig.data.bones) == len(cage.data.vertices)
+    assert bake["max_influences"] == 4 and bake["frames"] == [bpy.context.scene.frame_start, bpy.context.scene.frame_end]
+    assert 0.0 < bake["deviation"] < 0.2 and bake["following"] < 1e-6  # 4 of 42 influences kept
+    assert not gc.binding.bindings(mesh_obj) and mesh_obj.modifiers[0].type == 'ARMATURE'
+    assert f"{len(rig.data.bones)} {bake['deviation']}" in capsys.readouterr().out
