@@ -16,13 +16,12 @@ a rig driven only by them), so the bones' motion is also keyframed over the scen
 frame range.
 """
 
-import bmesh
 import bpy
 import numpy as np
 
 from ..core.tools import compact, skinning
 from . import binding as bindings_module
-from . import compat, mesh_io, status
+from . import compat, mesh_arrays, mesh_io, status
 from .enums import is_green, kind_label
 
 BONE_PREFIX = "GenCoords "
@@ -45,56 +44,6 @@ def negative_message(obj, found, count, smallest):
             "cannot be (Blender clamps them to 0 to 1). Bind with Type Wachspress, or Mean "
             "Value with a convex cage (Make Cage makes one): these are never negative "
             "inside the cage; then Bake to Bones")
-
-
-def read_weights(obj, names):
-    """The weights of the vertex groups ``names`` of ``obj``, as Blender stores them.
-
-    Returns
-    -------
-    weights : (k, len(names)) float64
-    """
-    columns = {obj.vertex_groups[name].index: j for j, name in enumerate(names)
-               if name in obj.vertex_groups}
-    weights = np.zeros((len(obj.data.vertices), len(names)))
-    bm = bmesh.new()
-    try:
-        bm.from_mesh(obj.data)
-        layer = bm.verts.layers.deform.active
-        if layer is None:
-            return weights
-        for vert in bm.verts:
-            for group, weight in vert[layer].items():
-                j = columns.get(group)
-                if j is not None:
-                    weights[vert.index, j] = weight
-    finally:
-        bm.free()
-    return weights
-
-
-def write_weights(obj, names, weights):
-    """Set the vertex groups ``names`` of ``obj`` (made as needed) to the positive
-    entries of ``weights`` ((k, len(names))); Blender clamps them to [0, 1]."""
-    groups = [(obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name)).index
-              for name in names]
-    bm = bmesh.new()
-    try:
-        bm.from_mesh(obj.data)
-        layer = bm.verts.layers.deform.verify()
-        bm.verts.ensure_lookup_table()
-        rows, columns = np.nonzero(weights > 0.0)
-        values = weights[rows, columns].tolist()
-        group_of = [groups[j] for j in columns.tolist()]
-        deform = None
-        last = -1
-        for i, group, value in zip(rows.tolist(), group_of, values):
-            if i != last:
-                deform, last = bm.verts[i][layer], i
-            deform[group] = value
-        bm.to_mesh(obj.data)
-    finally:
-        bm.free()
 
 
 def evaluated_world_positions(obj, depsgraph):
@@ -207,7 +156,7 @@ def bake(obj, context, max_influences=0, keyframes=True):
             collection.objects.link(rig)
         _add_following_bones(rig, cage, names, rest)
         following = _following_error(rig, cage, names, rest, context)
-        write_weights(obj, names, weights)
+        mesh_arrays.write_weights(obj, names, weights)
         position = list(obj.modifiers).index(found.modifier)
         skin = obj.modifiers.new("Armature", 'ARMATURE')
         skin.object = rig
@@ -217,7 +166,7 @@ def bake(obj, context, max_influences=0, keyframes=True):
         if motion is not None:
             keyframe_motion(rig, names, *motion)
 
-        written = read_weights(obj, names)
+        written = mesh_arrays.read_weights(obj, names)
         heads = np.array([rig.data.bones[name].head_local for name in names], dtype=np.float64)
         deviation = skinning.deviation(coordinates, rest, written, heads,
                                        compact.smooth_test_motion(rest))

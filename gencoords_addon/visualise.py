@@ -85,8 +85,9 @@ def mark_cage_vertex(obj, cage, vertex):
     marker.parent_type = 'VERTEX'
     marker.parent_vertices = (vertex, 0, 0)
     marker.location = (0.0, 0.0, 0.0)
-    # A vertex parent passes on the vertex's world position only, not the cage's scale.
-    marker.empty_display_size = MARKER_SIZE * max(cage.dimensions.length, 1e-6)
+    # A vertex parent passes on the vertex's world position only, not the cage's scale;
+    # a cage of no size (Blender clamps the empty's size) has nothing to mark.
+    marker.empty_display_size = MARKER_SIZE * cage.dimensions.length
     return marker
 
 

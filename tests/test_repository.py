@@ -52,7 +52,7 @@ def test_no_tracked_file_names_a_package_registry_host():
     assert not found, "package-registry host names in tracked files:\n" + "\n".join(found)
 
 
-def test_the_core_package_says_its_version_licence_and_authors_as_the_manifest_does():
+def test_the_core_package_says_its_licence_and_authors_as_the_manifest_does():
     """Issue 27 item 16: one version (gencoords.__version__, which pyproject.toml reads and
     the extension's manifest repeats), the repository's licence, the authors."""
     import importlib.metadata
@@ -63,9 +63,7 @@ def test_the_core_package_says_its_version_licence_and_authors_as_the_manifest_d
     pyproject = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))
     manifest = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))
     project = pyproject["project"]
-    assert "version" in project["dynamic"] and "version" not in project
-    assert pyproject["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "gencoords.__version__"}
-    assert gencoords.__version__ == manifest["version"] == importlib.metadata.version("gencoords")
+    assert gencoords.__version__ == manifest["version"]  # the rest: test_layout's one-version test
     licence = (REPO / "LICENSE").read_text(encoding="utf-8")
     assert "GNU GENERAL PUBLIC LICENSE" in licence and "Version 3" in licence
     assert manifest["license"] == [f"SPDX:{project['license']}"] and project["license"] == "GPL-3.0-or-later"
@@ -76,3 +74,20 @@ def test_the_core_package_says_its_version_licence_and_authors_as_the_manifest_d
     assert "urls" not in project or not registry_hosts_in(str(project["urls"]).encode())
     installed = importlib.metadata.metadata("gencoords")
     assert installed.get("License-Expression") == project["license"]
+
+
+def test_scripts_read_kind_ids_from_the_kind_table():
+    """Issue 27 item 20: scripts name kinds through the core's constants (KIND_TABLE's
+    names, gencoords.surfaces.named, Green's), never as string literals."""
+    import ast
+
+    import gencoords
+    from gencoords.construction.green import GREEN
+
+    spellings = {kind.name for kind in gencoords.KIND_TABLE} | {GREEN}
+    spellings |= {name.upper() for name in spellings}
+    found = [f"{path.relative_to(REPO)}:{node.lineno} {node.value!r}"
+             for path in sorted((REPO / "scripts").rglob("*.py"))
+             for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+             if isinstance(node, ast.Constant) and node.value in spellings]
+    assert not found
