@@ -41,6 +41,11 @@ def object_mode(context, obj):
             bpy.ops.object.mode_set(mode='EDIT')
 
 
+# Meshes (Object.session_uid) a modal Bind is computing for: Auto Rebind waits for it
+# rather than start a second one (tabbing in and out of Edit Mode meanwhile).
+MODAL_BINDS = set()
+
+
 def interactive(context):
     """Whether an operator runs in a window that processes events (progress, Esc)."""
     return not bpy.app.background and context.window is not None
@@ -126,6 +131,9 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         if not interactive(context):
             return self.execute(context)
         obj = context.active_object
+        if obj.session_uid in MODAL_BINDS:
+            self.report({'WARNING'}, f"'{obj.name}' is being bound already: wait for it, or Esc")
+            return {'CANCELLED'}
         if not self.replace_confirmed and binding.binding(obj, obj.gencoords.cage) is not None:
             self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
             return context.window_manager.invoke_confirm(
@@ -142,9 +150,12 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
+        self._mesh_uid = self._job.obj.session_uid
+        MODAL_BINDS.add(self._mesh_uid)
         return {'RUNNING_MODAL'}
 
     def _stop(self, context, text=None):
+        MODAL_BINDS.discard(self._mesh_uid)
         window_manager = context.window_manager
         window_manager.event_timer_remove(self._timer)
         window_manager.progress_end()

@@ -373,3 +373,31 @@ def test_the_documented_bake_to_bones_script_runs_and_does_what_it_says(gc, caps
     assert 0.0 < bake["deviation"] < 0.2 and bake["following"] < 1e-6  # 4 of 42 influences kept
     assert not gc.binding.bindings(mesh_obj) and mesh_obj.modifiers[0].type == 'ARMATURE'
     assert f"{len(rig.data.bones)} {bake['deviation']}" in capsys.readouterr().out
+
+
+def test_auto_rebind_waits_for_a_modal_bind_of_the_mesh_instead_of_starting_a_second(gc, monkeypatch):
+    """Tabbing in and out while the Auto Rebind's modal Bind computes: the timer that
+    would start another waits (looks again) until that Bind has ended, then rebinds once
+    if the mesh still needs it."""
+    from test_addon_bind import subdivide_in_edit_mode
+
+    monkeypatch.setattr(gc.handlers, "_in_window", lambda: True)
+    cage = add_icosphere_cage()
+    obj = add_sphere()
+    obj.gencoords.auto_rebind = True
+    assert bind(obj, cage) == {'FINISHED'}
+    key = gc.binding.binding(obj).key
+    try:
+        gc.operators.MODAL_BINDS.add(obj.session_uid)  # a modal Bind of it is computing
+        subdivide_in_edit_mode(obj)
+        assert gc.handlers.rebind_in_window() == gc.handlers.REBIND_RETRY_SECONDS  # looks again
+        assert gc.binding.binding(obj).key == key and obj.session_uid in gc.handlers._rebind_pending
+        gc.operators.MODAL_BINDS.discard(obj.session_uid)  # it ended (here: without binding)
+        assert gc.handlers.rebind_in_window() is None
+        found = gc.binding.binding(obj)
+        assert found.key != key and found.info["mesh_vertex_count"] == len(obj.data.vertices)
+        assert [m.name for m in obj.modifiers] == ["GenCoords"]
+    finally:
+        gc.operators.MODAL_BINDS.discard(obj.session_uid)
+        if bpy.app.timers.is_registered(gc.handlers.rebind_in_window):
+            bpy.app.timers.unregister(gc.handlers.rebind_in_window)
