@@ -26,7 +26,11 @@ Operators, acting on the active mesh object (all undoable):
     bpy.ops.object.gencoords_bake_bones(max_influences=0, keyframes=True)
                                            replace the binding by an armature (a bone per
                                            cage vertex) and vertex groups, keyframed over
-                                           the scene's frame range (also Object > Animation)
+                                           the scene's frame range (also Object > Animation;
+                                           docs/SCRIPTING.md)
+    bpy.ops.mesh.gencoords_select_dented_faces()
+                                           select the active cage's faces that dent inward
+                                           (Edit Mode > Select), what keeps it from being convex
 
 Preferences (Edit > Preferences > Add-ons > GenCoords): Worker Processes, 'AUTO'
 (default), 'BLENDER' (1: compute in Blender's own process) or 'FIXED' (``worker_count``);

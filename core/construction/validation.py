@@ -142,6 +142,7 @@ def convexity_violation(cage, tolerance=DEFAULT_TOLERANCE):
     return None
 
 
+@checked
 def concave_facets(vertices, faces, tolerance=DEFAULT_TOLERANCE):
     """Triangles that meet a neighbour at an edge bent inward: where a closed, outward
     3D cage dents in (what an artist flattens or fills to make it convex).
@@ -172,6 +173,8 @@ def concave_facets(vertices, faces, tolerance=DEFAULT_TOLERANCE):
     >>> len(gencoords.advanced.concave_facets(dented, faces)) > 0
     True
     """
+    if vertices.shape[1] != 3:
+        raise ValueError(f"concave_facets takes a 3D cage, got {vertices.shape[1]}D vertices")
     vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
     size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
     corners = vertices[faces]

@@ -160,6 +160,9 @@ def linear_precision(coordinates, vertices, points):
     >>> gencoords.tools.linear_precision(b, square, [[0.5, 0.5]]), gencoords.tools.linear_precision(b, square, [[0.5, 0.6]]) > 0.07
     (0.0, True)
     """
+    if coordinates.shape != (len(points), len(vertices)):
+        raise ValueError(f"coordinates must have shape (k, n) = ({len(points)}, {len(vertices)}) for "
+                         f"{len(points)} points and {len(vertices)} cage vertices, got {coordinates.shape}")
     vertices = np.asarray(vertices, dtype=np.float64)
     # About the cage's middle: a cage far from the origin does not make coordinates that
     # sum to 1 within rounding look imprecise (deformations use differences only).
@@ -170,6 +173,7 @@ def linear_precision(coordinates, vertices, points):
     return float(error) / size
 
 
+@checked
 def coordinate_summary(coordinates):
     """Figures an artist checks after binding.
 
