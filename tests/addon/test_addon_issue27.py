@@ -351,7 +351,7 @@ def test_labels_fit_the_default_properties_width_and_bakes_max_influences_0_read
     for count, says_all in ((0, True), (4, False)):
         drawn = []
         operator.draw(SimpleNamespace(layout=RecordingLayout(drawn), max_influences=count, keyframes=True,
-                                      bl_rna=rna), bpy.context)
+                                      mode='CAGE_VERTICES', bl_rna=rna), bpy.context)
         assert ("prop", "max_influences") in drawn and ("prop", "keyframes") in drawn
         assert (("label", "0: All influences, every weight kept (exact)") in drawn) == says_all
 
@@ -360,7 +360,8 @@ def test_the_documented_bake_to_bones_script_runs_and_does_what_it_says(gc, caps
     from pathlib import Path
 
     text = (Path(__file__).resolve().parents[2] / "docs" / "SCRIPTING.md").read_text(encoding="utf-8")
-    (block,) = [b for b in re.findall(r"```python\n(.*?)```", text, re.DOTALL) if "gencoords_bake_bones" in b]
+    # The first such block: a bone per cage vertex (the Fitted mode's follows it).
+    block = [b for b in re.findall(r"```python\n(.*?)```", text, re.DOTALL) if "gencoords_bake_bones" in b][0]
     cage = add_icosphere_cage()
     mesh_obj = add_sphere()
     assert bind(mesh_obj, cage) == {'FINISHED'}
