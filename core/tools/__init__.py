@@ -8,12 +8,12 @@ Bind planning (the modules ``compact``, ``skinning``, ``skin_fit``, ``shapes``,
 from ..base import tolerances
 from ..base.orientation import orient_facets_outward
 from ..base.triangulation import triangulate_quads
-from ..evaluation.deformation import coordinate_summary, field_colors, field_range
+from ..evaluation.deformation import coordinate_summary, field_colors, field_range, linear_precision
 from . import bind_plan, compact, enclosing, shapes, skin_fit, skinning
 from .report import CoordinateReport, coordinate_report
 
 __all__ = [
-    "field_colors", "field_range", "coordinate_summary", "coordinate_report", "CoordinateReport",
+    "field_colors", "field_range", "coordinate_summary", "linear_precision", "coordinate_report", "CoordinateReport",
     "triangulate_quads", "orient_facets_outward", "tolerances",
     "bind_plan", "compact", "enclosing", "shapes", "skin_fit", "skinning",
 ]

@@ -21,15 +21,17 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from ..base.tolerances import LINEAR_PRECISION
 from ..construction.boundary import BOUNDARY, OUTSIDE
 from ..construction.green import GREEN
 from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
-from ..evaluation.deformation import coordinate_summary
+from ..evaluation.deformation import coordinate_summary, linear_precision
 from . import compact
 from .report import coordinate_report
 
-__all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "plan_bind", "choose_storage"]
+__all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "plan_bind",
+           "choose_storage"]
 
 # Automatic storage is exact without measuring while its per-evaluation cost and node
 # group stay moderate: k x n multiply-adds (about 1.5 ns each on two cores) and a node
@@ -55,6 +57,16 @@ REPORT_SAMPLES = 1000  # points inside the cage coordinate_report examines
 
 class UndefinedCoordinatesError(ValueError):
     """The coordinates came out NaN or infinite (tiny or overlapping cage faces)."""
+
+
+class ImpreciseCoordinatesError(ValueError):
+    """The coordinates as stored place the points only to ``error`` of the cage's size
+    (over ``LINEAR_PRECISION``: huge coordinates, down to ``min_coordinate``, lose it to
+    float32 rounding), so the mesh would stray as the cage moves."""
+
+    def __init__(self, error, min_coordinate):
+        super().__init__(f"the coordinates as stored place the points only to {error:.2g} of the cage's size")
+        self.error, self.min_coordinate = error, min_coordinate
 
 
 def _in_this_process(compute, workers):
@@ -138,6 +150,7 @@ class BindPlan:
     min_coordinate: float
     negative_points: int
     max_affine_error: float
+    linear_precision: float  # how far the stored coordinates place the points, of the cage's size
     deviation_smooth: float  # of the cage's diagonal, against the exact coordinates
     deviation_drag: float
     deviation_drag_vertex: int
@@ -157,7 +170,7 @@ class BindPlan:
     def figures(self):
         """The measured figures by name (what a front end stores beside the slots)."""
         names = ("storage_choice", "report", "min_coordinate", "negative_points", "max_affine_error",
-                 "deviation_smooth", "deviation_drag", "deviation_drag_vertex", "points_outside",
+                 "linear_precision", "deviation_smooth", "deviation_drag", "deviation_drag_vertex", "points_outside",
                  "points_on_boundary")
         return {name: getattr(self, name) for name in names}
 
@@ -308,7 +321,7 @@ def _slots(request, cage, points, choice, workers):
     slot_count = rows if choice.basis is None else choice.slot_count
     slots = np.empty((count, slot_count), dtype=np.float32)
     locations = np.empty(count, dtype=np.int8)
-    smallest, negative, affine_error = np.inf, 0, 0.0
+    smallest, negative, affine_error, precision = np.inf, 0, 0.0, 0.0
     smooth, drag = 0.0, np.zeros(len(cage.vertices))
     faces = cage.faces if request.green else None
     chunk = max(1, CHUNK_ENTRIES * workers // rows)
@@ -321,7 +334,9 @@ def _slots(request, cage, points, choice, workers):
         negative += summary["negative_points"]
         affine_error = max(affine_error, summary["max_affine_error"])
         slots[part] = encode(choice, coordinates)
-        residual = np.subtract(coordinates, reproduce(choice, slots[part]))
+        reproduced = reproduce(choice, slots[part])
+        precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
+        residual = np.subtract(coordinates, reproduced, out=reproduced)
         chunk_smooth, chunk_drag = compact.residual_deviations(residual, cage.vertices, faces=faces)
         smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
         # With workers, shared memory: freed before the next chunk's.
@@ -329,8 +344,19 @@ def _slots(request, cage, points, choice, workers):
         yield part.stop / count
     return slots, locations, {
         "min_coordinate": float(smallest), "negative_points": int(negative),
-        "max_affine_error": float(affine_error), "deviation_smooth": float(smooth),
+        "max_affine_error": float(affine_error), "linear_precision": float(precision),
+        "deviation_smooth": float(smooth),
         "deviation_drag": float(drag.max(initial=0.0)), "deviation_drag_vertex": int(np.argmax(drag))}
+
+
+def _placed(request, stored, cage_vertices, points, locations):
+    """``linear_precision`` of coordinates as stored ((j, rows)) for ``points`` (Green
+    coordinates also weigh normals: 0; projected points are not placed where they are:
+    left out)."""
+    if request.green:
+        return 0.0
+    placed = slice(None) if request.outside != 'project' else locations != OUTSIDE
+    return linear_precision(stored[placed], cage_vertices, points[placed])
 
 
 def plan_bind(points, cage_vertices, triangles, request):
@@ -347,7 +373,8 @@ def plan_bind(points, cage_vertices, triangles, request):
     request : BindRequest
 
     Raises the core's errors (ValueError: ``CageError``, ``OutsideCageError``,
-    ``UndefinedCoordinatesError``) on the first step or where they arise. Closing the
+    ``UndefinedCoordinatesError``; ``ImpreciseCoordinatesError`` once the coordinates as
+    stored fail ``LINEAR_PRECISION``) on the first step or where they arise. Closing the
     generator early (a cancel) stops the worker processes.
 
     Examples
@@ -384,6 +411,8 @@ def _plan(points, cage, request):
                                  coordinate_rows(request.kind, len(cage.vertices), len(cage.faces)))
         if choice.storage == 'EXACT':
             slots, locations, figures = yield from _slots(request, cage, points, choice, workers)
+    if figures["linear_precision"] > LINEAR_PRECISION:  # on what will be written
+        raise ImpreciseCoordinatesError(figures["linear_precision"], figures["min_coordinate"])
     # How this kind behaves in this cage, away from the mesh's own vertices (the figures
     # cover those): positivity and well-definedness on a sample.
     report = ("Green: similarity invariant, shape-preserving; any closed cage" if request.green else

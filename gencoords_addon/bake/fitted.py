@@ -27,7 +27,7 @@ from mathutils import Matrix
 
 from ...core.tools import skin_fit
 from ..bind import bindings as bindings_module
-from ..blender_io import compat, mesh_io
+from ..blender_io import compat, mesh_arrays, mesh_io
 from ..errors import BakeError
 from . import bones
 
@@ -185,7 +185,7 @@ def _write(obj, context, found, fit, rest, sampled, frames):
         _keyframe_fit(rig, names, frames, fit)
         dense = np.zeros((len(rest), len(names)))
         np.add.at(dense, (np.arange(len(rest))[:, None], fit.indices), fit.weights)
-        bones.write_weights(obj, names, dense)
+        mesh_arrays.write_weights(obj, names, dense)
         skin = obj.modifiers.new("Armature", 'ARMATURE')
         skin.object = rig
         compat.move_modifier(obj, skin, list(obj.modifiers).index(found.modifier))

@@ -10,6 +10,8 @@ from ..bind.service import object_mode
 from ..errors import BakeError
 from .operators import MeshOperator, interactive, internal_error
 
+ALL_INFLUENCES = "0: All influences, every weight kept (exact)"
+FITTED_DEFAULT_INFLUENCES = f"0: {fitted.DEFAULT_INFLUENCES} influences per vertex, as game engines read"
 
 class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     """Replace the binding by an armature (a bone per cage vertex, following it, keyframed
@@ -62,10 +64,12 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         return True
 
     def draw(self, context):
-        """The options dialog: each mode's own options."""
+        """The options dialog: each mode's own options; Max Influences 0 says what it means."""
         layout = self.layout
         layout.prop(self, "mode")
         layout.prop(self, "max_influences")
+        if self.max_influences == 0:
+            layout.label(text=ALL_INFLUENCES if self.mode != 'FITTED' else FITTED_DEFAULT_INFLUENCES, icon='INFO')
         if self.mode != 'FITTED':
             layout.prop(self, "keyframes")
             return

@@ -93,6 +93,9 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         if not interactive(context):
             return self.execute(context)
         obj = context.active_object
+        if obj.session_uid in service.MODAL_BINDS:
+            self.report({'WARNING'}, f"'{obj.name}' is being bound already: wait for it, or Esc")
+            return {'CANCELLED'}
         if not self.replace_confirmed and bindings.binding(obj, obj.gencoords.cage) is not None:
             self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
             return context.window_manager.invoke_confirm(
@@ -109,9 +112,12 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
+        self._mesh_uid = self._job.obj.session_uid
+        service.MODAL_BINDS.add(self._mesh_uid)
         return {'RUNNING_MODAL'}
 
     def _stop(self, context, text=None):
+        service.MODAL_BINDS.discard(self._mesh_uid)
         window_manager = context.window_manager
         window_manager.event_timer_remove(self._timer)
         window_manager.progress_end()
@@ -240,7 +246,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         description="About how many vertices the cage gets")
     margin: bpy.props.FloatProperty(
         name="Margin", default=0.05, min=0.0, soft_max=0.5, subtype='FACTOR',
-        description="Gap between the mesh and the cage, relative to the mesh's size")
+        description="Gap between the mesh and the cage, relative to the mesh's size (0 keeps "
+                    "0.0004: rounding must not leave a vertex outside)")
 
     def execute(self, context):
         obj = context.active_object
@@ -261,10 +268,38 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         return {'FINISHED'}
 
 
+class MESH_OT_gencoords_select_dented_faces(MeshOperator, bpy.types.Operator):
+    """Select the faces of the active cage that dent inward (meet a neighbour at an edge
+    bent inward): what keeps it from being convex"""
+
+    bl_idname = "mesh.gencoords_select_dented_faces"
+    bl_label = "Select Dented Faces"
+
+    def execute(self, context):
+        obj = context.active_object
+        with object_mode(context, obj):
+            count = cage_maker.select_dented_faces(obj)
+        if count == 0:
+            self.report({'INFO'}, f"No face of '{obj.name}' dents inward: it is convex")
+        else:
+            self.report({'INFO'}, f"Selected the {count} faces of '{obj.name}' that dent inward")
+        return {'FINISHED'}
+
+
+def draw_select_menu(self, context):
+    """Edit Mode's Select menu."""
+    self.layout.separator()
+    self.layout.operator(MESH_OT_gencoords_select_dented_faces.bl_idname)
+
+
+SELECT_MENU = bpy.types.VIEW3D_MT_select_edit_mesh
+
+
 CLASSES = (
     OBJECT_OT_gencoords_make_cage,
     OBJECT_OT_gencoords_bind,
     OBJECT_OT_gencoords_unbind,
     OBJECT_OT_gencoords_show_field,
     OBJECT_OT_gencoords_clear_field,
+    MESH_OT_gencoords_select_dented_faces,
 )
