@@ -59,6 +59,7 @@ class BindData:
     min_coordinate: Optional[float] = None
     negative_points: Optional[int] = None
     max_affine_error: Optional[float] = None
+    linear_precision: Optional[float] = None  # how far the stored coordinates place the mesh
     deviation_smooth: Optional[float] = None  # of the cage's diagonal
     deviation_drag: Optional[float] = None
     deviation_drag_vertex: Optional[int] = None  # the cage vertex whose drag deviates most

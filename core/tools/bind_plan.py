@@ -23,16 +23,18 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from ..base.tolerances import LINEAR_PRECISION
 from ..construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from ..construction.green import GREEN
 from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
-from ..evaluation.deformation import coordinate_summary
+from ..evaluation.deformation import coordinate_summary, linear_precision
 from ..harmonic import DEFAULT_RESOLUTION, harmonic_field
 from . import compact, sparse
 from .report import coordinate_report
 
-__all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "plan_bind", "choose_storage", "plan_bytes"]
+__all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "plan_bind",
+           "choose_storage", "plan_bytes"]
 
 # Automatic storage is exact without measuring while its per-evaluation cost and node
 # group stay moderate: k x n multiply-adds (about 1.5 ns each on two cores) and a node
@@ -60,6 +62,16 @@ SPARSE_SIZE = 16  # sparse storage's pairs per vertex when asked for
 
 class UndefinedCoordinatesError(ValueError):
     """The coordinates came out NaN or infinite (tiny or overlapping cage faces)."""
+
+
+class ImpreciseCoordinatesError(ValueError):
+    """The coordinates as stored place the points only to ``error`` of the cage's size
+    (over ``LINEAR_PRECISION``: huge coordinates, down to ``min_coordinate``, lose it to
+    float32 rounding), so the mesh would stray as the cage moves."""
+
+    def __init__(self, error, min_coordinate):
+        super().__init__(f"the coordinates as stored place the points only to {error:.2g} of the cage's size")
+        self.error, self.min_coordinate = error, min_coordinate
 
 
 def _in_this_process(compute, workers):
@@ -148,7 +160,7 @@ class BindPlan:
     ['deviation_drag', 'deviation_drag_vertex', 'deviation_smooth']
     """
 
-    storage: str  # 'EXACT' or 'COMPACT'
+    storage: str  # 'EXACT', 'COMPACT' or 'SPARSE'
     slots: np.ndarray  # (k, s) float32
     basis: Optional[np.ndarray]  # (rows, s) float64 for compact storage, else None
     locations: np.ndarray  # (k,) int8: INSIDE, BOUNDARY or OUTSIDE per point
@@ -157,6 +169,7 @@ class BindPlan:
     min_coordinate: float
     negative_points: int
     max_affine_error: float
+    linear_precision: float  # how far the stored coordinates place the points, of the cage's size
     deviation_smooth: float  # of the cage's diagonal, against the exact coordinates
     deviation_drag: float
     deviation_drag_vertex: int
@@ -191,7 +204,7 @@ class BindPlan:
     def figures(self):
         """The measured figures by name (what a front end stores beside the slots)."""
         names = ("storage_choice", "report", "min_coordinate", "negative_points", "max_affine_error",
-                 "deviation_smooth", "deviation_drag", "deviation_drag_vertex", "points_outside",
+                 "linear_precision", "deviation_smooth", "deviation_drag", "deviation_drag_vertex", "points_outside",
                  "points_on_boundary", "negative_entries", "node_count", "node_slot_count")
         return {name: getattr(self, name) for name in names}
 
@@ -399,6 +412,7 @@ def _slots(request, cage, points, choice, workers, field=None):
     indices = np.empty((count, slot_count), dtype=np.int32) if choice.storage == 'SPARSE' else None
     locations = np.empty(count, dtype=np.int8)
     totals = {"min": np.inf, "negative_points": 0, "negative_entries": 0, "max_affine_error": 0.0}
+    precision = 0.0
     smooth, drag = 0.0, np.zeros(len(cage.vertices))
     faces = cage.faces if request.green else None
     chunk = max(1, CHUNK_ENTRIES * workers // rows)
@@ -413,7 +427,9 @@ def _slots(request, cage, points, choice, workers, field=None):
         slots[part], pairs = encode(choice, coordinates)
         if indices is not None:
             indices[part] = pairs
-        residual = np.subtract(coordinates, reproduce(choice, slots[part], pairs, rows))
+        reproduced = reproduce(choice, slots[part], pairs, rows)
+        precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
+        residual = np.subtract(coordinates, reproduced, out=reproduced)
         chunk_smooth, chunk_drag = compact.residual_deviations(residual, cage.vertices, faces=faces)
         smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
         # With workers, shared memory: freed before the next chunk's.
@@ -422,8 +438,18 @@ def _slots(request, cage, points, choice, workers, field=None):
     return slots, indices, locations, {
         "min_coordinate": float(totals["min"]), "negative_points": totals["negative_points"],
         "negative_entries": totals["negative_entries"], "max_affine_error": float(totals["max_affine_error"]),
-        "deviation_smooth": float(smooth), "deviation_drag": float(drag.max(initial=0.0)),
-        "deviation_drag_vertex": int(np.argmax(drag))}
+        "linear_precision": float(precision), "deviation_smooth": float(smooth),
+        "deviation_drag": float(drag.max(initial=0.0)), "deviation_drag_vertex": int(np.argmax(drag))}
+
+
+def _placed(request, stored, cage_vertices, points, locations):
+    """``linear_precision`` of coordinates as stored ((j, rows)) for ``points`` (Green
+    coordinates also weigh normals: 0; projected points are not placed where they are:
+    left out)."""
+    if request.green:
+        return 0.0
+    placed = slice(None) if request.outside != 'project' else locations != OUTSIDE
+    return linear_precision(stored[placed], cage_vertices, points[placed])
 
 
 def plan_bind(points, cage_vertices, triangles, request):
@@ -440,7 +466,8 @@ def plan_bind(points, cage_vertices, triangles, request):
     request : BindRequest
 
     Raises the core's errors (ValueError: ``CageError``, ``OutsideCageError``,
-    ``UndefinedCoordinatesError``) on the first step or where they arise. Closing the
+    ``UndefinedCoordinatesError``; ``ImpreciseCoordinatesError`` once the coordinates as
+    stored fail ``LINEAR_PRECISION``) on the first step or where they arise. Closing the
     generator early (a cancel) stops the worker processes.
 
     Examples
@@ -487,6 +514,11 @@ def _plan(points, cage, request):
                                  coordinate_rows(request.kind, len(cage.vertices), len(cage.faces)))
         if choice.storage == 'EXACT':
             slots, indices, locations, figures = yield from _slots(request, cage, points, choice, workers, field)
+    # On what will be written; sparse storage and harmonic coordinates place points only
+    # approximately by design (their deviations say how far), so only huge coordinates
+    # losing their point to float32 rounding are refused.
+    if figures["linear_precision"] > LINEAR_PRECISION and choice.storage != 'SPARSE' and field is None:
+        raise ImpreciseCoordinatesError(figures["linear_precision"], figures["min_coordinate"])
     return BindPlan(choice.storage, slots, choice.basis, locations, choice.reason, _report(request, cage, field),
                     indices=indices, **figures)
 
@@ -522,10 +554,16 @@ def _plan_two_level(points, cage, request, field):
     node_sums = layout.node_weights.astype(np.float64).sum(axis=1)
     point_sums = (layout.trilinear.astype(np.float64) * node_sums[layout.corners]).sum(axis=1)
     every_column = layout.node_slot_count >= len(cage.vertices)
+    locations = _locations(request, cage, points)
+    # Where the stored weights place each point: the nodes' places, interpolated.
+    node_places = np.einsum("nk,nkc->nc", layout.node_weights.astype(np.float64), cage.vertices[layout.node_indices])
+    miss = np.linalg.norm(sparse.interpolated(node_places, layout.corners, layout.trilinear) - points, axis=1)
+    placed = miss if request.outside != 'project' else miss[locations != OUTSIDE]
     return BindPlan(
-        'SPARSE', layout.trilinear, None, _locations(request, cage, points), reason, _report(request, cage, field),
+        'SPARSE', layout.trilinear, None, locations, reason, _report(request, cage, field),
         min_coordinate=float(layout.node_weights.min()) if every_column else 0.0, negative_points=0,
         max_affine_error=float(np.abs(point_sums - 1.0).max(initial=0.0)),
+        linear_precision=float(placed.max(initial=0.0) / np.linalg.norm(np.ptp(cage.vertices, axis=0))),
         deviation_smooth=layout.deviation_smooth, deviation_drag=layout.deviation_drag,
         deviation_drag_vertex=layout.deviation_drag_vertex, indices=layout.corners,
         node_indices=layout.node_indices, node_weights=layout.node_weights)

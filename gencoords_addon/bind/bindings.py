@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 import bpy
 import numpy as np
 
-from ..blender_io import compat, mesh_arrays
+from ..blender_io import compat, mesh_arrays, mesh_io
 from ..bind_layout import METADATA, BindData
 from ..graph import deformer, helpers, sparse
 from . import attributes
@@ -163,6 +163,14 @@ def drives(obj, cage):
     return False
 
 
+def keys_used_elsewhere(obj):
+    """Keys of the bindings that other objects sharing the mesh of ``obj`` (linked
+    duplicates, Alt+D) deform with: their bind data on the shared mesh must stay."""
+    return {found.key for other in bpy.data.objects
+            if other != obj and other.type == 'MESH' and other.data == obj.data
+            for found in bindings(other)}
+
+
 def remove(obj, bindings):
     """Delete ``bindings`` of ``obj`` (their modifiers, node groups and attributes), all
     or, as far as Blender lets anything fail, none.
@@ -181,9 +189,10 @@ def remove(obj, bindings):
     """
     names = [each.modifier.name for each in bindings]  # a removed modifier's RNA is gone
     parked, removed = {}, []
+    shared = keys_used_elsewhere(obj)
     try:
-        for each in bindings:
-            parked[each.key] = attributes.park_slots(obj.data, each.key)
+        for each in bindings:  # bind data a linked duplicate deforms with stays
+            parked[each.key] = {} if each.key in shared else attributes.park_slots(obj.data, each.key)
         for name, each in zip(names, bindings):
             group = each.group
             compat.remove_nodes_modifier(obj, each.modifier)
@@ -199,3 +208,46 @@ def remove(obj, bindings):
         error.gencoords_removed = removed
         raise
     return removed
+
+
+def deformation_problem(obj, found, depsgraph=None):
+    """Why the deformer passes the mesh of ``obj`` through unchanged, or None.
+
+    The node group checks the same conditions it can see (vertex counts, finite cage);
+    this says them in words, and also notices cage face changes it cannot see.
+    """
+    data = found.data
+    if not data.is_current:
+        return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
+                "Bind again or Unbind")
+    mesh_attributes = obj.data.attributes
+    if any(name not in mesh_attributes for name in data.slot_names + (data.basis_names or [])):
+        return (f"The bind data of '{obj.name}' is missing from its mesh (removed through an object "
+                "sharing it?): the mesh is not deformed; Bind again or Unbind")
+    cage = found.cage
+    if cage is None and found.deleted_cage is not None:
+        return (f"The cage '{found.deleted_cage}' was deleted: the mesh is not deformed; "
+                "pick another cage and Bind, or Unbind")
+    if cage is None:
+        return ("The cage was deleted or cleared: the mesh is not deformed; pick a cage "
+                "and Bind again, or Unbind")
+    change = len(obj.data.vertices) - data.mesh_vertex_count
+    if change and obj.mode != 'EDIT':
+        verb = "added" if change > 0 else "deleted"
+        return (f"Mesh edited since Bind: {abs(change)} vertices {verb}; it is not deformed "
+                "until you Bind again (or turn on Auto Rebind)")
+    depsgraph = depsgraph or bpy.context.view_layer.depsgraph
+    with mesh_io.evaluated_mesh(cage, depsgraph) as cage_mesh:
+        count = len(cage_mesh.vertices)
+        faces_hash = mesh_io.faces_hash(cage_mesh)
+        finite = bool(np.isfinite(mesh_io.read_positions(cage_mesh)).all())
+    if count != data.cage_vertex_count:
+        return (f"The cage '{cage.name}' now has {count} vertices (bound with "
+                f"{data.cage_vertex_count}): the mesh is not deformed; Bind again or Unbind")
+    if faces_hash != data.cage_faces_hash:
+        return (f"The faces of cage '{cage.name}' changed since Bind: the deformation no "
+                "longer matches it; Bind again or Unbind")
+    if not finite:
+        return (f"The cage '{cage.name}' has undefined (NaN or infinite) positions: the "
+                "mesh is not deformed until they are fixed")
+    return None

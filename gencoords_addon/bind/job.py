@@ -99,18 +99,37 @@ class BindJob:
                                                   self.request)
         except core.OutsideCageError:
             raise BindError(self._outside_message()) from None
+        except bind_plan.ImpreciseCoordinatesError as error:
+            raise BindError(self._imprecise_message(error)) from None
         except bind_plan.UndefinedCoordinatesError:
             raise BindError(f"Binding to '{self.cage.name}' gave undefined coordinates: "
                             "check the cage for tiny or overlapping faces") from None
         except ValueError as error:  # every other core error is a ValueError
-            raise BindError(messages.core_error(self.cage.name, error, self.kind_label, len(scene.points),
-                                                scene.triangle_faces)) from None
+            raise BindError(self._core_message(error)) from None
         data = replace(self.data, storage=plan.storage, slot_count=plan.slot_count, key=secrets.token_hex(3),
                        nbytes=int(bind_plan.plan_bytes(plan)), bind_seconds=time.perf_counter() - self.started,
                        **plan.figures())
         nodes = None if plan.node_indices is None else (plan.node_indices, plan.node_weights)
         self.result = BindResult(plan.slots, plan.basis, scene.triangles if self.green else None,
                                  scene.rest_cage, data, plan.indices, nodes)
+
+    def _core_message(self, error):
+        """The core's ``error`` in Blender's terms; for a cage that is not convex, with the
+        cage's faces that dent inward."""
+        scene, dented = self.input, None
+        if isinstance(error, core.CageError) and error.problem == "non_convex":
+            dented = np.unique(scene.triangle_faces[core.advanced.concave_facets(
+                scene.cage_vertices, scene.triangles, FLOAT32_TOLERANCE)])
+        return messages.core_error(self.cage.name, error, self.kind_label, len(scene.points),
+                                   scene.triangle_faces, dented)
+
+    def _imprecise_message(self, error):
+        settings = self.settings
+        return (f"{self.kind_label} coordinates{messages.gamma_words(settings.gamma)} in the cage "
+                f"'{self.cage.name}' are too large to store (smallest {error.min_coordinate:.3g}): as "
+                f"stored they place the vertices of '{self.obj.name}' only to {bind_plan.short_number(error.error)} "
+                "of the cage's size, and the mesh would stray as the cage moves. Choose a Gamma between -1 "
+                "and -0.5, or another Type")
 
     def _outside_message(self):
         scene = self.input

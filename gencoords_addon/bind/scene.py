@@ -11,6 +11,7 @@ import bpy
 import numpy as np
 
 from ... import core
+from .. import messages
 from ..blender_io import compat, mesh_io
 from ..enums import core_name, is_green, is_harmonic, kind_label, kind_parameter
 from ..errors import BindError
@@ -137,16 +138,19 @@ def read_bind_input(obj, settings, context):
         raise BindError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or "
                         f"infinite) positions (first: vertex {undefined[0]}): fix or "
                         "delete them, then Bind")
-    geometry = mesh_io.read_evaluated_cage(cage, depsgraph)
+    flat_axes = zero_scale_axes(obj.evaluated_get(depsgraph).matrix_world)
+    if flat_axes:  # its vertices would be flat in world space, and huge in its own
+        raise BindError(messages.zero_scale("mesh", obj.name, flat_axes, "Bind"))
+    try:
+        geometry = mesh_io.read_evaluated_cage(cage, depsgraph)
+    except core.CageError as error:  # NaN or infinite vertices: caught before triangles
+        raise BindError(messages.cage_error(cage.name, error, settings.kind_label, ())) from None
     if len(geometry.triangles) == 0:
         raise BindError(f"The cage '{cage.name}' has no faces: it must be a closed "
                         "surface around the mesh (add faces, e.g. Mesh > Convex Hull)")
     flat_axes = zero_scale_axes(cage.evaluated_get(depsgraph).matrix_world)
     if flat_axes:
-        raise BindError(f"The cage object '{cage.name}' is scaled to zero on its "
-                        f"{' and '.join(flat_axes)} {'axes' if len(flat_axes) > 1 else 'axis'} "
-                        "(or its parent is): give it a "
-                        "non-zero Scale (Object Properties > Transform), then Bind")
+        raise BindError(messages.zero_scale("cage", cage.name, flat_axes, "Bind"))
     rest_cage = capture_rest_cage(obj, cage, context)
     if len(rest_cage) != len(geometry.positions):
         raise BindError(f"The cage '{cage.name}' changed while binding: try again")

@@ -18,6 +18,11 @@ from .. import messages
 from . import job as bind_job
 
 
+# Meshes (Object.session_uid) a modal Bind is computing for: Auto Rebind waits for it
+# rather than start a second one (tabbing in and out of Edit Mode meanwhile).
+MODAL_BINDS = set()
+
+
 @dataclass(frozen=True)
 class BindReport:
     """What a finished Bind tells the artist: ``level`` 'INFO', or 'WARNING' where the

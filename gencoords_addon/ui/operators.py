@@ -9,10 +9,9 @@ import traceback
 
 import bpy
 
-from ..bake import bones
 from ..bind import bindings, cage_maker, service
 from ..bind.service import object_mode
-from ..errors import BakeError, BindError, CageError
+from ..errors import BindError, CageError
 from . import visualise
 
 
@@ -35,7 +34,7 @@ def interactive(context):
     return not bpy.app.background and context.window is not None
 
 
-def _internal_error(operator, error, changed="nothing was changed"):
+def internal_error(operator, error, changed="nothing was changed"):
     traceback.print_exc()
     operator.report({'ERROR'}, f"GenCoords internal error, {changed} (details in the "
                                f"system console): {error}")
@@ -84,7 +83,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
         except Exception as error:  # the file is unchanged: commit cleans up after itself
-            return _internal_error(self, error)
+            return internal_error(self, error)
         self.report({report.level}, report.message)
         return {'FINISHED'}
 
@@ -94,6 +93,9 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         if not interactive(context):
             return self.execute(context)
         obj = context.active_object
+        if obj.session_uid in service.MODAL_BINDS:
+            self.report({'WARNING'}, f"'{obj.name}' is being bound already: wait for it, or Esc")
+            return {'CANCELLED'}
         if not self.replace_confirmed and bindings.binding(obj, obj.gencoords.cage) is not None:
             self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
             return context.window_manager.invoke_confirm(
@@ -104,15 +106,18 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             if not self._start(context):
                 return {'CANCELLED'}
         except Exception as error:
-            return _internal_error(self, error)
+            return internal_error(self, error)
         self._steps = self._job.steps()
         window_manager = context.window_manager
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
+        self._mesh_uid = self._job.obj.session_uid
+        service.MODAL_BINDS.add(self._mesh_uid)
         return {'RUNNING_MODAL'}
 
     def _stop(self, context, text=None):
+        service.MODAL_BINDS.discard(self._mesh_uid)
         window_manager = context.window_manager
         window_manager.event_timer_remove(self._timer)
         window_manager.progress_end()
@@ -137,7 +142,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             return {'CANCELLED'}
         except Exception as error:
             self._stop(context)
-            return _internal_error(self, error)
+            return internal_error(self, error)
         context.window_manager.progress_update(fraction)
         in_blender = "" if self._job.worker_failure is None else ", in Blender: worker processes failed"
         context.workspace.status_text_set(
@@ -174,11 +179,11 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
         except Exception as error:
             removed = getattr(error, "gencoords_removed", [])
             if not removed:
-                return _internal_error(self, error)
+                return internal_error(self, error)
             if len(removed) == len(found):  # only the cleanup after the modifiers failed
-                return _internal_error(self, error, "the binding was removed but unused "
+                return internal_error(self, error, "the binding was removed but unused "
                                                     "hidden data may remain")
-            return _internal_error(self, error, f"only {', '.join(removed)} was removed: Unbind "
+            return internal_error(self, error, f"only {', '.join(removed)} was removed: Unbind "
                                                 "again to remove the rest")
         return {'FINISHED'}
 
@@ -201,7 +206,7 @@ class OBJECT_OT_gencoords_show_field(MeshOperator, bpy.types.Operator):
             with object_mode(context, obj):
                 painted = visualise.paint_field(obj)
         except Exception as error:
-            return _internal_error(self, error, "the field may be partly painted: Clear "
+            return internal_error(self, error, "the field may be partly painted: Clear "
                                                 "Coordinate removes it")
         if not painted:
             self.report({'ERROR'}, f"The bind data of '{obj.name}' is missing: Bind again")
@@ -222,7 +227,7 @@ class OBJECT_OT_gencoords_clear_field(MeshOperator, bpy.types.Operator):
             with object_mode(context, obj):
                 cleared = visualise.clear_field(obj)
         except Exception as error:
-            return _internal_error(self, error, "the field may be partly cleared: Clear "
+            return internal_error(self, error, "the field may be partly cleared: Clear "
                                                 "Coordinate again")
         if not cleared:
             self.report({'WARNING'}, "No coordinate field is shown")
@@ -241,7 +246,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         description="About how many vertices the cage gets")
     margin: bpy.props.FloatProperty(
         name="Margin", default=0.05, min=0.0, soft_max=0.5, subtype='FACTOR',
-        description="Gap between the mesh and the cage, relative to the mesh's size")
+        description="Gap between the mesh and the cage, relative to the mesh's size (0 keeps "
+                    "0.0004: rounding must not leave a vertex outside)")
 
     def execute(self, context):
         obj = context.active_object
@@ -253,7 +259,7 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
             self.report({'ERROR'}, f"Cannot make a cage: {error}")
             return {'CANCELLED'}
         except Exception as error:
-            return _internal_error(self, error)
+            return internal_error(self, error)
         made = f"Made '{cage.name}' ({len(cage.data.vertices)} vertices) around '{obj.name}'"
         if worker_failure is None:
             self.report({'INFO'}, made)
@@ -262,78 +268,38 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         return {'FINISHED'}
 
 
-class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
-    """Replace the binding by an armature (a bone per cage vertex, following it, keyframed
-    over the scene's frame range) and vertex groups holding the coordinates, for game
-    engines and exporters such as glTF"""
+class MESH_OT_gencoords_select_dented_faces(MeshOperator, bpy.types.Operator):
+    """Select the faces of the active cage that dent inward (meet a neighbour at an edge
+    bent inward): what keeps it from being convex"""
 
-    bl_idname = "object.gencoords_bake_bones"
-    bl_label = "Bake to Bones"
-
-    max_influences: bpy.props.IntProperty(
-        name="Max Influences", default=0, min=0, soft_max=8,
-        description="Weights kept per vertex, renormalised (game engines take 4 or 8; "
-                    "three.js reads 4); 0 keeps all, which is exact")
-    keyframes: bpy.props.BoolProperty(
-        name="Keyframe Cage Motion", default=True,
-        description="Also keyframe the bones on the cage at every frame of the scene's "
-                    "range: exporters such as glTF write keyframes, not the constraints "
-                    "that make the bones follow the cage in Blender")
-
-    @classmethod
-    def poll(cls, context):
-        if not super().poll(context):
-            return False
-        if bindings.binding(context.active_object) is None:
-            cls.poll_message_set(f"'{context.active_object.name}' is not bound: Bind it first")
-            return False
-        return True
-
-    def invoke(self, context, event):
-        """In the UI: ask for the options first."""
-        if bpy.app.background or context.window is None:
-            return self.execute(context)
-        return context.window_manager.invoke_props_dialog(self)
+    bl_idname = "mesh.gencoords_select_dented_faces"
+    bl_label = "Select Dented Faces"
 
     def execute(self, context):
         obj = context.active_object
-        try:
-            with object_mode(context, obj):
-                rig, deviation = bones.bake(obj, context, self.max_influences, self.keyframes)
-        except BakeError as error:
-            self.report({'ERROR'}, str(error))
-            return {'CANCELLED'}
-        except Exception as error:
-            return _internal_error(self, error)
-        info = rig.data[bones.BAKE_INFO]
-        frames = info.get("frames")
-        keyed = f", keyframed over frames {frames[0]} to {frames[1]}" if frames else ""
-        # Blender's glTF exporter cuts to 4 influences by default, with only a console warning.
-        over = (f"; {info['vertices_over_4']} vertices have more than 4 influences: glTF "
-                "export keeps 4 unless Skinning > Include All Bone Influences is ticked"
-                if info["vertices_over_4"] else "")
-        self.report({'INFO'}, f"Baked '{obj.name}' to '{rig.name}' ({len(rig.data.bones)} "
-                              f"bones{keyed}): deviation {deviation:.2e} of the cage size for "
-                              "the standard smooth cage motion, measured on the weights "
-                              f"written{over}")
+        with object_mode(context, obj):
+            count = cage_maker.select_dented_faces(obj)
+        if count == 0:
+            self.report({'INFO'}, f"No face of '{obj.name}' dents inward: it is convex")
+        else:
+            self.report({'INFO'}, f"Selected the {count} faces of '{obj.name}' that dent inward")
         return {'FINISHED'}
 
 
-def draw_menu(self, context):
-    """Object > Animation, beside Bake Action (F3 search finds it there too)."""
+def draw_select_menu(self, context):
+    """Edit Mode's Select menu."""
     self.layout.separator()
-    self.layout.operator_context = 'INVOKE_REGION_WIN'
-    self.layout.operator(OBJECT_OT_gencoords_bake_bones.bl_idname, icon='ARMATURE_DATA')
+    self.layout.operator(MESH_OT_gencoords_select_dented_faces.bl_idname)
 
 
-MENU = bpy.types.VIEW3D_MT_object_animation
+SELECT_MENU = bpy.types.VIEW3D_MT_select_edit_mesh
 
 
 CLASSES = (
     OBJECT_OT_gencoords_make_cage,
-    OBJECT_OT_gencoords_bake_bones,
     OBJECT_OT_gencoords_bind,
     OBJECT_OT_gencoords_unbind,
     OBJECT_OT_gencoords_show_field,
     OBJECT_OT_gencoords_clear_field,
+    MESH_OT_gencoords_select_dented_faces,
 )

@@ -1,56 +1,16 @@
-"""The panel's status block as (text, icon) lines, and why a bound mesh is not deforming.
+"""The panel's status block as (text, icon) lines, with why a bound mesh is not deforming
+(``bind.bindings.deformation_problem``).
 
 Every figure comes from the binding's metadata, which holds what the core computed.
 """
 
-import bpy
-import numpy as np
 
-from ..blender_io import mesh_io
+from .. import messages
 from ..bind import bindings
-from ...core.construction.green import GREEN
-from ..enums import HARMONIC_LABEL, STORAGE_ITEMS, enum_label, kind_label
+from ..bind.bindings import deformation_problem
+from ..enums import STORAGE_ITEMS, enum_label, kind_label
 
 OUTSIDE_VERBS = {"project": "projected onto the cage", "extrapolate": "extrapolated"}
-
-
-def deformation_problem(obj, found, depsgraph=None):
-    """Why the deformer passes the mesh of ``obj`` through unchanged, or None.
-
-    The node group checks the same conditions it can see (vertex counts, finite cage);
-    this says them in words, and also notices cage face changes it cannot see.
-    """
-    data = found.data
-    if not data.is_current:
-        return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
-                "Bind again or Unbind")
-    cage = found.cage
-    if cage is None and found.deleted_cage is not None:
-        return (f"The cage '{found.deleted_cage}' was deleted: the mesh is not deformed; "
-                "pick another cage and Bind, or Unbind")
-    if cage is None:
-        return ("The cage was deleted or cleared: the mesh is not deformed; pick a cage "
-                "and Bind again, or Unbind")
-    change = len(obj.data.vertices) - data.mesh_vertex_count
-    if change and obj.mode != 'EDIT':
-        verb = "added" if change > 0 else "deleted"
-        return (f"Mesh edited since Bind: {abs(change)} vertices {verb}; it is not deformed "
-                "until you Bind again (or turn on Auto Rebind)")
-    depsgraph = depsgraph or bpy.context.view_layer.depsgraph
-    with mesh_io.evaluated_mesh(cage, depsgraph) as cage_mesh:
-        count = len(cage_mesh.vertices)
-        faces_hash = mesh_io.faces_hash(cage_mesh)
-        finite = bool(np.isfinite(mesh_io.read_positions(cage_mesh)).all())
-    if count != data.cage_vertex_count:
-        return (f"The cage '{cage.name}' now has {count} vertices (bound with "
-                f"{data.cage_vertex_count}): the mesh is not deformed; Bind again or Unbind")
-    if faces_hash != data.cage_faces_hash:
-        return (f"The faces of cage '{cage.name}' changed since Bind: the deformation no "
-                "longer matches it; Bind again or Unbind")
-    if not finite:
-        return (f"The cage '{cage.name}' has undefined (NaN or infinite) positions: the "
-                "mesh is not deformed until they are fixed")
-    return None
 
 
 def status_lines(obj, depsgraph=None):
@@ -76,14 +36,6 @@ def _storage_words(data):
         return f"{storage}, {data.slot_count} pairs per vertex"
     return (f"{storage} in two levels, each vertex its grid cell's {data.slot_count} nodes, "
             f"{data.node_count} nodes of {data.node_slot_count} pairs")
-
-
-def negative_share_line(data):
-    """The share of negative coordinates, and where to turn (a (text, icon) line)."""
-    share = data.negative_entries / max(1, data.mesh_vertex_count * data.cage_vertex_count)
-    return (f"{share:.0%} of the coordinates are negative: where the cage is not convex they "
-            f"reach across it, and moving one part of the cage moves others a little. Type "
-            f"{HARMONIC_LABEL} keeps each part to its own cage", 'INFO')
 
 
 def binding_lines(obj, found, depsgraph=None):
@@ -124,10 +76,7 @@ def binding_lines(obj, found, depsgraph=None):
                       f"{data.deviation_drag:.1e} ({drag}) of the cage diagonal", 'INFO'))
     lines.append((f"Bind time: {data.bind_seconds:.2f} s", 'TIME'))
     if data.negative_points:
-        lines.append((f"Smallest coordinate {data.min_coordinate:.4g}: negative at "
-                      f"{data.negative_points} vertices", 'ERROR'))
-        if data.negative_entries and data.kind != GREEN:
-            lines.append(negative_share_line(data))
+        lines.extend(messages.negative_weights(data, kind_label(data.kind)))
     else:
         lines.append((f"Smallest coordinate: {data.min_coordinate:.4g}", 'CHECKMARK'))
     if data.report is not None:  # inside the whole cage, not only at the mesh's vertices

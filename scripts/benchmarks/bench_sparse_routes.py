@@ -199,7 +199,7 @@ def armature_route(mesh, cage, rest_cage, pairs):
     bones._add_following_bones(rig, cage, names, rest_cage.astype(np.float64))
     dense = np.zeros((len(mesh.data.vertices), len(rest_cage)))
     np.put_along_axis(dense, pairs[0], pairs[1], axis=1)
-    bones.write_weights(mesh, names, dense)
+    session.addon_module("blender_io.mesh_arrays").write_weights(mesh, names, dense)
     skin = mesh.modifiers.new("Armature", 'ARMATURE')
     skin.object = rig
     return time.perf_counter() - start

@@ -57,7 +57,7 @@ def test_installed_extension_is_enabled_with_its_api(gc):
         'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN', 'HARMONIC'}
     assert properties["kind"].enum_items['HARMONIC'].name == "Harmonic (local, positive)"
     assert {item.identifier for item in properties["storage"].enum_items} == {'AUTO', 'EXACT', 'COMPACT', 'SPARSE'}
-    assert properties["kind"].enum_items['GREEN'].name == "Green (shape-preserving)"
+    assert properties["kind"].enum_items['GREEN'].name == "Green"
 
 
 class RecordingLayout:

@@ -117,6 +117,19 @@ def test_points_outside_raise_the_cores_error_and_project_counts_them(irregular)
     assert plan.points_outside == 2
 
 
+def test_linear_precision_is_measured_on_the_stored_coordinates_and_refused_beyond(monkeypatch, irregular):
+    vertices, faces, points = irregular
+    request = BindRequest("power", gamma=-4.0, workers=1)
+    _, plan = run(plan_bind(points, vertices, faces, request))
+    assert plan.linear_precision == pytest.approx(
+        gencoords.tools.linear_precision(plan.slots, vertices, points), rel=1e-12)
+    assert 0.0 < plan.linear_precision < 1e-5  # float32 rounding alone
+    monkeypatch.setattr(bind_plan, "LINEAR_PRECISION", plan.linear_precision / 2)
+    with pytest.raises(bind_plan.ImpreciseCoordinatesError) as refused:
+        run(plan_bind(points, vertices, faces, request))
+    assert refused.value.error == plan.linear_precision and refused.value.min_coordinate == plan.min_coordinate
+
+
 def test_automatic_picks_sparse_with_the_fewest_pairs_under_the_target(monkeypatch):
     monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
     vertices, faces = gencoords.tools.shapes.octahedron((1.0, 1.2, 1.5))  # 6 vertices
