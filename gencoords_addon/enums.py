@@ -9,8 +9,8 @@ from .. import core
 from ..core.construction.green import GREEN, GREEN_DESCRIPTION, GREEN_LABEL
 from ..core.tools.bind_plan import HARMONIC
 
-HARMONIC_LABEL = "Harmonic (local, positive)"
-HARMONIC_DESCRIPTION = ("Local and never negative in any closed cage, as Mesh Deform: moving one "
+HARMONIC_LABEL = "Harmonic"  # short: the Properties editor's default width shows it whole
+HARMONIC_DESCRIPTION = ("Local, positive: never negative in any closed cage, and, as Mesh Deform, moving one "
                         "limb's cage moves that limb alone. Solved on a grid (Resolution); stored "
                         "sparse by default")
 # The paper's kinds, then Green coordinates (not a generating surface: the core keeps

@@ -88,7 +88,7 @@ def zero_scale(what, name, axes, then):
 
 
 # What keeps weights positive, for the panel's note on negative ones.
-POSITIVE_WEIGHTS = (f"Type {HARMONIC_LABEL} keeps weights positive and each part of the mesh to its own "
+POSITIVE_WEIGHTS = (f"Type {HARMONIC_LABEL} (local, positive) keeps weights positive and each part of the mesh to its own "
                     "part of the cage, in any closed cage; so does a convex cage (Make Cage)")
 
 

@@ -221,7 +221,7 @@ def deformation_problem(obj, found, depsgraph=None):
         return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
                 "Bind again or Unbind")
     mesh_attributes = obj.data.attributes
-    if any(name not in mesh_attributes for name in data.slot_names + (data.basis_names or [])):
+    if any(name not in mesh_attributes for name in data.attribute_names):
         return (f"The bind data of '{obj.name}' is missing from its mesh (removed through an object "
                 "sharing it?): the mesh is not deformed; Bind again or Unbind")
     cage = found.cage

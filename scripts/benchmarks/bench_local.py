@@ -49,6 +49,8 @@ from scripts.common import playback  # noqa: E402
 from scripts.common.memory import PeakMemory, blend_size  # noqa: E402
 from scripts.common.playback import settle  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
+from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
+from gencoords.tools.bind_plan import HARMONIC  # noqa: E402
 
 MOVED_LIMBS = ("left_arm", "right_arm", "left_leg", "right_leg", "head")
 LOCALITY_MOVE = 0.2  # of the cage's diagonal
@@ -220,7 +222,7 @@ def table(rows):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--precisions", nargs="+", type=int, default=[5, 6])
-    parser.add_argument("--kinds", nargs="+", default=["mean_value", "harmonic"],
+    parser.add_argument("--kinds", nargs="+", default=[MEAN_VALUE, HARMONIC],
                         help="GenCoords kinds; harmonic:<resolution> for another grid")
     parser.add_argument("--rounds", type=int, default=15)
     parser.add_argument("--output", type=Path, default=session.OUT / "bench_local.md")
