@@ -10,7 +10,7 @@ Properties, on every object as ``obj.gencoords`` (read when binding):
     gamma         float    power coordinates' exponent, -16 to 16 (default -0.5)
     outside       enum     vertices outside the cage: 'RAISE' (default: refuse to bind),
                            'PROJECT' (nearest cage surface point), 'EXTRAPOLATE'
-    resolution    int      harmonic coordinates: grid cells along the cage's longest side (64)
+    resolution    int      harmonic coordinates: grid cells along the cage's longest side (48)
     storage       enum     'AUTO' (default), 'EXACT', 'COMPACT', 'SPARSE' (see the README)
     compact_size  int      numbers per vertex in compact storage (default 36)
     sparse_size   int      (cage vertex, weight) pairs per vertex in sparse storage (16;

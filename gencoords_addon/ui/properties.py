@@ -3,8 +3,7 @@
 import bpy
 
 from ...core.base.inputs import GAMMA_LIMIT
-from ...core.harmonic import DEFAULT_RESOLUTION
-from ...core.tools.bind_plan import SPARSE_SIZE
+from ...core.tools.bind_plan import BIND_RESOLUTION, SPARSE_SIZE
 from ..enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 from . import visualise
 
@@ -36,7 +35,7 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
                     "to store precisely (large |gamma| in irregular cages)",
     )
     resolution: bpy.props.IntProperty(
-        name="Resolution", default=DEFAULT_RESOLUTION, min=4, soft_min=8, soft_max=128, max=512,
+        name="Resolution", default=BIND_RESOLUTION, min=4, soft_min=8, soft_max=128, max=512,
         options=set(),
         description="Harmonic coordinates: grid cells along the cage's longest side (cubes, so "
                     "a thin limb gets the cells its thickness allows). Finer follows the cage "
