@@ -236,7 +236,7 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
     (0, True)
     >>> twice = np.concatenate([vertices, vertices + [0.93, 0.11, 0.07]])
     >>> try:
-    ...     fit_tight_cage(twice, np.concatenate([faces, faces + 12]), [[0.5, 0.0, 0.0]], 0.01, 1e-6)
+    ...     fit_tight_cage(twice, np.concatenate([faces, faces + len(vertices)]), [[0.5, 0.0, 0.0]], 0.01, 1e-6)
     ... except TightCageError as error:
     ...     print(error.problem)
     self_intersecting
