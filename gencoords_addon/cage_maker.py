@@ -12,8 +12,9 @@ import numpy as np
 
 from .. import core
 from ..core.tools import enclosing
-from . import mesh_io, preferences
+from . import cage_tight, mesh_io, preferences
 from .binding import FLOAT32_TOLERANCE
+from .mesh_arrays import read_loop_triangles
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
@@ -84,18 +85,25 @@ def make_cage_geometry(points, target_vertices, margin):
     raise CageError("the cage stayed non-convex after hulling again: try another vertex count")
 
 
-def make_cage(obj, context, target_vertices=100, margin=0.05):
+def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None):
     """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
     None or what to say about worker processes that failed, see
-    :func:`preferences.in_workers_or_blender`)."""
+    :func:`preferences.in_workers_or_blender`). ``tight``: a non-convex cage hugging the
+    mesh (``cage_tight``); ``distance``: the margin in world units instead of a share."""
     depsgraph = context.evaluated_depsgraph_get()
     with mesh_io.evaluated_mesh(obj, depsgraph) as evaluated:
         local = mesh_io.read_positions(evaluated).astype(np.float64)
+        faces = read_loop_triangles(evaluated) if tight else None
     if len(local) < 4:
         raise CageError(f"'{obj.name}' needs at least 4 vertices to make a cage around")
     world = np.array(obj.matrix_world, dtype=np.float64)
     points = local @ world[:3, :3].T + world[:3, 3]
-    stored, triangles = make_cage_geometry(points, target_vertices, margin)
+    if distance is not None:
+        margin = distance / max(float(np.linalg.norm(np.ptp(points, axis=0))), np.finfo(float).tiny)
+    if tight:
+        stored, triangles = cage_tight.make_tight_cage(points, faces, target_vertices, margin, context)
+    else:
+        stored, triangles = make_cage_geometry(points, target_vertices, margin)
     outside, worker_failure = preferences.in_workers_or_blender(
         lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
                                              workers=workers), preferences.worker_count(context))

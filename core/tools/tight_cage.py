@@ -140,7 +140,7 @@ def outward_pushes(vertices, triangles, points, clearance):
 
 
 def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
-            workers=None):
+            workers=None, stored_as=np.float64):
     """Push the cage out until every point is strictly inside it.
 
     Parameters
@@ -157,11 +157,15 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
         Push-outs tried before giving up.
     workers : int or None
         Worker processes for the winding numbers (``gencoords.point_locations``).
+    stored_as : numpy float type
+        What the cage's positions will be stored as (``np.float32`` in Blender): pushed
+        positions are rounded to it before they are checked, so the check holds for what
+        is stored.
 
     Returns
     -------
     vertices : (n, 3) float64
-        The pushed cage.
+        The pushed cage (values of ``stored_as``).
     pushes : int
         How many push-outs it took (0: it enclosed the points already).
 
@@ -182,7 +186,7 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
     >>> pushes > 0, bool((where == gencoords.INSIDE).all())
     (True, True)
     """
-    vertices = np.asarray(vertices, dtype=np.float64)
+    vertices = np.asarray(vertices, dtype=stored_as).astype(np.float64)
     points = np.asarray(points, dtype=np.float64)
     for pushes in range(iterations + 1):
         left_out = point_locations(points, vertices, triangles, tolerance, workers) != INSIDE
@@ -192,13 +196,14 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
             break
         moves = outward_pushes(vertices, triangles, points[left_out], clearance)
         vertices = vertices + moves[:, None] * vertex_normals(vertices, triangles)
+        vertices = vertices.astype(stored_as).astype(np.float64)
     raise TightCageError("outside", f"{int(left_out.sum())} mesh vertices stay outside the cage "
                                     f"after pushing it out {iterations} times: raise the offset "
                                     "or the vertex count")
 
 
 def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
-                   workers=None):
+                   workers=None, stored_as=np.float64):
     """A cage from ``vertices`` and ``triangles`` that binds around ``points``: pushed out
     until it encloses them (:func:`enclose`), then checked.
 
@@ -209,7 +214,7 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
         A closed, outward cage, usually an offset and simplified copy of the mesh.
     points : (k, 3) float
         The mesh's vertices, in the cage's space.
-    clearance, tolerance, iterations, workers
+    clearance, tolerance, iterations, workers, stored_as
         As for :func:`enclose`.
 
     Returns
@@ -242,7 +247,8 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
     self_intersecting
     """
     validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
-    vertices, pushes = enclose(vertices, triangles, points, clearance, tolerance, iterations, workers)
+    vertices, pushes = enclose(vertices, triangles, points, clearance, tolerance, iterations, workers,
+                               stored_as)
     try:
         validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
     except CageError as error:

@@ -1,0 +1,113 @@
+"""Make Cage, Tight, through the operator as a script calls it (inside
+``bpy.context.temp_override``, by the invoke path the panel's button takes): on the
+artist's character the cage encloses every vertex, is closed, manifold, outward and does
+not pass through itself, has about the vertices asked for, stays within 3 times the
+body's volume (the union of its capsules, by winding numbers along columns) and binds
+with Green, the bound mesh following it."""
+
+import bpy
+import numpy as np
+import pytest
+
+import gencoords
+from gencoords.tools import self_intersection, tight_cage
+from scene_helpers import evaluated_positions, read_positions, write_positions, write_shape_key
+from scripts.common import scenes
+
+TOLERANCE = 1e-6
+
+
+def make_cage(obj, **options):
+    """Make Cage as the panel's button runs it (invoke: a dialog in a window, here
+    straight to execute), on ``obj`` alone."""
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        return bpy.ops.object.gencoords_make_cage('INVOKE_DEFAULT', **options)
+
+
+def world_arrays(obj, evaluated=False):
+    """World positions (float64) and loop triangles of ``obj``'s mesh (or evaluated mesh)."""
+    matrix = np.array(obj.matrix_world)
+    if evaluated:
+        mesh = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+    else:
+        mesh = obj.data
+    try:
+        local = read_positions(mesh).astype(np.float64)
+        mesh.calc_loop_triangles()
+        triangles = np.array([t.vertices[:] for t in mesh.loop_triangles], dtype=np.int64)
+    finally:
+        if evaluated:
+            obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh_clear()
+    return local @ matrix[:3, :3].T + matrix[:3, 3], triangles
+
+
+def assert_tight_cage(mesh_points, cage_points, cage_triangles):
+    """Encloses every point strictly; closed, manifold, outward, not convex, not crossing itself."""
+    gencoords.advanced.validate_cage(cage_points, cage_triangles, convex=False, tolerance=TOLERANCE)
+    with pytest.raises(gencoords.CageError, match="not convex"):
+        gencoords.advanced.validate_cage(cage_points, cage_triangles, convex=True, tolerance=TOLERANCE)
+    assert self_intersection.self_intersections(cage_points, cage_triangles).shape == (0, 2)
+    where = gencoords.point_locations(mesh_points, cage_points, cage_triangles, tolerance=TOLERANCE)
+    assert (where == gencoords.INSIDE).all()
+
+
+def test_tight_cage_around_the_character_encloses_binds_and_stays_within_3_volumes(gc):
+    mesh, artist_cage = scenes.add_character()
+    assert make_cage(mesh, shape='TIGHT', target_vertices=200) == {'FINISHED'}
+    cage = mesh.gencoords.cage
+    assert cage is not None and cage != artist_cage and len(cage.data.polygons)
+    body, body_triangles = world_arrays(mesh)
+    cage_points, cage_triangles = world_arrays(cage)
+    assert_tight_cage(body, cage_points, cage_triangles)
+    assert 170 <= len(cage_points) <= 230  # 200 asked for
+    ratio = tight_cage.volume_ratio(cage_points, cage_triangles, body, body_triangles)
+    artist = tight_cage.volume_ratio(*world_arrays(artist_cage), body, body_triangles)
+    assert ratio <= 3.0 and ratio < artist  # the artist's box cage: 3.4 times the body
+    # It binds as made (Green accepts non-convex cages), and the body follows the cage.
+    settings = mesh.gencoords
+    settings.kind, settings.storage = "GREEN", "EXACT"
+    with bpy.context.temp_override(active_object=mesh, object=mesh, selected_objects=[mesh]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+    rest = read_positions(cage.data).astype(np.float64)
+    write_positions(cage.data, rest + (0.1, 0.0, -0.05))
+    np.testing.assert_allclose(evaluated_positions(mesh), body + (0.1, 0.0, -0.05), atol=2e-4)
+    # Raising the left hand's cage: the left hand rises, the right one stays.
+    left = rest[:, 0] < -0.6
+    write_positions(cage.data, rest + np.where(left[:, None], (0.0, 0.0, 0.1), 0.0))
+    moved = evaluated_positions(mesh) - body
+    assert moved[body[:, 0] < -0.8, 2].min() > 0.05
+    assert np.abs(moved[body[:, 0] > 0.8]).max() < 0.02
+
+
+def test_tight_cage_wraps_the_evaluated_mesh_at_a_distance(gc):
+    """Shape keys and modifiers count, as for Bind; Offset In Distance is world units."""
+    scenes.add_suzanne(level=1)
+    obj = bpy.context.active_object
+    obj.location = (5.0, 0.0, 1.0)
+    obj.shape_key_add(name="Basis")
+    key = obj.shape_key_add(name="Stretched")
+    write_shape_key(key, read_positions(obj.data) * (1.0, 1.0, 1.6))
+    key.value = 1.0
+    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 1
+    assert make_cage(obj, shape='TIGHT', target_vertices=150, offset_unit='DISTANCE',
+                     distance=0.08) == {'FINISHED'}
+    points, _ = world_arrays(obj, evaluated=True)
+    cage_points, cage_triangles = world_arrays(obj.gencoords.cage)
+    assert_tight_cage(points, cage_points, cage_triangles)
+    assert 120 <= len(cage_points) <= 180
+    # Around the stretched, subdivided shape (1.6 times as tall as the mesh data), about
+    # the distance beyond it above and below.
+    assert np.ptp(points[:, 2]) > 1.5 * np.ptp(world_arrays(obj)[0][:, 2])
+    assert 0.04 < points[:, 2].min() - cage_points[:, 2].min() < 0.16
+    assert 0.04 < cage_points[:, 2].max() - points[:, 2].max() < 0.16
+
+
+def test_tight_cage_refuses_a_mesh_without_faces_and_changes_nothing(gc):
+    mesh = bpy.data.meshes.new("Points")
+    mesh.from_pydata(np.random.default_rng(0).normal(size=(50, 3)).tolist(), [], [])
+    obj = bpy.data.objects.new("Points", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    before = (len(bpy.data.objects), len(bpy.data.meshes))
+    with pytest.raises(RuntimeError, match="Tight wraps the mesh's faces.*use Convex"):
+        make_cage(obj, shape='TIGHT')
+    assert (len(bpy.data.objects), len(bpy.data.meshes)) == before and obj.gencoords.cage is None
