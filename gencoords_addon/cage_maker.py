@@ -100,16 +100,17 @@ def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, dista
     points = local @ world[:3, :3].T + world[:3, 3]
     if distance is not None:
         margin = distance / max(float(np.linalg.norm(np.ptp(points, axis=0))), np.finfo(float).tiny)
-    if tight:
-        stored, triangles = cage_tight.make_tight_cage(points, faces, target_vertices, margin, context)
+    if tight:  # enclosure checked by the core, as stored
+        stored, triangles, worker_failure = cage_tight.make_tight_cage(points, faces, target_vertices,
+                                                                       margin, context)
     else:
         stored, triangles = make_cage_geometry(points, target_vertices, margin)
-    outside, worker_failure = preferences.in_workers_or_blender(
-        lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
-                                             workers=workers), preferences.worker_count(context))
-    if (outside == core.OUTSIDE).any():
-        raise CageError(f"{int((outside == core.OUTSIDE).sum())} vertices of '{obj.name}' "
-                        "ended outside the cage: raise the margin")
+        outside, worker_failure = preferences.in_workers_or_blender(
+            lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
+                                                 workers=workers), preferences.worker_count(context))
+        if (outside == core.OUTSIDE).any():
+            raise CageError(f"{int((outside == core.OUTSIDE).sum())} vertices of '{obj.name}' "
+                            "ended outside the cage: raise the margin")
     mesh = bpy.data.meshes.new(f"{obj.name} cage")
     cage = None
     try:  # all or nothing: what was added goes again on a failure

@@ -117,12 +117,13 @@ def make_tight_cage_geometry(points, triangles, target_vertices, offset, toleran
 def make_tight_cage(points, triangles, target_vertices, margin, context):
     """:func:`make_tight_cage_geometry` with the offset a share ``margin`` of the mesh's
     bounding-box diagonal, float32 tolerances and the preferences' worker processes (in
-    Blender's process if they cannot start: Make Cage's own check says so)."""
+    Blender's process if they cannot start): vertices, triangles and None or what to say
+    about the workers (:func:`preferences.in_workers_or_blender`)."""
     size = float(np.linalg.norm(np.ptp(points, axis=0)))
     if not size > 0.0:
         raise CageError("the mesh has no extent: a cage needs a volume to enclose")
-    (vertices, faces), _ = preferences.in_workers_or_blender(
+    (vertices, faces), worker_failure = preferences.in_workers_or_blender(
         lambda workers: make_tight_cage_geometry(points, triangles, target_vertices, margin * size,
                                                  FLOAT32_TOLERANCE, context, workers),
         preferences.worker_count(context))
-    return vertices, faces
+    return vertices, faces, worker_failure
