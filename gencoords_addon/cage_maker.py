@@ -114,7 +114,7 @@ def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, dista
     mesh = bpy.data.meshes.new(f"{obj.name} cage")
     cage = None
     try:  # all or nothing: what was added goes again on a failure
-        mesh.from_pydata(stored.tolist(), [], triangles.tolist())
+        mesh.from_pydata(stored.tolist(), [], [list(face) for face in triangles])  # Tight: quads too
         mesh.update()
         cage = bpy.data.objects.new(f"{obj.name} cage", mesh)
         cage.display_type = 'WIRE'

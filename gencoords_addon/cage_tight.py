@@ -1,14 +1,18 @@
-"""Make Cage, Tight: a non-convex, triangulated cage that hugs the mesh at an offset.
+"""Make Cage, Tight: a non-convex cage of quads and triangles that hugs the mesh at an offset.
 
 Blender's own tools shape it, on a temporary copy of the mesh in world space: a voxel
 remesh (the union of overlapping parts, one closed surface), a displacement along the
 normals by the offset, a second voxel remesh (folds of the displaced surface in
-hollows become one surface again) and a collapse decimation to the vertex count. The
-core then pushes the cage out until it encloses every mesh vertex and checks it
+hollows become one surface again) and a collapse decimation to the vertex count;
+bmesh's Tris to Quads joins about half of the triangles into quads, which an artist
+edits more easily. The core then pushes the cage out until it encloses every mesh vertex and checks it
 (closed, manifold, outward, not passing through itself):
 ``gencoords.tools.tight_cage.fit_tight_cage``. Nothing of the copy is left behind.
 """
 
+import math
+
+import bmesh
 import bpy
 import numpy as np
 
@@ -23,10 +27,32 @@ from .mesh_arrays import read_loop_triangles, read_positions
 FINEST_VOXEL = 1.0 / 400
 COARSEST_VOXEL = 1.0 / 60
 CLEARANCE = 0.25  # a pushed face passes left-out vertices by this share of the offset
+# Triangles join into a quad where their normals and the quad's corners stay within this
+# of flat and square: about half of a decimated cage's faces become quads.
+QUAD_ANGLE = math.radians(40.0)
 
 
 class CageError(Exception):
     """No tight cage could be made; the message says why (Make Cage reports it)."""
+
+
+def join_triangles(vertices, triangles):
+    """Pairs of triangles joined into quads, as an artist edits more easily (bmesh's
+    Tris to Quads): the triangles left (m, 3) and the quads (q, 4), windings kept."""
+    bm = bmesh.new()
+    try:
+        verts = [bm.verts.new(point) for point in vertices]
+        for triangle in triangles:
+            bm.faces.new([verts[index] for index in triangle])
+        bm.verts.index_update()
+        bm.normal_update()
+        bmesh.ops.join_triangles(bm, faces=bm.faces[:], angle_face_threshold=QUAD_ANGLE,
+                                 angle_shape_threshold=QUAD_ANGLE)
+        faces = [[vert.index for vert in face.verts] for face in bm.faces]
+    finally:
+        bm.free()
+    return (np.array([face for face in faces if len(face) == 3], dtype=np.int64).reshape(-1, 3),
+            np.array([face for face in faces if len(face) == 4], dtype=np.int64).reshape(-1, 4))
 
 
 def voxel_size(offset, size):
@@ -86,7 +112,8 @@ def offset_surface(points, triangles, offset, target_vertices, context):
 
 def make_tight_cage_geometry(points, triangles, target_vertices, offset, tolerance, context,
                              workers=None):
-    """Vertices (c, 3) float64 and outward triangles (m, 3) of a tight cage around the mesh.
+    """Vertices (c, 3) float64 and outward faces (a list of triangles and quads, lists of
+    vertex indices) of a tight cage around the mesh.
 
     Parameters
     ----------
@@ -105,13 +132,14 @@ def make_tight_cage_geometry(points, triangles, target_vertices, offset, toleran
     if not len(triangles):
         raise CageError("Tight wraps the mesh's faces and it has none: use Convex")
     vertices, faces = offset_surface(points, triangles, offset, target_vertices, context)
+    triangles, quads = join_triangles(vertices, faces)
     clearance = CLEARANCE * max(offset, FINEST_VOXEL * float(np.linalg.norm(np.ptp(points, axis=0))))
-    try:  # checked as stored: float32
-        vertices, _ = tight_cage.fit_tight_cage(vertices, faces, points, clearance, tolerance,
-                                                workers=workers, stored_as=np.float32)
+    try:  # checked as stored (float32) and as Bind splits the quads
+        vertices, _ = tight_cage.fit_tight_cage(vertices, triangles, points, clearance, tolerance,
+                                                workers=workers, stored_as=np.float32, quads=quads)
     except (core.CageError, tight_cage.TightCageError) as error:
         raise CageError(f"the tight cage failed: {error}") from None
-    return vertices, faces
+    return vertices, triangles.tolist() + quads.tolist()
 
 
 def make_tight_cage(points, triangles, target_vertices, margin, context):

@@ -15,14 +15,15 @@ import numpy as np
 
 from ..base.errors import CageError
 from ..base.simplex import closest_points_on_simplices
+from ..base.triangulation import triangulate_quads
 from ..construction.boundary import INSIDE
 from ..construction.validation import validate_cage
 from ..evaluation.barycentric import point_locations
 from .self_intersection import self_intersections
 from .volumes import signed_volume, union_volume
 
-__all__ = ["TightCageError", "vertex_normals", "outward_pushes", "enclose", "fit_tight_cage",
-           "volume_ratio"]
+__all__ = ["TightCageError", "vertex_normals", "outward_pushes", "cage_triangles", "enclose",
+           "fit_tight_cage", "volume_ratio"]
 
 PUSH_ITERATIONS = 8  # push-outs before giving up
 _PAIR_BLOCK = 1 << 20  # (point, triangle) pairs per block when finding nearest triangles
@@ -139,8 +140,37 @@ def outward_pushes(vertices, triangles, points, clearance):
     return pushes
 
 
+def cage_triangles(vertices, triangles, quads=None):
+    """The triangles a cage of triangles and quads is bound with: its triangles, then
+    each quad split as :func:`gencoords.tools.triangulate_quads` splits it (the diagonal
+    depends on the positions, so it is found again whenever they move).
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+    quads : (q, 4) int or None
+
+    Returns
+    -------
+    triangles : (m + 2q, 3) int64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.tight_cage import cage_triangles
+    >>> square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    >>> cage_triangles(square, np.zeros((0, 3), int), [[0, 1, 2, 3]]).tolist()
+    [[0, 1, 2], [0, 2, 3]]
+    """
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if quads is None or not len(quads):
+        return triangles
+    return np.concatenate([triangles, triangulate_quads(vertices, quads)])
+
+
 def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
-            workers=None, stored_as=np.float64):
+            workers=None, stored_as=np.float64, quads=None):
     """Push the cage out until every point is strictly inside it.
 
     Parameters
@@ -161,6 +191,9 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
         What the cage's positions will be stored as (``np.float32`` in Blender): pushed
         positions are rounded to it before they are checked, so the check holds for what
         is stored.
+    quads : (q, 4) int or None
+        Quads of the cage beside its triangles, checked as :func:`cage_triangles` splits
+        them.
 
     Returns
     -------
@@ -189,13 +222,14 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
     vertices = np.asarray(vertices, dtype=stored_as).astype(np.float64)
     points = np.asarray(points, dtype=np.float64)
     for pushes in range(iterations + 1):
-        left_out = point_locations(points, vertices, triangles, tolerance, workers) != INSIDE
+        split = cage_triangles(vertices, triangles, quads)
+        left_out = point_locations(points, vertices, split, tolerance, workers) != INSIDE
         if not left_out.any():
             return vertices, pushes
         if pushes == iterations:
             break
-        moves = outward_pushes(vertices, triangles, points[left_out], clearance)
-        vertices = vertices + moves[:, None] * vertex_normals(vertices, triangles)
+        moves = outward_pushes(vertices, split, points[left_out], clearance)
+        vertices = vertices + moves[:, None] * vertex_normals(vertices, split)
         vertices = vertices.astype(stored_as).astype(np.float64)
     raise TightCageError("outside", f"{int(left_out.sum())} mesh vertices stay outside the cage "
                                     f"after pushing it out {iterations} times: raise the offset "
@@ -203,7 +237,7 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
 
 
 def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
-                   workers=None, stored_as=np.float64):
+                   workers=None, stored_as=np.float64, quads=None):
     """A cage from ``vertices`` and ``triangles`` that binds around ``points``: pushed out
     until it encloses them (:func:`enclose`), then checked.
 
@@ -214,7 +248,7 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
         A closed, outward cage, usually an offset and simplified copy of the mesh.
     points : (k, 3) float
         The mesh's vertices, in the cage's space.
-    clearance, tolerance, iterations, workers, stored_as
+    clearance, tolerance, iterations, workers, stored_as, quads
         As for :func:`enclose`.
 
     Returns
@@ -246,9 +280,10 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
     ...     print(error.problem)
     self_intersecting
     """
-    validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
+    validate_cage(vertices, cage_triangles(vertices, triangles, quads), convex=False, tolerance=tolerance)
     vertices, pushes = enclose(vertices, triangles, points, clearance, tolerance, iterations, workers,
-                               stored_as)
+                               stored_as, quads)
+    triangles = cage_triangles(vertices, triangles, quads)
     try:
         validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
     except CageError as error:

@@ -5,6 +5,8 @@ not pass through itself, has about the vertices asked for, stays within 3 times 
 body's volume (the union of its capsules, by winding numbers along columns) and binds
 with Green, the bound mesh following it."""
 
+import importlib
+
 import bpy
 import numpy as np
 import pytest
@@ -25,16 +27,19 @@ def make_cage(obj, **options):
 
 
 def world_arrays(obj, evaluated=False):
-    """World positions (float64) and loop triangles of ``obj``'s mesh (or evaluated mesh)."""
+    """World positions (float64) of ``obj``'s mesh (or evaluated mesh) and its triangles
+    as Bind reads them (the add-on's ``mesh_io.read_triangles``: quads split by the core)."""
+    mesh_io = importlib.import_module(bpy.types.OBJECT_OT_gencoords_bind.__module__.rpartition(".")[0]
+                                      + ".mesh_io")
     matrix = np.array(obj.matrix_world)
     if evaluated:
         mesh = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
     else:
         mesh = obj.data
     try:
-        local = read_positions(mesh).astype(np.float64)
-        mesh.calc_loop_triangles()
-        triangles = np.array([t.vertices[:] for t in mesh.loop_triangles], dtype=np.int64)
+        local = read_positions(mesh)
+        triangles, _ = mesh_io.read_triangles(mesh, local)
+        local = local.astype(np.float64)
     finally:
         if evaluated:
             obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh_clear()
@@ -60,6 +65,8 @@ def test_tight_cage_around_the_character_encloses_binds_and_stays_within_3_volum
     cage_points, cage_triangles = world_arrays(cage)
     assert_tight_cage(body, cage_points, cage_triangles)
     assert 170 <= len(cage_points) <= 230  # 200 asked for
+    sizes = [len(polygon.vertices) for polygon in cage.data.polygons]
+    assert set(sizes) == {3, 4} and sizes.count(4) > len(sizes) / 3  # quads, for editing
     ratio = tight_cage.volume_ratio(cage_points, cage_triangles, body, body_triangles)
     artist = tight_cage.volume_ratio(*world_arrays(artist_cage), body, body_triangles)
     assert ratio <= 3.0 and ratio < artist  # the artist's box cage: 3.4 times the body

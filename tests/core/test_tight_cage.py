@@ -167,3 +167,16 @@ def test_fit_tight_cage_refuses_a_cage_through_itself_and_measures_volume():
     body, body_faces, _ = character.body_mesh(0.5)
     ratio = tight_cage.volume_ratio(cage_vertices, cage_faces, body, body_faces)
     assert 3.0 < ratio < 4.0  # the artist's box-modelled cage: 3.4 times the body
+
+
+def test_a_quad_cage_is_pushed_out_and_checked_as_its_quads_are_split():
+    vertices, _ = _box([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0])
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+    points = np.random.default_rng(3).uniform(-1.1, 1.1, (2000, 3))  # some beyond every face
+    no_triangles = np.zeros((0, 3), dtype=np.int64)
+    fitted, pushes = tight_cage.fit_tight_cage(vertices, no_triangles, points, 0.05, 1e-6,
+                                               stored_as=np.float32, quads=quads)
+    assert pushes >= 1 and np.array_equal(fitted, fitted.astype(np.float32))
+    split = tight_cage.cage_triangles(fitted, no_triangles, quads)
+    np.testing.assert_array_equal(split, gencoords.tools.triangulate_quads(fitted, quads))
+    assert (gencoords.point_locations(points, fitted, split, 1e-6) == gencoords.INSIDE).all()
