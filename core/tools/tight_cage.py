@@ -25,7 +25,7 @@ from .volumes import signed_volume, union_volume
 __all__ = ["TightCageError", "vertex_normals", "outward_pushes", "cage_triangles", "enclose",
            "fit_tight_cage", "volume_ratio"]
 
-PUSH_ITERATIONS = 8  # push-outs before giving up
+PUSH_ITERATIONS = 16  # push-outs before giving up
 _PAIR_BLOCK = 1 << 20  # (point, triangle) pairs per block when finding nearest triangles
 _SMALLEST_COSINE = 0.5  # a vertex moves at most twice what a face next to it needs
 
@@ -221,19 +221,52 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
     """
     vertices = np.asarray(vertices, dtype=stored_as).astype(np.float64)
     points = np.asarray(points, dtype=np.float64)
-    for pushes in range(iterations + 1):
-        split = cage_triangles(vertices, triangles, quads)
-        left_out = point_locations(points, vertices, split, tolerance, workers) != INSIDE
+    split = cage_triangles(vertices, triangles, quads)
+    where = point_locations(points, vertices, split, tolerance, workers)
+    pushes, checked_all = 0, True
+    while True:
+        left_out = where != INSIDE
         if not left_out.any():
-            return vertices, pushes
+            if checked_all:
+                return vertices, pushes
+            # The swept boxes decide up to the tolerance, which scales with the cage.
+            where, checked_all = point_locations(points, vertices, split, tolerance, workers), True
+            continue
         if pushes == iterations:
-            break
-        moves = outward_pushes(vertices, split, points[left_out], clearance)
-        vertices = vertices + moves[:, None] * vertex_normals(vertices, split)
-        vertices = vertices.astype(stored_as).astype(np.float64)
-    raise TightCageError("outside", f"{int(left_out.sum())} mesh vertices stay outside the cage "
-                                    f"after pushing it out {iterations} times: raise the offset "
-                                    "or the vertex count")
+            raise TightCageError("outside", f"{int(left_out.sum())} mesh vertices stay outside "
+                                            f"the cage after pushing it out {iterations} times: "
+                                            "raise the offset or the vertex count")
+        pushes, checked_all = pushes + 1, False
+        # Each push out overshoots more: a vertex pushed alone tilts its faces away from
+        # the points beside the one it was pushed for.
+        moves = outward_pushes(vertices, split, points[left_out], clearance * pushes)
+        moved = vertices + moves[:, None] * vertex_normals(vertices, split)
+        moved = moved.astype(stored_as).astype(np.float64)
+        moved_split = cage_triangles(moved, triangles, quads)
+        faces = (np.asarray(triangles, dtype=np.int64).reshape(-1, 3),
+                 np.asarray(quads if quads is not None else [], dtype=np.int64).reshape(-1, 4))
+        swept = _swept(points, vertices, moved, faces, moves > 0, tolerance)
+        vertices, split = moved, moved_split
+        where[swept] = point_locations(points[swept], vertices, split, tolerance, workers)
+
+
+def _swept(points, before, after, faces, moved, tolerance):
+    """Points (indices) whose winding number a move of the cage can change: those in the
+    bounding box of a moved face's corners before and after (a face moving linearly stays
+    in the convex hull of both, whichever diagonal splits a quad), widened by the tolerance."""
+    low, high = [], []
+    for face in faces:  # triangles, quads
+        touched = face[moved[face].any(axis=1)]
+        corners = np.concatenate([before[touched], after[touched]], axis=1)
+        low.append(corners.min(axis=1))
+        high.append(corners.max(axis=1))
+    pad = 2.0 * tolerance * float(np.linalg.norm(np.ptp(after, axis=0)))
+    low, high = np.concatenate(low) - pad, np.concatenate(high) + pad
+    inside = np.zeros(len(points), dtype=bool)
+    for start in range(0, len(low), 64):  # bounded memory: points x 64 boxes
+        inside |= ((points[:, None] >= low[None, start:start + 64])
+                   & (points[:, None] <= high[None, start:start + 64])).all(axis=2).any(axis=1)
+    return np.flatnonzero(inside)
 
 
 def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,

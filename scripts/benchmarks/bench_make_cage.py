@@ -1,7 +1,7 @@
 """Make Cage, Convex against Tight, on the artist's character (43,236 vertices, capsules
 that overlap) and on Suzanne (2 subdivisions, 7958 vertices): the time Make Cage takes
 (through the operator, reading what it wrote), the cage's vertex count, its volume over
-the mesh's, and whether it encloses every vertex. The mesh's volume is the union of its
+the mesh's, and whether it encloses every vertex (as Bind splits its quads). The mesh's volume is the union of its
 shells (overlaps once): winding numbers along a grid of vertical columns
 (``gencoords.tools.volumes.union_volume``). The character's own box-modelled cage is the
 reference for what an artist models.
@@ -29,10 +29,12 @@ from scripts.common.scenes import arrays  # noqa: E402
 
 
 def world_arrays(obj):
-    """World positions (float64) and loop triangles of ``obj``'s mesh."""
+    """World positions (float64) of ``obj``'s mesh and its triangles as Bind reads them
+    (quads split by the core)."""
     matrix = np.array(obj.matrix_world)
-    local = arrays.read_positions(obj.data).astype(np.float64)
-    return local @ matrix[:3, :3].T + matrix[:3, 3], arrays.read_loop_triangles(obj.data)
+    local = arrays.read_positions(obj.data)
+    triangles, _ = session.addon_module("mesh_io").read_triangles(obj.data, local)
+    return local.astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3], triangles
 
 
 def add_mesh(name):
@@ -52,8 +54,9 @@ def row(mesh, cage, seconds, label):
     ratio = tight_cage.volume_ratio(points, triangles, body, body_triangles)
     inside = "all" if (where == gencoords.INSIDE).all() else f"{int((where != gencoords.INSIDE).sum())} not"
     time_text = f"{seconds:.1f} s" if seconds is not None else "-"
-    return (f"| {label} | {len(body)} | {time_text} | {len(points)} | {ratio:.2f} | {inside} | "
-            f"{crossing} |")
+    quads = sum(len(polygon.vertices) == 4 for polygon in cage.data.polygons)
+    return (f"| {label} | {len(body)} | {time_text} | {len(points)} | {len(cage.data.polygons)} "
+            f"({quads}) | {ratio:.2f} | {inside} | {crossing} |")
 
 
 def make_cage(mesh, shape, vertices):
@@ -74,9 +77,9 @@ def main():
     session.install_extension()
     print(f"Blender {bpy.app.version_string}; Make Cage with {args.vertices} vertices asked, "
           "default offsets (Convex: Margin 0.05, Tight: Offset 0.01 of the mesh's size)")
-    print("| mesh, cage | mesh vertices | Make Cage | cage vertices | volume / mesh's | "
-          "mesh vertices inside | crossing face pairs |")
-    print("|---|---:|---:|---:|---:|---|---:|")
+    print("| mesh, cage | mesh vertices | Make Cage | cage vertices | faces (quads) | "
+          "volume / mesh's | mesh vertices inside | crossing face pairs |")
+    print("|---|---:|---:|---:|---:|---:|---|---:|")
     for name in ("character", "suzanne"):
         for shape in ("CONVEX", "TIGHT"):
             mesh, artist = add_mesh(name)
