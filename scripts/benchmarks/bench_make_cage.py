@@ -6,8 +6,9 @@ shells (overlaps once): winding numbers along a grid of vertical columns
 (``gencoords.tools.volumes.union_volume``). The character's own box-modelled cage is the
 reference for what an artist models.
 
-Usage: bench_make_cage.py [--vertices 200]   (about a minute; timings are noisy on a
-shared machine)
+Usage: bench_make_cage.py [--vertices 200] [--sweep]   (about a minute; --sweep adds Tight
+at other vertex counts and offsets on both meshes, refusals included: two more minutes;
+timings are noisy on a shared machine)
 """
 
 import argparse
@@ -59,12 +60,15 @@ def row(mesh, cage, seconds, label):
             f"({quads}) | {ratio:.2f} | {inside} | {crossing} |")
 
 
-def make_cage(mesh, shape, vertices):
+SWEEP = ((60, 0.01), (100, 0.01), (300, 0.01), (150, 0.02), (200, 0.005))  # (vertices, Offset)
+
+
+def make_cage(mesh, shape, vertices, **options):
     scenes.make_active(mesh)
     start = time.perf_counter()
     with session.quiet(), bpy.context.temp_override(active_object=mesh, object=mesh,
                                                     selected_objects=[mesh]):
-        result = bpy.ops.object.gencoords_make_cage(shape=shape, target_vertices=vertices)
+        result = bpy.ops.object.gencoords_make_cage(shape=shape, target_vertices=vertices, **options)
     if result != {'FINISHED'}:
         raise RuntimeError(f"Make Cage returned {result}")
     return mesh.gencoords.cage, time.perf_counter() - start
@@ -73,6 +77,7 @@ def make_cage(mesh, shape, vertices):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--vertices", type=int, default=200)
+    parser.add_argument("--sweep", action="store_true")
     args = parser.parse_args()
     session.install_extension()
     print(f"Blender {bpy.app.version_string}; Make Cage with {args.vertices} vertices asked, "
@@ -87,6 +92,16 @@ def main():
             print(row(mesh, cage, seconds, f"{name}, {shape.lower()}"), flush=True)
         if artist is not None:
             print(row(mesh, artist, None, f"{name}, the artist's box cage"), flush=True)
+    for name in ("character", "suzanne") if args.sweep else ():
+        for vertices, offset in SWEEP:
+            mesh, _ = add_mesh(name)
+            label = f"{name}, tight, {vertices} vertices, Offset {offset}"
+            try:
+                cage, seconds = make_cage(mesh, "TIGHT", vertices, offset=offset)
+            except RuntimeError as error:  # a refusal: its message
+                print(f"| {label} | {len(mesh.data.vertices)} | refused: {str(error).strip()} |||||", flush=True)
+                continue
+            print(row(mesh, cage, seconds, label), flush=True)
 
 
 if __name__ == "__main__":
