@@ -118,3 +118,21 @@ def test_tight_cage_refuses_a_mesh_without_faces_and_changes_nothing(gc):
     with pytest.raises(RuntimeError, match="Tight wraps the mesh's faces.*use Convex"):
         make_cage(obj, shape='TIGHT')
     assert (len(bpy.data.objects), len(bpy.data.meshes)) == before and obj.gencoords.cage is None
+
+
+@pytest.mark.parametrize("shape, unit, shown", [("CONVEX", "SHARE", "margin"), ("TIGHT", "SHARE", "offset"),
+                                                ("TIGHT", "DISTANCE", "distance"),
+                                                ("CONVEX", "DISTANCE", "distance")])
+def test_the_dialog_shows_the_gap_the_shape_uses(gc, shape, unit, shown):
+    """What the panel's button asks in a window (invoke's dialog draws these)."""
+    from types import SimpleNamespace
+
+    from test_addon_package import RecordingLayout
+
+    operator = gc.operators.OBJECT_OT_gencoords_make_cage
+    drawn = []
+    dialog = SimpleNamespace(layout=RecordingLayout(drawn), shape=shape, offset_unit=unit,
+                             bl_rna=bpy.ops.object.gencoords_make_cage.get_rna_type())
+    operator.draw(dialog, bpy.context)
+    assert drawn == [("prop", "shape"), ("prop", "target_vertices"), ("prop", "offset_unit"),
+                     ("prop", shown)]
