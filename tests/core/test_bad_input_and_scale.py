@@ -223,6 +223,8 @@ def good_calls():
         "green_deform": dict(zip(("phi", "psi"), gencoords.green_coordinates(points, vertices, faces)),
                              vertices=vertices, cage_positions=vertices, faces=faces),
         "stretch_factors": dict(vertices=vertices, cage_positions=vertices, faces=faces),
+        "harmonic_coordinates": dict(cage, resolution=8),
+        "harmonic_field": dict(vertices=vertices, faces=faces, resolution=8),
     }
 
 
