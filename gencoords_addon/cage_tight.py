@@ -131,9 +131,15 @@ def make_tight_cage_geometry(points, triangles, target_vertices, offset, toleran
     """
     if not len(triangles):
         raise CageError("Tight wraps the mesh's faces and it has none: use Convex")
-    vertices, faces = offset_surface(points, triangles, offset, target_vertices, context)
-    triangles, quads = join_triangles(vertices, faces)
-    clearance = CLEARANCE * max(offset, FINEST_VOXEL * float(np.linalg.norm(np.ptp(points, axis=0))))
+    # Blender shapes a copy of unit size about the origin: voxel sizes have a floor, and
+    # float32 positions far from the origin lose the detail.
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2.0
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))
+    unit, faces = offset_surface((points - centre) / size, triangles, offset / size,
+                                 target_vertices, context)
+    triangles, quads = join_triangles(unit, faces)
+    vertices = unit * size + centre
+    clearance = CLEARANCE * max(offset, FINEST_VOXEL * size)
     try:  # checked as stored (float32) and as Bind splits the quads
         vertices, _ = tight_cage.fit_tight_cage(vertices, triangles, points, clearance, tolerance,
                                                 workers=workers, stored_as=np.float32, quads=quads)

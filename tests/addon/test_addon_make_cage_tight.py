@@ -136,3 +136,20 @@ def test_the_dialog_shows_the_gap_the_shape_uses(gc, shape, unit, shown):
     operator.draw(dialog, bpy.context)
     assert drawn == [("prop", "shape"), ("prop", "target_vertices"), ("prop", "offset_unit"),
                      ("prop", shown)]
+
+
+@pytest.mark.parametrize("scale, location", [(1e-4, (0.0, 0.0, 0.0)), (1e3, (0.0, 0.0, 0.0)),
+                                             (1.0, (300.0, -200.0, 50.0))])
+def test_tight_cages_of_tiny_huge_and_far_meshes_enclose_and_bind(gc, scale, location):
+    """The copy Blender remeshes is of unit size at the origin (voxel sizes have a floor)."""
+    obj = scenes.add_suzanne(level=1)
+    obj.scale, obj.location = (scale,) * 3, location
+    bpy.context.view_layer.update()
+    assert make_cage(obj, shape='TIGHT', target_vertices=150) == {'FINISHED'}
+    points, _ = world_arrays(obj)
+    cage_points, cage_triangles = world_arrays(obj.gencoords.cage)
+    assert_tight_cage(points, cage_points, cage_triangles)
+    assert np.ptp(cage_points, axis=0).max() < 1.2 * np.ptp(points, axis=0).max()  # hugging
+    obj.gencoords.kind = "MEAN_VALUE"  # a made cage binds as made
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
