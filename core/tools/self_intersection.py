@@ -17,7 +17,7 @@ import numpy as np
 
 __all__ = ["triangles_intersect", "self_intersections"]
 
-_BLOCK = 1 << 20  # pairs of triangles per block: bounded memory on large meshes
+_BLOCK = 1 << 18  # pairs of triangles per block: bounded memory on large meshes
 
 
 def _orient(a, b, c, d):

@@ -26,7 +26,7 @@ __all__ = ["TightCageError", "vertex_normals", "outward_pushes", "cage_triangles
            "fit_tight_cage", "volume_ratio"]
 
 PUSH_ITERATIONS = 16  # push-outs before giving up
-_PAIR_BLOCK = 1 << 20  # (point, triangle) pairs per block when finding nearest triangles
+_PAIR_BLOCK = 1 << 18  # (point, triangle) pairs per block when finding nearest triangles
 _SMALLEST_COSINE = 0.5  # a vertex moves at most twice what a face next to it needs
 
 
