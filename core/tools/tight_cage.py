@@ -28,6 +28,7 @@ __all__ = ["TightCageError", "vertex_normals", "outward_pushes", "cage_triangles
 PUSH_ITERATIONS = 16  # push-outs before giving up
 _PAIR_BLOCK = 1 << 18  # (point, triangle) pairs per block when finding nearest triangles
 _SMALLEST_COSINE = 0.5  # a vertex moves at most twice what a face next to it needs
+_NEIGHBOUR_SHARE = 0.5  # of a vertex's push, its neighbours move at least this
 
 
 class TightCageError(ValueError):
@@ -137,7 +138,13 @@ def outward_pushes(vertices, triangles, points, clearance):
     for corner in range(3):
         cosine = np.einsum("mi,mi->m", normals[triangles[:, corner]], face)
         np.maximum.at(pushes, triangles[:, corner], need / np.maximum(cosine, _SMALLEST_COSINE))
-    return pushes
+    # Neighbours go half as far: a patch moves out, not a spike that tilts its faces away
+    # from the points beside (slow to converge, and spikes cross other faces).
+    spread = pushes.copy()
+    for first, second in ((0, 1), (1, 2), (2, 0)):
+        np.maximum.at(spread, triangles[:, first], _NEIGHBOUR_SHARE * pushes[triangles[:, second]])
+        np.maximum.at(spread, triangles[:, second], _NEIGHBOUR_SHARE * pushes[triangles[:, first]])
+    return spread
 
 
 def cage_triangles(vertices, triangles, quads=None):

@@ -180,3 +180,12 @@ def test_a_quad_cage_is_pushed_out_and_checked_as_its_quads_are_split():
     split = tight_cage.cage_triangles(fitted, no_triangles, quads)
     np.testing.assert_array_equal(split, gencoords.tools.triangulate_quads(fitted, quads))
     assert (gencoords.point_locations(points, fitted, split, 1e-6) == gencoords.INSIDE).all()
+
+
+def test_a_push_moves_a_patch_its_neighbours_half_as_far():
+    vertices, faces = octahedron()
+    pushes = tight_cage.outward_pushes(vertices, faces, [[2.0, 0.0, 0.0]], 0.5)
+    assert pushes[0] == pytest.approx(1.5 * np.sqrt(3.0))  # 1.5 along the nearest face's normal
+    # Vertex 1, opposite (1, 0, 0), is on no face that needs moving: it goes half as far
+    # as the farthest of its neighbours (2, 3, 4, 5).
+    assert pushes[1] == pytest.approx(0.5 * pushes[2:].max()) and 0.0 < pushes[1] < pushes[0]
