@@ -259,8 +259,8 @@ class OBJECT_OT_gencoords_clear_field(MeshOperator, bpy.types.Operator):
 
 
 class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
-    """Make a closed, triangulated cage around the active mesh (convex, or tight: hugging
-    the mesh) and pick it as the mesh's cage"""
+    """Make a closed cage around the active mesh (convex, of triangles; or tight: hugging
+    the mesh, of quads and triangles) and pick it as the mesh's cage"""
 
     bl_idname = "object.gencoords_make_cage"
     bl_label = "Make Cage"
