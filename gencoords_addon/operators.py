@@ -10,7 +10,7 @@ import traceback
 
 import bpy
 
-from . import binding, bones, cage_maker, cage_tight, visualise
+from . import bake_fitted, binding, bones, cage_maker, cage_tight, visualise
 
 
 class MeshOperator:
@@ -330,7 +330,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
 
 class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     """Replace the binding by an armature (a bone per cage vertex, following it, keyframed
-    over the scene's frame range) and vertex groups holding the coordinates, for game
+    over the scene's frame range) and vertex groups holding the coordinates, or (Fitted)
+    a few rotating bones and 4 weights per vertex fitted to the deformation, for game
     engines and exporters such as glTF"""
 
     bl_idname = "object.gencoords_bake_bones"
@@ -339,7 +340,29 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     max_influences: bpy.props.IntProperty(
         name="Max Influences", default=0, min=0, soft_max=8,
         description="Weights kept per vertex, renormalised (game engines take 4 or 8; "
-                    "three.js reads 4); 0 keeps all, which is exact")
+                    "three.js reads 4); 0 keeps all, which is exact (Fitted: 0 fits 4)")
+    mode: bpy.props.EnumProperty(
+        name="Mode", default='CAGE_VERTICES', items=(
+            ('CAGE_VERTICES', "Bone per Cage Vertex",
+             "A bone per cage vertex, following it; the coordinates as weights (exact with "
+             "every weight kept; game engines keep 4, which cannot follow the cage)"),
+            ('FITTED', "Fitted (game engines)",
+             "A few rotating bones and at most Max Influences weights per vertex (0: 4), "
+             "fitted to the deformation over the frame range and keyframed; any kind")))
+    bones: bpy.props.IntProperty(
+        name="Bones", default=bake_fitted.DEFAULT_BONES, min=1, max=255,
+        description="Fitted: bones to seed (those left weighing no vertex are dropped); "
+                    "more follow the cage more closely, and cost more to fit and to play")
+    use_scene_range: bpy.props.BoolProperty(
+        name="Scene Frame Range", default=True,
+        description="Fitted: sample the scene's frame range; off: Start to End")
+    frame_start: bpy.props.IntProperty(name="Start", default=1,
+                                       description="Fitted: the first frame sampled")
+    frame_end: bpy.props.IntProperty(name="End", default=250,
+                                     description="Fitted: the last frame sampled")
+    fitted_confirmed: bpy.props.BoolProperty(
+        name="Fitted Confirmed", options={'HIDDEN', 'SKIP_SAVE'},
+        description="Set on the modal Fitted bake that the options dialog hands over to")
     keyframes: bpy.props.BoolProperty(
         name="Keyframe Cage Motion", default=True,
         description="Also keyframe the bones on the cage at every frame of the scene's "
@@ -355,13 +378,36 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             return False
         return True
 
+    def draw(self, context):
+        """The options dialog: each mode's own options."""
+        layout = self.layout
+        layout.prop(self, "mode")
+        layout.prop(self, "max_influences")
+        if self.mode != 'FITTED':
+            layout.prop(self, "keyframes")
+            return
+        layout.prop(self, "bones")
+        layout.prop(self, "use_scene_range")
+        row = layout.row(align=True)
+        row.enabled = not self.use_scene_range
+        row.prop(self, "frame_start")
+        row.prop(self, "frame_end")
+
     def invoke(self, context, event):
-        """In the UI: ask for the options first."""
-        if bpy.app.background or context.window is None:
+        """In the UI: ask for the options first (Fitted: then fit with progress and Esc)."""
+        if not interactive(context):
             return self.execute(context)
+        if self.mode == 'FITTED' and self.fitted_confirmed:
+            return self._start_fitted(context)
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
+        if self.mode == 'FITTED' and interactive(context) and not self.fitted_confirmed:
+            bpy.ops.object.gencoords_bake_bones('INVOKE_DEFAULT', fitted_confirmed=True,
+                                                **self._fitted_options())
+            return {'CANCELLED'}  # this call ends here: the modal bake does the work
+        if self.mode == 'FITTED':
+            return self._bake_fitted(context)
         obj = context.active_object
         try:
             with object_mode(context, obj):
@@ -383,6 +429,80 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
                               "the standard smooth cage motion, measured on the weights "
                               f"written{over}")
         return {'FINISHED'}
+
+    # Fitted, in a window: the options dialog's OK calls execute(), which would block the
+    # window for the whole fit; it hands over to a modal bake (progress, Esc) instead.
+    def _fitted_options(self):
+        return {name: getattr(self, name) for name in ("mode", "bones", "max_influences",
+                                                        "use_scene_range", "frame_start", "frame_end")}
+
+    def _guarded(self, step, *args):
+        """``step(*args)``, its errors reported: {'CANCELLED'} on one."""
+        try:
+            return step(*args)
+        except binding.BindError as error:
+            self.report({'ERROR'}, str(error))
+        except bake_fitted.Cancelled:
+            self.report({'WARNING'}, "Bake to Bones cancelled: nothing was changed")
+        except Exception as error:
+            return _internal_error(self, error)
+        return {'CANCELLED'}
+
+    def _fitted_job(self, context):
+        obj = context.active_object
+        frames = (None if self.use_scene_range else
+                  bake_fitted.frame_range(context.scene, self.frame_start, self.frame_end))
+        with object_mode(context, obj):
+            return bake_fitted.FittedBakeJob(
+                obj, context, self.bones, self.max_influences or bake_fitted.DEFAULT_INFLUENCES, frames)
+
+    def _commit_fitted(self, context, job):
+        if job.error is not None:
+            raise job.error
+        with object_mode(context, job.obj):
+            rig, figures = job.commit(context)
+        self.report({'INFO'}, bake_fitted.summary(job.obj, rig, figures))
+        return {'FINISHED'}
+
+    def _bake_fitted(self, context):
+        """At once (scripts, background): progress only where a window shows it."""
+        def run():
+            job = self._fitted_job(context)
+            job.run(context.window_manager.progress_update)
+            return self._commit_fitted(context, job)
+        context.window_manager.progress_begin(0.0, 1.0)
+        try:
+            return self._guarded(run)
+        finally:
+            context.window_manager.progress_end()
+
+    def _start_fitted(self, context):
+        self._job = self._guarded(self._fitted_job, context)
+        if isinstance(self._job, set):
+            return self._job
+        self._job.start()
+        window_manager = context.window_manager
+        self._timer = window_manager.event_timer_add(0.1, window=context.window)
+        window_manager.progress_begin(0.0, 1.0)
+        window_manager.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == 'ESC':
+            job.cancel()
+            job.error = bake_fitted.Cancelled()
+        elif event.type != 'TIMER':
+            return {'RUNNING_MODAL'}  # nothing else is edited while the fit runs
+        elif not job.done:
+            context.window_manager.progress_update(job.fraction)
+            context.workspace.status_text_set(f"GenCoords: fitting bones to '{job.obj.name}' "
+                                              f"{job.fraction:.0%} (Esc to cancel)")
+            return {'RUNNING_MODAL'}
+        context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+        context.workspace.status_text_set(None)
+        return self._guarded(self._commit_fitted, context, job)
 
 
 def draw_menu(self, context):
