@@ -2,8 +2,8 @@
 ``bpy.context.temp_override``, by the invoke path the panel's button takes): on the
 artist's character the cage encloses every vertex, is closed, manifold, outward and does
 not pass through itself, has about the vertices asked for, stays within 3 times the
-body's volume (the union of its capsules, by winding numbers along columns) and binds
-with Green, the bound mesh following it."""
+body's volume (the union of its capsules, by winding numbers along columns), binds with
+Green, the bound mesh following it, and takes the core's harmonic coordinates."""
 
 import importlib
 
@@ -70,6 +70,12 @@ def test_tight_cage_around_the_character_encloses_binds_and_stays_within_3_volum
     ratio = tight_cage.volume_ratio(cage_points, cage_triangles, body, body_triangles)
     artist = tight_cage.volume_ratio(*world_arrays(artist_cage), body, body_triangles)
     assert ratio <= 3.0 and ratio < artist  # the artist's box cage: 3.4 times the body
+    # The core's harmonic coordinates (non-convex cages too) accept it: non-negative,
+    # rows summing to 1, reproducing the points to within a grid cell.
+    sample = body[np.random.default_rng(0).choice(len(body), 2000, replace=False)]
+    harmonic = gencoords.harmonic_coordinates(sample, cage_points, cage_triangles, resolution=32)
+    assert harmonic.min() >= 0.0 and np.allclose(harmonic.sum(axis=1), 1.0)
+    assert np.abs(harmonic @ cage_points - sample).max() < np.ptp(cage_points, axis=0).max() / 32
     # It binds as made (Green accepts non-convex cages), and the body follows the cage.
     settings = mesh.gencoords
     settings.kind, settings.storage = "GREEN", "EXACT"
