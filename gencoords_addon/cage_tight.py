@@ -141,7 +141,9 @@ def make_tight_cage_geometry(points, triangles, target_vertices, offset, toleran
     vertices = unit * size + centre
     clearance = CLEARANCE * max(offset, FINEST_VOXEL * size)
     try:  # checked as stored (float32) and as Bind splits the quads
-        vertices, _ = tight_cage.fit_tight_cage(vertices, triangles, points, clearance, tolerance,
+        # Once each: the mesh data's and the evaluated mesh's vertices often coincide.
+        vertices, _ = tight_cage.fit_tight_cage(vertices, triangles, np.unique(points, axis=0),
+                                                clearance, tolerance,
                                                 workers=workers, stored_as=np.float32, quads=quads)
     except (core.CageError, tight_cage.TightCageError) as error:
         raise CageError(f"the tight cage failed: {error}") from None
