@@ -7,8 +7,9 @@ cuts chords across convex parts. :func:`enclose` finds the points the cage leave
 (winding numbers, so any closed cage, convex or not), moves the faces nearest to them
 outward along the vertex normals by the distance they miss plus a clearance, and
 checks again, a bounded number of times. :func:`fit_tight_cage` then requires what a
-cage needs to bind: closed, manifold, outward, no self-intersection
-(:mod:`gencoords.tools.self_intersection`), every point strictly inside.
+cage needs to bind: closed, manifold (at edges and at vertices: :func:`pinched_vertices`),
+outward, no self-intersection (:mod:`gencoords.tools.self_intersection`), every point
+strictly inside.
 """
 
 import numpy as np
@@ -22,8 +23,8 @@ from ..evaluation.barycentric import point_locations
 from .self_intersection import self_intersections
 from .volumes import signed_volume, union_volume
 
-__all__ = ["TightCageError", "vertex_normals", "outward_pushes", "cage_triangles", "enclose",
-           "fit_tight_cage", "volume_ratio"]
+__all__ = ["TightCageError", "vertex_normals", "pinched_vertices", "outward_pushes", "cage_triangles",
+           "enclose", "fit_tight_cage", "volume_ratio"]
 
 PUSH_ITERATIONS = 16  # push-outs before giving up
 _PAIR_BLOCK = 1 << 18  # (point, triangle) pairs per block when finding nearest triangles
@@ -71,6 +72,52 @@ def vertex_normals(vertices, triangles):
         np.add.at(normals, triangles[:, corner], face)
     length = np.linalg.norm(normals, axis=1, keepdims=True)
     return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+
+
+def pinched_vertices(triangles):
+    """Vertices where a closed, edge-manifold triangle mesh touches itself: their faces
+    form more than one fan (two sheets meeting at a point).
+
+    Around each vertex, a face's corner leads across its outgoing edge to the face on the
+    other side; the corners of a vertex whose faces form one fan make a single cycle.
+
+    Parameters
+    ----------
+    triangles : (m, 3) int
+        Every edge shared by two consistently oriented triangles.
+
+    Returns
+    -------
+    vertices : (p,) int64
+        Sorted; empty for a manifold mesh.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.tight_cage import pinched_vertices
+    >>> faces = octahedron()[1]
+    >>> pinched_vertices(faces).tolist(), pinched_vertices(np.concatenate([faces, faces + 5])).tolist()
+    ([], [5])
+    """
+    triangles = np.asarray(triangles, dtype=np.int64)
+    corner_vertex = triangles.ravel()
+    following = np.roll(triangles, -1, axis=1).ravel()  # the corner's outgoing edge ends here
+    # The twin of edge (v, w) is (w, v): in its face, the corner at v follows the one at w.
+    key = {(int(w), int(v)): c for c, (v, w) in enumerate(zip(corner_vertex, following))}
+    successor = np.array([key[(int(v), int(w))] for v, w in zip(corner_vertex, following)])
+    twin_face, twin_position = np.divmod(successor, 3)
+    step = 3 * twin_face + (twin_position + 1) % 3  # the twin face's corner at v
+    seen = np.zeros(len(step), dtype=bool)
+    fans = np.zeros(int(corner_vertex.max(initial=-1)) + 1, dtype=np.int64)
+    for start in range(len(step)):
+        if not seen[start]:
+            fans[corner_vertex[start]] += 1
+            corner = start
+            while not seen[corner]:
+                seen[corner] = True
+                corner = step[corner]
+    return np.flatnonzero(fans > 1).astype(np.int64)
 
 
 def _nearest_triangles(vertices, triangles, points):
@@ -302,7 +349,7 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
         The cage is not closed, manifold, outward, or has degenerate faces (before or
         after pushing).
     TightCageError
-        Points stay outside, or the cage passes through itself.
+        Points stay outside, or the cage touches ("pinched") or passes through itself.
 
     Examples
     --------
@@ -329,6 +376,12 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
     except CageError as error:
         raise TightCageError("pushed", f"pushing the cage out to enclose the mesh spoiled it "
                                        f"({error}): raise the offset or the vertex count") from None
+    pinched = pinched_vertices(triangles)
+    if len(pinched):
+        raise TightCageError("pinched", f"the cage touches itself at {len(pinched)} vertices (first: "
+                                        f"vertex {pinched[0]}), where parts of the mesh are closer "
+                                        "than twice the offset: lower the offset or raise the "
+                                        "vertex count")
     crossing = self_intersections(vertices, triangles, tolerance)
     if len(crossing):
         raise TightCageError("self_intersecting", f"the cage passes through itself ({len(crossing)} "

@@ -189,3 +189,17 @@ def test_a_push_moves_a_patch_its_neighbours_half_as_far():
     # Vertex 1, opposite (1, 0, 0), is on no face that needs moving: it goes half as far
     # as the farthest of its neighbours (2, 3, 4, 5).
     assert pushes[1] == pytest.approx(0.5 * pushes[2:].max()) and 0.0 < pushes[1] < pushes[0]
+
+
+def test_pinched_vertices_are_where_two_sheets_meet_and_are_refused():
+    vertices, faces = octahedron()
+    assert tight_cage.pinched_vertices(faces).size == 0
+    assert tight_cage.pinched_vertices(_character_cage()[1]).size == 0
+    # Two octahedra touching at a corner: the second's bottom (5) is the first's top (4).
+    touching = np.concatenate([vertices, vertices[:5] + [0.0, 0.0, 2.0]])
+    both = np.concatenate([faces, np.array([6, 7, 8, 9, 10, 4])[faces]])
+    assert tight_cage.pinched_vertices(both).tolist() == [4]
+    gencoords.advanced.validate_cage(touching, both, convex=False)  # edge-manifold, closed
+    with pytest.raises(tight_cage.TightCageError, match="touches itself at 1 vertices") as caught:
+        tight_cage.fit_tight_cage(touching, both, [[0.0, 0.0, 0.5]], 0.01, 1e-6)
+    assert caught.value.problem == "pinched"
