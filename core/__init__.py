@@ -18,6 +18,8 @@ general construction, boundary limits, Floater, completeness, Green), ``evaluati
 grid: local and non-negative in any closed 3D cage), ``tools``.
 """
 
+__version__ = "0.1.0"  # the one source: pyproject.toml reads it, the manifest repeats it
+
 from .base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError, WorkerWarning
 from .construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction.validation import DEFAULT_TOLERANCE

@@ -27,7 +27,7 @@ from mathutils import Matrix
 
 from ..core.tools import skin_fit
 from . import binding as bindings_module
-from . import bones, compat, mesh_io
+from . import bones, compat, mesh_arrays, mesh_io
 
 BONE_PREFIX = "GenCoords Fitted "
 DEFAULT_BONES = 64
@@ -183,7 +183,7 @@ def _write(obj, context, found, fit, rest, sampled, frames):
         _keyframe_fit(rig, names, frames, fit)
         dense = np.zeros((len(rest), len(names)))
         np.add.at(dense, (np.arange(len(rest))[:, None], fit.indices), fit.weights)
-        bones.write_weights(obj, names, dense)
+        mesh_arrays.write_weights(obj, names, dense)
         skin = obj.modifiers.new("Armature", 'ARMATURE')
         skin.object = rig
         compat.move_modifier(obj, skin, list(obj.modifiers).index(found.modifier))

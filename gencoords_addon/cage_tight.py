@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import core
 from ..core.tools import tight_cage
-from . import preferences
+from . import mesh_io, preferences
 from .binding import FLOAT32_TOLERANCE
 from .mesh_arrays import read_loop_triangles, read_positions
 
@@ -148,6 +148,15 @@ def make_tight_cage_geometry(points, triangles, target_vertices, offset, toleran
     except (core.CageError, tight_cage.TightCageError) as error:
         raise CageError(f"the tight cage failed: {error}") from None
     return vertices, triangles.tolist() + quads.tolist()
+
+
+def enclosed_triangles(obj, context):
+    """Triangles (m, 3) of the points Make Cage encloses (``cage_maker._enclosed_points``):
+    the mesh data's (what Bind binds), then the evaluated mesh's (modifiers and shape
+    keys, what the artist sees), numbered after the mesh data's vertices."""
+    with mesh_io.evaluated_mesh(obj, context.evaluated_depsgraph_get()) as evaluated:
+        seen = read_loop_triangles(evaluated)
+    return np.concatenate([read_loop_triangles(obj.data), seen + len(obj.data.vertices)])
 
 
 def make_tight_cage(points, triangles, target_vertices, margin, context):

@@ -41,9 +41,18 @@ def object_mode(context, obj):
             bpy.ops.object.mode_set(mode='EDIT')
 
 
+# Meshes (Object.session_uid) a modal Bind is computing for: Auto Rebind waits for it
+# rather than start a second one (tabbing in and out of Edit Mode meanwhile).
+MODAL_BINDS = set()
+
+
 def interactive(context):
     """Whether an operator runs in a window that processes events (progress, Esc)."""
     return not bpy.app.background and context.window is not None
+
+
+ALL_INFLUENCES = "0: All influences, every weight kept (exact)"
+FITTED_DEFAULT_INFLUENCES = f"0: {bake_fitted.DEFAULT_INFLUENCES} influences per vertex, as game engines read"
 
 
 def _internal_error(operator, error, changed="nothing was changed"):
@@ -123,6 +132,9 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         if not interactive(context):
             return self.execute(context)
         obj = context.active_object
+        if obj.session_uid in MODAL_BINDS:
+            self.report({'WARNING'}, f"'{obj.name}' is being bound already: wait for it, or Esc")
+            return {'CANCELLED'}
         if not self.replace_confirmed and binding.binding(obj, obj.gencoords.cage) is not None:
             self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
             return context.window_manager.invoke_confirm(
@@ -139,9 +151,12 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
+        self._mesh_uid = self._job.obj.session_uid
+        MODAL_BINDS.add(self._mesh_uid)
         return {'RUNNING_MODAL'}
 
     def _stop(self, context, text=None):
+        MODAL_BINDS.discard(self._mesh_uid)
         window_manager = context.window_manager
         window_manager.event_timer_remove(self._timer)
         window_manager.progress_end()
@@ -282,7 +297,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
             ('DISTANCE', "Distance", "The gap is a distance")))
     margin: bpy.props.FloatProperty(
         name="Margin", default=0.05, min=0.0, soft_max=0.5, subtype='FACTOR',
-        description="Gap between the mesh and a convex cage, relative to the mesh's size")
+        description="Gap between the mesh and a convex cage, relative to the mesh's size (0 "
+                    "keeps 0.0004: rounding must not leave a vertex outside)")
     offset: bpy.props.FloatProperty(
         name="Offset", default=0.01, min=0.0, soft_max=0.1, subtype='FACTOR',
         description="Gap between the mesh and a tight cage, relative to the mesh's size "
@@ -379,10 +395,12 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         return True
 
     def draw(self, context):
-        """The options dialog: each mode's own options."""
+        """The options dialog: each mode's own options; Max Influences 0 says what it means."""
         layout = self.layout
         layout.prop(self, "mode")
         layout.prop(self, "max_influences")
+        if self.max_influences == 0:
+            layout.label(text=ALL_INFLUENCES if self.mode != 'FITTED' else FITTED_DEFAULT_INFLUENCES, icon='INFO')
         if self.mode != 'FITTED':
             layout.prop(self, "keyframes")
             return
@@ -505,6 +523,33 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         return self._guarded(self._commit_fitted, context, job)
 
 
+class MESH_OT_gencoords_select_dented_faces(MeshOperator, bpy.types.Operator):
+    """Select the faces of the active cage that dent inward (meet a neighbour at an edge
+    bent inward): what keeps it from being convex"""
+
+    bl_idname = "mesh.gencoords_select_dented_faces"
+    bl_label = "Select Dented Faces"
+
+    def execute(self, context):
+        obj = context.active_object
+        with object_mode(context, obj):
+            count = cage_maker.select_dented_faces(obj)
+        if count == 0:
+            self.report({'INFO'}, f"No face of '{obj.name}' dents inward: it is convex")
+        else:
+            self.report({'INFO'}, f"Selected the {count} faces of '{obj.name}' that dent inward")
+        return {'FINISHED'}
+
+
+def draw_select_menu(self, context):
+    """Edit Mode's Select menu."""
+    self.layout.separator()
+    self.layout.operator(MESH_OT_gencoords_select_dented_faces.bl_idname)
+
+
+SELECT_MENU = bpy.types.VIEW3D_MT_select_edit_mesh
+
+
 def draw_menu(self, context):
     """Object > Animation, beside Bake Action (F3 search finds it there too)."""
     self.layout.separator()
@@ -522,4 +567,5 @@ CLASSES = (
     OBJECT_OT_gencoords_unbind,
     OBJECT_OT_gencoords_show_field,
     OBJECT_OT_gencoords_clear_field,
+    MESH_OT_gencoords_select_dented_faces,
 )

@@ -8,12 +8,12 @@ volumes, self-intersection and tight cages (the modules ``compact``, ``skinning`
 from ..base import tolerances
 from ..base.orientation import orient_facets_outward
 from ..base.triangulation import triangulate_quads
-from ..evaluation.deformation import coordinate_summary, field_colors, field_range
+from ..evaluation.deformation import coordinate_summary, field_colors, field_range, linear_precision
 from . import compact, enclosing, self_intersection, shapes, skin_fit, skinning, tight_cage, volumes
 from .report import CoordinateReport, coordinate_report
 
 __all__ = [
-    "field_colors", "field_range", "coordinate_summary", "coordinate_report", "CoordinateReport",
+    "field_colors", "field_range", "coordinate_summary", "linear_precision", "coordinate_report", "CoordinateReport",
     "triangulate_quads", "orient_facets_outward", "tolerances",
     "compact", "enclosing", "shapes", "skin_fit", "skinning", "volumes", "self_intersection",
     "tight_cage",

@@ -211,6 +211,8 @@ def good_calls():
         "floater_from_ridge_scalars": dict(cage, d=ones),
         "floater_scalars": dict(point=points[0], vertices=vertices, faces=faces, w=coordinates[0]),
         "validate_cage": dict(vertices=vertices, faces=faces),
+        "concave_facets": dict(vertices=vertices, faces=faces),
+        "linear_precision": dict(coordinates=coordinates, vertices=vertices, points=points),
         "orient_facets_outward": dict(vertices=vertices, facets=faces),
         "triangulate_quads": dict(vertices=cube, quads=quads),
         "deform": dict(coordinates=coordinates, cage_positions=vertices, out=np.empty((2, 3))),
