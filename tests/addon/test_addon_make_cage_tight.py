@@ -93,7 +93,8 @@ def test_tight_cage_around_the_character_encloses_binds_and_stays_within_3_volum
 
 
 def test_tight_cage_wraps_the_evaluated_mesh_at_a_distance(gc):
-    """Shape keys and modifiers count, as for Bind; Offset In Distance is world units."""
+    """The mesh as the artist sees it (shape keys, modifiers) and as Bind binds it (the
+    mesh data) are both inside; Offset In Distance is world units."""
     scenes.add_suzanne(level=1)
     obj = bpy.context.active_object
     obj.location = (5.0, 0.0, 1.0)
@@ -113,6 +114,11 @@ def test_tight_cage_wraps_the_evaluated_mesh_at_a_distance(gc):
     assert np.ptp(points[:, 2]) > 1.5 * np.ptp(world_arrays(obj)[0][:, 2])
     assert 0.04 < points[:, 2].min() - cage_points[:, 2].min() < 0.16
     assert 0.04 < cage_points[:, 2].max() - points[:, 2].max() < 0.16
+    # ... and around the mesh data Bind binds (the basis shape): a made cage binds.
+    assert_tight_cage(world_arrays(obj)[0], cage_points, cage_triangles)
+    obj.gencoords.kind = "MEAN_VALUE"
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
 
 
 def test_tight_cage_refuses_a_mesh_without_faces_and_changes_nothing(gc):
