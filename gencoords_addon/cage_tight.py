@@ -5,9 +5,10 @@ remesh (the union of overlapping parts, one closed surface), a displacement alon
 normals by the offset, a second voxel remesh (folds of the displaced surface in
 hollows become one surface again) and a collapse decimation to the vertex count;
 bmesh's Tris to Quads joins about half of the triangles into quads, which an artist
-edits more easily. The core then pushes the cage out until it encloses every mesh vertex and checks it
-(closed, manifold, outward, not passing through itself):
-``gencoords.tools.tight_cage.fit_tight_cage``. Nothing of the copy is left behind.
+edits more easily. The core then pushes the cage out until it encloses every mesh
+vertex and checks it (closed, manifold, outward, neither touching nor passing through
+itself): ``gencoords.tools.tight_cage.fit_tight_cage``. Nothing of the copy is left
+behind.
 """
 
 import math
@@ -90,19 +91,19 @@ def _evaluated(obj, context):
 
 def offset_surface(points, triangles, offset, target_vertices, context):
     """The mesh's surface offset by ``offset`` and decimated to about ``target_vertices``:
-    vertices (n, 3) float64 and triangles (m, 3), in the points' (world) space."""
+    vertices (n, 3) float64 and triangles (m, 3), in the points' space."""
     size = float(np.linalg.norm(np.ptp(points, axis=0)))
     obj = _temporary_object(points, triangles, context)
     mesh = obj.data
     try:
         _add_modifiers(obj, offset, voxel_size(offset, size))
-        remeshed, remeshed_triangles = _evaluated(obj, context)
+        remeshed, _ = _evaluated(obj, context)
         if len(remeshed) < 4:
             raise CageError("the voxel remesh left nothing: the mesh has no volume to wrap "
                             "(close it, or use Convex)")
         decimate = obj.modifiers.new("Vertices", 'DECIMATE')
         decimate.decimate_type, decimate.use_collapse_triangulate = 'COLLAPSE', True
-        # Collapse counts faces; a closed triangle mesh has about twice as many as vertices.
+        # A share of the faces: a closed mesh's faces and vertices shrink in proportion.
         decimate.ratio = min(1.0, target_vertices / len(remeshed))
         return _evaluated(obj, context)
     finally:

@@ -165,3 +165,19 @@ def test_tight_cages_of_tiny_huge_and_far_meshes_enclose_and_bind(gc, scale, loc
     obj.gencoords.kind = "MEAN_VALUE"  # a made cage binds as made
     with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
         assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+
+
+def test_a_torus_keeps_its_hole_and_a_flat_grid_gets_a_slab(gc):
+    bpy.ops.mesh.primitive_torus_add(major_radius=1.0, minor_radius=0.25)
+    torus = bpy.context.active_object
+    assert make_cage(torus, shape='TIGHT', target_vertices=150) == {'FINISHED'}
+    points, triangles = world_arrays(torus.gencoords.cage)
+    gencoords.advanced.validate_cage(points, triangles, convex=False, tolerance=TOLERANCE)
+    where = gencoords.point_locations([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], points, triangles)
+    assert where.tolist() == [gencoords.OUTSIDE, gencoords.INSIDE]  # the hole stays open
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=10, y_subdivisions=10, location=(5.0, 0.0, 0.0))
+    grid = bpy.context.active_object
+    assert make_cage(grid, shape='TIGHT', target_vertices=100) == {'FINISHED'}
+    points, triangles = world_arrays(grid.gencoords.cage)
+    assert_tight_cage(world_arrays(grid)[0], points, triangles)
+    assert np.ptp(points[:, 2]) < 0.2 * np.ptp(points[:, 0])  # a thin slab, not a box
