@@ -34,7 +34,7 @@ def world_arrays(obj):
     (quads split by the core)."""
     matrix = np.array(obj.matrix_world)
     local = arrays.read_positions(obj.data)
-    triangles, _ = session.addon_module("mesh_io").read_triangles(obj.data, local)
+    triangles, _ = session.addon_module("blender_io.mesh_io").read_triangles(obj.data, local)
     return local.astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3], triangles
 
 

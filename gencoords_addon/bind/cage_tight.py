@@ -17,11 +17,14 @@ import bmesh
 import bpy
 import numpy as np
 
-from .. import core
-from ..core.tools import tight_cage
-from . import mesh_io, preferences
-from .binding import FLOAT32_TOLERANCE
-from .mesh_arrays import read_loop_triangles, read_positions
+from ... import core
+from ...core.tools import tight_cage
+from .. import preferences
+from ..blender_io import mesh_io
+from ..blender_io.mesh_arrays import read_loop_triangles, read_positions
+from ..errors import CageError
+from .scene import FLOAT32_TOLERANCE
+from .service import in_workers_or_blender
 
 # Voxels: half the offset, within these shares of the mesh's size (a fine grid costs
 # time and memory; a coarse one loses thin parts before they are offset).
@@ -31,10 +34,6 @@ CLEARANCE = 0.25  # a pushed face passes left-out vertices by this share of the 
 # Triangles join into a quad where their normals and the quad's corners stay within this
 # of flat and square: about half of a decimated cage's faces become quads.
 QUAD_ANGLE = math.radians(40.0)
-
-
-class CageError(Exception):
-    """No tight cage could be made; the message says why (Make Cage reports it)."""
 
 
 def join_triangles(vertices, triangles):
@@ -164,11 +163,11 @@ def make_tight_cage(points, triangles, target_vertices, margin, context):
     """:func:`make_tight_cage_geometry` with the offset a share ``margin`` of the mesh's
     bounding-box diagonal, float32 tolerances and the preferences' worker processes (in
     Blender's process if they cannot start): vertices, triangles and None or what to say
-    about the workers (:func:`preferences.in_workers_or_blender`)."""
+    about the workers (:func:`service.in_workers_or_blender`)."""
     size = float(np.linalg.norm(np.ptp(points, axis=0)))
     if not size > 0.0:
         raise CageError("the mesh has no extent: a cage needs a volume to enclose")
-    (vertices, faces), worker_failure = preferences.in_workers_or_blender(
+    (vertices, faces), worker_failure = in_workers_or_blender(
         lambda workers: make_tight_cage_geometry(points, triangles, target_vertices, margin * size,
                                                  FLOAT32_TOLERANCE, context, workers),
         preferences.worker_count(context))

@@ -13,6 +13,7 @@ import pytest
 
 import gencoords
 from gencoords.tools import self_intersection, tight_cage
+from fresh_process import PACKAGE
 from scene_helpers import evaluated_positions, read_positions, write_positions, write_shape_key
 from scripts.common import scenes
 
@@ -29,8 +30,7 @@ def make_cage(obj, **options):
 def world_arrays(obj, evaluated=False):
     """World positions (float64) of ``obj``'s mesh (or evaluated mesh) and its triangles
     as Bind reads them (the add-on's ``mesh_io.read_triangles``: quads split by the core)."""
-    mesh_io = importlib.import_module(bpy.types.OBJECT_OT_gencoords_bind.__module__.rpartition(".")[0]
-                                      + ".mesh_io")
+    mesh_io = importlib.import_module(f"{PACKAGE}.gencoords_addon.blender_io.mesh_io")
     matrix = np.array(obj.matrix_world)
     if evaluated:
         mesh = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
