@@ -18,7 +18,7 @@ whose deviations stay under ``AUTO_DEVIATION``, before compact storage (:func:`e
 :func:`reproduce` know each storage).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Optional
 
 import numpy as np
@@ -510,6 +510,9 @@ def _plan(points, cage, request):
             if plan is not None:
                 return plan
     choice = first_choice(request, count, cage.vertices, cage.faces)
+    if field is not None and request.storage == 'AUTO' and choice.storage == 'EXACT':
+        choice = replace(choice, reason=f"Automatic: exact ({count} vertices, fewer than the grid nodes their "
+                                        "cells use: two levels would save nothing)")
     if choice.storage == 'AUTO':
         sample = points[::max(1, count // DEVIATION_SAMPLES)]
         choice = choose_by_measuring(request, _solve(request, cage, sample, None, field=field), cage.vertices,

@@ -204,3 +204,22 @@ def test_mean_value_in_a_non_convex_cage_states_its_negative_share_and_points_to
     assert bind(obj, cage, kind="MEAN_VALUE") == {'FINISHED'}
     lines = " ".join(text for text, _ in gc.status.status_lines(obj))
     assert "negative" in lines and "%" in lines and "Harmonic" in lines
+
+
+def test_a_hidden_cage_drives_and_auto_rebind_binds_harmonic_again(gc):
+    from test_bind_and_deform import subdivide_in_edit_mode
+
+    cage = add_icosphere_cage(subdivisions=2)
+    obj = add_sphere()
+    obj.gencoords.auto_rebind = True
+    assert bind(obj, cage, resolution=16) == {'FINISHED'}
+    subdivide_in_edit_mode(obj)  # Auto Rebind binds again, with the same settings
+    data = gc.binding.binding(obj).data
+    assert (data.kind, data.resolution) == ("harmonic", 16)
+    assert data.mesh_vertex_count == len(obj.data.vertices)
+    # A few hundred vertices use more grid nodes than they are: exact storage, and why.
+    assert data.storage == 'EXACT' and "fewer than the grid nodes" in data.storage_choice
+    rest = read_positions(obj.data).copy()
+    cage.hide_viewport = cage.hide_render = True  # hidden, it still drives the mesh
+    write_positions(cage.data, read_positions(cage.data) + np.float32(0.2))
+    np.testing.assert_allclose(evaluated_positions(obj), rest + 0.2, atol=1e-5)
