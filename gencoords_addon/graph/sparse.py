@@ -10,11 +10,12 @@ written by :func:`write_pairs`. The group outputs
 
 with one gather per slot (Sample Index of the cage's displacement ``C - R`` at the stored
 index) inside a Repeat Zone of K iterations that reads slot k's attributes by name: the
-group has the same 30-odd nodes for any K and any cage, so building it costs
+group has the same 36 nodes for any K and any cage, so building it costs
 milliseconds (``scripts/benchmarks/bench_sparse_routes.py`` measured it against a lane
-group instanced K times, plain per-slot nodes and the Armature modifier: the Repeat Zone
-played back fastest, in 0.84x Mesh Deform p5's time at K = 16 on the 43k-vertex
-character).
+group instanced K times, plain per-slot nodes and the Armature modifier: the three
+Geometry Nodes routes play back within 10 % of each other, about 0.8x Mesh Deform p5's
+CPU time at K = 16 on the 43k-vertex character; the Armature modifier 1.4x, and never
+bitwise at rest).
 
 Two-level layout (harmonic coordinates, which are trilinear interpolations of grid-node
 values): the N grid nodes the mesh's cells touch carry their own pairs over the cage (K'
@@ -44,6 +45,8 @@ from .builder import Builder
 from .helpers import GEOMETRY
 
 SUM, SLOT = "Sum", "Slot"  # the Repeat Zone's state
+
+
 def write_pairs(mesh, key, indices, weights, level="vertex"):
     """Store sparse pairs on ``mesh``: ``indices`` ((rows, K) int, rows <= its vertex
     count) as INT and ``weights`` ((rows, K) float) as FLOAT point attributes (zeros
