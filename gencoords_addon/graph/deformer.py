@@ -42,6 +42,7 @@ import numpy as np
 
 from ..bind_layout import attribute_prefix, slot_attribute_names
 from ..blender_io.compat import set_wildcard_removal
+from ..steps import run_to_end, scaled
 from . import chunks
 from .builder import Builder
 from .green import green_displacements
@@ -107,14 +108,20 @@ def _exact_lanes(build, cage, displacement, slot_count):
 # over all slots costs time quadratic in their number at every evaluation (measured:
 # 100 ms for 642 slots on a 2k-vertex mesh, against 4 ms in chains of 16).
 CHAIN = 16
+# Chunk nodes placed between two steps of a Bind's writing (progress, Esc).
+STEP_CHUNKS = 8
 
 
 def _weighted_sums(build, storage, sources, slot_names, lane_entries):
     """The three axes' sums over triples t of ``slots_t * lanes_t[axis]``, a chunk node
     (``graph.chunks``) per up to 16 triples: ``sources`` its geometry inputs by name,
-    ``lane_entries[t]`` where triple t's lanes come from (its cloud index or basis name)."""
+    ``lane_entries[t]`` where triple t's lanes come from (its cloud index or basis name).
+    A generator yielding the fraction of chunks placed, returning the sums' sockets."""
     partial, start, chained = [], 0, CHAIN
-    for size in chunks.chunk_plan(len(slot_names)):
+    plan = chunks.chunk_plan(len(slot_names))
+    for done, size in enumerate(plan):
+        if done % STEP_CHUNKS == 0:
+            yield done / len(plan)
         node = build.add('GeometryNodeGroup', "accumulate", node_tree=chunks.chunk_group(storage, size))
         for name, geometry in sources.items():
             build.link(geometry, node.inputs[name])
@@ -137,9 +144,16 @@ def _weighted_sums(build, storage, sources, slot_names, lane_entries):
     return partial[0]
 
 
-def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None,
+def build_group(*args, **kwargs):
+    """A new node group deforming a mesh, built to the end (:func:`group_steps`)."""
+    return run_to_end(group_steps(*args, **kwargs))
+
+
+def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None,
                 triangle_name=None, face_count=0):
-    """A new node group deforming a mesh of ``mesh_vertex_count`` vertices.
+    """A new node group deforming a mesh of ``mesh_vertex_count`` vertices: a generator
+    yielding the fraction built (a Bind's writing shows progress and takes Esc between
+    stages) and returning the group; closed early or failing, it removes the group.
 
     Built in stages that pass sockets along, each in its own columns
     (``DEFORMER_COLUMNS``): the interface, the cage's displacement, the lanes, the
@@ -172,32 +186,46 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
     group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
     group.description = ("GenCoords cage deformation: moves the mesh with its cage "
                          "(bind data in the mesh's point attributes)")
-    _deformer_interface(group.interface)
-    build = Builder(group, DEFORMER_COLUMNS)
-    group_input = build.add('NodeGroupInput', "input")
-    mesh = group_input.outputs[GEOMETRY]
-    cage, displacement = _cage_displacement(build, group_input, rest_cage, triangle_name is not None)
-    # What the slots weigh: the cage's vertices, or for Green also its faces.
-    moving = (cage, displacement) if triangle_name is None else green_displacements(
-        build, mesh, cage, len(rest_cage), face_count, triangle_name)
-    slot_names = slot_attribute_names(key, slot_count)
-    if basis_names is None:
-        accumulated = _weighted_sums(build, chunks.EXACT, _exact_lanes(build, *moving, slot_count), slot_names,
-                                     range(len(slot_names)))
-    else:  # the basis is on the mesh's first n (n + m) points
-        accumulated = _weighted_sums(build, chunks.COMPACT, {"Mesh": mesh, "Cage": moving[0]}, slot_names,
-                                     basis_names)
+    try:
+        _deformer_interface(group.interface)
+        build = Builder(group, DEFORMER_COLUMNS)
+        group_input = build.add('NodeGroupInput', "input")
+        mesh = group_input.outputs[GEOMETRY]
+        cage, displacement = _cage_displacement(build, group_input, rest_cage, triangle_name is not None)
+        # What the slots weigh: the cage's vertices, or for Green also its faces.
+        moving = (cage, displacement) if triangle_name is None else green_displacements(
+            build, mesh, cage, len(rest_cage), face_count, triangle_name)
+        yield 0.1
+        slot_names = slot_attribute_names(key, slot_count)
+        if basis_names is None:
+            sums = _weighted_sums(build, chunks.EXACT, _exact_lanes(build, *moving, slot_count), slot_names,
+                                  range(len(slot_names)))
+        else:  # the basis is on the mesh's first n (n + m) points
+            sums = _weighted_sums(build, chunks.COMPACT, {"Mesh": mesh, "Cage": moving[0]}, slot_names,
+                                  basis_names)
+        accumulated = yield from scaled(sums, 0.1, 0.8)
+        names = slot_names + (basis_names or []) + ([triangle_name] if triangle_name else [])
+        _finish_group(build, group_input, (mesh, cage, moving), accumulated, key, names,
+                      (len(rest_cage), mesh_vertex_count))
+    except BaseException:  # a failure, or a cancel (GeneratorExit): nothing left behind
+        bpy.data.node_groups.remove(group)
+        raise
+    return group
+
+
+def _finish_group(build, group_input, geometries, accumulated, key, names, counts):
+    """The stages after the weighted sums: the masked offset, the guard (``geometries``:
+    the mesh, the cage and what moves; ``counts``: the cage's and the mesh's vertices),
+    the stripping of the attributes ``names``."""
+    mesh, cage, moving = geometries
     moved = _moved_mesh(build, group_input, _offset(build, accumulated))
-    usable = _usable(build, mesh, cage, moving, len(rest_cage), mesh_vertex_count)
+    usable = _usable(build, mesh, cage, moving, *counts)
     switch = build.add('GeometryNodeSwitch', "guard_switch", input_type='GEOMETRY')
     build.link(usable, switch.inputs["Switch"])
     build.link(mesh, switch.inputs["False"])
     build.link(moved, switch.inputs["True"])
-    output = _strip_attributes(build, switch.outputs[0], key,
-                               slot_attribute_names(key, slot_count) + (basis_names or [])
-                               + ([triangle_name] if triangle_name else []))
+    output = _strip_attributes(build, switch.outputs[0], key, names)
     build.link(output, build.add('NodeGroupOutput', "output").inputs[GEOMETRY])
-    return group
 
 
 def _deformer_interface(interface):

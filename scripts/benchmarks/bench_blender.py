@@ -14,7 +14,7 @@ group and attributes, ``bind.commit``) timed apart.
 
 Metrics, measured the same way for every method:
   bind       wall time of the bind operator (``meshdeform_bind`` / ``gencoords_bind``).
-  writing    of that, GenCoords' writing (``bind.commit.write``: the node group, the
+  writing    of that, GenCoords' writing (``bind.commit.steps``: the node group, the
              attributes, the modifier), and the node group's node and link counts.
   update     one live update: move one cage vertex, then time ``view_layer.update()``
              (repeated until the evaluated mesh changes) plus reading the evaluated
@@ -153,22 +153,22 @@ def bind_gencoords(mesh, cage, kind, storage):
     or 'AUTO'); returns the bind wall time and, of it, the seconds spent writing."""
     storage, _, slots = storage.partition(":")
     commit = session.addon_module("bind.commit")
-    write, writing = commit.write, []
+    steps, writing = commit.steps, []
 
-    def timed_write(*args, **kwargs):
+    def timed_steps(*args, **kwargs):  # the writing, a generator run to its end here
         started = time.perf_counter()
         try:
-            return write(*args, **kwargs)
+            return (yield from steps(*args, **kwargs))
         finally:
             writing.append(time.perf_counter() - started)
 
-    commit.write = timed_write
+    commit.steps = timed_steps
     start = time.perf_counter()
     try:
         with session.quiet():  # its "Info: Bound ..." report
             result = scenes.bind(mesh, cage, kind, storage=storage, compact_size=int(slots) if slots else None)
     finally:
-        commit.write = write
+        commit.steps = steps
     seconds = time.perf_counter() - start
     if "FINISHED" not in result or not mesh.modifiers:
         raise RuntimeError(f"gencoords_bind ({kind}) returned {result}")
