@@ -17,9 +17,12 @@ from .builder import new_group
 from .helpers import DISPLACEMENT, HELPER_COLUMNS, LANES, SUMS, accumulate_group, cloud_lanes_group
 
 EXACT, COMPACT = "exact", "compact"
-# A binding's chunks, largest first: sixteen triples (48 slots) a node, the rest in fours
-# and ones (no slot computed for nothing).
-CHUNK_SIZES = (16, 4, 1)
+# A binding's chunks, largest first: 64 triples (192 slots) a node, the rest in sixteens,
+# fours and ones (no slot computed for nothing). A chunk of 64 holds four of 16 added up
+# pairwise: one chain through 64 would make Blender gather the attributes it depends on
+# at every node (see ``deformer.CHAIN``).
+CHUNK_SIZES = (64, 16, 4, 1)
+NESTED = {64: 16}
 CHUNK_PREFIX = ".GenCoords chunk "
 COMPACT_LANES_GROUP = ".GenCoords compact lanes 1"
 # What each storage's chunk reads its lanes from, and its per-triple inputs.
@@ -52,6 +55,9 @@ def chunk_group(storage, size):
     group, build, group_input, group_output = new_group(
         name, inputs, [(total, 'NodeSocketVector') for total in SUMS],
         f"GenCoords: adds {size} triples of slots' share of the displacement", HELPER_COLUMNS)
+    if size in NESTED:
+        _nested_chunks(build, group_input, group_output, storage, size, NESTED[size])
+        return group
     lanes_helper = cloud_lanes_group() if storage == EXACT else compact_lanes_group()
     accumulate = accumulate_group()
     sums = [group_input.outputs[total] for total in SUMS]
@@ -70,6 +76,29 @@ def chunk_group(storage, size):
     for total, value in zip(SUMS, sums):
         build.link(value, group_output.inputs[total])
     return group
+
+
+def _nested_chunks(build, group_input, group_output, storage, size, inner_size):
+    """A chunk of ``size`` triples made of chunks of ``inner_size``, their sums added up
+    pairwise (the first one's starting from the chunk's own ``Sum`` inputs)."""
+    inner = chunk_group(storage, inner_size)
+    partial = []
+    for first in range(0, size, inner_size):
+        node = build.add('GeometryNodeGroup', "read", node_tree=inner)
+        for source in SOURCES[storage]:
+            build.link(group_input.outputs[source], node.inputs[source])
+        for k in range(inner_size):
+            for entry in ENTRIES[storage]:
+                build.link(group_input.outputs[f"{entry} {first + k}"], node.inputs[f"{entry} {k}"])
+        if not partial:
+            for total in SUMS:
+                build.link(group_input.outputs[total], node.inputs[total])
+        partial.append([node.outputs[total] for total in SUMS])
+    while len(partial) > 1:
+        partial = [[build.math("combine", 'ADD', a, b) for a, b in zip(left, right)]
+                   for left, right in zip(partial[::2], partial[1::2])] + partial[len(partial) // 2 * 2:]
+    for total, value in zip(SUMS, partial[0]):
+        build.link(value, group_output.inputs[total])
 
 
 def compact_lanes_group():

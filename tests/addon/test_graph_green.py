@@ -142,3 +142,24 @@ def test_show_coordinate_paints_green_phi_and_a_second_cage_composes(gc):
     write_positions(second.data, read_positions(second.data) + (0.0, 0.5, 0.0))
     write_positions(cage.data, similarity(vertices))
     np.testing.assert_allclose(evaluated_positions(obj), similarity(rest) + (0.0, 0.5, 0.0), atol=3e-5)
+
+
+def test_the_group_does_not_grow_with_the_slots_and_big_bindings_deform_exactly(gc):
+    """Green exact storage in cages of 42 and 162 vertices (122 and 482 slots: chunks of
+    64, 16, 4 and 1 triples, graph/chunks.py): the binding's group keeps its size (Bind
+    builds it in a fraction of a second) and deforms as a small one does."""
+    size = {}
+    for subdivisions, slots in ((2, 42 + 80), (3, 162 + 320)):
+        cage = add_icosphere_cage(subdivisions=subdivisions, name=f"Cage {slots}")
+        obj = add_subdivided_sphere(levels=2, name=f"Mesh {slots}")
+        rest = read_positions(obj.data).astype(np.float64)
+        assert bind_green(obj, cage) == {'FINISHED'}
+        found = gc.binding.binding(obj)
+        assert found.data.slot_count == slots
+        size[slots] = len(found.group.nodes), len(found.group.links)
+        np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
+        vertices, _ = cage_arrays(cage)
+        write_positions(cage.data, similarity(vertices))
+        np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
+    (small_nodes, small_links), (big_nodes, big_links) = size[122], size[482]
+    assert big_nodes - small_nodes <= 6 and big_links - small_links <= 12  # 4 times the slots
