@@ -41,14 +41,13 @@ def steps(obj, cage, result, started=None):
     earlier = binding(obj, cage) or binding(obj, missing_cage=True)
     others = bindings(obj)
     data = result.data
-    key, basis_names, triangle_name = data.key, data.basis_names, data.triangle_name
+    key, basis_names = data.key, data.basis_names
     group = modifier = None
     try:
         group = yield from scaled(deformer.group_steps(
             f"GenCoords: {obj.name} in {cage.name}", key, result.rest_cage, data.mesh_vertex_count,
-            data.slot_count, basis_names, triangle_name, 0 if result.triangles is None else len(result.triangles)),
-            0.0, WRITING_GROUP)
-        yield from scaled(attributes.write_steps(obj.data, data, result.slots, result.basis, result.triangles),
+            data.slot_count, basis_names, result.triangles), 0.0, WRITING_GROUP)
+        yield from scaled(attributes.write_steps(obj.data, data, result.slots, result.basis),
                           WRITING_GROUP, 1.0 - WRITING_GROUP)
         modifier = obj.modifiers.new(MODIFIER_NAME, 'NODES')
         modifier.node_group = group

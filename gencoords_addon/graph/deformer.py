@@ -49,6 +49,7 @@ from .green import green_displacements
 from .helpers import CAGE, DISPLACEMENT, GEOMETRY, LANE_NAMES, REST, SUMS, cage_info
 
 STRENGTH = "Strength"
+REST_SWITCH = "GenCoords rest cage"  # the node keeping the bind-time cage (read_rest_cage)
 MASK = "Mask"
 INVERT = "Invert Mask"
 
@@ -149,8 +150,7 @@ def build_group(*args, **kwargs):
     return run_to_end(group_steps(*args, **kwargs))
 
 
-def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None,
-                triangle_name=None, face_count=0):
+def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None, triangles=None):
     """A new node group deforming a mesh of ``mesh_vertex_count`` vertices: a generator
     yielding the fraction built (a Bind's writing shows progress and takes Esc between
     stages) and returning the group; closed early or failing, it removes the group.
@@ -176,11 +176,10 @@ def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
         Compact storage: the attributes holding the basis of cage motions on the first n
         points (n + m for Green coordinates; ``bind_layout.basis_attribute_names``); None
         for exact storage.
-    triangle_name : str, optional
-        Green coordinates: the attribute holding the cage's m triangles (corner indices)
-        on the mesh's first m points; None for the other kinds.
-    face_count : int
-        Green coordinates: m.
+    triangles : (m, 3) int, optional
+        Green coordinates: the cage's triangles, kept in the group (groups made before
+        read them from an attribute on the mesh's first m points: the mesh needed as
+        many vertices); None for the other kinds.
     """
     rest_cage = np.asarray(rest_cage, dtype=np.float32)
     group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
@@ -191,10 +190,10 @@ def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
         build = Builder(group, DEFORMER_COLUMNS)
         group_input = build.add('NodeGroupInput', "input")
         mesh = group_input.outputs[GEOMETRY]
-        cage, displacement = _cage_displacement(build, group_input, rest_cage, triangle_name is not None)
+        cage, displacement = _cage_displacement(build, group_input, rest_cage, triangles is not None)
         # What the slots weigh: the cage's vertices, or for Green also its faces.
-        moving = (cage, displacement) if triangle_name is None else green_displacements(
-            build, mesh, cage, len(rest_cage), face_count, triangle_name)
+        moving = (cage, displacement) if triangles is None else green_displacements(
+            build, cage, len(rest_cage), triangles)
         yield 0.1
         slot_names = slot_attribute_names(key, slot_count)
         if basis_names is None:
@@ -204,7 +203,7 @@ def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
             sums = _weighted_sums(build, chunks.COMPACT, {"Mesh": mesh, "Cage": moving[0]}, slot_names,
                                   basis_names)
         accumulated = yield from scaled(sums, 0.1, 0.8)
-        names = slot_names + (basis_names or []) + ([triangle_name] if triangle_name else [])
+        names = slot_names + (basis_names or [])
         _finish_group(build, group_input, (mesh, cage, moving), accumulated, key, names,
                       (len(rest_cage), mesh_vertex_count))
     except BaseException:  # a failure, or a cancel (GeneratorExit): nothing left behind
@@ -251,7 +250,7 @@ def _cage_displacement(build, group_input, rest_cage, keep_rest=False):
     cage = cage_info(build, group_input)
     cage_index = build.add('GeometryNodeInputIndex', "cage").outputs[0]
     position = build.add('GeometryNodeInputPosition', "cage").outputs[0]
-    rest = build.index_switch("rest", cage_index, rest_cage.tolist())
+    rest = build.index_switch("rest", cage_index, rest_cage.tolist(), name=REST_SWITCH)
     # Stored once: every consumer of a field evaluates it again, and the Index Switch
     # over n constants costs n^2 per evaluation.
     if keep_rest:
@@ -326,9 +325,13 @@ def _strip_attributes(build, geometry, key, names):
 
 def read_rest_cage(group, count):
     """The bind-time cage ``build_group`` keeps in ``group`` ((count, 3) float32, the
-    mesh's local space, as its Object Info node gives it), or None when it is not there."""
+    mesh's local space, as its Object Info node gives it), or None when it is not there:
+    the vector Index Switch named ``REST_SWITCH``, or in groups made before Green's
+    triangles were kept in the group too, the only one."""
     switches = [node for node in group.nodes
                 if node.bl_idname == 'GeometryNodeIndexSwitch' and node.data_type == 'VECTOR']
+    named = [node for node in switches if node.name == REST_SWITCH]
+    switches = named or switches
     if len(switches) != 1 or len(switches[0].inputs) < count + 1:
         return None
     return np.array([socket.default_value[:] for socket in switches[0].inputs[1:count + 1]],

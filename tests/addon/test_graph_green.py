@@ -163,3 +163,24 @@ def test_the_group_does_not_grow_with_the_slots_and_big_bindings_deform_exactly(
         np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
     (small_nodes, small_links), (big_nodes, big_links) = size[122], size[482]
     assert big_nodes - small_nodes <= 6 and big_links - small_links <= 12  # 4 times the slots
+
+
+def test_a_low_poly_prop_in_a_detailed_cage_binds_green_and_follows_similarities_exactly(gc):
+    """50 mesh vertices in a 162-vertex cage of 320 triangles: the group keeps the cage's
+    triangles itself (they were kept on the mesh's first m vertices, so the mesh needed
+    320), exact storage (compact keeps its basis on the mesh: nothing to save)."""
+    cage = add_icosphere_cage(subdivisions=3)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=5, radius=1.0)
+    obj = bpy.context.active_object
+    rest = read_positions(obj.data).astype(np.float64)
+    assert len(rest) == 50
+    assert bind_green(obj, cage, storage="AUTO") == {'FINISHED'}
+    info = gc.binding.binding(obj).data
+    assert (info.storage, info.slot_count, info.cage_face_count) == ('EXACT', 162 + 320, 320)
+    assert not [a.name for a in obj.data.attributes if a.name == info.triangle_name]
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
+    vertices, _ = cage_arrays(cage)
+    write_positions(cage.data, similarity(vertices))
+    np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
+    write_positions(cage.data, vertices)
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
