@@ -236,26 +236,62 @@ class OBJECT_OT_gencoords_clear_field(MeshOperator, bpy.types.Operator):
 
 
 class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
-    """Make a closed, convex, triangulated cage around the active mesh and pick it as the
-    mesh's cage"""
+    """Make a closed cage around the active mesh (convex, of triangles; or tight: hugging
+    the mesh, of quads and triangles) and pick it as the mesh's cage"""
 
     bl_idname = "object.gencoords_make_cage"
     bl_label = "Make Cage"
 
+    shape: bpy.props.EnumProperty(
+        name="Shape", default='CONVEX', items=(
+            ('CONVEX', "Convex", "A convex hull around the mesh: quick, and every coordinate "
+                                 "type accepts it, but it fills the gaps between limbs"),
+            ('TIGHT', "Tight", "Hugs the mesh at the offset, keeping the gaps between limbs "
+                               "(voxel remesh and decimation): non-convex, so bind it with "
+                               "Mean Value or Green")))
     target_vertices: bpy.props.IntProperty(
         name="Vertices", default=100, min=8, soft_min=20, soft_max=500,
         description="About how many vertices the cage gets")
+    offset_unit: bpy.props.EnumProperty(
+        name="Offset In", default='SHARE', items=(
+            ('SHARE', "Share of Size", "The gap is a share of the mesh's size (its bounding "
+                                       "box diagonal)"),
+            ('DISTANCE', "Distance", "The gap is a distance")))
     margin: bpy.props.FloatProperty(
         name="Margin", default=0.05, min=0.0, soft_max=0.5, subtype='FACTOR',
-        description="Gap between the mesh and the cage, relative to the mesh's size (0 keeps "
-                    "0.0004: rounding must not leave a vertex outside)")
+        description="Gap between the mesh and a convex cage, relative to the mesh's size (0 "
+                    "keeps 0.0004: rounding must not leave a vertex outside)")
+    offset: bpy.props.FloatProperty(
+        name="Offset", default=0.01, min=0.0, soft_max=0.1, subtype='FACTOR',
+        description="Gap between the mesh and a tight cage, relative to the mesh's size "
+                    "(larger gaps close the space between limbs)")
+    distance: bpy.props.FloatProperty(
+        name="Distance", default=0.03, min=0.0, soft_max=1.0, subtype='DISTANCE',
+        description="Gap between the mesh and the cage")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "shape", expand=True)
+        layout.prop(self, "target_vertices")
+        layout.prop(self, "offset_unit", expand=True)
+        layout.prop(self, "distance" if self.offset_unit == 'DISTANCE'
+                    else "offset" if self.shape == 'TIGHT' else "margin")
+
+    def invoke(self, context, event):
+        """In the UI: ask for the shape and sizes first."""
+        if not interactive(context):
+            return self.execute(context)
+        return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
         obj = context.active_object
         try:
+            tight = self.shape == 'TIGHT'
             with object_mode(context, obj):
-                cage, worker_failure = cage_maker.make_cage(obj, context, self.target_vertices,
-                                                            self.margin)
+                cage, worker_failure = cage_maker.make_cage(
+                    obj, context, self.target_vertices, self.offset if tight else self.margin,
+                    tight=tight, distance=self.distance if self.offset_unit == 'DISTANCE' else None)
         except CageError as error:
             self.report({'ERROR'}, f"Cannot make a cage: {error}")
             return {'CANCELLED'}

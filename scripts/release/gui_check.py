@@ -288,6 +288,10 @@ STEPS = [open_bound, edit_cage, delete_cage, after_delete, after_undo, after_reb
 
 
 def run_next_step():
+    # A modal Bind (Rebind, Auto Rebind, Green) still computing: its step's checks wait
+    # for it (a loaded machine can take longer than STEP_SECONDS).
+    if addon("bind.service").MODAL_BINDS:
+        return 0.25
     try:
         STEPS.pop(0)()
     except Exception:

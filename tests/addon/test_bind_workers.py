@@ -164,13 +164,15 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
     assert not gc.core.evaluation.parallel.shared_files(os.getpid())
 
 
-def test_make_cage_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, capfd, workers_preference):
+@pytest.mark.parametrize("shape", ["CONVEX", "TIGHT"])
+def test_make_cage_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, capfd, workers_preference,
+                                                                 shape):
     obj = add_subdivided_sphere(levels=1)
     make_active(obj)
     workers_preference(2)
     simulated_os.broken_start(monkeypatch)
     capfd.readouterr()
-    assert bpy.ops.object.gencoords_make_cage(target_vertices=40) == {'FINISHED'}
+    assert bpy.ops.object.gencoords_make_cage(target_vertices=40, shape=shape) == {'FINISHED'}
     assert obj.gencoords.cage is not None
     output = capfd.readouterr()
     assert "computed in Blender instead" in output.out + output.err
