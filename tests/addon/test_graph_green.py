@@ -36,6 +36,17 @@ def similarity(points, seed=3):
     return 1.4 * points @ rotation.T + np.array([0.3, -0.2, 0.5])
 
 
+def assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest):
+    """The bound mesh ``obj`` (``rest``: its vertices) is unchanged bitwise with ``cage`` at
+    rest, follows a similarity of the cage exactly, and is bitwise back with it."""
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    vertices, _ = cage_arrays(cage)
+    write_positions(cage.data, similarity(vertices))
+    np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
+    write_positions(cage.data, vertices)
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+
+
 @pytest.mark.parametrize("storage", ["EXACT", "COMPACT"])
 def test_green_binding_is_bitwise_at_rest_and_follows_similarities_exactly(gc, storage):
     cage = add_icosphere_cage(subdivisions=2)  # 42 vertices, 80 triangles
@@ -48,12 +59,7 @@ def test_green_binding_is_bitwise_at_rest_and_follows_similarities_exactly(gc, s
     slots = 42 + 80 if storage == "EXACT" else 24
     assert (info.kind, info.storage, info.slot_count, info.cage_face_count) == \
         ("green", storage, slots, 80)
-    np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
-    vertices, _ = cage_arrays(cage)
-    write_positions(cage.data, similarity(vertices))
-    np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
-    write_positions(cage.data, vertices)
-    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)
 
 
 def test_green_deformation_equals_the_core_and_keeps_shape_better_than_mean_value(gc):
@@ -157,10 +163,7 @@ def test_the_group_does_not_grow_with_the_slots_and_big_bindings_deform_exactly(
         found = gc.binding.binding(obj)
         assert found.data.slot_count == slots
         size[slots] = len(found.group.nodes), len(found.group.links)
-        np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
-        vertices, _ = cage_arrays(cage)
-        write_positions(cage.data, similarity(vertices))
-        np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
+        assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)
     (small_nodes, small_links), (big_nodes, big_links) = size[122], size[482]
     assert big_nodes - small_nodes <= 6 and big_links - small_links <= 12  # 4 times the slots
 
@@ -178,9 +181,4 @@ def test_a_low_poly_prop_in_a_detailed_cage_binds_green_and_follows_similarities
     info = gc.binding.binding(obj).data
     assert (info.storage, info.slot_count, info.cage_face_count) == ('EXACT', 162 + 320, 320)
     assert not [a.name for a in obj.data.attributes if a.name == info.triangle_name]
-    np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
-    vertices, _ = cage_arrays(cage)
-    write_positions(cage.data, similarity(vertices))
-    np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
-    write_positions(cage.data, vertices)
-    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)
