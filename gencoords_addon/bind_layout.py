@@ -8,10 +8,11 @@ them), and vector
 point attributes on the mesh holding its slots three to an attribute
 (``slot_attribute_names``), plus, for compact storage, its basis of cage motions on the
 mesh's first n points (``basis_attribute_names``; n + m rows for Green coordinates, whose
-slots are ``[phi, psi]``), and for Green coordinates the cage's triangles (three vertex
-indices) on the mesh's first m points (``triangle_attribute_name``). Sparse storage keeps
-instead per vertex K INT and K FLOAT attributes (its pairs), and in two levels the grid
-nodes' pairs three to a vector attribute (``graph.sparse``: ``BindData.attribute_names``).
+slots are ``[phi, psi]``). Green bindings made before their node group kept the cage's
+triangles also have those (three vertex indices) on the mesh's first m points
+(``triangle_attribute_name``): their groups read them there. Sparse storage keeps instead
+per vertex K INT and K FLOAT attributes (its pairs), and in two levels the grid nodes'
+pairs three to a vector attribute (``graph.sparse``: ``BindData.attribute_names``).
 
 Format 3 added sparse storage and harmonic coordinates; format 2 bindings are the same
 bind data without them and read as format 3 (``BindData.from_properties``).
@@ -90,12 +91,12 @@ class BindData:
 
     @property
     def attribute_names(self):
-        """Every attribute the binding keeps on the mesh."""
+        """The attributes the binding's group reads from the mesh (Green bindings made
+        before their group kept the cage's triangles have those too)."""
         if self.storage == 'SPARSE':
             return sparse_attribute_names(self.key, self.slot_count, self.mesh_vertex_count,
                                           self.node_count or 0, self.node_slot_count or 0)
-        return (self.slot_names + (self.basis_names or [])
-                + ([self.triangle_name] if self.triangle_name else []))
+        return self.slot_names + (self.basis_names or [])
 
     @property
     def basis_names(self):
