@@ -184,16 +184,16 @@ def _node_displacements(build, mesh, cage, displacement, key, node_count, column
     operands[1].default_value = node_count * blocks
     build.link(used.outputs[0], rows.node.inputs["Selection"])
     zone_in, zone_out = _repeat_zone(build, blocks)
-    node_index = build.add('GeometryNodeInputIndex', "lane_read").outputs[0]
-    row = build.math("lane_read", 'MULTIPLY_ADD', zone_in.outputs[SLOT], float(node_count), node_index,
+    node_index = build.add('GeometryNodeInputIndex', "lane_gather").outputs[0]
+    row = build.math("lane_gather", 'MULTIPLY_ADD', zone_in.outputs[SLOT], float(node_count), node_index,
                      vector=False)
-    gathered = build.sample_index("lane_read", rows, build.named_attribute("lane_read", node_displacement_name(key)),
+    gathered = build.sample_index("lane_gather", rows, build.named_attribute("lane_gather", node_displacement_name(key)),
                                   row)
     total = _close_zone(build, zone_in, zone_out, gathered, (1.0, 1.0, 1.0))
     cloud = build.add('GeometryNodePoints', "lane_index")
     cloud.inputs["Count"].default_value = node_count
     stored = build.store("lane_store", cloud.outputs[0], node_displacement_name(key), total)
-    return stored, build.named_attribute("lane_read", node_displacement_name(key))
+    return stored, build.named_attribute("lane_gather", node_displacement_name(key))
 
 
 def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
