@@ -55,7 +55,6 @@ from gencoords.tools.bind_plan import HARMONIC  # noqa: E402
 MOVED_LIMBS = ("left_arm", "right_arm", "left_leg", "right_leg", "head")
 LOCALITY_MOVE = 0.2  # of the cage's diagonal
 BEND_DEGREES = 60.0
-ELBOW = np.array([-0.575, 0.0, 1.325])  # the middle of the left arm, on its axis
 
 
 def bind(mesh, cage, method):
@@ -96,12 +95,6 @@ def locality(mesh, cage, rest_cage, labels, size):
     return moves
 
 
-def _rotation_y(degrees):
-    angle = np.radians(degrees)
-    cos, sin = np.cos(angle), np.sin(angle)
-    return np.array([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]])
-
-
 def triangle_angles(points, triangles):
     """(t, 3) angles in degrees."""
     corners = points[triangles]
@@ -120,13 +113,11 @@ def normals(points, triangles):
 
 
 def bend(mesh, cage, rest_cage, labels, triangles):
-    """The left forearm's cage vertices turned BEND_DEGREES about the elbow: the left
-    arm's triangle angle changes (mean, 99th percentile, degrees) and flipped triangles."""
+    """The left forearm's cage vertices turned BEND_DEGREES about the elbow
+    (``character.bent_forearm``): the left arm's triangle angle changes (mean, 99th
+    percentile, degrees) and flipped triangles."""
     rest = settle(mesh).astype(np.float64)
-    rotation = _rotation_y(BEND_DEGREES)
-    moved = rest_cage.astype(np.float64)
-    forearm = character.cage_limb_vertices(rest_cage, "left_arm")
-    moved[forearm] = (moved[forearm] - ELBOW) @ rotation.T + ELBOW
+    moved, rotation = character.bent_forearm(rest_cage, BEND_DEGREES)
     arrays.write_positions(cage.data, moved)
     now = settle(mesh).astype(np.float64)
     arrays.write_positions(cage.data, rest_cage)
