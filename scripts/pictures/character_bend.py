@@ -25,9 +25,11 @@ import bpy  # noqa: E402
 
 from scripts.common import character, pictures, scenes  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
+from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
+from gencoords.tools.bind_plan import HARMONIC  # noqa: E402
 
-METHODS = (("Mesh Deform p5", ("MESH_DEFORM", 5)), ("Mean value", ("GENCOORDS", "mean_value")),
-           ("Harmonic", ("GENCOORDS", "harmonic")))
+METHODS = (("Mesh Deform p5", ("MESH_DEFORM", 5)), ("Mean value", ("GENCOORDS", MEAN_VALUE)),
+           ("Harmonic", ("GENCOORDS", HARMONIC)))
 SPACING = 2.3  # metres between the characters (the arms span 1.9)
 BODY = (0.80, 0.80, 0.82, 1.0)
 CAGE = (0.15, 0.35, 0.85, 1.0)
