@@ -1,0 +1,32 @@
+"""The operator fuzz's cases (scripts/fuzz/cases.py): a seed alone gives the case, and the
+seeds cover every step, defect and modifier the fuzz claims to try."""
+
+import json
+
+from scripts.fuzz import cases
+
+
+def test_a_seed_gives_the_same_case_every_time():
+    assert json.dumps(cases.case_of(123), sort_keys=True) == json.dumps(cases.case_of(123), sort_keys=True)
+    assert cases.case_of(123) != cases.case_of(124)
+
+
+def test_two_hundred_seeds_try_every_step_defect_shape_and_modifier():
+    drawn = [cases.case_of(seed) for seed in range(200)]
+    ops = {step["op"] for case in drawn for step in case["steps"]}
+    assert ops == set(cases.STEP_WEIGHTS)
+    scenes = [case["scene"] for case in drawn]
+    assert {s["cage"]["defect"] for s in scenes} == set(cases.CAGE_DEFECTS) | {None}
+    assert {s["cage"]["shape"] for s in scenes} == set(cases.CAGE_SHAPES)
+    assert {s["cage"]["modifier"] for s in scenes} == set(cases.CAGE_MODIFIERS) | {None}
+    assert {s["mesh"]["shape"] for s in scenes} == set(cases.MESH_SHAPES)
+    assert {step["kind"] for case in drawn for step in case["steps"] if step["op"] == "bind"} == set(cases.KINDS)
+    scales = [s["placement"]["scale"] for s in scenes]
+    assert min(scales) < 1e-4 and max(scales) > 1e4
+
+
+def test_the_steps_are_printed_one_a_line_with_their_arguments():
+    case = cases.case_of(7)
+    lines = cases.describe(case)
+    assert len(lines) == 1 + len(case["steps"])
+    assert lines[1].startswith(f"  0: {case['steps'][0]['op']}(")
