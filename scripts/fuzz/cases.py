@@ -35,6 +35,7 @@ STEP_WEIGHTS = {
     "bind": 8, "rebind": 2, "unbind": 3, "translate_cage": 8, "edit_cage": 2, "cage_topology": 1,
     "mesh_topology": 1, "delete": 1, "apply": 2, "duplicate": 1, "save_reload": 2, "bake": 2,
     "show_field": 2, "clear_field": 1, "make_cage": 2, "frame": 3, "object_scale": 1,
+    "edit_mode": 2, "rename": 1, "parent_cage": 1, "move_mesh": 2,
 }
 
 
@@ -53,7 +54,7 @@ def scene_of(rng):
             "modifier": _pick(rng, MESH_MODIFIERS, 0.2), "twin": rng.random() < 0.2,
             "odd_scale": _pick(rng, ODD_SCALES[:1], 0.08), "nan": rng.random() < 0.04}
     # The whole scene at one scale and place: in the objects' transforms or in their data.
-    placement = {"scale": 10.0 ** rng.uniform(-6, 6) if rng.random() < 0.3 else 1.0,
+    placement = {"scale": 10.0 ** rng.choice((-6, -6, -3, 3, 6, rng.uniform(-6, 6))) if rng.random() < 0.3 else 1.0,
                  "offset": (10.0 ** rng.uniform(2, 6)) * rng.choice((-1, 1)) if rng.random() < 0.2 else 0.0,
                  "in_data": rng.random() < 0.5}
     return {"cage": cage, "mesh": mesh, "placement": placement}
@@ -119,19 +120,61 @@ def step_of(rng, available):
     if op == "frame":
         return {"op": op, "cage": cage, "amount": 10.0 ** rng.uniform(-3, 0),
                 "direction": [rng.gauss(0, 1) for _ in range(3)]}
+    if op == "edit_mode":
+        return {"op": op, "target": target, "auto_rebind": rng.random() < 0.6,
+                "change": rng.choice(("delete", "subdivide", "none"))}
+    if op == "rename":
+        return {"op": op, "target": role(rng, available, ("cage", "mesh", "made"))}
+    if op == "parent_cage":
+        return {"op": op, "cage": cage, "target": target}
+    if op == "move_mesh":
+        return {"op": op, "target": target, "amount": 10.0 ** rng.uniform(-3, 0),
+                "direction": [rng.gauss(0, 1) for _ in range(3)]}
     if op == "object_scale":
         return {"op": op, "target": rng.choice(("cage", "mesh")), "scale": rng.choice(ODD_SCALES + ("one",))}
     return {"op": op}  # save_reload
 
 
+def story(rng, available, scene):
+    """A sequence where cage deformers tend to break, its parameters random: a good
+    binding first, then copies sharing its data, a bake, the cage deleted, or a tiny cage
+    object moved; random steps follow."""
+    steps = [dict(bind_step(rng, available), target="mesh", cage="cage",
+                  kind=rng.choice(("MEAN_VALUE", "WACHSPRESS", "GREEN")), outside="PROJECT")]
+    theme = rng.choice(("copies", "bake", "deleted cage", "small"))
+    if theme == "copies":
+        steps.append({"op": "duplicate", "target": "mesh", "linked": rng.random() < 0.8})
+        available.add("copy")
+        steps.append({"op": rng.choice(("unbind", "rebind", "bake")), "target": rng.choice(("mesh", "copy")),
+                      "max_influences": 0, "keyframes": False})
+    elif theme == "bake":
+        if rng.random() < 0.4:
+            steps.append({"op": "edit_cage", "cage": "cage", "amount": 0.01, "seed": rng.randrange(2**31),
+                          "nan": True})
+        steps.append({"op": "bake", "target": "mesh", "max_influences": rng.choice((0, 4)),
+                      "keyframes": rng.random() < 0.5})
+    elif theme == "deleted cage":
+        steps.append({"op": "delete", "target": "cage"})
+        steps.append({"op": "show_field", "target": "mesh", "vertex": rng.choice((0, 1, 5))})
+        steps.append({"op": "show_field", "target": "mesh", "vertex": rng.choice((0, 2))})
+    else:  # a micro-scale cage object
+        scene["placement"].update(scale=10.0 ** rng.uniform(-7, -5), in_data=False)
+    steps.append(dict(translation(rng, "cage"), how="object"))
+    return steps
+
+
 def case_of(seed):
-    """The case of ``seed``: {"seed", "scene", "steps"}; the first step binds more often than not."""
+    """The case of ``seed``: {"seed", "scene", "steps"}: a story (``story``) or a first Bind
+    more often than not, then random steps."""
     rng = random.Random(seed)
     scene = scene_of(rng)
     available = {"mesh", "cage"} | ({"twin"} if scene["mesh"]["twin"] else set())
-    steps = [bind_step(rng, available)] if rng.random() < 0.8 else []
-    if steps and rng.random() < 0.7:
-        steps[0]["target"], steps[0]["cage"] = "mesh", "cage"
+    if rng.random() < 0.35:
+        steps = story(rng, available, scene)
+    else:
+        steps = [bind_step(rng, available)] if rng.random() < 0.8 else []
+        if steps and rng.random() < 0.7:
+            steps[0]["target"], steps[0]["cage"] = "mesh", "cage"
     for _ in range(rng.randint(2, 9)):
         steps.append(step_of(rng, available))
         available.add({"duplicate": "copy", "make_cage": "made"}.get(steps[-1]["op"], "mesh"))

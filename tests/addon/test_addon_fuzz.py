@@ -4,7 +4,12 @@ after every step (scripts/fuzz: no internal error, no NaN, refusals change nothi
 Unbind restores bitwise, a translated cage translates the mesh, rest and reload
 unchanged, a made cage binds)."""
 
-from scripts.fuzz import run
+import bpy
+import numpy as np
+import pytest
+
+from scene_helpers import add_sphere, read_positions, write_positions
+from scripts.fuzz import checks, run
 
 # Cases that pass, chosen to cover every step and most invariants between them (listed by
 # tests/test_fuzz_cases.py); a failure prints the case's steps and its replay command.
@@ -16,3 +21,21 @@ def test_fixed_seeds_keep_every_invariant(package):
     assert sorted(r["seed"] for r in results) == sorted(SEEDS)
     failures = [run.failure_text(r) for r in results if r["status"] != "pass"]
     assert not failures, "\n\n".join(failures)
+
+
+def test_the_checks_see_a_bit_changed_a_wrong_move_and_an_internal_error(gc):
+    sphere = add_sphere()
+    before, positions = checks.file_state(), checks.world_positions()
+    moved = read_positions(sphere.data).copy()
+    moved[3, 1] = np.nextafter(moved[3, 1], np.float32(np.inf))  # one float32 step
+    write_positions(sphere.data, moved)
+    assert any(line.startswith(f"/meshes/{sphere.data.name}/attribute position") for line in
+               checks.differences(before, checks.file_state()))
+    sphere.location.x += 0.5
+    bpy.context.view_layer.update()
+    after = checks.world_positions()
+    checks.check_moved(["Mesh"], positions, after, np.array([0.5, 0.0, 0.0]), 2.0, "moved")
+    with pytest.raises(checks.Violation, match="off by 0.5"):
+        checks.check_moved(["Mesh"], positions, after, np.zeros(3), 2.0, "moved")
+    with pytest.raises(checks.Violation, match="no internal error"):
+        checks.check_output("Error: GenCoords internal error, nothing was changed")
