@@ -74,6 +74,7 @@ def play(seed, folder, verbose=False):
                     print(f"--- step {number} {step['op']}: {outcome}\n{output.text}", end="", flush=True)
             checks.check_output(output.text)
             checks.check_finite()
+            checks.check_panel()
     except checks.Violation as violation:
         result.update(status="fail", step=number, invariant=violation.invariant, message=str(violation))
     except Exception:  # the fuzz's own code

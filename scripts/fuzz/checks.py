@@ -8,10 +8,12 @@ translates the mesh".
 """
 
 import hashlib
+import traceback
 
 import bpy
 import numpy as np
 
+from scripts.common import session
 from scripts.common.blender_objects import arrays
 
 METADATA = "gencoords"  # bind_layout.METADATA: a binding's node group carries it
@@ -160,6 +162,18 @@ def check_finite():
         if len(bad):
             raise Violation("no NaN", f"'{obj.name}' evaluates {len(bad)} of {len(positions)} "
                                       f"vertices to NaN or infinity (first {bad[0]})")
+
+
+def check_panel():
+    """The panel's status lines (what the artist reads; ``binding_results`` for scripts) can
+    be drawn for every mesh object."""
+    status, api = session.addon_module("status"), session.addon_module("api")
+    for obj in bpy.context.view_layer.objects:
+        try:
+            status.status_lines(obj)
+            api.binding_results(obj)
+        except Exception:
+            raise Violation("the panel draws", f"'{obj.name}': {traceback.format_exc()}") from None
 
 
 def check_unchanged(before, after, what):

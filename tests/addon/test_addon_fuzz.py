@@ -1,8 +1,8 @@
 """The operator fuzz's short run (``make fuzz`` is the long one): fixed seeds, each case
 in its own fresh Blender process with the built zip installed, every invariant checked
-after every step (scripts/fuzz: no internal error, no NaN, refusals change nothing,
-Unbind restores bitwise, a translated cage translates the mesh, rest and reload
-unchanged, a made cage binds)."""
+after every step (scripts/fuzz: no internal error, no NaN, the panel draws, refusals
+change nothing, Unbind restores bitwise, a translated cage translates the mesh, a moved
+mesh stays with its cage, rest and reload unchanged, a made cage binds)."""
 
 import bpy
 import numpy as np
