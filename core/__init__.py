@@ -14,8 +14,11 @@ the everyday API; the paper's advanced API is :mod:`gencoords.advanced`, the too
 Layers, bottom up: ``base`` (frames, topology, input checks, tolerances, errors),
 ``surfaces`` (named, power and numerical generating surfaces), ``construction`` (the
 general construction, boundary limits, Floater, completeness, Green), ``evaluation``
-(the cage object, row evaluation, workers), ``tools``.
+(the cage object, row evaluation, workers), ``harmonic`` (harmonic coordinates on a
+grid: local and non-negative in any closed 3D cage), ``tools``.
 """
+
+__version__ = "0.1.0"  # the one source: pyproject.toml reads it, the manifest repeats it
 
 from .base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError, WorkerWarning
 from .construction.boundary import BOUNDARY, INSIDE, OUTSIDE
@@ -25,10 +28,12 @@ from .evaluation.barycentric import coordinates, green_coordinates, needs_convex
 from .evaluation.cage import Cage
 from .evaluation.deformation import deform
 from .surfaces.named import KIND_TABLE
+from .harmonic import HarmonicField, harmonic_coordinates, harmonic_field
 from . import advanced, tools  # noqa: E402  (the named sub-APIs, after the names they use)
 
 __all__ = [
     "Cage", "coordinates", "weights", "point_locations", "deform", "green_coordinates", "green_deform",
+    "harmonic_coordinates", "harmonic_field", "HarmonicField",
     "KIND_TABLE", "needs_convex",
     "INSIDE", "BOUNDARY", "OUTSIDE", "DEFAULT_TOLERANCE",
     "CageError", "OutsideCageError", "WorkerError", "WorkerWarning", "AccuracyWarning",

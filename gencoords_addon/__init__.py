@@ -26,7 +26,11 @@ Operators, acting on the active mesh object (all undoable):
     bpy.ops.object.gencoords_bake_bones(max_influences=0, keyframes=True)
                                            replace the binding by an armature (a bone per
                                            cage vertex) and vertex groups, keyframed over
-                                           the scene's frame range (also Object > Animation)
+                                           the scene's frame range (also Object > Animation;
+                                           docs/SCRIPTING.md)
+    bpy.ops.mesh.gencoords_select_dented_faces()
+                                           select the active cage's faces that dent inward
+                                           (Edit Mode > Select), what keeps it from being convex
 
 Preferences (Edit > Preferences > Add-ons > GenCoords): Worker Processes, 'AUTO'
 (default), 'BLENDER' (1: compute in Blender's own process) or 'FIXED' (``worker_count``);
@@ -59,11 +63,13 @@ def register():
         type=GenCoordsSettings, name="GenCoords",
         description="GenCoords cage deformation settings of this object (read when binding)")
     operators.MENU.append(operators.draw_menu)
+    operators.SELECT_MENU.append(operators.draw_select_menu)
     handlers.register()
 
 
 def unregister():
     handlers.unregister()
+    operators.SELECT_MENU.remove(operators.draw_select_menu)
     operators.MENU.remove(operators.draw_menu)
     del bpy.types.Object.gencoords
     for cls in reversed(CLASSES):

@@ -376,16 +376,19 @@ class BindJob:
             raise BindError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or "
                             f"infinite) positions (first: vertex {undefined[0]}): fix or "
                             "delete them, then Bind")
-        geometry = mesh_io.read_evaluated_cage(self.cage, depsgraph)
+        flat_axes = zero_scale_axes(obj.evaluated_get(depsgraph).matrix_world)
+        if flat_axes:  # its vertices would be flat in world space, and huge in its own
+            raise BindError(messages.zero_scale("mesh", obj.name, flat_axes, "Bind"))
+        try:
+            geometry = mesh_io.read_evaluated_cage(self.cage, depsgraph)
+        except core.CageError as error:  # NaN or infinite vertices: caught before triangles
+            raise BindError(messages.cage_error(self.cage.name, error, self.kind_label, ())) from None
         if len(geometry.triangles) == 0:
             raise BindError(f"The cage '{self.cage.name}' has no faces: it must be a closed "
                             "surface around the mesh (add faces, e.g. Mesh > Convex Hull)")
         flat_axes = zero_scale_axes(self.cage.evaluated_get(depsgraph).matrix_world)
         if flat_axes:
-            raise BindError(f"The cage object '{self.cage.name}' is scaled to zero on its "
-                            f"{' and '.join(flat_axes)} {'axes' if len(flat_axes) > 1 else 'axis'} "
-                            "(or its parent is): give it a "
-                            "non-zero Scale (Object Properties > Transform), then Bind")
+            raise BindError(messages.zero_scale("cage", self.cage.name, flat_axes, "Bind"))
         self.triangle_faces = geometry.triangle_faces
         self.rest_cage = capture_rest_cage(obj, self.cage, context)
         if len(self.rest_cage) != len(geometry.positions):
@@ -466,8 +469,12 @@ class BindJob:
             cage.close()
 
     def _core_message(self, error):
+        dented = None
+        if isinstance(error, core.CageError) and error.problem == "non_convex":
+            dented = np.unique(self.triangle_faces[core.advanced.concave_facets(
+                self.cage_vertices, self.triangles, FLOAT32_TOLERANCE)])
         return messages.core_error(self.cage.name, error, self.kind_label, len(self.points),
-                                   self.triangle_faces)
+                                   self.triangle_faces, dented)
 
     def _coordinates(self, cage, points, workers, locations=None):
         """The core's coordinates of ``points`` ((k, n) float64), its errors as BindError."""
@@ -552,6 +559,7 @@ class BindJob:
                     f"Automatic: compact, {slot_count} slots (deviation {short_number(worst)} "
                     f"> {target}; exact would take {exact_bytes / 1e9:.1f} GB: choose Exact "
                     "for it)")
+        self._check_linear_precision(written)  # on what will be written
         # How this kind behaves in this cage, away from the mesh's own vertices (the
         # summary covers those): positivity and well-definedness on a sample.
         report = None if self.green else core.tools.coordinate_report(
@@ -583,7 +591,7 @@ class BindJob:
         locations = np.empty(count, dtype=np.int8)
         stored_basis = (None if self.basis is None else  # as written: float32
                         self.basis.astype(np.float32).astype(np.float64))
-        smallest, negative, affine_error = np.inf, 0, 0.0
+        smallest, negative, affine_error, precision = np.inf, 0, 0.0, 0.0
         smooth, drag = 0.0, np.zeros(len(self.cage_vertices))
         chunk = max(1, CHUNK_ENTRIES * workers // cage_count)
         for start in range(0, count, chunk):
@@ -597,6 +605,7 @@ class BindJob:
             slots[rows] = coordinates if self.basis is None else coordinates @ self.basis
             reproduced = (slots[rows].astype(np.float64) if stored_basis is None else
                           slots[rows] @ stored_basis.T)
+            precision = max(precision, self._linear_precision(reproduced, rows, locations[rows]))
             residual = np.subtract(coordinates, reproduced, out=reproduced)
             chunk_smooth, chunk_drag = compact.residual_deviations(residual, self.cage_vertices,
                                                                    faces=self._green_faces)
@@ -606,9 +615,31 @@ class BindJob:
             yield rows.stop / count
         return {"slot_count": slot_count, "slots": slots, "locations": locations,
                 "min_coordinate": float(smallest), "negative_points": int(negative),
-                "max_affine_error": float(affine_error), "deviation_smooth": float(smooth),
+                "max_affine_error": float(affine_error), "linear_precision": float(precision),
+                "deviation_smooth": float(smooth),
                 "deviation_drag": float(drag.max(initial=0.0)),
                 "deviation_drag_vertex": int(np.argmax(drag))}
+
+    def _linear_precision(self, stored, rows, locations):
+        """``core.tools.linear_precision`` of coordinates as stored, for ``self.points[rows]``
+        (Green coordinates also weigh normals: 0; projected points are not placed where
+        they are: left out)."""
+        if self.green:
+            return 0.0
+        placed = slice(None) if self.outside != 'project' else locations != core.OUTSIDE
+        return core.tools.linear_precision(stored[placed], self.cage_vertices, self.points[rows][placed])
+
+    def _check_linear_precision(self, written):
+        """BindError when the coordinates as stored do not place the mesh's vertices."""
+        error = written["linear_precision"]
+        if error <= core.base.tolerances.LINEAR_PRECISION:
+            return
+        raise BindError(
+            f"{self.kind_label} coordinates{messages.gamma_words(self.gamma)} in the cage "
+            f"'{self.cage.name}' are too large to store (smallest {written['min_coordinate']:.3g}): as "
+            f"stored they place the vertices of '{self.obj.name}' only to {short_number(error)} of the "
+            "cage's size, and the mesh would stray as the cage moves. Choose a Gamma between -1 and "
+            "-0.5, or another Type")
 
     def _outside_message(self, cage):
         where = cage.point_locations(self.points)
@@ -677,6 +708,14 @@ class BindJob:
         return binding(obj, self.cage)
 
 
+def keys_used_elsewhere(obj):
+    """Keys of the bindings that other objects sharing the mesh of ``obj`` (linked
+    duplicates, Alt+D) deform with: their bind data on the shared mesh must stay."""
+    return {found.key for other in bpy.data.objects
+            if other != obj and other.type == 'MESH' and other.data == obj.data
+            for found in bindings(other)}
+
+
 def remove(obj, bindings):
     """Delete ``bindings`` of ``obj`` (their modifiers, node groups and attributes), all
     or, as far as Blender lets anything fail, none.
@@ -695,9 +734,10 @@ def remove(obj, bindings):
     """
     names = [each.modifier.name for each in bindings]  # a removed modifier's RNA is gone
     parked, removed = {}, []
+    shared = keys_used_elsewhere(obj)
     try:
-        for each in bindings:
-            parked[each.key] = deformer.park_slots(obj.data, each.key)
+        for each in bindings:  # bind data a linked duplicate deforms with stays
+            parked[each.key] = {} if each.key in shared else deformer.park_slots(obj.data, each.key)
         for name, each in zip(names, bindings):
             group = each.group
             compat.remove_nodes_modifier(obj, each.modifier)

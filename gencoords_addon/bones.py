@@ -16,17 +16,18 @@ a rig driven only by them), so the bones' motion is also keyframed over the scen
 frame range.
 """
 
-import bmesh
 import bpy
 import numpy as np
 
 from ..core.tools import compact, skinning
 from . import binding as bindings_module
-from . import compat, mesh_io
+from . import compat, mesh_arrays, mesh_io, status
 from .enums import is_green, kind_label
 
 BONE_PREFIX = "GenCoords "
 BAKE_INFO = "gencoords_bake"  # ID property of the rig's armature: the bake's figures
+# Bones on their cage vertices (float32 positions, constraint evaluation), per cage diagonal.
+FOLLOW_TOLERANCE = 1e-5
 
 
 def bone_names(count):
@@ -43,56 +44,6 @@ def negative_message(obj, found, count, smallest):
             "cannot be (Blender clamps them to 0 to 1). Bind with Type Wachspress, or Mean "
             "Value with a convex cage (Make Cage makes one): these are never negative "
             "inside the cage; then Bake to Bones")
-
-
-def read_weights(obj, names):
-    """The weights of the vertex groups ``names`` of ``obj``, as Blender stores them.
-
-    Returns
-    -------
-    weights : (k, len(names)) float64
-    """
-    columns = {obj.vertex_groups[name].index: j for j, name in enumerate(names)
-               if name in obj.vertex_groups}
-    weights = np.zeros((len(obj.data.vertices), len(names)))
-    bm = bmesh.new()
-    try:
-        bm.from_mesh(obj.data)
-        layer = bm.verts.layers.deform.active
-        if layer is None:
-            return weights
-        for vert in bm.verts:
-            for group, weight in vert[layer].items():
-                j = columns.get(group)
-                if j is not None:
-                    weights[vert.index, j] = weight
-    finally:
-        bm.free()
-    return weights
-
-
-def write_weights(obj, names, weights):
-    """Set the vertex groups ``names`` of ``obj`` (made as needed) to the positive
-    entries of ``weights`` ((k, len(names))); Blender clamps them to [0, 1]."""
-    groups = [(obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name)).index
-              for name in names]
-    bm = bmesh.new()
-    try:
-        bm.from_mesh(obj.data)
-        layer = bm.verts.layers.deform.verify()
-        bm.verts.ensure_lookup_table()
-        rows, columns = np.nonzero(weights > 0.0)
-        values = weights[rows, columns].tolist()
-        group_of = [groups[j] for j in columns.tolist()]
-        deform = None
-        last = -1
-        for i, group, value in zip(rows.tolist(), group_of, values):
-            if i != last:
-                deform, last = bm.verts[i][layer], i
-            deform[group] = value
-        bm.to_mesh(obj.data)
-    finally:
-        bm.free()
 
 
 def evaluated_world_positions(obj, depsgraph):
@@ -184,6 +135,11 @@ def bake(obj, context, max_influences=0, keyframes=True):
     names = bone_names(len(rest))
     # Read before anything is written: each frame then costs what playback does.
     motion = cage_motion(cage, context) if keyframes else None
+    if motion is not None and not np.isfinite(motion[1]).all():
+        frame = int(motion[0][np.flatnonzero(~np.isfinite(motion[1]).all(axis=(1, 2)))[0]])
+        raise bindings_module.BindError(
+            f"Cannot bake '{obj.name}' to bones: the cage '{cage.name}' has undefined (NaN or "
+            f"infinite) positions at frame {frame}: fix its animation, or untick Keyframe Cage Motion")
 
     # All or nothing: what this adds is removed again on a failure, and the binding goes
     # last (its removal is all or nothing itself).
@@ -199,7 +155,8 @@ def bake(obj, context, max_influences=0, keyframes=True):
         for collection in obj.users_collection:
             collection.objects.link(rig)
         _add_following_bones(rig, cage, names, rest)
-        write_weights(obj, names, weights)
+        following = _following_error(rig, cage, names, rest, context)
+        mesh_arrays.write_weights(obj, names, weights)
         position = list(obj.modifiers).index(found.modifier)
         skin = obj.modifiers.new("Armature", 'ARMATURE')
         skin.object = rig
@@ -209,11 +166,11 @@ def bake(obj, context, max_influences=0, keyframes=True):
         if motion is not None:
             keyframe_motion(rig, names, *motion)
 
-        written = read_weights(obj, names)
+        written = mesh_arrays.read_weights(obj, names)
         heads = np.array([rig.data.bones[name].head_local for name in names], dtype=np.float64)
         deviation = skinning.deviation(coordinates, rest, written, heads,
                                        compact.smooth_test_motion(rest))
-        rig.data[BAKE_INFO] = {"deviation": deviation, "max_influences": int(max_influences),
+        rig.data[BAKE_INFO] = {"deviation": deviation, "following": following, "max_influences": int(max_influences),
                                "vertices_over_4": int(np.count_nonzero(
                                    np.count_nonzero(written, axis=1) > 4)),
                                **({"frames": [int(motion[0][0]), int(motion[0][-1])]}
@@ -238,11 +195,22 @@ def _bake_inputs(obj, max_influences):
     found = bindings_module.binding(obj)
     if found.cage is None:
         raise bindings_module.BindError("The binding's cage is missing: Bind again first")
+    # Whatever stops the deformer (a NaN cage vertex, changed counts) would bake a rig
+    # that does something else: the rig would follow what the binding does not.
+    problem = status.deformation_problem(obj, found)
+    if problem is not None:
+        raise bindings_module.BindError(f"Cannot bake '{obj.name}' to bones: {problem}")
     if is_green(found.info["kind"]):
         raise bindings_module.BindError(
             f"Cannot bake '{obj.name}' to bones: it is bound with Green coordinates, which also "
             "follow the cage's face normals and stretch, and bones (linear blend skinning) "
             "cannot: Bind with another Type (Mean Value, say), then Bake to Bones")
+    bound, own = found.info["cage_vertex_count"], len(found.cage.data.vertices)
+    if own != bound:
+        raise bindings_module.BindError(
+            f"Cannot bake '{obj.name}' to bones: the cage '{found.cage.name}' has {bound} vertices "
+            f"with its modifiers and {own} without: bones follow the cage's own vertices. Apply "
+            "the cage's modifiers (or remove them), Bind again, then Bake to Bones")
     coordinates = found.coordinates(obj.data)
     rest_local = found.rest_cage
     if coordinates is None or rest_local is None \
@@ -269,6 +237,26 @@ def _add_following_bones(rig, cage, names, rest):
     for name in names:
         follow = rig.pose.bones[name].constraints.new('COPY_LOCATION')
         follow.target, follow.subtarget = cage, name
+
+
+def _following_error(rig, cage, names, rest, context):
+    """How far (per cage diagonal) the rig's evaluated bones are from the evaluated cage
+    vertices the binding follows; BindError beyond FOLLOW_TOLERANCE (the rig would move
+    the mesh otherwise than the binding did)."""
+    depsgraph = context.evaluated_depsgraph_get()
+    evaluated = rig.evaluated_get(depsgraph)
+    world = np.array(evaluated.matrix_world, dtype=np.float64)
+    heads = np.array([evaluated.pose.bones[name].head for name in names], dtype=np.float64)
+    heads = heads @ world[:3, :3].T + world[:3, 3]
+    cage_now = evaluated_world_positions(cage, depsgraph)
+    diagonal = float(np.linalg.norm(np.ptp(rest, axis=0)))
+    error = float(np.linalg.norm(heads - cage_now, axis=1).max()) / diagonal
+    if not error <= FOLLOW_TOLERANCE:
+        raise bindings_module.BindError(
+            f"Cannot bake to bones: the bones of '{rig.name}' would sit {error:.2g} of the cage's size away from "
+            f"the cage vertices the binding follows (modifiers or constraints on '{cage.name}'?): "
+            "apply them, Bind again, then Bake to Bones")
+    return error
 
 
 def _remove_rig(rig):

@@ -12,11 +12,16 @@ import numpy as np
 
 from .. import core
 from ..core.tools import enclosing
-from . import mesh_io, preferences
-from .binding import FLOAT32_TOLERANCE
+from . import mesh_arrays, mesh_io, messages, preferences
+from .binding import FLOAT32_TOLERANCE, zero_scale_axes
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
+# Margin 0 still keeps this gap (of the mesh's size): merging corners and float32 rounding
+# move the cage's faces by up to ~2 CORNER_MERGE, which must not cut a vertex off.
+MIN_MARGIN = 4 * CORNER_MERGE
+MARGIN_TRIES, MARGIN_GROWTH = 4, 4.0
+HULL_TRIES = 64  # hulls, each without the corners the last one left not convex
 
 
 class CageError(Exception):
@@ -56,7 +61,7 @@ def make_cage_geometry(points, target_vertices, margin):
     if size == 0.0:
         raise CageError("the mesh has no extent: a cage needs a volume to enclose")
     directions = enclosing.sphere_directions(max(4, target_vertices // 2 + 2))
-    offsets = enclosing.supporting_offsets(points, directions, margin * size)
+    offsets = enclosing.supporting_offsets(points, directions, max(margin, MIN_MARGIN) * size)
     dual = enclosing.dual_points(directions, offsets, points.mean(axis=0))
     corners = enclosing.facet_vertices(directions, offsets, _hull(dual))
     # Facets of one dual face meet at one corner, and nearly parallel planes at corners
@@ -65,7 +70,7 @@ def make_cage_geometry(points, target_vertices, margin):
     rounded = np.round(corners / (size * CORNER_MERGE)).astype(np.int64)
     _, keep = np.unique(rounded, axis=0, return_index=True)
     vertices = corners[np.sort(keep)].astype(np.float32).astype(np.float64)
-    for _ in range(8):
+    for _ in range(HULL_TRIES):
         triangles = _hull(vertices)
         used = np.unique(triangles)
         remap = np.full(len(vertices), -1)
@@ -84,30 +89,68 @@ def make_cage_geometry(points, target_vertices, margin):
     raise CageError("the cage stayed non-convex after hulling again: try another vertex count")
 
 
+def _enclosed_points(obj, context):
+    """The mesh's vertices to enclose, in world space ((k, 3) float64): those Bind binds
+    (the mesh data) and those the artist sees (with modifiers and shape keys); CageError
+    when they cannot be."""
+    depsgraph = context.evaluated_depsgraph_get()
+    with mesh_io.evaluated_mesh(obj, depsgraph) as evaluated:
+        seen = mesh_io.read_positions(evaluated).astype(np.float64)
+    bound = mesh_io.read_positions(obj.data).astype(np.float64)
+    if len(bound) < 4:
+        raise CageError(f"'{obj.name}' needs at least 4 vertices to make a cage around")
+    for local, where in ((bound, ""), (seen, " with its modifiers and shape keys")):
+        undefined = np.flatnonzero(~np.isfinite(local).all(axis=1))
+        if len(undefined):
+            raise CageError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or infinite) "
+                            f"positions{where} (first: vertex {undefined[0]}): fix or delete them first")
+    local = np.concatenate([bound, seen])
+    flat_axes = zero_scale_axes(obj.matrix_world)
+    if flat_axes:  # the cage would be flat
+        raise CageError(messages.zero_scale("mesh", obj.name, flat_axes, "Make Cage"))
+    world = np.array(obj.matrix_world, dtype=np.float64)
+    return local @ world[:3, :3].T + world[:3, 3]
+
+
+def _enclosing_cage(obj, points, target_vertices, margin, context):
+    """``make_cage_geometry`` around ``points``, checked to enclose them; where corners
+    dropped to keep it convex cut a vertex off (small margins), made again with a margin
+    MARGIN_GROWTH times larger, up to MARGIN_TRIES times. Returns (vertices, triangles,
+    worker failure or None)."""
+    for _ in range(MARGIN_TRIES):
+        stored, triangles = make_cage_geometry(points, target_vertices, margin)
+        outside, worker_failure = preferences.in_workers_or_blender(
+            lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
+                                                 workers=workers), preferences.worker_count(context))
+        count = int(np.count_nonzero(outside == core.OUTSIDE))
+        if count == 0:
+            return stored, triangles, worker_failure
+        margin = max(margin, MIN_MARGIN) * MARGIN_GROWTH
+    raise CageError(f"{count} vertices of '{obj.name}' ended outside the cage: raise the margin")
+
+
 def make_cage(obj, context, target_vertices=100, margin=0.05):
     """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
     None or what to say about worker processes that failed, see
-    :func:`preferences.in_workers_or_blender`)."""
-    depsgraph = context.evaluated_depsgraph_get()
-    with mesh_io.evaluated_mesh(obj, depsgraph) as evaluated:
-        local = mesh_io.read_positions(evaluated).astype(np.float64)
-    if len(local) < 4:
-        raise CageError(f"'{obj.name}' needs at least 4 vertices to make a cage around")
-    world = np.array(obj.matrix_world, dtype=np.float64)
-    points = local @ world[:3, :3].T + world[:3, 3]
-    stored, triangles = make_cage_geometry(points, target_vertices, margin)
-    outside, worker_failure = preferences.in_workers_or_blender(
-        lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
-                                             workers=workers), preferences.worker_count(context))
-    if (outside == core.OUTSIDE).any():
-        raise CageError(f"{int((outside == core.OUTSIDE).sum())} vertices of '{obj.name}' "
-                        "ended outside the cage: raise the margin")
+    :func:`preferences.in_workers_or_blender`).
+
+    A mesh farther from the origin than its size gets its cage object at the middle of
+    its bounds (a float32 location), with vertices relative to it: float32 vertices then
+    keep the cage's shape however far from the origin and however small the mesh.
+    """
+    points = _enclosed_points(obj, context)
+    centre = ((points.min(axis=0) + points.max(axis=0)) / 2).astype(np.float32).astype(np.float64)
+    if np.linalg.norm(centre) <= np.linalg.norm(np.ptp(points, axis=0)):
+        centre[:] = 0.0  # near the origin: the cage object there, read back without a transform
+    points = points - centre
+    stored, triangles, worker_failure = _enclosing_cage(obj, points, target_vertices, margin, context)
     mesh = bpy.data.meshes.new(f"{obj.name} cage")
     cage = None
     try:  # all or nothing: what was added goes again on a failure
         mesh.from_pydata(stored.tolist(), [], triangles.tolist())
         mesh.update()
         cage = bpy.data.objects.new(f"{obj.name} cage", mesh)
+        cage.location = centre.tolist()
         cage.display_type = 'WIRE'
         for collection in obj.users_collection:
             collection.objects.link(cage)
@@ -118,3 +161,16 @@ def make_cage(obj, context, target_vertices=100, margin=0.05):
         bpy.data.meshes.remove(mesh)
         raise
     return cage, worker_failure
+
+
+def select_dented_faces(obj):
+    """Select exactly the faces of the mesh object ``obj`` that dent inward
+    (``core.advanced.concave_facets``); returns how many. Object Mode only."""
+    mesh = obj.data
+    positions = mesh_io.read_positions(mesh)
+    triangles, triangle_faces = mesh_io.read_triangles(mesh, positions)
+    dented = np.unique(triangle_faces[core.advanced.concave_facets(positions, triangles, FLOAT32_TOLERANCE)])
+    faces = np.zeros(len(mesh.polygons), dtype=bool)
+    faces[dented] = True
+    mesh_arrays.select_faces(mesh, faces)
+    return len(dented)

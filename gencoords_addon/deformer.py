@@ -218,10 +218,32 @@ def build_capture_group(name):
 
 
 def _cage_info(build, group_input):
-    """The cage's geometry in the modified object's space (Object Info, relative)."""
-    info = build.add('GeometryNodeObjectInfo', "cage", transform_space='RELATIVE')
+    """The cage's geometry in the modified object's space.
+
+    Object Info's Relative space skips transforms within ~1e-6 of the identity (absolute:
+    a 1e-6-sized cage moved by 5e-7 would not be followed), so the cage is read in its
+    own space and moved by (mesh world)^-1 (cage world) point by point, with no shortcut;
+    where Object Info has no Transform output, by Relative space.
+    """
+    info = build.add('GeometryNodeObjectInfo', "cage", transform_space='ORIGINAL')
     build.link(group_input.outputs[CAGE], info.inputs["Object"])
-    return info.outputs["Geometry"]
+    if "Transform" not in info.outputs:
+        info.transform_space = 'RELATIVE'
+        return info.outputs["Geometry"]
+    own = build.add('GeometryNodeObjectInfo', "cage", transform_space='ORIGINAL')
+    build.link(build.add('GeometryNodeSelfObject', "cage").outputs[0], own.inputs["Object"])
+    inverse = build.add('FunctionNodeInvertMatrix', "cage")
+    build.link(own.outputs["Transform"], inverse.inputs[0])
+    relative = build.add('FunctionNodeMatrixMultiply', "cage")
+    build.link(inverse.outputs[0], relative.inputs[0])
+    build.link(info.outputs["Transform"], relative.inputs[1])
+    moved = build.add('FunctionNodeTransformPoint', "cage")
+    build.link(build.add('GeometryNodeInputPosition', "cage").outputs[0], moved.inputs[0])
+    build.link(relative.outputs[0], moved.inputs[1])
+    placed = build.add('GeometryNodeSetPosition', "cage")
+    build.link(info.outputs["Geometry"], placed.inputs["Geometry"])
+    build.link(moved.outputs[0], placed.inputs["Position"])
+    return placed.outputs["Geometry"]
 
 
 def _accumulate_group():

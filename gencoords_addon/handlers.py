@@ -22,11 +22,12 @@ import traceback
 import bpy
 from bpy.app.handlers import persistent
 
-from . import binding
+from . import binding, operators
 
 _was_editing = set()  # Object.session_uid of bound meshes seen in Edit Mode
 _cage_names = {}  # Object.session_uid -> name, of the bound cages at the last housekeeping
 _rebind_pending = set()  # Object.session_uid of meshes the timer is to rebind in a window
+REBIND_RETRY_SECONDS = 0.5  # how often the timer looks again while a modal Bind of the mesh runs
 
 
 def _never_raise(handler):
@@ -88,10 +89,14 @@ def rebind_in_window():
     """Timer (runs once): start the modal Bind of each mesh noted by ``_rebind``, in a
     window showing it, as if the artist had confirmed Replace Binding. The mesh may be
     gone (deleted, undone), back in Edit Mode (its next exit notes it again) or already
-    rebound by then: it is then left alone."""
+    rebound by then: it is then left alone. While a modal Bind of the mesh computes, it
+    waits for it (looking again every REBIND_RETRY_SECONDS) rather than start a second."""
     pending = set(_rebind_pending)
     _rebind_pending.clear()
     for obj in [o for o in bpy.data.objects if o.session_uid in pending]:
+        if obj.session_uid in operators.MODAL_BINDS:
+            _rebind_pending.add(obj.session_uid)
+            continue
         try:
             if obj.type != 'MESH' or obj.mode == 'EDIT' or not _needs_rebind(obj):
                 continue
@@ -106,7 +111,7 @@ def rebind_in_window():
                 bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', replace_confirmed=True)
         except Exception:  # the next mesh still gets its rebind
             traceback.print_exc()
-    return None
+    return REBIND_RETRY_SECONDS if _rebind_pending else None
 
 
 def release_deleted_cages():

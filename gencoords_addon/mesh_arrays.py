@@ -4,7 +4,7 @@
 object per vertex; the ``position`` attribute is the fastest path to vertex coordinates
 (35 times faster than ``vertices``: 2 ms for a million).
 
-This module imports only ``bpy`` and ``numpy`` (no relative imports), so the scripts and
+This module imports only ``bpy``, ``bmesh`` and ``numpy`` (no relative imports), so the scripts and
 the tests load this very file by path (``importlib.util.spec_from_file_location``): they also drive Blender without
 the extension installed, and their numbers then come from the same reader as the
 add-on's. The add-on reads positions, faces and its bind data's attributes here and
@@ -12,6 +12,7 @@ writes its attributes here; ``write_positions`` is for scripts and tests (Bind n
 writes positions).
 """
 
+import bmesh
 import bpy
 import numpy as np
 
@@ -132,3 +133,72 @@ def evaluated_positions(obj, depsgraph=None, out=None):
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     return read_positions(obj.evaluated_get(depsgraph).data, out)
 
+
+
+def read_edges(mesh):
+    """Each edge's two vertices: (e, 2) int32."""
+    edges = np.empty(2 * len(mesh.edges), dtype=np.int32)
+    mesh.edges.foreach_get("vertices", edges)
+    return edges.reshape(-1, 2)
+
+
+def select_faces(mesh, faces):
+    """Select exactly the faces where ``faces`` ((f,) bool) is True, with their edges and
+    vertices (what Edit Mode shows as those faces selected)."""
+    starts, sizes, corners = read_faces(mesh)
+    vertices = np.zeros(len(mesh.vertices), dtype=bool)
+    vertices[corners[np.repeat(np.asarray(faces, dtype=bool), sizes)]] = True
+    mesh.vertices.foreach_set("select", vertices)
+    mesh.edges.foreach_set("select", vertices[read_edges(mesh)].all(axis=1))
+    mesh.polygons.foreach_set("select", np.asarray(faces, dtype=bool))
+    mesh.update()
+
+
+def read_weights(obj, names):
+    """The weights of the vertex groups ``names`` of ``obj``, as Blender stores them.
+
+    Returns
+    -------
+    weights : (k, len(names)) float64
+    """
+    columns = {obj.vertex_groups[name].index: j for j, name in enumerate(names)
+               if name in obj.vertex_groups}
+    weights = np.zeros((len(obj.data.vertices), len(names)))
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(obj.data)
+        layer = bm.verts.layers.deform.active
+        if layer is None:
+            return weights
+        for vert in bm.verts:
+            for group, weight in vert[layer].items():
+                j = columns.get(group)
+                if j is not None:
+                    weights[vert.index, j] = weight
+    finally:
+        bm.free()
+    return weights
+
+
+def write_weights(obj, names, weights):
+    """Set the vertex groups ``names`` of ``obj`` (made as needed) to the positive
+    entries of ``weights`` ((k, len(names))); Blender clamps them to [0, 1]."""
+    groups = [(obj.vertex_groups.get(name) or obj.vertex_groups.new(name=name)).index
+              for name in names]
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(obj.data)
+        layer = bm.verts.layers.deform.verify()
+        bm.verts.ensure_lookup_table()
+        rows, columns = np.nonzero(weights > 0.0)
+        values = weights[rows, columns].tolist()
+        group_of = [groups[j] for j in columns.tolist()]
+        deform = None
+        last = -1
+        for i, group, value in zip(rows.tolist(), group_of, values):
+            if i != last:
+                deform, last = bm.verts[i][layer], i
+            deform[group] = value
+        bm.to_mesh(obj.data)
+    finally:
+        bm.free()

@@ -1,8 +1,10 @@
 """The core's errors phrased in Blender's terms, with the way out."""
 
 from ..core import CageError, OutsideCageError
+from ..core.surfaces.named import MEAN_VALUE
 
 RECALCULATE_NORMALS = "in Edit Mode use Mesh > Normals > Recalculate Outside"
+SELECT_DENTED = "Select > Select Dented Faces"
 CAGE_PROBLEMS = {
     "non_finite": "has vertices at infinite or undefined (NaN) positions",
     "too_few_vertices": "needs at least 4 vertices enclosing a volume",
@@ -23,15 +25,19 @@ CAGE_PROBLEMS = {
 }
 
 
-def cage_error(cage_name, error, kind_label, triangle_faces):
+def cage_error(cage_name, error, kind_label, triangle_faces, dented=None):
     """Message for a ``core.CageError`` raised on the cage called ``cage_name``.
 
     The core numbers triangles; ``triangle_faces`` maps them to the cage's own faces,
-    which the artist can select.
+    which the artist can select. ``dented``: for a non-convex cage, its faces that dent
+    inward (``core.advanced.concave_facets``, as cage faces).
     """
     problem = CAGE_PROBLEMS.get(error.problem, str(error)).format(kind=kind_label)
     where = ""
-    if error.faces:
+    if dented is not None and len(dented):
+        where = (f" ({len(dented)} faces dent inward: {_first_indices([int(f) for f in dented])}; "
+                 f"with the cage in Edit Mode, {SELECT_DENTED} selects them)")
+    elif error.faces:
         faces = list(dict.fromkeys(int(triangle_faces[t]) for t in error.faces))
         where = f" (faces {_first_indices(faces)})"
     elif error.vertices:
@@ -45,11 +51,11 @@ def outside_error(cage_name, outside_count, total):
             "enlarge the cage, or set Outside to Project or Extrapolate")
 
 
-def core_error(cage_name, error, kind_label, total, triangle_faces):
-    """Message for any error the core raised while binding (``triangle_faces``: see
-    ``cage_error``)."""
+def core_error(cage_name, error, kind_label, total, triangle_faces, dented=None):
+    """Message for any error the core raised while binding (``triangle_faces``, ``dented``:
+    see ``cage_error``)."""
     if isinstance(error, CageError):
-        return cage_error(cage_name, error, kind_label, triangle_faces)
+        return cage_error(cage_name, error, kind_label, triangle_faces, dented)
     if isinstance(error, OutsideCageError):
         return outside_error(cage_name, len(error.indices), total)
     return f"Cannot bind to cage '{cage_name}': {error}"
@@ -66,3 +72,35 @@ def worker_fallback():
     return ("worker processes failed, so GenCoords computed in Blender instead (the same "
             "result, slower; the cause is in the system console). If this repeats, set "
             "Preferences > Add-ons > GenCoords > Worker Processes to '1: Compute in Blender'")
+
+
+def gamma_words(gamma):
+    """`` (gamma -8)`` for messages about a kind with that parameter; empty for None."""
+    return "" if gamma is None else f" (gamma {gamma:g})"
+
+
+def zero_scale(what, name, axes, then):
+    """Message for an object (``what``: "cage", "mesh") scaled to zero on ``axes``."""
+    plural = "axes" if len(axes) > 1 else "axis"
+    return (f"The {what} object '{name}' is scaled to zero on its {' and '.join(axes)} {plural} (or its "
+            f"parent is): give it a non-zero Scale (Object Properties > Transform), then {then}")
+
+
+# What keeps weights positive, for the panel's note on negative ones. A kind that stays
+# positive in any closed cage (Harmonic, being added) belongs in this sentence once it lands.
+POSITIVE_WEIGHTS = "A convex cage (Make Cage) keeps weights positive; Type Green follows a bent cage smoothly"
+
+
+def negative_weights(info, kind_label):
+    """Panel lines (text, icon) explaining a binding's negative coordinates, from its
+    metadata ``info``: how many, why, what keeps them positive."""
+    share = 100.0 * info["negative_points"] / max(info["mesh_vertex_count"], 1)
+    if info["points_outside"] and info["outside"] == "extrapolate":
+        why = "Vertices outside the cage are extrapolated"
+    elif info["kind"] == MEAN_VALUE:
+        why = "The cage is not convex"
+    else:
+        why = f"{kind_label} coordinates can be negative in this cage"
+    return [(f"{share:.2g} % of vertices have negative weights (smallest {info['min_coordinate']:.3g})", 'INFO'),
+            (f"{why}: parts of the mesh may move against the cage", 'BLANK1'),
+            (POSITIVE_WEIGHTS, 'BLANK1')]

@@ -10,7 +10,7 @@ import traceback
 
 import bpy
 
-from . import binding, bones, cage_maker, visualise
+from . import bake_fitted, binding, bones, cage_maker, visualise
 
 
 class MeshOperator:
@@ -41,9 +41,18 @@ def object_mode(context, obj):
             bpy.ops.object.mode_set(mode='EDIT')
 
 
+# Meshes (Object.session_uid) a modal Bind is computing for: Auto Rebind waits for it
+# rather than start a second one (tabbing in and out of Edit Mode meanwhile).
+MODAL_BINDS = set()
+
+
 def interactive(context):
     """Whether an operator runs in a window that processes events (progress, Esc)."""
     return not bpy.app.background and context.window is not None
+
+
+ALL_INFLUENCES = "0: All influences, every weight kept (exact)"
+FITTED_DEFAULT_INFLUENCES = f"0: {bake_fitted.DEFAULT_INFLUENCES} influences per vertex, as game engines read"
 
 
 def _internal_error(operator, error, changed="nothing was changed"):
@@ -123,6 +132,9 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         if not interactive(context):
             return self.execute(context)
         obj = context.active_object
+        if obj.session_uid in MODAL_BINDS:
+            self.report({'WARNING'}, f"'{obj.name}' is being bound already: wait for it, or Esc")
+            return {'CANCELLED'}
         if not self.replace_confirmed and binding.binding(obj, obj.gencoords.cage) is not None:
             self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
             return context.window_manager.invoke_confirm(
@@ -139,9 +151,12 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
+        self._mesh_uid = self._job.obj.session_uid
+        MODAL_BINDS.add(self._mesh_uid)
         return {'RUNNING_MODAL'}
 
     def _stop(self, context, text=None):
+        MODAL_BINDS.discard(self._mesh_uid)
         window_manager = context.window_manager
         window_manager.event_timer_remove(self._timer)
         window_manager.progress_end()
@@ -270,7 +285,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         description="About how many vertices the cage gets")
     margin: bpy.props.FloatProperty(
         name="Margin", default=0.05, min=0.0, soft_max=0.5, subtype='FACTOR',
-        description="Gap between the mesh and the cage, relative to the mesh's size")
+        description="Gap between the mesh and the cage, relative to the mesh's size (0 keeps "
+                    "0.0004: rounding must not leave a vertex outside)")
 
     def execute(self, context):
         obj = context.active_object
@@ -293,7 +309,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
 
 class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     """Replace the binding by an armature (a bone per cage vertex, following it, keyframed
-    over the scene's frame range) and vertex groups holding the coordinates, for game
+    over the scene's frame range) and vertex groups holding the coordinates, or (Fitted)
+    a few rotating bones and 4 weights per vertex fitted to the deformation, for game
     engines and exporters such as glTF"""
 
     bl_idname = "object.gencoords_bake_bones"
@@ -302,7 +319,29 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     max_influences: bpy.props.IntProperty(
         name="Max Influences", default=0, min=0, soft_max=8,
         description="Weights kept per vertex, renormalised (game engines take 4 or 8; "
-                    "three.js reads 4); 0 keeps all, which is exact")
+                    "three.js reads 4); 0 keeps all, which is exact (Fitted: 0 fits 4)")
+    mode: bpy.props.EnumProperty(
+        name="Mode", default='CAGE_VERTICES', items=(
+            ('CAGE_VERTICES', "Bone per Cage Vertex",
+             "A bone per cage vertex, following it; the coordinates as weights (exact with "
+             "every weight kept; game engines keep 4, which cannot follow the cage)"),
+            ('FITTED', "Fitted (game engines)",
+             "A few rotating bones and at most Max Influences weights per vertex (0: 4), "
+             "fitted to the deformation over the frame range and keyframed; any kind")))
+    bones: bpy.props.IntProperty(
+        name="Bones", default=bake_fitted.DEFAULT_BONES, min=1, max=255,
+        description="Fitted: bones to seed (those left weighing no vertex are dropped); "
+                    "more follow the cage more closely, and cost more to fit and to play")
+    use_scene_range: bpy.props.BoolProperty(
+        name="Scene Frame Range", default=True,
+        description="Fitted: sample the scene's frame range; off: Start to End")
+    frame_start: bpy.props.IntProperty(name="Start", default=1,
+                                       description="Fitted: the first frame sampled")
+    frame_end: bpy.props.IntProperty(name="End", default=250,
+                                     description="Fitted: the last frame sampled")
+    fitted_confirmed: bpy.props.BoolProperty(
+        name="Fitted Confirmed", options={'HIDDEN', 'SKIP_SAVE'},
+        description="Set on the modal Fitted bake that the options dialog hands over to")
     keyframes: bpy.props.BoolProperty(
         name="Keyframe Cage Motion", default=True,
         description="Also keyframe the bones on the cage at every frame of the scene's "
@@ -318,13 +357,38 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             return False
         return True
 
+    def draw(self, context):
+        """The options dialog: each mode's own options; Max Influences 0 says what it means."""
+        layout = self.layout
+        layout.prop(self, "mode")
+        layout.prop(self, "max_influences")
+        if self.max_influences == 0:
+            layout.label(text=ALL_INFLUENCES if self.mode != 'FITTED' else FITTED_DEFAULT_INFLUENCES, icon='INFO')
+        if self.mode != 'FITTED':
+            layout.prop(self, "keyframes")
+            return
+        layout.prop(self, "bones")
+        layout.prop(self, "use_scene_range")
+        row = layout.row(align=True)
+        row.enabled = not self.use_scene_range
+        row.prop(self, "frame_start")
+        row.prop(self, "frame_end")
+
     def invoke(self, context, event):
-        """In the UI: ask for the options first."""
-        if bpy.app.background or context.window is None:
+        """In the UI: ask for the options first (Fitted: then fit with progress and Esc)."""
+        if not interactive(context):
             return self.execute(context)
+        if self.mode == 'FITTED' and self.fitted_confirmed:
+            return self._start_fitted(context)
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
+        if self.mode == 'FITTED' and interactive(context) and not self.fitted_confirmed:
+            bpy.ops.object.gencoords_bake_bones('INVOKE_DEFAULT', fitted_confirmed=True,
+                                                **self._fitted_options())
+            return {'CANCELLED'}  # this call ends here: the modal bake does the work
+        if self.mode == 'FITTED':
+            return self._bake_fitted(context)
         obj = context.active_object
         try:
             with object_mode(context, obj):
@@ -347,6 +411,107 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
                               f"written{over}")
         return {'FINISHED'}
 
+    # Fitted, in a window: the options dialog's OK calls execute(), which would block the
+    # window for the whole fit; it hands over to a modal bake (progress, Esc) instead.
+    def _fitted_options(self):
+        return {name: getattr(self, name) for name in ("mode", "bones", "max_influences",
+                                                        "use_scene_range", "frame_start", "frame_end")}
+
+    def _guarded(self, step, *args):
+        """``step(*args)``, its errors reported: {'CANCELLED'} on one."""
+        try:
+            return step(*args)
+        except binding.BindError as error:
+            self.report({'ERROR'}, str(error))
+        except bake_fitted.Cancelled:
+            self.report({'WARNING'}, "Bake to Bones cancelled: nothing was changed")
+        except Exception as error:
+            return _internal_error(self, error)
+        return {'CANCELLED'}
+
+    def _fitted_job(self, context):
+        obj = context.active_object
+        frames = (None if self.use_scene_range else
+                  bake_fitted.frame_range(context.scene, self.frame_start, self.frame_end))
+        with object_mode(context, obj):
+            return bake_fitted.FittedBakeJob(
+                obj, context, self.bones, self.max_influences or bake_fitted.DEFAULT_INFLUENCES, frames)
+
+    def _commit_fitted(self, context, job):
+        if job.error is not None:
+            raise job.error
+        with object_mode(context, job.obj):
+            rig, figures = job.commit(context)
+        self.report({'INFO'}, bake_fitted.summary(job.obj, rig, figures))
+        return {'FINISHED'}
+
+    def _bake_fitted(self, context):
+        """At once (scripts, background): progress only where a window shows it."""
+        def run():
+            job = self._fitted_job(context)
+            job.run(context.window_manager.progress_update)
+            return self._commit_fitted(context, job)
+        context.window_manager.progress_begin(0.0, 1.0)
+        try:
+            return self._guarded(run)
+        finally:
+            context.window_manager.progress_end()
+
+    def _start_fitted(self, context):
+        self._job = self._guarded(self._fitted_job, context)
+        if isinstance(self._job, set):
+            return self._job
+        self._job.start()
+        window_manager = context.window_manager
+        self._timer = window_manager.event_timer_add(0.1, window=context.window)
+        window_manager.progress_begin(0.0, 1.0)
+        window_manager.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == 'ESC':
+            job.cancel()
+            job.error = bake_fitted.Cancelled()
+        elif event.type != 'TIMER':
+            return {'RUNNING_MODAL'}  # nothing else is edited while the fit runs
+        elif not job.done:
+            context.window_manager.progress_update(job.fraction)
+            context.workspace.status_text_set(f"GenCoords: fitting bones to '{job.obj.name}' "
+                                              f"{job.fraction:.0%} (Esc to cancel)")
+            return {'RUNNING_MODAL'}
+        context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+        context.workspace.status_text_set(None)
+        return self._guarded(self._commit_fitted, context, job)
+
+
+class MESH_OT_gencoords_select_dented_faces(MeshOperator, bpy.types.Operator):
+    """Select the faces of the active cage that dent inward (meet a neighbour at an edge
+    bent inward): what keeps it from being convex"""
+
+    bl_idname = "mesh.gencoords_select_dented_faces"
+    bl_label = "Select Dented Faces"
+
+    def execute(self, context):
+        obj = context.active_object
+        with object_mode(context, obj):
+            count = cage_maker.select_dented_faces(obj)
+        if count == 0:
+            self.report({'INFO'}, f"No face of '{obj.name}' dents inward: it is convex")
+        else:
+            self.report({'INFO'}, f"Selected the {count} faces of '{obj.name}' that dent inward")
+        return {'FINISHED'}
+
+
+def draw_select_menu(self, context):
+    """Edit Mode's Select menu."""
+    self.layout.separator()
+    self.layout.operator(MESH_OT_gencoords_select_dented_faces.bl_idname)
+
+
+SELECT_MENU = bpy.types.VIEW3D_MT_select_edit_mesh
+
 
 def draw_menu(self, context):
     """Object > Animation, beside Bake Action (F3 search finds it there too)."""
@@ -365,4 +530,5 @@ CLASSES = (
     OBJECT_OT_gencoords_unbind,
     OBJECT_OT_gencoords_show_field,
     OBJECT_OT_gencoords_clear_field,
+    MESH_OT_gencoords_select_dented_faces,
 )

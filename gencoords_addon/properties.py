@@ -30,7 +30,8 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
         max=GAMMA_LIMIT, step=10, options=set(),
         description="Power coordinates' exponent: -1 is Wachspress, 1 Voronoi. Positive "
                     "on every cage for -1; measured positive for -1 to -0.5 on irregular "
-                    "cages, up to 1 on regular ones (docs/POWER.md)",
+                    "cages, up to 1 on regular ones (docs/POWER.md). Bind refuses coordinates too large "
+                    "to store precisely (large |gamma| in irregular cages)",
     )
     outside: bpy.props.EnumProperty(
         name="Outside", items=OUTSIDE_ITEMS, default="RAISE", options=set(),

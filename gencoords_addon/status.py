@@ -6,7 +6,7 @@ Every figure comes from the binding's metadata, which holds what the core comput
 import bpy
 import numpy as np
 
-from . import binding, mesh_io
+from . import binding, mesh_io, messages
 from .bind_layout import FORMAT
 from .enums import STORAGE_ITEMS, enum_label, kind_label
 
@@ -23,6 +23,10 @@ def deformation_problem(obj, found, depsgraph=None):
     if info.get("format") != FORMAT:
         return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
                 "Bind again or Unbind")
+    mesh_attributes = obj.data.attributes
+    if any(name not in mesh_attributes for name in found.slot_names + (found.basis_names or [])):
+        return (f"The bind data of '{obj.name}' is missing from its mesh (removed through an object "
+                "sharing it?): the mesh is not deformed; Bind again or Unbind")
     cage = found.cage
     if cage is None and found.deleted_cage is not None:
         return (f"The cage '{found.deleted_cage}' was deleted: the mesh is not deformed; "
@@ -104,8 +108,7 @@ def binding_lines(obj, found, depsgraph=None):
                       f"{info['deviation_drag']:.1e} ({drag}) of the cage diagonal", 'INFO'))
     lines.append((f"Bind time: {info['bind_seconds']:.2f} s", 'TIME'))
     if info["negative_points"]:
-        lines.append((f"Smallest coordinate {info['min_coordinate']:.4g}: negative at "
-                      f"{info['negative_points']} vertices", 'ERROR'))
+        lines.extend(messages.negative_weights(info, kind_label(info["kind"])))
     else:
         lines.append((f"Smallest coordinate: {info['min_coordinate']:.4g}", 'CHECKMARK'))
     if "report" in info:  # inside the whole cage, not only at the mesh's vertices

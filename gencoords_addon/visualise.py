@@ -21,6 +21,9 @@ def field_problem(obj):
     found = binding.binding(obj)
     if found is None:
         return f"'{obj.name}' is not bound: Bind it to a cage first"
+    if found.cage is None:  # the field's marker sits on the cage
+        gone = f"The cage '{found.deleted_cage}' was" if found.deleted_cage else "The cage was"
+        return f"{gone} deleted: pick another cage and Bind, then Show Coordinate"
     count = found.info["cage_vertex_count"]
     if obj.gencoords.field_vertex >= count:
         return f"Cage Vertex must be below {count}: the cage has {count} vertices"
@@ -82,8 +85,9 @@ def mark_cage_vertex(obj, cage, vertex):
     marker.parent_type = 'VERTEX'
     marker.parent_vertices = (vertex, 0, 0)
     marker.location = (0.0, 0.0, 0.0)
-    # A vertex parent passes on the vertex's world position only, not the cage's scale.
-    marker.empty_display_size = MARKER_SIZE * max(cage.dimensions.length, 1e-6)
+    # A vertex parent passes on the vertex's world position only, not the cage's scale;
+    # a cage of no size (Blender clamps the empty's size) has nothing to mark.
+    marker.empty_display_size = MARKER_SIZE * cage.dimensions.length
     return marker
 
 

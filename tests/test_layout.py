@@ -218,10 +218,17 @@ def test_pip_installs_the_core_as_gencoords_and_it_imports_from_another_folder(i
 
 
 def test_the_core_package_and_the_extension_have_one_version():
+    """gencoords.__version__ is the one source: pyproject.toml reads it, the manifest
+    repeats it (and the installed package's metadata says it)."""
+    import importlib.metadata
     import tomllib
-    package = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["project"]["version"]
+
+    import gencoords
+    pyproject = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))
+    assert "version" in pyproject["project"]["dynamic"] and "version" not in pyproject["project"]
+    assert pyproject["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "gencoords.__version__"}
     extension = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))["version"]
-    assert package == extension
+    assert gencoords.__version__ == extension == importlib.metadata.version("gencoords")
 
 
 def public_objects():

@@ -50,3 +50,44 @@ def test_no_tracked_file_names_a_package_registry_host():
              for path in files if path.is_file()
              for line, host in registry_hosts_in(path.read_bytes())]
     assert not found, "package-registry host names in tracked files:\n" + "\n".join(found)
+
+
+def test_the_core_package_says_its_licence_and_authors_as_the_manifest_does():
+    """Issue 27 item 16: one version (gencoords.__version__, which pyproject.toml reads and
+    the extension's manifest repeats), the repository's licence, the authors."""
+    import importlib.metadata
+    import tomllib
+
+    import gencoords
+
+    pyproject = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))
+    manifest = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))
+    project = pyproject["project"]
+    assert gencoords.__version__ == manifest["version"]  # the rest: test_layout's one-version test
+    licence = (REPO / "LICENSE").read_text(encoding="utf-8")
+    assert "GNU GENERAL PUBLIC LICENSE" in licence and "Version 3" in licence
+    assert manifest["license"] == [f"SPDX:{project['license']}"] and project["license"] == "GPL-3.0-or-later"
+    assert project["license-files"] == ["LICENSE"]
+    assert [author["name"] for author in project["authors"]] == [manifest["maintainer"]]
+    minor = int(project["requires-python"].removeprefix(">=3."))
+    assert {f"Programming Language :: Python :: 3.{v}" for v in range(minor, 15)} <= set(project["classifiers"])
+    assert "urls" not in project or not registry_hosts_in(str(project["urls"]).encode())
+    installed = importlib.metadata.metadata("gencoords")
+    assert installed.get("License-Expression") == project["license"]
+
+
+def test_scripts_read_kind_ids_from_the_kind_table():
+    """Issue 27 item 20: scripts name kinds through the core's constants (KIND_TABLE's
+    names, gencoords.surfaces.named, Green's), never as string literals."""
+    import ast
+
+    import gencoords
+    from gencoords.construction.green import GREEN
+
+    spellings = {kind.name for kind in gencoords.KIND_TABLE} | {GREEN}
+    spellings |= {name.upper() for name in spellings}
+    found = [f"{path.relative_to(REPO)}:{node.lineno} {node.value!r}"
+             for path in sorted((REPO / "scripts").rglob("*.py"))
+             for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+             if isinstance(node, ast.Constant) and node.value in spellings]
+    assert not found

@@ -362,6 +362,18 @@ def _gamma(value, context):
     return float(value)
 
 
+# Cells along the harmonic grid's longest side: 1024 is 1e9 nodes in a cube, far past memory.
+RESOLUTION_LIMIT = 1024
+
+
+def _resolution(value, context):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) \
+            or not 2 <= value <= RESOLUTION_LIMIT:
+        raise ValueError(f"resolution must be an integer from 2 to {RESOLUTION_LIMIT} (cells along the "
+                         f"longest side of the cage's box), got {value!r}")
+    return int(value)
+
+
 def _radius(value, context):
     if not callable(value):
         raise ValueError(f"radius must be a callable radius(points, directions) returning "
@@ -420,6 +432,7 @@ CHECKS = {
     "samples": _samples,
     "radius": _radius,
     "levels": _levels,
+    "resolution": _resolution,
 }
 
 

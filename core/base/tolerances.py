@@ -14,6 +14,10 @@ FLOAT32 = 1e-6
 # size the "boundary limit" is taken visibly off the boundary (0.1 moves coordinates by
 # ~0.2) and distinct vertices of fine cages start to "coincide".
 LARGEST = 1e-3
+# Coordinates as stored (float32 in Blender, compact storage's reproduction) must place
+# their point, sum_j b_j v_j, within this of the cage's size: huge coordinates (power
+# coordinates with large |gamma| in irregular cages reach 1e9) lose it to float32 rounding.
+LINEAR_PRECISION = 1e-5
 # Below this a coordinate counts as negative (rounding noise of exact zeros is not).
 NEGATIVE = 1e-9
 # Guards a division by a length or sum that can be zero (degenerate input).

@@ -173,11 +173,11 @@ def floater_weights(points, vertices, faces, c, tolerance=DEFAULT_TOLERANCE):
 
     Examples
     --------
+    >>> from gencoords.tools.shapes import regular_polygon
     >>> import numpy as np, gencoords
-    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
-    >>> w = gencoords.advanced.floater_weights([[0.5, 0.5]], square, edges, np.ones((1, 4)))
-    >>> bool(np.allclose(w @ (square - [0.5, 0.5]), 0.0))  # any c gives homogeneous weights
+    >>> hexagon, edges = regular_polygon(6)
+    >>> w = gencoords.advanced.floater_weights([[0.2, -0.1]], hexagon, edges, np.ones((1, 6)))
+    >>> bool(np.allclose(w @ (hexagon - [0.2, -0.1]), 0.0))  # any c gives homogeneous weights
     True
     """
     cage, det = convex_cage_and_determinants(points, vertices, faces, tolerance, "floater_weights")

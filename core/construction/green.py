@@ -31,9 +31,9 @@ __all__ = ["GREEN", "GREEN_LABEL", "GREEN_DESCRIPTION", "GreenTerms", "green_ter
 # The name the evaluation knows Green coordinates by (they are no generating surface
 # of the paper's family, so not in KIND_TABLE), and how people see them.
 GREEN = "green"
-GREEN_LABEL = "Green (shape-preserving)"
-GREEN_DESCRIPTION = ("Keeps details' shape when the cage stretches or bends (similarity "
-                     "invariant, uses the cage's face normals); any closed triangle cage")
+GREEN_LABEL = "Green"  # short: the Properties editor's default width shows it whole
+GREEN_DESCRIPTION = ("Shape-preserving: keeps details' shape when the cage stretches or bends "
+                     "(similarity invariant, uses the cage's face normals); any closed triangle cage")
 
 # (point, face) pairs per chunk: about 20 (m, k) float64 temporaries stay within a few MB.
 _CHUNK_PAIRS = 16 << 10

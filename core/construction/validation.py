@@ -142,6 +142,60 @@ def convexity_violation(cage, tolerance=DEFAULT_TOLERANCE):
     return None
 
 
+@checked
+def concave_facets(vertices, faces, tolerance=DEFAULT_TOLERANCE):
+    """Triangles that meet a neighbour at an edge bent inward: where a closed, outward
+    3D cage dents in (what an artist flattens or fills to make it convex).
+
+    An edge is bent inward when the far corner of one of its triangles lies above the
+    other triangle's plane by more than ``tolerance`` of the cage's size.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    faces : (m, 3) int
+        Outward triangles of a closed manifold cage.
+    tolerance : float
+
+    Returns
+    -------
+    facets : (j,) int
+        Sorted indices into ``faces``; empty for a convex cage.
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, faces = octahedron()
+    >>> gencoords.advanced.concave_facets(vertices, faces).tolist()
+    []
+    >>> dented = vertices.copy(); dented[0] *= -0.5  # a corner pushed through the middle
+    >>> len(gencoords.advanced.concave_facets(dented, faces)) > 0
+    True
+    """
+    if vertices.shape[1] != 3:
+        raise ValueError(f"concave_facets takes a 3D cage, got {vertices.shape[1]}D vertices")
+    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+    size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    corners = vertices[faces]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), tolerances.TINY)
+    # Half-edge (a, b) of facet i, the corner opposite it; its twin (b, a) is in facet j.
+    starts, ends, opposite = faces.ravel(), np.roll(faces, -1, axis=1).ravel(), np.roll(faces, 1, axis=1).ravel()
+    owner = np.repeat(np.arange(len(faces)), 3)
+    count = len(vertices)
+    keys = starts * count + ends
+    order = np.argsort(keys)
+    found = np.clip(np.searchsorted(keys[order], ends * count + starts), 0, len(keys) - 1)
+    twin = order[found]
+    paired = keys[twin] == ends * count + starts
+    i, j = owner[paired], owner[twin[paired]]
+    far = vertices[opposite[twin[paired]]]
+    height = np.einsum("kd,kd->k", far - vertices[starts[paired]], normals[i])
+    bent = height > tolerance * size
+    return np.unique(np.concatenate([i[bent], j[bent]]))
+
+
 def non_convex_error(violation):
     """The :class:`CageError` for a :func:`convexity_violation` (vertex, face, height)."""
     vertex, face, height = violation

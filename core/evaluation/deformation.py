@@ -135,6 +135,45 @@ def _srgb_to_linear(srgb):
 
 
 @checked
+def linear_precision(coordinates, vertices, points):
+    """How far the coordinates place their points: the worst ``|sum_j b_j v_j - x|``
+    with the cage's middle as origin, relative to the cage's size (its bounding-box
+    diagonal).
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+        One row per point, e.g. as stored (float32) and read back.
+    vertices : (n, N) float
+    points : (k, N) float
+
+    Returns
+    -------
+    error : float
+        0 for no points; compare with ``tolerances.LINEAR_PRECISION``.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    >>> b = np.array([[0.25, 0.25, 0.25, 0.25]])
+    >>> gencoords.tools.linear_precision(b, square, [[0.5, 0.5]]), gencoords.tools.linear_precision(b, square, [[0.5, 0.6]]) > 0.07
+    (0.0, True)
+    """
+    if coordinates.shape != (len(points), len(vertices)):
+        raise ValueError(f"coordinates must have shape (k, n) = ({len(points)}, {len(vertices)}) for "
+                         f"{len(points)} points and {len(vertices)} cage vertices, got {coordinates.shape}")
+    vertices = np.asarray(vertices, dtype=np.float64)
+    # About the cage's middle: a cage far from the origin does not make coordinates that
+    # sum to 1 within rounding look imprecise (deformations use differences only).
+    middle = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
+    size = float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    placed = np.asarray(coordinates, dtype=np.float64) @ (vertices - middle)
+    error = np.abs(placed - (np.asarray(points, dtype=np.float64) - middle)).max(initial=0.0)
+    return float(error) / size
+
+
+@checked
 def coordinate_summary(coordinates):
     """Figures an artist checks after binding.
 

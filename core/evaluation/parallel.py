@@ -658,12 +658,27 @@ def serve():
             elif command[0] == "rows":
                 start, stop, locate_only = command[1:]
                 reserve_rows(descriptor, layout, reserved, start, stop)
-                outside = _compute(cage, terms, arrays, job, start, stop, locate_only,
-                                   evaluate_rows, locate_rows)
+                if "task" in job:  # another computation of the package, by name
+                    outside = _run_task(job["task"], arrays, job, start, stop)
+                else:
+                    outside = _compute(cage, terms, arrays, job, start, stop, locate_only,
+                                       evaluate_rows, locate_rows)
                 reply("done", start, stop, outside)
         except BaseException:  # reported, then the worker stops
             reply("error", traceback.format_exc())
             return
+
+
+def _run_task(task, arrays, job, start, stop):
+    """Rows ``start:stop`` of a job naming its own function, ``"module:function"`` within
+    this package (e.g. ``"harmonic.solve:solve_columns_task"``), called as
+    ``function(arrays, job, start, stop)``; returns 0 (no outside points)."""
+    import importlib
+
+    module, _, name = task.partition(":")
+    package = __name__.rpartition(".")[0].rpartition(".")[0]  # <package>.evaluation.parallel
+    getattr(importlib.import_module(f"{package}.{module}"), name)(arrays, job, start, stop)
+    return 0
 
 
 def _compute(cage, terms, arrays, job, start, stop, locate_only, evaluate, locate):

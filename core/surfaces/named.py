@@ -19,7 +19,7 @@ import numpy as np
 
 from .numerical import unit_sphere_ridge_scalars
 
-__all__ = ["Kind", "KIND_TABLE", "WACHSPRESS", "MEAN_VALUE", "KINDS", "CONVEX_ONLY_KINDS",
+__all__ = ["Kind", "KIND_TABLE", "WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI", "POWER", "KINDS", "CONVEX_ONLY_KINDS",
            "named_ridge_scalars", "named_scaled_ridge_scalars",
            "kind_parameter", "mean_value", "discrete_harmonic_scaled", "wachspress_scaled",
            "voronoi_scaled", "power_scaled",
@@ -167,6 +167,8 @@ class Kind:
 
 # The kinds the evaluation treats specially (a faster form, the default), spelled once.
 WACHSPRESS, MEAN_VALUE = "wachspress", "mean_value"
+# The others, for scripts and benchmarks that name one (each spelled only here).
+DISCRETE_HARMONIC, VORONOI, POWER = "discrete_harmonic", "voronoi", "power"
 
 KIND_TABLE = (
     Kind(WACHSPRESS, "Wachspress", "Smooth, positive and affine invariant; needs a convex "
@@ -174,13 +176,13 @@ KIND_TABLE = (
     # Mean value coordinates stay well defined on non-convex closed cages (Ju et al. 2005).
     Kind(MEAN_VALUE, "Mean Value", "Smooth and positive inside convex cages; also works "
          "on non-convex closed cages", mean_value, "d", False, False),
-    Kind("discrete_harmonic", "Discrete Harmonic", "Cotangent weights; needs a convex cage "
+    Kind(DISCRETE_HARMONIC, "Discrete Harmonic", "Cotangent weights; needs a convex cage "
          "and can be negative", discrete_harmonic_scaled, "scaled", True, True),
-    Kind("voronoi", "Voronoi", "Voronoi-cell weights; needs a convex cage and can be "
+    Kind(VORONOI, "Voronoi", "Voronoi-cell weights; needs a convex cage and can be "
          "negative", voronoi_scaled, "scaled", True, True),
     # gamma = -1 Wachspress, 1 Voronoi; 2D gamma = 0 mean value. Default -0.5: positive
     # in every 3D and 4D polytope measured, not in an irregular 2D 9-gon (docs/POWER.md).
-    Kind("power", "Power", "The power family through Wachspress (gamma -1) and Voronoi "
+    Kind(POWER, "Power", "The power family through Wachspress (gamma -1) and Voronoi "
          "(gamma 1); needs a convex cage", power_scaled, "scaled", True, True, "gamma", -0.5),
 )
 _NAMED = {kind.name: kind for kind in KIND_TABLE}

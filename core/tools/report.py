@@ -13,6 +13,7 @@ import numpy as np
 from ..base import tolerances
 from ..construction.boundary import INSIDE
 from ..evaluation.cage import Cage
+from ..evaluation.deformation import linear_precision
 from ..surfaces.named import KIND_TABLE, MEAN_VALUE, kind_parameter
 from ..base.inputs import checked
 from ..construction.validation import DEFAULT_TOLERANCE
@@ -174,7 +175,7 @@ def coordinate_report(vertices, faces, kind=MEAN_VALUE, gamma=None, points=None,
             coordinates = weights / sums[:, None]
         flat = int(np.argmin(coordinates))
         row, vertex = divmod(flat, coordinates.shape[1])
-        error = np.abs(coordinates @ cage.vertices - sample).max(initial=0.0) / cage.size
+        error = linear_precision(coordinates, cage.vertices, sample)
         return CoordinateReport(
             kind=kind, gamma=kind_parameter(kind, gamma), points=len(sample),
             smallest=float(coordinates[row, vertex]), smallest_point=sample[row],

@@ -1,11 +1,12 @@
 """Example cages: regular polygons, octahedra, icospheres and cross-polytopes in any
-dimension (outward oriented)."""
+dimension, and box-modelled cages made of unit cubes (outward oriented)."""
 
 from itertools import combinations
 
 import numpy as np
 
-__all__ = ["regular_polygon", "octahedron", "irregular_octahedron", "icosphere", "cross_polytope"]
+__all__ = ["regular_polygon", "octahedron", "irregular_octahedron", "icosphere", "cross_polytope",
+           "block_cage", "t_pose_blocks"]
 
 
 def regular_polygon(sides, radius=1.0):
@@ -151,3 +152,66 @@ def cross_polytope(dim, radii=None):
             facet[0], facet[1] = facet[1], facet[0]
         facets.append(facet)
     return vertices, np.array(facets)
+
+
+def block_cage(occupied, size=1.0):
+    """The surface of a union of cubes, as a quad cage (a box-modelled, non-convex cage).
+
+    Parameters
+    ----------
+    occupied : (X, Y, Z) bool
+        Which unit cubes of a grid are filled; cubes that touch only along an edge or at
+        a corner would make the surface non-manifold (not checked).
+    size : float
+        Edge length of a cube.
+
+    Returns
+    -------
+    vertices : (n, 3) float
+        The lattice points on the surface, cube (i, j, k) spanning ``size * [i, i+1]`` x ...
+    quads : (q, 4) int
+        One per exposed cube side, counter-clockwise seen from outside.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.shapes import block_cage
+    >>> vertices, quads = block_cage(np.ones((2, 1, 1), dtype=bool))  # two cubes in a row
+    >>> vertices.shape, quads.shape
+    ((12, 3), (10, 4))
+    """
+    occupied = np.asarray(occupied, dtype=bool)
+    padded = np.pad(occupied, 1)
+    cubes = np.argwhere(occupied)
+    corners = []
+    for axis in range(3):
+        u, w = np.eye(3, dtype=np.int64)[[(axis + 1) % 3, (axis + 2) % 3]]
+        ring = np.array([0 * u, u, u + w, w])  # counter-clockwise about +axis
+        for sign in (1, -1):
+            step = np.eye(3, dtype=np.int64)[axis] * sign
+            exposed = cubes[~padded[tuple((cubes + 1 + step).T)]]
+            offset = np.eye(3, dtype=np.int64)[axis] * (sign > 0)
+            order = ring if sign > 0 else ring[::-1]
+            corners.append(exposed[:, None, :] + offset + order[None])
+    corners = np.concatenate(corners)
+    points, quads = np.unique(corners.reshape(-1, 3), axis=0, return_inverse=True)
+    return points * float(size), quads.reshape(-1, 4)
+
+
+def t_pose_blocks():
+    """Occupancy of a T-posed figure of cubes for :func:`block_cage`: legs, a torso, arms
+    along x and a head, 2 cubes deep (13, 2, 10) bool; its cage has 234 vertices.
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import block_cage, t_pose_blocks
+    >>> vertices, quads = block_cage(t_pose_blocks())
+    >>> len(vertices)
+    234
+    """
+    occupied = np.zeros((13, 2, 10), dtype=bool)
+    occupied[3:5, :, 0:4] = occupied[8:10, :, 0:4] = True  # legs
+    occupied[3:10, :, 4:8] = True  # torso
+    occupied[0:13, :, 6:8] = True  # arms
+    occupied[5:8, :, 8:10] = True  # head
+    return occupied

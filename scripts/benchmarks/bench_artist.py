@@ -31,7 +31,7 @@ from gencoords.tools import compact, skinning  # noqa: E402
 REPEATS = 7
 
 
-def bind(mesh, cage, kind="mean_value", storage="AUTO"):
+def bind(mesh, cage, kind=scenes.MEAN_VALUE, storage="AUTO"):
     """Bind through the operator (scenes.bind); returns the add-on's binding of ``mesh``."""
     with session.quiet():
         result = scenes.bind(mesh, cage, kind, storage=storage)

@@ -33,11 +33,12 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.p
 import gencoords  # noqa: E402
 from gencoords.evaluation.parallel import available_cores  # noqa: E402
 from gencoords.tools.shapes import icosphere  # noqa: E402
+from gencoords.surfaces.named import DISCRETE_HARMONIC, MEAN_VALUE, WACHSPRESS  # noqa: E402
 
 # CGAL 6.2 on an earlier 2-core machine of this project (ns per point x facet), shown
 # for orientation when no CGAL binary is given; timings from another machine are not
 # comparable, so no ratio is printed for them.
-CGAL_EARLIER_NS = {"wachspress": 39.0, "discrete_harmonic": 78.0, "mean_value": 231.0}
+CGAL_EARLIER_NS = {WACHSPRESS: 39.0, DISCRETE_HARMONIC: 78.0, MEAN_VALUE: 231.0}
 
 
 def interior_points(count, radius, seed=0):
@@ -152,7 +153,7 @@ def numerical_surfaces_table(repeats):
     for name, vertices, faces in cages:
         points = 0.3 * (vertices.mean(axis=0) + np.random.default_rng(2).uniform(-0.2, 0.2, (40, vertices.shape[1])))
         pairs = len(points) * len(gencoords.advanced.ridges(faces))
-        closed = best_time(lambda: gencoords.advanced.ridge_scalars(points, vertices, faces, "mean_value"), repeats)
+        closed = best_time(lambda: gencoords.advanced.ridge_scalars(points, vertices, faces, MEAN_VALUE), repeats)
         numerical = best_time(lambda: gencoords.advanced.ridge_scalars_from_surface(points, vertices, faces, sphere), 1)
         coarse = best_time(lambda: gencoords.advanced.ridge_scalars_from_surface(points, vertices, faces, sphere,
                                                                    levels=3), repeats)
@@ -164,7 +165,7 @@ def million(vertices, faces):
     """1M points, mean value, float32 result, all cores: wall time and peak memory."""
     points = interior_points(1_000_000, 0.95, seed=2)
     start = time.perf_counter()
-    result = gencoords.coordinates(points, vertices, faces, kind="mean_value", dtype=np.float32)
+    result = gencoords.coordinates(points, vertices, faces, kind=MEAN_VALUE, dtype=np.float32)
     seconds = time.perf_counter() - start
     parent = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
     child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 2**10
@@ -209,7 +210,7 @@ def main():
     many = interior_points(args.memory_points, 0.95, seed=1)
     tracemalloc.start()
     baseline = tracemalloc.get_traced_memory()[0]
-    result = gencoords.coordinates(many, vertices, faces, kind="mean_value", workers=1)
+    result = gencoords.coordinates(many, vertices, faces, kind=MEAN_VALUE, workers=1)
     peak = tracemalloc.get_traced_memory()[1] - baseline
     tracemalloc.stop()
     print(f"\npeak memory for {len(many)} points (mean value, one worker): {peak / 2**20:.0f} MB, of "

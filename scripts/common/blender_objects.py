@@ -31,12 +31,14 @@ def make_active(obj):
     bpy.context.view_layer.objects.active = obj
 
 
-def bind(obj, cage, kind="MEAN_VALUE", outside="RAISE", storage=None, compact_size=None):
+def bind(obj, cage, kind=None, outside="RAISE", storage=None, compact_size=None):
     """Bind ``obj`` to ``cage`` through the extension's operator, as a user would:
-    the settings on ``obj.gencoords`` (``storage`` and ``compact_size`` only when given),
-    ``obj`` active and alone selected. Returns the operator's result set."""
+    the settings on ``obj.gencoords`` (``kind``: the core's or the enum's name, None the
+    setting's default; ``storage`` and ``compact_size`` only when given), ``obj`` active
+    and alone selected. Returns the operator's result set."""
     obj.gencoords.cage = cage
-    obj.gencoords.kind = kind.upper()
+    kinds = type(obj.gencoords).bl_rna.properties["kind"]
+    obj.gencoords.kind = kinds.default if kind is None else kind.upper()
     obj.gencoords.outside = outside
     if storage is not None:
         obj.gencoords.storage = storage

@@ -7,6 +7,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from .blender_objects import arrays
 from .png import write_png
 from .session import quiet
 from mathutils import Vector
@@ -67,7 +68,7 @@ def set_color_attribute(obj, colors, name="Color"):
         colors = np.tile(colors, (len(mesh.vertices), 1))
     attribute = mesh.color_attributes.get(name) or mesh.color_attributes.new(
         name, "FLOAT_COLOR", "POINT")
-    attribute.data.foreach_set("color", colors.ravel())
+    arrays.write_point_colors(attribute, colors)
     mesh.color_attributes.active_color = attribute
     mesh.color_attributes.render_color_index = mesh.color_attributes.find(name)
     return attribute

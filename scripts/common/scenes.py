@@ -29,7 +29,9 @@ CAGE_RADIUS = 2.0
 
 # The parameter-free kinds (the power family has its own pictures: docs/POWER.md).
 KINDS = tuple(kind.name for kind in gencoords.KIND_TABLE if kind.parameter is None)
-GREEN = "green"  # the deformer type beside the paper's kinds (shape-preserving)
+# The core's spellings of kinds scripts name (the deformer's Green beside the paper's kinds).
+from gencoords.construction.green import GREEN  # noqa: E402
+from gencoords.surfaces.named import DISCRETE_HARMONIC, MEAN_VALUE, POWER, WACHSPRESS  # noqa: E402, F401
 KIND_LABELS = {kind.name: kind.label for kind in gencoords.KIND_TABLE} | {GREEN: GREEN_LABEL}
 
 

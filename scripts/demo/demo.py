@@ -259,8 +259,8 @@ def artist_pictures():
     corner_label(f"made cage, {len(made.data.vertices)} vertices", scene.camera)
     fitted.hide_render = True
     render_with_cage_wire(made, session.OUT / "made_cage.png")
-    bind(mesh, made, "mean_value")
-    bind(mesh, fitted, "mean_value")
+    bind(mesh, made, scenes.MEAN_VALUE)
+    bind(mesh, fitted, scenes.MEAN_VALUE)
     stretched = arrays.read_positions(made.data) * (1.25, 1.0, 1.0)
     arrays.write_positions(made.data, stretched)
     arrays.write_positions(fitted.data, scenes.nonaffine_edit(arrays.read_positions(fitted.data)))
@@ -293,13 +293,13 @@ def green_pictures(stretch=1.6):
     stretched = centre + (rest_cage - centre) * (stretch, 1.0, 1.0)
     rest_angles = triangle_angles(mesh)
     changes, paths = {}, []
-    for kind in ("mean_value", scenes.GREEN):
+    for kind in (scenes.MEAN_VALUE, scenes.GREEN):
         scenes.bind(mesh, cage, kind.upper())
         arrays.write_positions(cage.data, stretched)
         settle()
         change = np.abs(triangle_angles(mesh) - rest_angles)
         changes[kind] = (float(change.mean()), float(change.max()))
-        label = "mean value" if kind == "mean_value" else "green (shape-preserving)"
+        label = "mean value" if kind == scenes.MEAN_VALUE else "green (shape-preserving)"
         corner_label(f"{label}: angles change {changes[kind][0]:.1f} deg", scene.camera)
         paths.append(session.OUT / f"stretched_{kind}.png")
         render_with_cage_wire(cage, paths[-1])
@@ -356,7 +356,7 @@ def save_playable_blend(path):
     """out/demo.blend: mean value bind, the cage's shape key keyframed 0 -> 1 -> 0."""
     scene, mesh, cage = deformation_scene(shape_key=True)
     rest_mesh = arrays.read_positions(mesh.data)
-    bind(mesh, cage, "mean_value")
+    bind(mesh, cage, scenes.MEAN_VALUE)
     pull = cage.data.shape_keys.key_blocks["Pull and twist"]
     for frame, value in ((1, 0.0), (40, 1.0), (60, 1.0), (100, 0.0)):
         pull.value = value

@@ -18,6 +18,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.p
 import gencoords  # noqa: E402
 from gencoords.tools.shapes import (cross_polytope, icosphere, irregular_octahedron, octahedron,  # noqa: E402
                                     regular_polygon)
+from gencoords.surfaces.named import POWER  # noqa: E402
 from scripts.common.png import write_png  # noqa: E402
 from scripts.common.polytopes import random_convex_polytope  # noqa: E402
 
@@ -69,7 +70,7 @@ def field_picture(path, gammas=(-1.0, -0.5, 0.0, 0.5, 1.0, 2.0), pixels=220):
         panels = []
         for gamma in gammas:
             image = np.ones((len(points), 3))
-            values = gencoords.coordinates(points[inside], vertices, faces, kind="power", gamma=gamma)[:, 0]
+            values = gencoords.coordinates(points[inside], vertices, faces, kind=POWER, gamma=gamma)[:, 0]
             image[inside] = gencoords.tools.field_colors(values)[:, :3]
             image[marked] = 0.0
             panels.append(image.reshape(pixels, pixels, 3))
@@ -97,7 +98,7 @@ def main():
     print("| polytope | positive for gamma in | " + " | ".join(f"gamma {g:g}" for g in shown) + " |")
     print("|---|---|" + "---|" * len(shown))
     for name, vertices, faces in polytopes():
-        smallest = np.array([gencoords.tools.coordinate_report(vertices, faces, "power", gamma=float(g),
+        smallest = np.array([gencoords.tools.coordinate_report(vertices, faces, POWER, gamma=float(g),
                                                     samples=args.samples).smallest for g in gammas])
         cells = [f"{smallest[list(gammas).index(g)]:.2g}" for g in shown]
         print(f"| {name} | {positive_ranges(gammas, smallest)} | " + " | ".join(cells) + " |")

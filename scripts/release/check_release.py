@@ -123,7 +123,7 @@ def inside(out):
     if enabled:
         scene, mesh, cage = demo.deformation_scene(shape_key=True)
         rest = arrays.read_positions(mesh.data)
-        report["bind seconds"] = round(demo.bind(mesh, cage, "mean_value"), 2)
+        report["bind seconds"] = round(demo.bind(mesh, cage, demo.scenes.MEAN_VALUE), 2)
         modifiers = [m.name for m in mesh.modifiers if m.type == 'NODES']
         report["modifiers"] = modifiers
         demo.settle()
@@ -165,8 +165,8 @@ def workers_inside_blender(report):
     try:
         report["worker Python"] = parallel.python_executable()
         with gencoords.Cage(vertices, faces) as cage:
-            alone = cage.coordinates(points, kind="mean_value", workers=1)
-            spread = cage.coordinates(points, kind="mean_value", workers=2)
+            alone = cage.coordinates(points, workers=1)  # the default kind, mean value
+            spread = cage.coordinates(points, workers=2)
         report["core in 2 workers equals 1 process bitwise"] = bool(np.array_equal(alone, spread))
     except gencoords.WorkerError as error:
         return [f"worker processes failed inside Blender: {error}"]

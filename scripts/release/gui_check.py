@@ -248,7 +248,7 @@ def green_rebind():
     """Type Green in the panel, then Bind through the window (Replace Binding: Return)."""
     mesh, _ = mesh_and_cage()
     select_only(mesh)
-    mesh.gencoords.kind = 'GREEN'
+    mesh.gencoords.kind = addon("enums").GREEN.upper()
     shots.shoot('PROPERTIES', "green_type")
     with shots.in_area('PROPERTIES'):
         bpy.ops.object.gencoords_bind('INVOKE_DEFAULT')
@@ -259,10 +259,10 @@ def after_green_bind():
     mesh, cage = mesh_and_cage()
     found = addon("binding").binding(mesh)
     kind = found.info["kind"] if found else None
-    check("Bind with Type Green binds Green coordinates", kind == "green", f"kind {kind}")
+    check("Bind with Type Green binds Green coordinates", kind == addon("enums").GREEN, f"kind {kind}")
     check("Green binding at rest equals the mesh", moved_by(mesh) < 1e-5, f"max move {moved_by(mesh):.2e}")
     text = status_text(mesh)
-    check("the panel names Green", "Green (shape-preserving)" in text, text)
+    check("the panel names Green", "Coordinates: Green" in text, text)
     positions = arrays.read_positions(cage.data).astype(np.float64)
     centre = positions.mean(axis=0)
     arrays.write_positions(cage.data, centre + (positions - centre) * (1.6, 1.0, 1.0))

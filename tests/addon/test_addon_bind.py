@@ -122,17 +122,20 @@ def deviations_in_blender(gc, obj, cage, vertex):
     """Deviations of the evaluated mesh from the exact mean value deformation (the core's,
     float64), per cage diagonal: for the standard smooth motion and for cage ``vertex``
     dragged by a tenth of the diagonal, each moved in the file and read back from Blender."""
-    rest_cage = read_positions(cage.data).astype(np.float64)
+    # Mesh space (the mesh object sits at the origin, the cage object where Make Cage put it).
+    to_mesh = obj.matrix_world.inverted() @ cage.matrix_world
+    local_cage = read_positions(cage.data).astype(np.float64)
+    rest_cage = apply_matrix(to_mesh, local_cage)
     rest = read_positions(obj.data).astype(np.float64)
     exact = gc.core.coordinates(rest, rest_cage, triangles_of(cage), tolerance=1e-6)
     diagonal = np.linalg.norm(np.ptp(rest_cage, axis=0))
     found = []
-    for moved in (gc.core.tools.compact.smooth_test_motion(rest_cage),
-                  gc.core.tools.compact.vertex_drag_motion(rest_cage, vertex)):
+    for moved in (gc.core.tools.compact.smooth_test_motion(local_cage),
+                  gc.core.tools.compact.vertex_drag_motion(local_cage, vertex)):
         write_positions(cage.data, moved)
-        gap = evaluated_positions(obj) - (rest + exact @ (moved - rest_cage))
+        gap = evaluated_positions(obj) - (rest + exact @ (apply_matrix(to_mesh, moved) - rest_cage))
         found.append(np.linalg.norm(gap, axis=1).max() / diagonal)
-    write_positions(cage.data, rest_cage)
+    write_positions(cage.data, local_cage)
     return found
 
 

@@ -436,18 +436,26 @@ def node_matrix(node):
 def pose_at_last_keyframe(document, binary):
     """The nodes with every animation channel set to its value at its last keyframe;
     returns (nodes, the last keyframe's time)."""
+    last = max((float(read_accessor(document, binary, sampler["input"])[-1, 0])
+                for animation in document.get("animations", []) for sampler in animation["samplers"]),
+               default=0.0)
+    return pose_at_time(document, binary, last), last
+
+
+def pose_at_time(document, binary, time):
+    """The nodes with every animation channel at ``time`` (seconds; linear between
+    keyframes, held beyond them: exact at keyframe times)."""
     nodes = [dict(node) for node in document["nodes"]]
-    last = 0.0
     for animation in document.get("animations", []):
         for channel in animation["channels"]:
             sampler = animation["samplers"][channel["sampler"]]
             times = read_accessor(document, binary, sampler["input"])[:, 0]
             values = read_accessor(document, binary, sampler["output"])
             if sampler.get("interpolation") == "CUBICSPLINE":
-                values = values[1::3]  # in-tangent, value, out-tangent per keyframe
-            nodes[channel["target"]["node"]][channel["target"]["path"]] = values[-1].tolist()
-            last = max(last, float(times[-1]))
-    return nodes, last
+                values = values[1::3]
+            value = [np.interp(time, times, column) for column in values.T]
+            nodes[channel["target"]["node"]][channel["target"]["path"]] = value
+    return nodes
 
 
 def world_matrices(nodes):
@@ -459,11 +467,13 @@ def world_matrices(nodes):
     return [world(index) for index in range(len(nodes))]
 
 
-def skinned_positions(document, binary):
-    """Linear blend skinning of the skinned mesh at the last keyframe, as the glTF 2.0
-    specification defines it (world joint matrices times inverse bind matrices, every
-    JOINTS_n/WEIGHTS_n set); returns (rest positions, skinned positions, sets used)."""
-    nodes, _ = pose_at_last_keyframe(document, binary)
+def skinned_positions(document, binary, nodes=None, max_sets=None):
+    """Linear blend skinning of the skinned mesh with the ``nodes`` posed (default: at the
+    last keyframe), as the glTF 2.0 specification defines it (world joint matrices times
+    inverse bind matrices, every JOINTS_n/WEIGHTS_n set, or the first ``max_sets``);
+    returns (rest positions, skinned positions, sets used)."""
+    if nodes is None:
+        nodes, _ = pose_at_last_keyframe(document, binary)
     (node,) = [node for node in document["nodes"] if "skin" in node and "mesh" in node]
     skin = document["skins"][node["skin"]]
     inverse_binds = read_accessor(document, binary, skin["inverseBindMatrices"])
@@ -477,7 +487,7 @@ def skinned_positions(document, binary):
         homogeneous = np.column_stack([rest, np.ones(len(rest))])
         moved = np.zeros_like(rest)
         sets = 0
-        while f"JOINTS_{sets}" in attributes:
+        while f"JOINTS_{sets}" in attributes and (max_sets is None or sets < max_sets):
             joints = read_accessor(document, binary, attributes[f"JOINTS_{sets}"]).astype(int)
             weights = read_accessor(document, binary, attributes[f"WEIGHTS_{sets}"])
             for lane in range(4):

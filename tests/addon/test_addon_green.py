@@ -88,7 +88,7 @@ def test_compact_green_reports_the_deviation_of_what_it_wrote(gc):
     measured = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max() / diagonal
     assert 0.0 < info["deviation_smooth"] and abs(measured - info["deviation_smooth"]) < 1e-5
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
-    assert "Green (shape-preserving)" in text and "Storage: Compact, 36 per vertex" in text
+    assert "Coordinates: Green" in text and "Storage: Compact, 36 per vertex" in text
 
 
 def test_green_works_in_a_non_convex_cage_and_in_a_mirrored_object(gc):

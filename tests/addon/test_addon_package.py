@@ -55,7 +55,7 @@ def test_installed_extension_is_enabled_with_its_api(gc):
     assert properties["kind"].default == 'MEAN_VALUE'
     assert {item.identifier for item in properties["kind"].enum_items} == {
         'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN'}
-    assert properties["kind"].enum_items['GREEN'].name == "Green (shape-preserving)"
+    assert properties["kind"].enum_items['GREEN'].name == "Green"
 
 
 class RecordingLayout:

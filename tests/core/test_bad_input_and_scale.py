@@ -211,6 +211,8 @@ def good_calls():
         "floater_from_ridge_scalars": dict(cage, d=ones),
         "floater_scalars": dict(point=points[0], vertices=vertices, faces=faces, w=coordinates[0]),
         "validate_cage": dict(vertices=vertices, faces=faces),
+        "concave_facets": dict(vertices=vertices, faces=faces),
+        "linear_precision": dict(coordinates=coordinates, vertices=vertices, points=points),
         "orient_facets_outward": dict(vertices=vertices, facets=faces),
         "triangulate_quads": dict(vertices=cube, quads=quads),
         "deform": dict(coordinates=coordinates, cage_positions=vertices, out=np.empty((2, 3))),
@@ -223,6 +225,8 @@ def good_calls():
         "green_deform": dict(zip(("phi", "psi"), gencoords.green_coordinates(points, vertices, faces)),
                              vertices=vertices, cage_positions=vertices, faces=faces),
         "stretch_factors": dict(vertices=vertices, cage_positions=vertices, faces=faces),
+        "harmonic_coordinates": dict(cage, resolution=8),
+        "harmonic_field": dict(vertices=vertices, faces=faces, resolution=8),
     }
 
 

@@ -31,3 +31,32 @@ def test_deform_writes_into_out(coordinate_dtype, out_dtype):
     assert result is out
     np.testing.assert_allclose(out, 2.0 * points + [1.0, -2.0, 0.5], atol=1e-5 if out_dtype == np.float32 else 1e-12)
     np.testing.assert_allclose(gencoords.deform(coordinates, moved), out, atol=1e-5)
+
+
+def test_linear_precision_is_zero_for_exact_coordinates_and_finds_float32_losses():
+    """Independent of the construction: float64 coordinates place their points; power
+    coordinates with gamma -16 reach -1700 inside a cube, where float32 storage loses
+    more than tolerances.LINEAR_PRECISION, and gamma -1 (Wachspress) stays far below it."""
+    vertices, faces = octahedron()
+    points = random_interior_points(np.random.default_rng(2), vertices, 50)
+    coordinates = gencoords.coordinates(points, vertices, faces)
+    assert gencoords.tools.linear_precision(coordinates, vertices, points) < 1e-14
+    assert gencoords.tools.linear_precision(coordinates, vertices, points + [0.0, 0.0, 0.1]) == \
+        pytest.approx(0.1 / np.linalg.norm(np.ptp(vertices, axis=0)))
+    cube = np.array([[x, y, z] for x in (-2, 2) for y in (-2, 2) for z in (-2, 2)], dtype=np.float64)
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+    triangles = gencoords.tools.orient_facets_outward(cube, gencoords.tools.triangulate_quads(cube, quads))
+    spot = np.array([[-0.64592897, -0.72009573, -0.31435936]])
+    limit = gencoords.base.tolerances.LINEAR_PRECISION
+    for gamma, fails in ((-16.0, True), (-1.0, False)):
+        stored = gencoords.coordinates(spot, cube, triangles, kind="power", gamma=gamma).astype(np.float32)
+        assert (gencoords.tools.linear_precision(stored, cube, spot) > limit) == fails
+
+
+def test_linear_precision_does_not_depend_on_where_the_cage_is():
+    vertices, faces = octahedron()
+    points = random_interior_points(np.random.default_rng(3), vertices, 20)
+    stored = gencoords.coordinates(points, vertices, faces).astype(np.float32)
+    near = gencoords.tools.linear_precision(stored, vertices, points)
+    far = gencoords.tools.linear_precision(stored, vertices * 1e-6 + 1000.0, points * 1e-6 + 1000.0)
+    assert near < 1e-6 and far < 1e-6  # about the origin, float32 rounding of sums ~ 1 would give 50

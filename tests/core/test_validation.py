@@ -231,3 +231,19 @@ def test_a_cage_with_every_face_flipped_is_reported_inward():
         gencoords.advanced.validate_cage(vertices, faces[:, ::-1])
     assert error.value.problem == "inward"
     gencoords.advanced.validate_cage(vertices, faces)  # the same cage the right way out passes
+
+
+def test_concave_facets_are_the_triangles_around_a_dented_corner():
+    """A cube's corner pushed inward bends the edges at that corner inward: the
+    triangles flagged are exactly those touching it; a convex cube has none."""
+    cube = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+    triangles = gencoords.tools.orient_facets_outward(cube, gencoords.tools.triangulate_quads(cube, quads))
+    assert gencoords.advanced.concave_facets(cube, triangles).tolist() == []
+    dented = cube.copy()
+    dented[0] *= 0.2
+    flagged = gencoords.advanced.concave_facets(dented, triangles)
+    touching = np.flatnonzero((triangles == 0).any(axis=1))
+    assert set(flagged.tolist()) <= set(touching.tolist()) and len(flagged) >= 3
+    with pytest.raises(gencoords.CageError, match="not convex"):
+        gencoords.advanced.validate_cage(dented, triangles, convex=True)

@@ -1,0 +1,11 @@
+"""Harmonic coordinates on a grid: local and non-negative in any closed cage.
+
+Modules, bottom up: ``grid`` (cubic cells fitted to the cage's box, inside nodes),
+``boundary_values`` (the cage's hat values at nodes on or outside it), ``multigrid``
+(the Laplace solver), ``solve`` (every cage vertex's Dirichlet problem),
+``interpolation`` (trilinear lookup), ``field`` (the public :class:`HarmonicField`).
+"""
+
+from .field import DEFAULT_RESOLUTION, HarmonicField, harmonic_coordinates, harmonic_field
+
+__all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]

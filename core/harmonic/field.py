@@ -1,0 +1,338 @@
+"""Harmonic coordinates of a closed triangle cage, solved once on a grid, evaluated at any
+points by trilinear interpolation (docs/MATH.md, "Harmonic coordinates")."""
+
+import numpy as np
+
+from ..base.errors import CageError, OutsideCageError
+from ..base.inputs import checked
+from ..construction.boundary import winding_numbers
+from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
+from .boundary_values import nearest_boundary_points
+from .grid import fit_grid, inside_nodes, node_positions, surface_cells
+from .interpolation import CORNERS, cell_of, trilinear
+from .solve import dirichlet_rhs, solve_nodes
+
+__all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]
+
+DEFAULT_RESOLUTION = 64
+_WINDING_PAIRS = 1 << 18
+# Inside nodes closer to the cage than this many cells take their nearest boundary
+# point's hat values instead of being solved for (docs/MATH.md: halves the error there).
+_SOLVED_DEPTH = 0.5  # (point, facet) pairs per winding-number batch
+
+
+def _cell_corners_any(cells):
+    """Nodes that are a corner of at least one marked cell: (x+1, y+1, z+1) bool."""
+    nodes = np.zeros(tuple(size + 1 for size in cells.shape), dtype=bool)
+    for a, b, c in CORNERS:
+        nodes[a:a + cells.shape[0], b:b + cells.shape[1], c:c + cells.shape[2]] |= cells
+    return nodes
+
+
+def _cells_with_a_corner(nodes):
+    """Cells with at least one marked corner: (x-1, y-1, z-1) bool."""
+    x, y, z = (size - 1 for size in nodes.shape)
+    cells = np.zeros((x, y, z), dtype=bool)
+    for a, b, c in CORNERS:
+        cells |= nodes[a:a + x, b:b + y, c:c + z]
+    return cells
+
+
+class HarmonicField:
+    """Harmonic coordinates solved on a grid: the grid nodes' coordinates, and any
+    point's as the trilinear interpolation of its cell's 8 nodes'.
+
+    Made by :func:`gencoords.harmonic_field`. The nodes kept are the corners of the
+    cells that hold some of the cage's inside (every point inside or on the cage lies
+    in such a cell): the nodes inside the cage, solved, and those on or outside it, which
+    hold the cage's hat values at their nearest boundary point.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float
+        The cage's vertices (world units, as given).
+    faces : (m, 3) int
+        Its triangles.
+    resolution : int
+        Cells along the longest side of the cage's box.
+    origin : (3,) float
+        World position of grid node (0, 0, 0).
+    spacing : float
+        Edge length of the cubic cells (world units).
+    shape : (3,) int tuple
+        Grid nodes along x, y and z.
+    node_indices : (g, 3) int
+        Grid index of each kept node (node i sits at ``origin + spacing * node_indices[i]``).
+    node_positions : (g, 3) float
+        World positions of the kept nodes.
+    node_coordinates : (g, n) float
+        Their harmonic coordinates: non-negative, rows summing to 1.
+    node_inside : (g,) bool
+        Whether each node was solved for: inside the cage by half a cell or more (the
+        others hold hat values).
+    convergence : list of float
+        The solver's largest relative residual after each iteration (docs/MATH.md).
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> corners = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])  # outward
+    >>> field = gencoords.harmonic_field(corners, triangles, resolution=16)
+    >>> nodes, weights = field.interpolation([[0.2, 0.2, 0.2]])
+    >>> nodes.shape, bool(np.isclose(weights.sum(), 1.0))
+    ((1, 8), True)
+    >>> print(field.coordinates([[0.2, 0.2, 0.2]]).round(1))
+    [[0.4 0.2 0.2 0.2]]
+    """
+
+    def __init__(self, prepared, vertices, faces, resolution, grid, parts):
+        self._prepared, self._grid = prepared, grid
+        self.vertices, self.faces, self.resolution = vertices, faces, int(resolution)
+        self.origin = grid.origin * prepared.scale + prepared.origin
+        self.spacing = grid.spacing * prepared.scale
+        self.shape = grid.shape
+        self._ids, self._surface, self._tolerance = parts["ids"], parts["surface"], parts["tolerance"]
+        self.node_indices = parts["indices"]
+        self.node_positions = node_positions(grid, self.node_indices) * prepared.scale + prepared.origin
+        self.node_coordinates = parts["coordinates"]
+        self.node_inside = parts["inside"]
+        self._node_geometric = parts["geometric"]  # inside the cage, solved or not
+        self.convergence = parts["convergence"]
+
+    def __repr__(self):
+        return (f"HarmonicField({len(self.vertices)} cage vertices, resolution {self.resolution}, "
+                f"{len(self.node_indices)} nodes, {int(self.node_inside.sum())} inside)")
+
+    @checked
+    def interpolation(self, points, outside="raise"):
+        """Each point's cell's 8 nodes and their trilinear weights.
+
+        Parameters
+        ----------
+        points : (k, 3) float
+        outside : str
+            ``"raise"`` (:class:`gencoords.OutsideCageError` for points outside the cage,
+            beyond the tolerance) or ``"project"`` (those points' nearest boundary point
+            is used instead).
+
+        Returns
+        -------
+        nodes : (k, 8) int
+            Rows of :attr:`node_coordinates` / :attr:`node_positions`.
+        weights : (k, 8) float
+            Non-negative, each row summing to 1: ``coordinates = sum over the 8 of
+            weights * node_coordinates[nodes]``.
+
+        Examples
+        --------
+        See :class:`HarmonicField`.
+        """
+        if outside == "extrapolate":
+            raise ValueError("harmonic coordinates do not extrapolate outside the cage; use "
+                             "outside='raise' or outside='project'")
+        local = self._prepared.local(points)
+        out = np.flatnonzero(~self._inside_or_on(local))
+        if len(out) and outside == "raise":
+            raise OutsideCageError(out, len(local))
+        if len(out):
+            columns, barycentric, _ = nearest_boundary_points(
+                local[out], self._prepared.vertices, self.faces, 2.0 * self._grid.spacing)
+            local[out] = np.einsum("bc,bcN->bN", barycentric, self._prepared.vertices[columns])
+        corners, weights = trilinear(self._grid, local)
+        nodes = self._ids[tuple(corners.transpose(2, 0, 1))]
+        if (nodes < 0).any():  # every cell holding a point inside or on the cage is kept
+            raise RuntimeError("a point inside the cage fell in a cell without nodes")
+        return nodes, weights
+
+    @checked
+    def coordinates(self, points, outside="raise", dtype=np.float64):
+        """Harmonic coordinates of points: (k, n) dtype, non-negative, rows summing to 1.
+
+        Parameters
+        ----------
+        points : (k, 3) float
+        outside : str
+            As :meth:`interpolation`.
+        dtype : numpy dtype
+            Of the result (computed in float64).
+
+        Examples
+        --------
+        See :class:`HarmonicField`.
+        """
+        nodes, weights = self.interpolation(points, outside)
+        result = np.zeros((len(nodes), len(self.vertices)), dtype=dtype)
+        for corner in range(8):
+            result += weights[:, corner, None] * self.node_coordinates[nodes[:, corner]]
+        return result
+
+    def _inside_or_on(self, local):
+        """Whether each point (frame units) is inside the cage or within the tolerance of it."""
+        grid, cage = self._grid, self._prepared
+        lowest = np.floor((local - grid.origin) / grid.spacing)
+        in_grid = ((lowest >= 0) & (lowest < np.array(grid.cells))).all(axis=1)
+        cell = cell_of(grid, local)
+        # A cell the surface does not cross is inside or outside whole, as its nodes are.
+        result = in_grid & (self._ids[tuple(cell.T)] >= 0) & self._inside_nodes(cell)
+        crossed = np.flatnonzero(in_grid & self._surface[tuple(cell.T)])
+        chunk = max(1, _WINDING_PAIRS // len(cage.topology.faces))
+        for start in range(0, len(crossed), chunk):
+            rows = crossed[start:start + chunk]
+            result[rows] = winding_numbers(cage, local[rows] * cage.scale + cage.origin) >= 0.5
+        near = crossed[~result[crossed]]
+        if len(near):
+            _, _, distance = nearest_boundary_points(local[near], cage.vertices, self.faces, self._tolerance)
+            result[near] = distance <= self._tolerance
+        return result
+
+    def _inside_nodes(self, cell):
+        ids = self._ids[tuple(cell.T)]
+        return np.where(ids >= 0, self._node_geometric[ids.clip(0)], False)
+
+
+def _grid_nodes(grid, corners, tolerance):
+    """The kept nodes and what is known of them before the solve: dict of arrays."""
+    inside = inside_nodes(grid, corners)
+    surface = surface_cells(grid, corners, tolerance)
+    kept = _cell_corners_any(surface | _cells_with_a_corner(inside))
+    ids = np.full(grid.shape, -1, dtype=np.int64)
+    indices = np.argwhere(kept)
+    ids[kept] = np.arange(len(indices))
+    near_surface = _cell_corners_any(surface)[kept]
+    return dict(ids=ids, surface=surface, indices=indices, inside=inside[kept], near_surface=near_surface,
+                tolerance=tolerance)
+
+
+def _boundary_nodes(grid, parts, vertices, faces):
+    """The hat values of the nodes that are not solved for, and which nodes are.
+
+    Nodes outside the cage, and inside nodes closer to it than half a cell (their own
+    hat values are then nearer the truth than a solve from Dirichlet nodes up to a cell
+    beyond the cage), take the hat values of their nearest boundary point.
+
+    Returns
+    -------
+    measured : (b,) int
+        The nodes measured: those outside and those at cells the surface may cross.
+    columns, values : (b, 3) int, (b, 3) float
+        Their nearest boundary point's hat values.
+    solved : (g,) bool
+    """
+    measured = np.flatnonzero(~parts["inside"] | parts["near_surface"])
+    columns, values, distance = nearest_boundary_points(
+        node_positions(grid, parts["indices"][measured]), vertices, faces, 1.75 * grid.spacing)
+    solved = parts["inside"].copy()
+    solved[measured[distance < _SOLVED_DEPTH * grid.spacing]] = False
+    return measured, columns, values, solved
+
+
+@checked
+def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEFAULT_TOLERANCE, progress=None,
+                   workers=None):
+    """Solve harmonic coordinates on a grid fitted to a closed 3D triangle cage.
+
+    A 7-point Laplacian on cubic cells, ``resolution`` of them along the longest side of
+    the cage's box; the nodes inside the cage are the unknowns, the others take the
+    cage's piecewise-linear hat values at their nearest boundary point (as Blender's
+    Mesh Deform does). Every coordinate is non-negative and each row sums to 1 (the
+    discrete maximum principle); docs/MATH.md gives the precision measured.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    faces : (m, 3) int
+        Triangles, counter-clockwise seen from outside (quads:
+        :func:`gencoords.tools.triangulate_quads`). Any closed cage, convex or not.
+    resolution : int
+        Cells along the longest side of the cage's box (2 to 1024; the cost grows as
+        its cube). Like Mesh Deform's Precision, but the cells are cubes, so a thin limb
+        gets as many cells across as its thickness allows.
+    tolerance : float
+        Relative to the cage's box diagonal: points this close to the cage count as on it.
+    progress : callable, optional
+        ``progress(fraction)`` as the solve advances; an exception it raises (a cancel)
+        stops the computation (and the workers) and propagates.
+    workers : int or None
+        Processes to solve in (the cage vertices' columns are independent): ``1`` this
+        process; ``None`` as many as the cores allow when the solve is long enough to
+        repay starting them (about a second of work each), falling back to this process
+        with a :class:`gencoords.WorkerWarning` where they cannot start (an explicit
+        count raises :class:`gencoords.WorkerError`). The result is the same whatever
+        the number.
+
+    Returns
+    -------
+    field : HarmonicField
+        The grid nodes' coordinates, and any point's by trilinear interpolation.
+
+    Raises
+    ------
+    CageError
+        The cage is not a closed, outward-oriented 3D triangle cage.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> vertices, triangles = gencoords.tools.shapes.icosphere(1)
+    >>> field = gencoords.harmonic_field(vertices, triangles, resolution=12)
+    >>> field.node_coordinates.shape[1], bool(field.node_coordinates.min() >= 0.0)
+    (42, True)
+    """
+    prepared = validate_cage(vertices, faces, convex=False, tolerance=tolerance)
+    if prepared.dimension != 3:
+        raise CageError("bad_faces", f"harmonic coordinates need a 3D triangle cage, got a "
+                                     f"{prepared.dimension}D one")
+    grid = fit_grid(prepared.vertices, resolution)
+    local = prepared.vertices
+    parts = _grid_nodes(grid, local[faces], tolerance * prepared.size)
+    measured, columns, values, solved = _boundary_nodes(grid, parts, local, faces)
+    hat_ids = np.full(grid.shape, -1, dtype=np.int64)
+    hat_ids[tuple(parts["indices"][measured].T)] = np.arange(len(measured))
+    unknowns = np.zeros(grid.shape, dtype=bool)
+    unknowns[tuple(parts["indices"][solved].T)] = True
+    rhs = dirichlet_rhs(unknowns, hat_ids, columns, values)
+    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, faces), progress=progress,
+                                               workers=workers)
+    coordinates = np.zeros((len(parts["indices"]), len(local)))
+    coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
+    fixed = np.flatnonzero(~solved[measured])
+    coordinates[measured[fixed, None], columns[fixed]] = values[fixed]
+    parts["coordinates"], parts["geometric"], parts["inside"] = coordinates, parts["inside"], solved
+    return HarmonicField(prepared, np.array(vertices), np.array(faces), resolution, grid, parts)
+
+
+@checked
+def harmonic_coordinates(points, vertices, faces, resolution=DEFAULT_RESOLUTION, outside="raise",
+                         tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64, workers=None):
+    """Harmonic coordinates of points in a closed 3D triangle cage (see :func:`harmonic_field`).
+
+    Parameters
+    ----------
+    points : (k, 3) float
+    vertices : (n, 3) float
+    faces : (m, 3) int
+        Outward-oriented triangles; any closed cage, convex or not.
+    resolution, tolerance, progress, workers
+        As :func:`harmonic_field`.
+    outside : str
+        ``"raise"`` or ``"project"`` (:meth:`HarmonicField.interpolation`).
+    dtype : numpy dtype
+        Of the result.
+
+    Returns
+    -------
+    coordinates : (k, n) dtype
+        Non-negative, rows summing to 1.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> corners = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    >>> b = gencoords.harmonic_coordinates([[0.25, 0.25, 0.25]], corners, triangles, resolution=24)
+    >>> print(b.round(1), bool(b.min() >= 0.0))
+    [[0.3 0.2 0.2 0.2]] True
+    """
+    field = harmonic_field(vertices, faces, resolution, tolerance, progress, workers)
+    return field.coordinates(points, outside, dtype)

@@ -1,0 +1,117 @@
+"""The grid harmonic coordinates are solved on: cubic cells fitted to the cage's box.
+
+``resolution`` cells span the box's longest side; the other sides get as many cells of
+the same size as they need (a thin limb is as finely sampled as a long one), plus one
+cell of margin on every side, so the outermost nodes are outside the cage. Nodes are
+classified inside or outside exactly, by counting the cage's signed crossings of a ray
+from each node along +z (one ray per grid column: the cost is columns x facets, not
+nodes x facets).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Grid", "fit_grid", "inside_nodes", "surface_cells", "node_positions"]
+
+# The rays leave the nodes' exact x and y by this fraction of a cell, in directions no
+# cage edge of a box-modelled cage shares, so a ray never grazes an edge or a vertex.
+_RAY_OFFSET = (2.0 ** -20 * np.sqrt(2.0), 2.0 ** -20 * np.sqrt(3.0) / 2.0)
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A uniform grid of cubic cells.
+
+    Attributes
+    ----------
+    origin : (3,) float
+        Position of node (0, 0, 0).
+    spacing : float
+        Edge length of a cell.
+    shape : (3,) int tuple
+        Nodes along x, y and z (cells + 1).
+    """
+
+    origin: np.ndarray
+    spacing: float
+    shape: tuple
+
+    @property
+    def cells(self):
+        """Cells along x, y and z: (3,) int tuple."""
+        return tuple(size - 1 for size in self.shape)
+
+
+def fit_grid(vertices, resolution):
+    """The grid with ``resolution`` cubic cells along the longest side of the box of
+    ``vertices`` (n, 3), and one cell of margin all round: :class:`Grid`."""
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    spacing = float((high - low).max()) / resolution
+    cells = np.ceil((high - low) / spacing - 1e-9).astype(np.int64) + 2
+    origin = 0.5 * (low + high) - 0.5 * spacing * cells
+    return Grid(origin, spacing, tuple(int(count) + 1 for count in cells))
+
+
+def node_positions(grid, indices):
+    """Positions of nodes given by their (g, 3) integer grid indices: (g, 3) float."""
+    return grid.origin + grid.spacing * np.asarray(indices, dtype=np.float64)
+
+
+def _column_crossings(grid, corners):
+    """Where each grid column's ray meets the facets: (column x, column y, height, sign).
+
+    ``corners`` (m, 3, 3): the facets' corner positions. The sign is that of the facet's
+    normal's z component (+1 where the ray leaves the cage going up).
+    """
+    offset = np.array(_RAY_OFFSET) * grid.spacing
+    xy = (corners[:, :, :2] - grid.origin[:2] - offset) / grid.spacing  # in cells
+    low = np.ceil(xy.min(axis=1)).astype(np.int64).clip(0, np.array(grid.shape[:2]) - 1)
+    high = np.floor(xy.max(axis=1)).astype(np.int64).clip(0, np.array(grid.shape[:2]) - 1)
+    counts = np.maximum(high - low + 1, 0)
+    sizes = counts[:, 0] * counts[:, 1]
+    facet = np.repeat(np.arange(len(corners)), sizes)
+    within = np.arange(len(facet)) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+    column = low[facet] + np.stack([within // counts[facet, 1], within % counts[facet, 1]], axis=1)
+    # 2D edge functions of the column's ray in the facet's projection.
+    a, b, c = (xy[facet, corner] - column for corner in range(3))
+    cross = lambda u, v: u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]  # noqa: E731
+    edge = np.stack([cross(b, c), cross(c, a), cross(a, b)], axis=1)
+    area = edge.sum(axis=1)
+    hit = (area != 0.0) & ((edge > 0.0).all(axis=1) | (edge < 0.0).all(axis=1))
+    facet, column, edge, area = facet[hit], column[hit], edge[hit], area[hit]
+    height = np.einsum("kc,kc->k", edge / area[:, None], corners[facet, :, 2])
+    return column[:, 0], column[:, 1], height, np.sign(area)
+
+
+def inside_nodes(grid, corners):
+    """Which nodes are inside the cage (winding number 1): (x, y, z) bool array.
+
+    Parameters
+    ----------
+    grid : Grid
+    corners : (m, 3, 3) float
+        The cage's triangles' corners, outward oriented.
+    """
+    x, y, height, sign = _column_crossings(grid, corners)
+    # A crossing above node z counts for it: add the sign at the last node below it and
+    # sum from the top down.
+    level = np.floor((height - grid.origin[2]) / grid.spacing).astype(np.int64)
+    keep = level >= 0
+    level = np.minimum(level, grid.shape[2] - 1)
+    winding = np.zeros(grid.shape)
+    np.add.at(winding, (x[keep], y[keep], level[keep]), sign[keep])
+    winding = np.cumsum(winding[:, :, ::-1], axis=2)[:, :, ::-1]
+    return winding > 0.5
+
+
+def surface_cells(grid, corners, reach):
+    """Cells that the cage's surface may cross (its facets' boxes grown by ``reach``):
+    (x, y, z) bool array over cells. Conservative: every cell the surface meets is in."""
+    cells = np.zeros(grid.cells, dtype=bool)
+    low = np.floor((corners.min(axis=1) - reach - grid.origin) / grid.spacing).astype(np.int64)
+    high = np.floor((corners.max(axis=1) + reach - grid.origin) / grid.spacing).astype(np.int64)
+    low, high = low.clip(0, np.array(grid.cells) - 1), high.clip(0, np.array(grid.cells) - 1)
+    for (i0, j0, k0), (i1, j1, k1) in zip(low.tolist(), high.tolist()):
+        cells[i0:i1 + 1, j0:j1 + 1, k0:k1 + 1] = True
+    return cells

@@ -1,0 +1,193 @@
+"""Harmonic coordinates at the grid's nodes: the Dirichlet problem of every cage vertex,
+solved together.
+
+Column j of the result is the discrete harmonic function whose Dirichlet values are cage
+vertex j's hat values. The unknowns are the nodes strictly inside the cage; each inside
+node's Dirichlet neighbours put their hat values on the right-hand side. The matrix is
+an M-matrix and the Dirichlet values are non-negative and sum to 1 over the columns, so
+the exact discrete solution is non-negative with rows summing to 1 (the discrete maximum
+principle); the iterative solution is clipped at 0 and renormalised, changes of the
+order of the solver's tolerance.
+"""
+
+import secrets
+
+import numpy as np
+
+from ..base.errors import WorkerError
+from ..evaluation.parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead,
+                                   dispatch_units, python_executable)
+from .multigrid import STEPS, build_levels, solve
+
+__all__ = ["SOLVER_TOLERANCE", "dirichlet_rhs", "solve_nodes", "solve_columns_task", "worker_count"]
+
+# Relative residual each column is solved to: errors far below the 1e-5 that sparse
+# storage drops, so locality is the discretisation's, not the solver's.
+SOLVER_TOLERANCE = 1e-10
+# Entries of one block of columns' (unknowns x columns) arrays: the solver holds about
+# ten such arrays, so blocks of 2^21 entries (16 MB each) bound its memory. The blocks
+# are the same with and without workers: the same arithmetic, the same result.
+_BLOCK_ENTRIES = 1 << 21
+# workers=None starts processes for solves of at least this many (unknown, cage vertex)
+# pairs: about a second of work in one process, against about 0.2 s to start each.
+_PAIRS_PER_WORKER = 1 << 21
+_MAX_ITERATIONS = 200
+_levels_cache = {}  # a worker's hierarchy, built once per solve
+_STEPS = np.array(STEPS)
+
+
+def dirichlet_rhs(inside, node_ids, hat_columns, hat_values):
+    """The right-hand side as triplets: inside node i gets the hat values of each of its
+    neighbours that is not inside.
+
+    Parameters
+    ----------
+    inside : (x, y, z) bool
+        The unknowns (row order: ``np.argwhere(inside)``).
+    node_ids : (x, y, z) int
+        Each node's row in ``hat_columns`` / ``hat_values`` (-1 where it has none; every
+        neighbour of an inside node that is not inside must have one).
+    hat_columns : (b, 3) int
+    hat_values : (b, 3) float
+
+    Returns
+    -------
+    rows : (t,) int
+    columns : (t,) int
+    values : (t,) float
+    """
+    nodes = np.argwhere(inside)
+    padded_inside = np.pad(inside, 1)
+    padded_ids = np.pad(node_ids, 1, constant_values=-1)
+    rows, hats = [], []
+    for step in _STEPS:
+        neighbour = tuple((nodes + 1 + step).T)
+        boundary = ~padded_inside[neighbour]
+        rows.append(np.flatnonzero(boundary))
+        hats.append(padded_ids[neighbour][boundary])
+    rows, hats = np.concatenate(rows), np.concatenate(hats)
+    if (hats < 0).any():
+        raise RuntimeError("an inside node's neighbour has no boundary value")
+    return np.repeat(rows, 3), hat_columns[hats].reshape(-1), hat_values[hats].reshape(-1)
+
+
+def worker_count(workers, unknowns, column_count):
+    """Processes a solve of ``unknowns`` x ``column_count`` uses: ``workers``, or for None
+    one per ``_PAIRS_PER_WORKER`` pairs up to the cores (1 where no Python can start)."""
+    if workers is not None:
+        return min(workers, column_count)
+    wanted = max(1, min(available_cores(), unknowns * column_count // _PAIRS_PER_WORKER, column_count))
+    if wanted > 1:
+        try:
+            python_executable()
+        except WorkerError:
+            return 1
+    return wanted
+
+
+def _block_size(count, column_count):
+    return int(max(1, min(column_count, _BLOCK_ENTRIES // (count + 1))))
+
+
+def _solve_block(levels, rhs, start, stop, tolerance, progress=None):
+    """Columns ``start:stop``: ((stop - start, u) solution, residual history)."""
+    rows, columns, values = rhs
+    chosen = (columns >= start) & (columns < stop)
+    right = np.zeros((levels[0].count + 1, stop - start))
+    np.add.at(right, (rows[chosen], columns[chosen] - start), values[chosen])
+    solution, history = solve(levels, right, tolerance, progress, _MAX_ITERATIONS)
+    return solution[:-1].T, history
+
+
+def solve_columns_task(arrays, job, start, stop):
+    """A worker's share (:func:`gencoords.evaluation.parallel.serve`): columns
+    ``start:stop`` into ``arrays["result"]`` (n, u) and ``arrays["history"]``."""
+    if job["key"] not in _levels_cache:
+        _levels_cache.clear()
+        _levels_cache[job["key"]] = build_levels(arrays["inside"].astype(bool))
+    levels = _levels_cache[job["key"]]
+    rhs = (arrays["rows"], arrays["columns"], arrays["values"])
+    for begin in range(start, stop, job["block"]):
+        end = min(begin + job["block"], stop)
+        arrays["result"][begin:end], history = _solve_block(levels, rhs, begin, end, job["tolerance"])
+        arrays["history"][begin // job["block"], :len(history)] = history
+
+
+def _solve_in_workers(vertices, faces, inside, rhs, column_count, count, block, tolerance, workers, progress):
+    """The columns spread over ``workers`` processes: ((n, u) solution, history)."""
+    blocks = -(-column_count // block)
+    specs = {"inside": (inside.shape, np.uint8), "rows": (rhs[0].shape, np.int64),
+             "columns": (rhs[1].shape, np.int64), "values": (rhs[2].shape, np.float64),
+             "history": ((blocks, _MAX_ITERATIONS + 2), np.float64), "locations": ((column_count,), np.int8),
+             "result": ((column_count, count), np.float64)}
+    shared = SharedArrays(specs)
+    for name, value in (("inside", inside), ("rows", rhs[0]), ("columns", rhs[1]), ("values", rhs[2])):
+        shared.arrays[name][...] = value
+    shared.arrays["history"][...] = np.nan
+    job = dict(task="harmonic.solve:solve_columns_task", key=secrets.token_hex(8), block=block, tolerance=tolerance)
+    pool = WorkerPool(vertices, faces, workers)
+    try:
+        report = None if progress is None else (lambda done: progress(done / column_count))
+        pool.run(shared, job, dispatch_units(column_count, block, workers), report)
+    finally:
+        pool.close()
+    histories = [row[~np.isnan(row)].tolist() for row in shared.arrays["history"]]
+    return shared.arrays["result"], max(histories, key=len)
+
+
+def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, workers=None):
+    """Harmonic coordinates of the inside nodes.
+
+    Parameters
+    ----------
+    inside : (x, y, z) bool
+        The unknowns.
+    rhs : (rows, columns, values)
+        From :func:`dirichlet_rhs`.
+    cage : (vertices (n, 3), faces (m, 3))
+        The cage (its n columns; the workers are started with it).
+    tolerance : float
+        Relative residual per column.
+    progress : callable, optional
+        ``progress(fraction)`` as columns are solved; an exception from it stops the
+        solve (and the workers).
+    workers : int or None
+        Processes (:func:`worker_count`); the columns are solved in the same blocks
+        whatever the number, so the result is the same.
+
+    Returns
+    -------
+    coordinates : (u, n) float
+        Non-negative, rows summing to 1.
+    history : list of float
+        The largest relative residual after each conjugate-gradient iteration, of the
+        block that needed most.
+    """
+    column_count = len(cage[0])
+    count = int(np.count_nonzero(inside))
+    block = _block_size(count, column_count)
+    chosen = worker_count(workers, count, column_count)
+    if chosen > 1:
+        try:
+            result, history = _solve_in_workers(*cage, inside, rhs, column_count, count, block, tolerance,
+                                                chosen, progress)
+            return _normalised(result.T), history
+        except WorkerError as error:
+            if workers is not None:
+                raise
+            computed_here_instead(error)
+    levels = build_levels(inside)
+    result, history = np.empty((count, column_count)), []
+    for start in range(0, column_count, block):
+        stop = min(start + block, column_count)
+        report = None if progress is None else (lambda f, a=start, b=stop: progress((a + f * (b - a)) / column_count))
+        solution, reductions = _solve_block(levels, rhs, start, stop, tolerance, report)
+        result[:, start:stop] = solution.T
+        history = max(history, reductions, key=len)
+    return _normalised(result), history
+
+
+def _normalised(result):
+    """Clipped at 0 (solver rounding) and rows renormalised to sum 1."""
+    result = np.maximum(result, 0.0)
+    return result / result.sum(axis=1, keepdims=True)

@@ -1,0 +1,247 @@
+"""Bake to Bones, Fitted (game engines): a few rotating bones and at most 4 weights a vertex,
+fitted to what the binding shows over a frame range.
+
+Truncating coordinates to the 4 largest per vertex (what a game engine reads of a bone
+per cage vertex) cannot follow the cage; fitting can (``core.tools.skin_fit``, SSDR as in
+Dem Bones). The bake samples the mesh as Blender evaluates it with the binding's
+modifier alone (its deformation, world space; other modifiers stay where they are and
+apply to the rig's result as they did to the binding's) at every frame of the range, fits a skin, and writes an
+armature whose bones are keyframed (location and rotation) at those frames, so that
+exporters write the animation with their default options; the vertex groups hold the
+fitted weights; an Armature modifier takes the GenCoords modifier's place. The figures
+reported are measured on what was written: the armature-deformed mesh, evaluated by
+Blender at every sampled frame, against the samples.
+
+The rig replays the sampled frames; the cage no longer drives it (a fitted bone is not
+tied to a cage vertex). Any kind of binding can be baked so, Green and negative
+coordinates included: the fit's weights are never negative.
+"""
+
+import contextlib
+import threading
+import time
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+from ..core.tools import skin_fit
+from . import binding as bindings_module
+from . import bones, compat, mesh_arrays, mesh_io
+
+BONE_PREFIX = "GenCoords Fitted "
+DEFAULT_BONES = 64
+DEFAULT_INFLUENCES = 4
+
+
+def frame_range(scene, start=None, end=None):
+    """The frames to sample: the scene's range, or ``start`` to ``end`` where given."""
+    first = scene.frame_start if start is None else int(start)
+    last = scene.frame_end if end is None else int(end)
+    if last < first:
+        raise bindings_module.BindError(f"The frame range {first} to {last} is empty: End must "
+                                        "be at least Start")
+    return np.arange(first, last + 1)
+
+
+@contextlib.contextmanager
+def alone(obj, modifier):
+    """The block sees ``obj`` deformed by ``modifier`` alone: the others are hidden from
+    the viewport (what is sampled and measured), and shown again afterwards."""
+    hidden = [m for m in obj.modifiers if m != modifier and m.show_viewport]
+    shown = modifier.show_viewport
+    for other in hidden:
+        other.show_viewport = False
+    modifier.show_viewport = True
+    try:
+        yield
+    finally:
+        modifier.show_viewport = shown
+        for other in hidden:
+            other.show_viewport = True
+
+
+def sample_deformation(obj, context, frames, modifier):
+    """The mesh's vertices in world space at each of ``frames``, deformed by ``modifier``
+    alone (the binding's: its deformation is what is baked, and the Armature modifier
+    that replaces it sees what it saw): (F, n, 3) float64."""
+    scene = context.scene
+    current = scene.frame_current, scene.frame_subframe
+    count = len(obj.data.vertices)
+    positions = []
+    try:
+        with alone(obj, modifier):
+            for frame in frames:
+                scene.frame_set(int(frame))
+                positions.append(bones.evaluated_world_positions(obj, context.evaluated_depsgraph_get()))
+    finally:
+        scene.frame_set(current[0], subframe=current[1])
+    if any(len(sampled) != count for sampled in positions):
+        raise bindings_module.BindError(f"Cannot bake '{obj.name}' to fitted bones: its binding "
+                                        "changes its vertex count: Bind again")
+    broken = [int(frame) for frame, sampled in zip(frames, positions) if not np.isfinite(sampled).all()]
+    if broken:
+        raise bindings_module.BindError(
+            f"Cannot bake '{obj.name}' to fitted bones: its deformed vertices are not finite "
+            f"at frame {broken[0]} ({len(broken)} of the {len(frames)} frames sampled): check the cage's positions and "
+            "keyframes there, or bake another frame range")
+    return np.array(positions)
+
+
+class Cancelled(Exception):
+    """The fit was cancelled (Esc): nothing was changed."""
+
+
+class FittedBakeJob:
+    """A fitted bake in three steps: sample the deformation (at creation, in Blender),
+    fit (``run``, or ``start`` in a thread so that the window stays live; numpy only),
+    ``commit`` (in Blender: write, measure, replace the binding)."""
+
+    def __init__(self, obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENCES,
+                 frames=None, iterations=12, seed=0):
+        self.obj, self.found = obj, bindings_module.binding(obj)
+        self.frames = frame_range(context.scene) if frames is None else np.asarray(frames)
+        world = np.array(obj.matrix_world, dtype=np.float64)
+        self.rest = mesh_io.read_positions(obj.data).astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+        self.sampled = sample_deformation(obj, context, self.frames, self.found.modifier)
+        self.options = {"bones": min(bone_count, len(self.rest)), "max_influences": max_influences,
+                        "iterations": iterations, "seed": seed}
+        self.bone_count, self.fraction, self.fit, self.error = int(bone_count), 0.0, None, None
+        self.fit_seconds, self._cancel, self._thread = 0.0, threading.Event(), None
+
+    def run(self, progress=None):
+        """Fit here; ``progress(fraction)`` as it goes (an exception it raises cancels)."""
+        def report(fraction):
+            if self._cancel.is_set():
+                raise Cancelled
+            self.fraction = fraction
+            if progress is not None:
+                progress(fraction)
+        start = time.perf_counter()
+        self.fit = skin_fit.fit_skin(self.rest, self.sampled, progress=report, **self.options)
+        self.fit_seconds = time.perf_counter() - start
+
+    def start(self):
+        """Fit in a thread; ``done`` says when it has ended, ``error`` how, if it failed."""
+        def target():
+            try:
+                self.run()
+            except BaseException as error:  # handed to the operator, in Blender's thread
+                self.error = error
+        self._thread = threading.Thread(target=target, name="GenCoords fitted bake", daemon=True)
+        self._thread.start()
+
+    @property
+    def done(self):
+        return self._thread is not None and not self._thread.is_alive()
+
+    def cancel(self):
+        """Stop the fit at its next round and wait for it."""
+        self._cancel.set()
+        if self._thread is not None:
+            self._thread.join()
+
+    def commit(self, context):
+        """Write the rig (see ``bake``): returns (rig, figures)."""
+        rig, figures = _write(self.obj, context, self.found, self.fit, self.rest, self.sampled,
+                              self.frames)
+        figures.update({"fit_seconds": self.fit_seconds, "seeded_bones": self.bone_count})
+        rig.data[bones.BAKE_INFO] = figures
+        return rig, figures
+
+
+def bake(obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENCES,
+         frames=None, iterations=12, seed=0, progress=None):
+    """Replace the (first) binding of ``obj`` by a fitted, keyframed armature.
+
+    Returns (rig, figures): figures holds "worst" and "rms", the deviation of the written
+    rig from the sampled deformation as fractions of the mesh's diagonal (measured on
+    Blender's evaluation of the rig), with the frames, bones and timings; the same
+    figures are stored on the armature (``rig.data["gencoords_bake"]``). ``progress``
+    (fraction) is called during the fit; an exception it raises cancels the bake with
+    nothing changed.
+    """
+    job = FittedBakeJob(obj, context, bone_count, max_influences, frames, iterations, seed)
+    job.run(progress)
+    return job.commit(context)
+
+
+def _write(obj, context, found, fit, rest, sampled, frames):
+    """Write the rig, the vertex groups and the Armature modifier, measure, then remove
+    the binding; on any failure everything written is removed and the binding stays."""
+    names = [f"{BONE_PREFIX}{j}" for j in range(fit.transforms.shape[1])]
+    had_groups = {g.name for g in obj.vertex_groups}
+    parent, shown = obj.parent, found.modifier.show_viewport
+    rig = skin = None
+    try:
+        rig = bpy.data.objects.new(f"{obj.name} fitted rig",
+                                   bpy.data.armatures.new(f"{obj.name} fitted rig"))
+        for collection in obj.users_collection:
+            collection.objects.link(rig)
+        diagonal = float(np.linalg.norm(np.ptp(rest, axis=0)))
+        bones.add_bones(rig, names, fit.rest_matrices[:, :3, 3], diagonal)
+        _keyframe_fit(rig, names, frames, fit)
+        dense = np.zeros((len(rest), len(names)))
+        np.add.at(dense, (np.arange(len(rest))[:, None], fit.indices), fit.weights)
+        mesh_arrays.write_weights(obj, names, dense)
+        skin = obj.modifiers.new("Armature", 'ARMATURE')
+        skin.object = rig
+        compat.move_modifier(obj, skin, list(obj.modifiers).index(found.modifier))
+        if obj.parent is None:  # exporters (glTF) expect a skinned mesh under its armature
+            obj.parent = rig  # the rig sits at the world origin: the mesh does not move
+        found.modifier.show_viewport = False  # measure the rig alone
+        played = sample_deformation(obj, context, frames, skin)
+        gaps = np.linalg.norm(played - sampled, axis=2) / max(diagonal, 1e-300)
+        figures = {"mode": "FITTED", "worst": float(gaps.max()),
+                   "rms": float(np.sqrt(np.mean(gaps ** 2))), "frames": [int(frames[0]), int(frames[-1])],
+                   "bones": len(names), "max_influences": int(fit.indices.shape[1])}
+        bindings_module.remove(obj, [found])
+    except BaseException:
+        found.modifier.show_viewport = shown
+        obj.parent = parent
+        if skin is not None:
+            obj.modifiers.remove(skin)
+        bones._remove_rig(rig)
+        for group in [g for g in obj.vertex_groups if g.name in names and g.name not in had_groups]:
+            obj.vertex_groups.remove(group)
+        raise
+    return rig, figures
+
+
+def _keyframe_fit(rig, names, frames, fit):
+    """Key each bone's location and rotation (quaternion) at ``frames`` so that its
+    skinning matrix is the fit's: pose basis = rest^-1 @ transform @ rest, in the bone's
+    own rest frame (Blender's bones point along their Y axis)."""
+    for name in names:  # creates the action and its curves, in all versions
+        pose = rig.pose.bones[name]
+        pose.rotation_mode = 'QUATERNION'
+        for path in ("location", "rotation_quaternion"):
+            pose.keyframe_insert(path, frame=float(frames[0]), group=name)
+    rig.animation_data.action.name = f"{rig.name} fitted motion"
+    curves = {(curve.data_path, curve.array_index): curve for curve in compat.action_fcurves(rig)}
+    for j, name in enumerate(names):
+        rest = rig.data.bones[name].matrix_local
+        inverse = rest.inverted()
+        locations, rotations = [], []
+        for transform in fit.transforms[:, j]:
+            location, rotation, _ = (inverse @ Matrix(transform.tolist()) @ rest).decompose()
+            if rotations and np.dot(rotations[-1], rotation) < 0.0:
+                rotation.negate()  # the same turn, without a flip between keyframes
+            locations.append(location[:])
+            rotations.append(rotation[:])
+        for path, values in (("location", locations), ("rotation_quaternion", rotations)):
+            for axis, column in enumerate(np.array(values).T):
+                curve = curves[(f'pose.bones["{name}"].{path}', axis)]
+                curve.keyframe_points.add(len(frames) - 1)
+                curve.keyframe_points.foreach_set(
+                    "co", np.column_stack([frames, column]).astype(np.float32).ravel())
+                curve.update()
+
+
+def summary(obj, rig, figures):
+    """The operator's report of a fitted bake."""
+    return (f"Baked '{obj.name}' to '{rig.name}' ({figures['bones']} fitted bones, at most "
+            f"{figures['max_influences']} per vertex, keyframed over frames {figures['frames'][0]} "
+            f"to {figures['frames'][1]}; fitted in {figures['fit_seconds']:.1f} s): deviation from "
+            f"GenCoords worst {100 * figures['worst']:.2f} %, RMS {100 * figures['rms']:.3f} % of "
+            "the mesh's size over those frames, measured on the rig written")
