@@ -18,6 +18,7 @@ from gencoords.construction.green import GREEN
 KINDS = tuple(kind.name.upper() for kind in gencoords.KIND_TABLE) + (GREEN.upper(),)
 OUTSIDE = ("RAISE", "PROJECT", "EXTRAPOLATE")
 STORAGE = ("AUTO", "EXACT", "COMPACT")
+BAKE_MODES = ("CAGE_VERTICES", "CAGE_VERTICES", "FITTED")
 
 CAGE_SHAPES = ("cube", "icosphere", "cylinder", "uv_sphere", "dented", "character")
 CAGE_DEFECTS = ("open", "non_manifold", "self_intersecting", "duplicate_vertices", "zero_area_face",
@@ -112,8 +113,11 @@ def step_of(rng, available):
     if op == "apply":
         return {"op": op, "target": role(rng, available, ("mesh", "mesh", "twin", "cage")), "which": rng.choice(("first", "last"))}
     if op == "bake":
-        return {"op": op, "target": target, "max_influences": rng.choice((0, 0, 1, 4, 8)),
-                "keyframes": rng.random() < 0.5}
+        step = {"op": op, "target": target, "max_influences": rng.choice((0, 0, 1, 4, 8)),
+                "keyframes": rng.random() < 0.5, "mode": rng.choice(BAKE_MODES)}
+        if step["mode"] == "FITTED":  # a few bones over a few frames: seconds, not minutes
+            step.update(bones=rng.choice((1, 4, 8)), frame_end=rng.choice((1, 3)))
+        return step
     if op == "make_cage":
         return {"op": op, "target": target, "vertices": rng.choice((8, 20, 100, 300)),
                 "margin": rng.choice((0.0, 0.01, 0.05, 0.5))}

@@ -83,13 +83,15 @@ def cage_of_modifier(modifier):
 
 
 def _live(obj, modifier, group):
-    """Whether a binding deforms: its cage is there with the vertex count bound, the mesh has
-    its own (else the deformer passes the mesh through, by design)."""
+    """The cage of a binding that deforms: its cage is there, finite, with the vertex count
+    bound, the mesh has its own (else the deformer passes the mesh through, by design)."""
     cage, info = cage_of_modifier(modifier), group[checks.METADATA]
     if cage is None or len(obj.data.vertices) != info.get("mesh_vertex_count"):
         return None
-    evaluated = cage.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    return cage if len(evaluated.data.vertices) == info.get("cage_vertex_count") else None
+    evaluated = cage.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    if len(evaluated.vertices) != info.get("cage_vertex_count"):
+        return None
+    return cage if np.isfinite(arrays.read_positions(evaluated)).all() else None
 
 
 def drivers_of(obj, reshaped=()):
@@ -324,10 +326,14 @@ def save_reload(state, step):
 def bake(state, step):
     target = state.get(step["target"])
     before = checks.world_positions()
-    operate(target, bpy.ops.object.gencoords_bake_bones, max_influences=step["max_influences"],
-            keyframes=step["keyframes"])
+    options = {"max_influences": step["max_influences"], "keyframes": step["keyframes"]}
+    fitted = step.get("mode") == "FITTED"
+    if fitted:
+        options.update(mode='FITTED', bones=step["bones"], use_scene_range=False, frame_start=1,
+                       frame_end=step["frame_end"])
+    operate(target, bpy.ops.object.gencoords_bake_bones, **options)
     _forget_pristine(state, target)
-    if step["max_influences"] == 0:  # every weight kept: the rig deforms as the binding did
+    if step["max_influences"] == 0 and not fitted:  # every weight kept: as the binding did
         after = checks.world_positions()
         scale = max((checks.size_of(p) for p in before.values()), default=0.0)
         checks.check_moved([target.name], before, after, np.zeros(3), scale,
