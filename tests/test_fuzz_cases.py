@@ -15,6 +15,7 @@ def test_two_hundred_seeds_try_every_step_defect_shape_and_modifier():
     drawn = [cases.case_of(seed) for seed in range(200)]
     ops = {step["op"] for case in drawn for step in case["steps"]}
     assert ops == set(cases.STEP_WEIGHTS)
+    assert {case["story"] for case in drawn} == {None, "copies", "bake", "deleted cage", "small", "flat mesh"}
     scenes = [case["scene"] for case in drawn]
     assert {s["cage"]["defect"] for s in scenes} == set(cases.CAGE_DEFECTS) | {None}
     assert {s["cage"]["shape"] for s in scenes} == set(cases.CAGE_SHAPES)
@@ -28,5 +29,5 @@ def test_two_hundred_seeds_try_every_step_defect_shape_and_modifier():
 def test_the_steps_are_printed_one_a_line_with_their_arguments():
     case = cases.case_of(7)
     lines = cases.describe(case)
-    assert len(lines) == 1 + len(case["steps"])
-    assert lines[1].startswith(f"  0: {case['steps'][0]['op']}(")
+    assert len(lines) == 2 + len(case["steps"])
+    assert lines[2].startswith(f"  0: {case['steps'][0]['op']}(")

@@ -141,11 +141,14 @@ def step_of(rng, available):
 
 def story(rng, available, scene):
     """A sequence where cage deformers tend to break, its parameters random: a good
-    binding first, then copies sharing its data, a bake, the cage deleted, or a tiny cage
-    object moved; random steps follow."""
+    binding first, then copies sharing its data, a bake, the cage deleted, a tiny cage
+    object moved, or the mesh object flat; random steps follow."""
+    # A cage and a mesh that bind (the defects come later), but for a flat mesh object.
+    scene["cage"].update(defect=None, odd_scale=None)
+    scene["mesh"].update(nan=False, odd_scale=None, shape=rng.choice(("sphere", "monkey", "icosphere", "grid")))
     steps = [dict(bind_step(rng, available), target="mesh", cage="cage",
-                  kind=rng.choice(("MEAN_VALUE", "WACHSPRESS", "GREEN")), outside="PROJECT")]
-    theme = rng.choice(("copies", "bake", "deleted cage", "small"))
+                  kind="MEAN_VALUE", outside="PROJECT")]  # any closed cage
+    theme = rng.choice(("copies", "bake", "deleted cage", "small", "flat mesh"))
     if theme == "copies":
         steps.append({"op": "duplicate", "target": "mesh", "linked": rng.random() < 0.8})
         available.add("copy")
@@ -161,10 +164,12 @@ def story(rng, available, scene):
         steps.append({"op": "delete", "target": "cage"})
         steps.append({"op": "show_field", "target": "mesh", "vertex": rng.choice((0, 1, 5))})
         steps.append({"op": "show_field", "target": "mesh", "vertex": rng.choice((0, 2))})
-    else:  # a micro-scale cage object
-        scene["placement"].update(scale=10.0 ** rng.uniform(-7, -5), in_data=False)
+    elif theme == "small":  # a micro-scale cage (its data) whose object moves by less than 1e-6
+        scene["placement"].update(scale=10.0 ** rng.uniform(-7, -5), in_data=True, offset=0.0)
+    else:  # a mesh object scaled to zero on an axis
+        scene["mesh"]["odd_scale"] = "zero_x"
     steps.append(dict(translation(rng, "cage"), how="object"))
-    return steps
+    return theme, steps
 
 
 def case_of(seed):
@@ -173,8 +178,9 @@ def case_of(seed):
     rng = random.Random(seed)
     scene = scene_of(rng)
     available = {"mesh", "cage"} | ({"twin"} if scene["mesh"]["twin"] else set())
+    theme = None
     if rng.random() < 0.35:
-        steps = story(rng, available, scene)
+        theme, steps = story(rng, available, scene)
     else:
         steps = [bind_step(rng, available)] if rng.random() < 0.8 else []
         if steps and rng.random() < 0.7:
@@ -187,12 +193,12 @@ def case_of(seed):
                               kind="MEAN_VALUE", outside="RAISE"))
         if steps[-1]["op"] in ("bind", "rebind", "duplicate", "unbind", "bake") and rng.random() < 0.5:
             steps.append(translation(rng, role(rng, available, ("cage", "cage", "made"))))
-    return {"seed": seed, "scene": scene, "steps": steps}
+    return {"seed": seed, "story": theme, "scene": scene, "steps": steps}
 
 
 def describe(case):
     """The case as lines of text: its scene, then one numbered line per step."""
-    lines = [f"scene: {json.dumps(case['scene'], sort_keys=True)}"]
+    lines = [f"story: {case['story']}", f"scene: {json.dumps(case['scene'], sort_keys=True)}"]
     for number, step in enumerate(case["steps"]):
         arguments = ", ".join(f"{key}={value!r}" for key, value in step.items() if key != "op")
         lines.append(f"  {number}: {step['op']}({arguments})")
