@@ -3,7 +3,9 @@ seeds cover every step, defect and modifier the fuzz claims to try."""
 
 import json
 
-from scripts.fuzz import cases
+import pytest
+
+from scripts.fuzz import cases, run
 
 
 def test_a_seed_gives_the_same_case_every_time():
@@ -31,3 +33,29 @@ def test_the_steps_are_printed_one_a_line_with_their_arguments():
     lines = cases.describe(case)
     assert len(lines) == 2 + len(case["steps"])
     assert lines[2].startswith(f"  0: {case['steps'][0]['op']}(")
+
+
+FAKE_CASE_SCRIPT = '''
+import json, os, sys, time
+for seed in map(int, sys.argv[3:]):
+    print("START", seed, flush=True)
+    if seed == 2:
+        os.abort()  # a crash
+    if seed == 3:
+        time.sleep(60)  # a hang
+    print("RESULT " + json.dumps({"seed": seed, "status": "pass", "outcomes": []}), flush=True)
+'''
+
+
+@pytest.mark.slow
+def test_a_crash_or_a_hang_is_the_seed_that_was_playing_and_the_rest_play_on(tmp_path, monkeypatch):
+    script = tmp_path / "fake_case.py"
+    script.write_text(FAKE_CASE_SCRIPT)
+    monkeypatch.setattr(run, "CASE_SCRIPT", script)
+    results = run.play([1, 2, 3, 4], timeout=2.0, zip_path=tmp_path / "unused.zip")
+    by_seed = {r["seed"]: r for r in results}
+    assert sorted(by_seed) == [1, 2, 3, 4]
+    assert by_seed[1]["status"] == by_seed[4]["status"] == "pass"
+    assert by_seed[2]["invariant"] == by_seed[3]["invariant"] == "no crash or hang"
+    assert "exited with" in by_seed[2]["message"] and "ran past" in by_seed[3]["message"]
+    assert "replay: python scripts/fuzz/run.py --replay 2" in run.failure_text(by_seed[2])
