@@ -22,7 +22,7 @@ import traceback
 import bpy
 from bpy.app.handlers import persistent
 
-from . import binding, operators
+from . import binding, bones, operators
 
 _was_editing = set()  # Object.session_uid of bound meshes seen in Edit Mode
 _cage_names = {}  # Object.session_uid -> name, of the bound cages at the last housekeeping
@@ -115,8 +115,9 @@ def rebind_in_window():
 
 
 def release_deleted_cages():
-    """Let go of deleted cages (see the module's docstring and ``binding.follow_cage``)
-    and clear the Cage settings holding them. Returns the names of the cages let go of."""
+    """Let go of deleted cages (see the module's docstring and ``binding.follow_cage``;
+    baked rigs too, ``bones.let_go_of_deleted_cage``) and clear the Cage settings holding
+    them. Returns the names of the cages bindings let go of."""
     released = set()
     _cage_names.clear()
     for obj in bpy.data.objects:
@@ -132,6 +133,7 @@ def release_deleted_cages():
         settings = getattr(obj, "gencoords", None)
         if settings is not None and binding.is_deleted(settings.cage):
             settings.cage = None
+        bones.let_go_of_deleted_cage(obj)
     return released
 
 

@@ -115,8 +115,15 @@ def single_followers(cage, reshaped=()):
     for _ in meshes:  # to a fixed point: chains of cages
         follows |= {name for name, found in drivers.items() if set(found) & follows}
     return [name for name, found in drivers.items() if name != cage.name
-            and sum(d in follows for d in found) == 1
-            and {m.type for m in bpy.data.objects[name].modifiers} <= TRANSLATION_SAFE]
+            and sum(d in follows for d in found) == 1 and translates(bpy.data.objects[name])]
+
+
+def translates(obj):
+    """Whether the mesh object can show a translation of its cage: its modifiers commute
+    with translations and its transform is not flat (a zero scale, set after Bind, keeps
+    the mesh on a plane whatever the cage does)."""
+    columns = np.linalg.norm(np.array(obj.matrix_world, dtype=np.float64)[:3, :3], axis=0)
+    return {m.type for m in obj.modifiers} <= TRANSLATION_SAFE and columns.min() > 1e-6 * columns.max()
 
 
 def _data_shared_with(obj):
@@ -157,7 +164,7 @@ def _bind_operator(state, target):
     except Refused as refusal:
         cage = target.gencoords.cage
         made = state.made_for.get(cage.name if cage else None)
-        if made and made[0] == target.name and "outside" in str(refusal) \
+        if made and made[0] == target.name and "mesh vertices lie outside" in str(refusal) \
                 and made[1] == signature(target, cage):
             raise checks.Violation("a made cage binds", str(refusal)) from None
         raise
@@ -446,8 +453,8 @@ def move_mesh(state, step):
     obj.location = obj.location + type(obj.location)(direction * step["amount"] * checks.size_of(before[obj.name]))
     bpy.context.view_layer.update()
     drivers = drivers_of(obj, state.reshaped)
-    if len(drivers) != 1 or len(bindings_of(obj)) != 1 or \
-            {m.type for m in obj.modifiers} - TRANSLATION_SAFE or 'ARMATURE' in {m.type for m in obj.modifiers}:
+    if len(drivers) != 1 or len(bindings_of(obj)) != 1 or not translates(obj) or \
+            'ARMATURE' in {m.type for m in obj.modifiers}:
         return "done, not checked"
     cage = drivers[0]
     moved_along = cage.parent == obj
