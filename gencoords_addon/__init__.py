@@ -40,7 +40,7 @@ it as a warning.
 Failures are reported as errors and change nothing; in background scripts ``bpy.ops``
 then raises RuntimeError with the message. The deformation is Blender's own evaluation
 of the modifier: no handler runs at playback or render, and a file opened without the
-extension still deforms. ``gencoords_addon.status.status_lines(obj)`` gives the panel's
+extension still deforms. ``gencoords_addon.ui.status.status_lines(obj)`` gives the panel's
 status lines; ``binding_result(obj)`` (also ``bl_ext.user_default.gencoords.binding_result``)
 what Bind measured and stored, read-only: kind, storage chosen, smallest coordinate,
 deviations (``api.BindingResult``); ``binding_results(obj)`` every binding in stack order.
@@ -48,12 +48,13 @@ deviations (``api.BindingResult``); ``binding_results(obj)`` every binding in st
 
 import bpy
 
-from . import handlers, operators, panel
+from . import handlers
 from .api import BindingResult, binding_result, binding_results  # noqa: F401 (public)
+from .ui import bake_operator, operators, panel
 from .preferences import GenCoordsPreferences
-from .properties import GenCoordsSettings
+from .ui.properties import GenCoordsSettings
 
-CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *panel.CLASSES)
+CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *bake_operator.CLASSES, *panel.CLASSES)
 
 
 def register():
@@ -62,7 +63,7 @@ def register():
     bpy.types.Object.gencoords = bpy.props.PointerProperty(
         type=GenCoordsSettings, name="GenCoords",
         description="GenCoords cage deformation settings of this object (read when binding)")
-    operators.MENU.append(operators.draw_menu)
+    bake_operator.MENU.append(bake_operator.draw_menu)
     operators.SELECT_MENU.append(operators.draw_select_menu)
     handlers.register()
 
@@ -70,7 +71,7 @@ def register():
 def unregister():
     handlers.unregister()
     operators.SELECT_MENU.remove(operators.draw_select_menu)
-    operators.MENU.remove(operators.draw_menu)
+    bake_operator.MENU.remove(bake_operator.draw_menu)
     del bpy.types.Object.gencoords
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

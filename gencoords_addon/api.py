@@ -11,7 +11,7 @@ from types import MappingProxyType
 from typing import Mapping
 
 from . import bind_layout as _layout
-from . import binding as _binding
+from .bind import bindings as _bindings
 
 # Stored as the core's names ('mean_value'); given as the ``obj.gencoords`` enum
 # identifiers ('MEAN_VALUE') a script sets.
@@ -58,6 +58,7 @@ class BindingResult:
         return self.format == _layout.FORMAT
 
 
+# The BindData fields a script reads here (the rest: ``metadata``).
 _STORED_FIELDS = tuple(f.name for f in fields(BindingResult)
                        if f.name not in ("modifier", "cage", "metadata"))
 
@@ -72,24 +73,24 @@ def _frozen(value):
 
 
 def _result(found):
-    info = found.info
-    stored = {name: info.get(name) for name in _STORED_FIELDS}
+    data = found.data
+    stored = {name: getattr(data, name) for name in _STORED_FIELDS}
     for name in _ENUM_FIELDS:
         if isinstance(stored[name], str):
             stored[name] = stored[name].upper()
     cage = found.cage
     return BindingResult(modifier=found.modifier.name, cage=cage.name if cage is not None else None,
-                         metadata=_frozen(info), **stored)
+                         metadata=_frozen(data.to_properties()), **stored)
 
 
 def binding_results(obj):
     """Every binding of ``obj`` in modifier stack order: a tuple of ``BindingResult``,
     empty when ``obj`` is not bound (or is not a mesh object)."""
-    return tuple(_result(found) for found in _binding.bindings(obj))
+    return tuple(_result(found) for found in _bindings.bindings(obj))
 
 
 def binding_result(obj, cage=None):
     """The binding of ``obj`` to the object ``cage`` (by default its first binding) as a
     ``BindingResult``, or None when there is none."""
-    found = _binding.binding(obj, cage)
+    found = _bindings.binding(obj, cage)
     return None if found is None else _result(found)

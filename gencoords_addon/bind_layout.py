@@ -3,7 +3,8 @@ attributes and its metadata's keys. Files bound by this layout's number open and
 data of another number reads as "Bind again".
 
 A binding is a Geometry Nodes modifier whose node group carries the ID property
-``METADATA`` (a dict: ``METADATA_KEYS`` and the figures measured at Bind), and vector
+``METADATA`` (a dict: the fields of ``BindData``, the figures measured at Bind among
+them), and vector
 point attributes on the mesh holding its slots three to an attribute
 (``slot_attribute_names``), plus, for compact storage, its basis of cage motions on the
 mesh's first n points (``basis_attribute_names``; n + m rows for Green coordinates, whose
@@ -11,27 +12,103 @@ slots are ``[phi, psi]``), and for Green coordinates the cage's triangles (three
 indices) on the mesh's first m points (``triangle_attribute_name``).
 """
 
+from dataclasses import dataclass, field, fields
+from types import MappingProxyType
+from typing import Mapping, Optional
+
 FORMAT = 2  # bind data layout; data of another number read as "Bind again"
 METADATA = "gencoords"  # ID property of the binding's node group
 ATTRIBUTE_PREFIX = ".gencoords_"  # a leading dot keeps them out of the attribute lists
 # Slot attributes an Unbind in progress has taken away (hidden: the leading dot).
 PARKED_PREFIX = ".unbinding"
+STORAGES = ('EXACT', 'COMPACT')  # the storages a binding is written in
 
-# METADATA keys every binding has (Bind adds its measured figures beside them).
-FORMAT_KEY = "format"
-KEY = "key"  # unique per binding: names its attributes
-KIND = "kind"  # the core's name of the coordinates, e.g. 'mean_value'
-GAMMA = "gamma"  # the kind's parameter, for the kinds that have one
-OUTSIDE = "outside"
-STORAGE = "storage"  # 'EXACT' or 'COMPACT'
-SLOT_COUNT = "slot_count"
-CAGE_VERTEX_COUNT = "cage_vertex_count"
-MESH_VERTEX_COUNT = "mesh_vertex_count"
-CAGE_FACE_COUNT = "cage_face_count"  # Green coordinates: the cage's triangles, m
-CAGE_NAME = "cage_name"  # the cage's name, kept up to date while it exists
-DELETED_CAGE = "deleted_cage"  # the name of the cage, once it is gone
-METADATA_KEYS = (FORMAT_KEY, KEY, KIND, OUTSIDE, STORAGE, SLOT_COUNT, CAGE_VERTEX_COUNT,
-                 MESH_VERTEX_COUNT, CAGE_NAME)
+
+@dataclass(frozen=True)
+class BindData:
+    """A binding's ``METADATA``: what Bind chose and measured, one field per stored key
+    (the key is the field's name). Read with :meth:`from_properties`, written with
+    :meth:`to_properties`; a field that a binding lacks (one of another ``format``, or an
+    earlier version's bind without a later figure) reads as None.
+    """
+
+    format: Optional[int] = None  # bind data layout (``is_current``: this extension's)
+    key: Optional[str] = None  # unique per binding: names its attributes
+    kind: Optional[str] = None  # the core's name of the coordinates, e.g. 'mean_value'
+    gamma: Optional[float] = None  # the kind's parameter, for the kinds that have one
+    outside: Optional[str] = None  # the core's name, e.g. 'raise'
+    storage: Optional[str] = None  # one of STORAGES
+    slot_count: Optional[int] = None  # numbers stored per mesh vertex
+    cage_vertex_count: Optional[int] = None  # n
+    mesh_vertex_count: Optional[int] = None  # k
+    cage_face_count: Optional[int] = None  # Green coordinates: the cage's triangles, m
+    cage_faces_hash: Optional[str] = None  # mesh_io.faces_hash of the cage at Bind
+    cage_non_triangles: Optional[int] = None  # quads and n-gons Bind triangulated
+    cage_name: Optional[str] = None  # the cage's name, kept up to date while it exists
+    deleted_cage: Optional[str] = None  # the name of the cage, once it is gone
+    # Figures measured at Bind, on what was written (core.tools.coordinate_summary,
+    # core.tools.compact's deviations, the core's point locations).
+    storage_choice: Optional[str] = None  # why this storage, in the panel's words
+    report: Optional[str] = None  # core.tools.coordinate_report's headline
+    min_coordinate: Optional[float] = None
+    negative_points: Optional[int] = None
+    max_affine_error: Optional[float] = None
+    linear_precision: Optional[float] = None  # how far the stored coordinates place the mesh
+    deviation_smooth: Optional[float] = None  # of the cage's diagonal
+    deviation_drag: Optional[float] = None
+    deviation_drag_vertex: Optional[int] = None  # the cage vertex whose drag deviates most
+    points_outside: Optional[int] = None
+    points_on_boundary: Optional[int] = None
+    nbytes: Optional[int] = None  # bytes of the bind data's attributes
+    bind_seconds: Optional[float] = None
+    # Stored keys this version does not know (a later version's), kept as they are.
+    unknown: Mapping = field(default_factory=lambda: MappingProxyType({}), compare=False, repr=False)
+
+    @property
+    def is_current(self):
+        """Whether the bind data is this extension's format (else: Bind again)."""
+        return self.format == FORMAT
+
+    @property
+    def rows(self):
+        """Coordinates per mesh vertex: n, or n + m for Green coordinates ([phi, psi])."""
+        return self.cage_vertex_count + (self.cage_face_count or 0)
+
+    @property
+    def slot_names(self):
+        return slot_attribute_names(self.key, self.slot_count)
+
+    @property
+    def basis_names(self):
+        """Compact storage's basis attributes; None for exact storage."""
+        return basis_attribute_names(self.key, self.slot_count) if self.storage == 'COMPACT' else None
+
+    @property
+    def triangle_name(self):
+        """Green coordinates' triangle attribute; None for the other kinds."""
+        return None if self.cage_face_count is None else triangle_attribute_name(self.key)
+
+    def to_properties(self):
+        """The ID property dict stored as ``METADATA`` (ID properties hold no None: a
+        field that is None is not stored)."""
+        stored = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "unknown"}
+        return {**self.unknown, **{name: value for name, value in stored.items() if value is not None}}
+
+    @classmethod
+    def from_properties(cls, properties):
+        """The record of a stored ``METADATA`` (a dict of plain values, as
+        ``IDPropertyGroup.to_dict()`` gives it), in this version's terms.
+
+        Format 2 binds of earlier versions lack later figures (``deviation_drag_vertex``):
+        those read as None. Data of another format number are read field by field as far
+        as they go and are not current (``is_current``: the panel says "Bind again"); a
+        later format that can be read from an earlier one converts it here, before the
+        fields are read.
+        """
+        names = {f.name for f in fields(cls)} - {"unknown"}
+        known = {name: value for name, value in properties.items() if name in names}
+        unknown = {name: value for name, value in properties.items() if name not in names}
+        return cls(**known, unknown=MappingProxyType(unknown))
 
 
 def attribute_prefix(key):

@@ -5,7 +5,8 @@ housekeeping after the artist's Delete and Apply, also on opening a file (``load
 In a window, Auto Rebind hands the rebind to the Bind operator's invoke path (progress
 bar, Esc cancels), started by a timer just after the update that noticed it (a
 depsgraph handler must not run operators, and would block the window); in background
-mode (no timers run, nothing to show) it binds there and then.
+mode (no timers run, nothing to show) it binds there and then, through the same Bind
+service as the operator (``bind.service.bind``).
 
 Blender's Delete of a bound cage (X, the outliner) either clears the references to it,
 without re-evaluating the mesh (which keeps its last deformation), or, where it keeps
@@ -22,7 +23,9 @@ import traceback
 import bpy
 from bpy.app.handlers import persistent
 
-from . import binding, bones, operators
+from .bake import bones
+from .bind import bindings, service
+from .errors import BindError
 
 _was_editing = set()  # Object.session_uid of bound meshes seen in Edit Mode
 _cage_names = {}  # Object.session_uid -> name, of the bound cages at the last housekeeping
@@ -43,8 +46,8 @@ def _never_raise(handler):
 def _needs_rebind(obj):
     """Whether the bound mesh ``obj`` (out of Edit Mode) has another vertex count than
     at Bind."""
-    found = binding.binding(obj)
-    return found is not None and len(obj.data.vertices) != found.info.get("mesh_vertex_count")
+    found = bindings.binding(obj)
+    return found is not None and len(obj.data.vertices) != found.data.mesh_vertex_count
 
 
 def _in_window():
@@ -54,7 +57,7 @@ def _in_window():
 
 def _rebind(obj):
     """Bind ``obj`` again to its bound cage; print why not when that fails."""
-    found = binding.binding(obj)
+    found = bindings.binding(obj)
     if obj.gencoords.cage is None:
         obj.gencoords.cage = found.cage
     if _in_window():
@@ -63,10 +66,8 @@ def _rebind(obj):
             bpy.app.timers.register(rebind_in_window, first_interval=0.0)
         return
     try:
-        job = binding.BindJob(obj, bpy.context)
-        job.run()
-        job.commit()
-    except binding.BindError as error:
+        service.bind(obj, bpy.context)
+    except BindError as error:
         print(f"GenCoords: Auto Rebind of '{obj.name}' failed: {error}")
 
 
@@ -94,7 +95,7 @@ def rebind_in_window():
     pending = set(_rebind_pending)
     _rebind_pending.clear()
     for obj in [o for o in bpy.data.objects if o.session_uid in pending]:
-        if obj.session_uid in operators.MODAL_BINDS:
+        if obj.session_uid in service.MODAL_BINDS:
             _rebind_pending.add(obj.session_uid)
             continue
         try:
@@ -115,7 +116,7 @@ def rebind_in_window():
 
 
 def release_deleted_cages():
-    """Let go of deleted cages (see the module's docstring and ``binding.follow_cage``;
+    """Let go of deleted cages (see the module's docstring and ``bindings.follow_cage``;
     baked rigs too, ``bones.let_go_of_deleted_cage``) and clear the Cage settings holding
     them. Returns the names of the cages bindings let go of."""
     released = set()
@@ -123,15 +124,15 @@ def release_deleted_cages():
     for obj in bpy.data.objects:
         if obj.library is not None:
             continue
-        for found in binding.bindings(obj):
-            name = binding.follow_cage(obj, found)
+        for found in bindings.bindings(obj):
+            name = bindings.follow_cage(obj, found)
             if name is not None:
                 released.add(name)
             cage = found.cage
             if cage is not None:
                 _cage_names[cage.session_uid] = cage.name
         settings = getattr(obj, "gencoords", None)
-        if settings is not None and binding.is_deleted(settings.cage):
+        if settings is not None and bindings.is_deleted(settings.cage):
             settings.cage = None
         bones.let_go_of_deleted_cage(obj)
     return released
@@ -156,7 +157,7 @@ def _housekeeping_needed(depsgraph):
 def on_depsgraph_update(scene, depsgraph):
     if _housekeeping_needed(depsgraph):
         release_deleted_cages()
-        binding.remove_orphaned_groups()
+        bindings.remove_orphaned_groups()
     for obj in scene.objects:
         if obj.type != 'MESH' or not obj.gencoords.auto_rebind:
             continue
@@ -179,7 +180,7 @@ def on_load_post(*_):
     _was_editing.clear()
     _rebind_pending.clear()
     release_deleted_cages()
-    binding.remove_orphaned_groups()
+    bindings.remove_orphaned_groups()
 
 
 HANDLERS = ((bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),

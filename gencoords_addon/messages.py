@@ -91,16 +91,16 @@ def zero_scale(what, name, axes, then):
 POSITIVE_WEIGHTS = "A convex cage (Make Cage) keeps weights positive; Type Green follows a bent cage smoothly"
 
 
-def negative_weights(info, kind_label):
+def negative_weights(data, kind_label):
     """Panel lines (text, icon) explaining a binding's negative coordinates, from its
-    metadata ``info``: how many, why, what keeps them positive."""
-    share = 100.0 * info["negative_points"] / max(info["mesh_vertex_count"], 1)
-    if info["points_outside"] and info["outside"] == "extrapolate":
+    ``BindData``: how many, why, what keeps them positive."""
+    share = 100.0 * data.negative_points / max(data.mesh_vertex_count, 1)
+    if data.points_outside and data.outside == "extrapolate":
         why = "Vertices outside the cage are extrapolated"
-    elif info["kind"] == MEAN_VALUE:
+    elif data.kind == MEAN_VALUE:
         why = "The cage is not convex"
     else:
         why = f"{kind_label} coordinates can be negative in this cage"
-    return [(f"{share:.2g} % of vertices have negative weights (smallest {info['min_coordinate']:.3g})", 'INFO'),
+    return [(f"{share:.2g} % of vertices have negative weights (smallest {data.min_coordinate:.3g})", 'INFO'),
             (f"{why}: parts of the mesh may move against the cage", 'BLANK1'),
             (POSITIVE_WEIGHTS, 'BLANK1')]

@@ -2,16 +2,13 @@
 
 Bind (and Make Cage) compute in the core's worker processes, fresh Python interpreters
 that Blender bundles. Where they cannot start (an antivirus blocking the bundled Python)
-or fail, the operator computes in Blender instead and says so (:func:`in_workers_or_blender`);
-the artist may also choose Blender's own process from the start.
+or fail, the operator computes in Blender instead and says so
+(``bind.service.in_workers_or_blender``); the artist may also choose Blender's own process
+from the start.
 """
-
-import warnings
 
 import bpy
 
-from .. import core
-from . import messages
 
 # The extension's top package (bl_ext.<repository>.gencoords): Blender files an add-on's
 # preferences under the name it was enabled by, not under this subpackage.
@@ -54,30 +51,3 @@ def worker_count(context):
     if preferences is None:
         return None
     return {'AUTO': None, 'BLENDER': 1}.get(preferences.workers, preferences.worker_count)
-
-
-def in_workers_or_blender(compute, workers):
-    """``compute(workers)``; where the worker processes cannot start or fail, ``compute(1)``
-    in Blender's process instead: (its result, None or the message saying so).
-
-    The message is also printed to the system console with the full cause. Other
-    warnings are passed on.
-    """
-    failure = None
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", core.WorkerWarning)  # automatic counts fall back here
-        try:
-            result = compute(workers)
-        except core.WorkerError as error:  # an explicit count
-            failure = error
-            result = compute(1)
-    for warning in caught:
-        if issubclass(warning.category, core.WorkerWarning):
-            failure = warning.message
-        else:
-            warnings.showwarning(warning.message, warning.category, warning.filename, warning.lineno)
-    if failure is None:
-        return result, None
-    message = messages.worker_fallback()
-    print(f"GenCoords: {message}\n  cause: {failure}", flush=True)
-    return result, message

@@ -37,7 +37,7 @@ def bind(mesh, cage, kind=scenes.MEAN_VALUE, storage="AUTO"):
         result = scenes.bind(mesh, cage, kind, storage=storage)
     if "FINISHED" not in result:
         raise RuntimeError(f"gencoords_bind returned {result}")
-    return session.addon_module("binding").binding(mesh)
+    return session.addon_module("bind.bindings").binding(mesh)
 
 
 def evaluation_ms(mesh, cage):
@@ -62,14 +62,14 @@ def strength_and_mask(level, subdivisions, storage):
     cage = scenes.add_icosphere_cage(subdivisions)
     found = bind(mesh, cage, storage=storage)
     plain = evaluation_ms(mesh, cage)
-    compat = session.addon_module("compat")
+    compat = session.addon_module("blender_io.compat")
     upper = np.flatnonzero(arrays.read_positions(mesh.data)[:, 2] > 0.0)
     group = mesh.vertex_groups.new(name="Upper")
     group.add(upper.tolist(), 1.0, 'REPLACE')
     compat.set_modifier_input(found.modifier, "Strength", 0.5)
     compat.set_modifier_input_attribute(found.modifier, "Mask", "Upper")
     masked = evaluation_ms(mesh, cage)
-    return len(mesh.data.vertices), len(cage.data.vertices), found.info["storage"], plain, masked
+    return len(mesh.data.vertices), len(cage.data.vertices), found.data.storage, plain, masked
 
 
 def make_cage_figures(targets):
@@ -143,15 +143,15 @@ def storage_figures(level, cage_kind, storage):
     if slots:
         mesh.gencoords.compact_size = int(slots)
     start = time.perf_counter()
-    info = bind(mesh, cage, storage=setting).info
+    info = bind(mesh, cage, storage=setting).data
     seconds = time.perf_counter() - start
-    smooth, drag = deviations_in_blender(mesh, cage, info["deviation_drag_vertex"])
+    smooth, drag = deviations_in_blender(mesh, cage, info.deviation_drag_vertex)
     return {"mesh": len(mesh.data.vertices), "cage": f"{cage_kind}, {len(cage.data.vertices)}",
-            "setting": storage.lower(), "chose": f"{info['storage'].lower()} {info['slot_count']}",
-            "why": info.get("storage_choice", "-"), "bind": seconds,
-            "reported": (info["deviation_smooth"], info["deviation_drag"]),
+            "setting": storage.lower(), "chose": f"{info.storage.lower()} {info.slot_count}",
+            "why": (info.storage_choice or "-"), "bind": seconds,
+            "reported": (info.deviation_smooth, info.deviation_drag),
             "blender": (smooth, drag), "evaluation": evaluation_ms(mesh, cage),
-            "megabytes": info["nbytes"] / 2**20}
+            "megabytes": info.nbytes / 2**20}
 
 
 def print_storage_table(million=False):

@@ -226,10 +226,10 @@ def run_method(level, subdivisions, method):
             seconds = bind_gencoords(mesh, cage, method[1], method[2])
     row = {"bind": seconds, "peak": memory.peak, "kept": memory.kept, "deviation": "-"}
     if method[0] == "gencoords":
-        info = session.addon_module("binding").binding(mesh).info
-        row["storage"] = f"{info['storage'].lower()} {info['slot_count']}"
-        if info["storage"] == "COMPACT":
-            row["deviation"] = f"{info['deviation_smooth']:.1e} / {info['deviation_drag']:.1e}"
+        info = session.addon_module("bind.bindings").binding(mesh).data
+        row["storage"] = f"{info.storage.lower()} {info.slot_count}"
+        if info.storage == "COMPACT":
+            row["deviation"] = f"{info.deviation_smooth:.1e} / {info.deviation_drag:.1e}"
 
     bpy.context.view_layer.update()
     bound = arrays.evaluated_positions(mesh)

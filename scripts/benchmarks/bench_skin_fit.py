@@ -91,10 +91,11 @@ def character_motion(cage, frames=FRAMES):
 def suzanne_scene():
     """Suzanne in a 162-vertex icosphere: (label, rest (n, 3), coordinates, cage, cage poses)."""
     import gencoords
+    from gencoords.surfaces.named import MEAN_VALUE
     from gencoords.tools import shapes
     rest = suzanne_vertices()
     cage, faces = shapes.icosphere(2, radius=2.0)
-    coordinates = gencoords.coordinates(rest, cage, faces, kind="mean_value")
+    coordinates = gencoords.coordinates(rest, cage, faces, kind=MEAN_VALUE)
     label = f"Suzanne {len(rest)} vertices, icosphere cage {len(cage)} vertices, twist and squash"
     return label, rest, coordinates, cage, twist_and_squash(cage)
 
@@ -102,11 +103,12 @@ def suzanne_scene():
 def character_scene():
     """The character's body in its cage: (label, rest, coordinates, cage, cage poses)."""
     import gencoords
+    from gencoords.surfaces.named import MEAN_VALUE
     from gencoords.tools import triangulate_quads
     from scripts.common import character
     rest, _, _ = character.body_mesh(detail=0.42)
     cage, quads = character.character_cage()
-    coordinates = gencoords.coordinates(rest, cage, triangulate_quads(cage, quads), kind="mean_value")
+    coordinates = gencoords.coordinates(rest, cage, triangulate_quads(cage, quads), kind=MEAN_VALUE)
     label = (f"character body {len(rest)} vertices, non-convex cage {len(cage)} vertices, "
              "arms, legs and head")
     return label, rest, coordinates, cage, character_motion(cage)

@@ -49,7 +49,7 @@ mkdir -p "$CHROOT$STAGE/shots"
 "$REPO/.venv/bin/python" "$REPO/scripts/pictures/panel_screenshot_scene.py" "$CHROOT$STAGE"
 "$REPO/.venv/bin/python" "$REPO/scripts/release/build_extension.py" >/dev/null  # the zip of this tree
 ZIP=$(ls -t "$REPO"/dist/gencoords-*.zip | head -n 1)
-cp -r "$REPO/scripts" "$REPO/gencoords_addon" "$CHROOT$STAGE/"  # scripts.common loads mesh_arrays.py by path
+cp -r "$REPO/scripts" "$REPO/gencoords_addon" "$CHROOT$STAGE/"  # scripts.common loads blender_io/mesh_arrays.py by path
 cp "$ZIP" "$CHROOT$STAGE/gencoords.zip"
 
 # A throw-away user folder: the extension installed and enabled, no splash screen.

@@ -12,7 +12,7 @@ REPO = Path(__file__).resolve().parents[2]
 def _load_mesh_arrays():
     """The add-on's mesh_arrays.py by path: it imports only bpy and numpy, and the demo
     also runs parts without the extension installed."""
-    path = REPO / "gencoords_addon" / "mesh_arrays.py"
+    path = REPO / "gencoords_addon" / "blender_io" / "mesh_arrays.py"
     spec = importlib.util.spec_from_file_location("gencoords_mesh_arrays", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

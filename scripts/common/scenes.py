@@ -3,7 +3,7 @@ objects from arrays, and the cage edits the demo and the benchmarks apply.
 
 One piece of code per idea: ``demo/demo.py`` and ``benchmarks/bench_*.py`` build the same subdivided
 Suzanne inside the same cages and read positions back the same way (the add-on's own
-``gencoords_addon/mesh_arrays.py``, loaded by path), so the demo's pictures and the
+``gencoords_addon/blender_io/mesh_arrays.py``, loaded by path), so the demo's pictures and the
 benchmarks' numbers describe the same thing. Import after ``session.prepare()``.
 """
 
@@ -89,7 +89,7 @@ def add_fitted_cage(mesh, subdivisions=2, margin=1.08, name="Cage"):
     convex. A snug cage makes the mesh follow cage edits visibly (a loose one smooths
     them out), which is what the demo wants to show.
 
-    Not Make Cage (``gencoords_addon/cage_maker.py``, a hull of supporting planes with a
+    Not Make Cage (``gencoords_addon/bind/cage_maker.py``, a hull of supporting planes with a
     vertex budget), which the demo shows beside it: this cage keeps the icosphere's
     topology, so the demo's edits (``nonaffine_edit``) and pictures stay the same.
     """

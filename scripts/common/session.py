@@ -96,7 +96,7 @@ def install_extension():
 
 
 def addon_module(submodule):
-    """A module of the installed add-on, e.g. ``addon_module("binding")``: the figures its
+    """A module of the installed add-on, e.g. ``addon_module("bind.bindings")``: the figures its
     panel shows (smallest coordinate, ...) come from there."""
     import bpy
 

@@ -330,11 +330,11 @@ def deform_each_kind(kinds):
     size = scenes.cage_size(rest_cage)
     corner_label("rest", scene.camera)
     render_with_cage_wire(cage, session.OUT / "before.png")
-    binding = session.addon_module("binding")
+    binding = session.addon_module("bind.bindings")
     rows = []
     for kind in kinds:
         seconds = bind(mesh, cage, kind)
-        smallest = binding.binding(mesh).info["min_coordinate"]
+        smallest = binding.binding(mesh).data.min_coordinate
         # Affine check: exact coordinates move the mesh exactly like the cage.
         arrays.write_positions(cage.data, scenes.affine_map(rest_cage))
         settle()

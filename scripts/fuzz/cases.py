@@ -119,8 +119,11 @@ def step_of(rng, available):
             step.update(bones=rng.choice((1, 4, 8)), frame_end=rng.choice((1, 3)))
         return step
     if op == "make_cage":
-        return {"op": op, "target": target, "vertices": rng.choice((8, 20, 100, 300)),
-                "margin": rng.choice((0.0, 0.01, 0.05, 0.5))}
+        step = {"op": op, "target": target, "vertices": rng.choice((8, 20, 100, 300)),
+                "margin": rng.choice((0.0, 0.01, 0.05, 0.5)), "shape": rng.choice(("CONVEX", "CONVEX", "TIGHT"))}
+        if step["shape"] == "TIGHT":
+            step["offset"] = rng.choice((0.0, 0.01, 0.1))
+        return step
     if op == "frame":
         return {"op": op, "cage": cage, "amount": 10.0 ** rng.uniform(-3, 0),
                 "direction": [rng.gauss(0, 1) for _ in range(3)]}

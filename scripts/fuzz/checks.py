@@ -167,7 +167,7 @@ def check_finite():
 def check_panel():
     """The panel's status lines (what the artist reads; ``binding_results`` for scripts) can
     be drawn for every mesh object."""
-    status, api = session.addon_module("status"), session.addon_module("api")
+    status, api = session.addon_module("ui.status"), session.addon_module("api")
     for obj in bpy.context.view_layer.objects:
         try:
             status.status_lines(obj)

@@ -362,8 +362,10 @@ def clear_field(state, step):
 
 def make_cage(state, step):
     target = state.get(step["target"])
-    added = _new_objects(lambda: operate(target, bpy.ops.object.gencoords_make_cage,
-                                         target_vertices=step["vertices"], margin=step["margin"]))
+    options = {"target_vertices": step["vertices"], "margin": step["margin"]}
+    if step.get("shape") == "TIGHT":
+        options.update(shape='TIGHT', offset=step["offset"])
+    added = _new_objects(lambda: operate(target, bpy.ops.object.gencoords_make_cage, **options))
     made = [o for o in added if o.type == 'MESH']
     if made:
         state.roles["made"] = made[0].name

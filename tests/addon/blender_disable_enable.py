@@ -23,7 +23,7 @@ report["disabled"] = PACKAGE not in bpy.context.preferences.addons
 write_positions(cage.data, read_positions(cage.data) + (0.5, 0.0, 0.0))
 report["follows_while_disabled"] = float(np.abs(evaluated_positions(obj) - before[0] - (0.5, 0, 0)).max())
 addon_utils.enable(PACKAGE, default_set=True, handle_error=None)
-from bl_ext.user_default.gencoords.gencoords_addon import status  # noqa: E402 (imported anew)
+from bl_ext.user_default.gencoords.gencoords_addon.ui import status  # noqa: E402 (imported anew)
 
 report["status_after_enable"] = [text for text, _ in status.status_lines(obj)]
 write_positions(cage.data, read_positions(cage.data) + (0.0, 0.25, 0.0))

@@ -29,7 +29,7 @@ report["frame_2_as_saved"] = bool(np.array_equal(evaluated_positions(obj), stret
 scene.frame_set(1)
 report["frame_1_is_rest"] = bool(np.array_equal(evaluated_positions(obj), rest))
 if report["enabled"]:
-    from bl_ext.user_default.gencoords.gencoords_addon import status
+    from bl_ext.user_default.gencoords.gencoords_addon.ui import status
 
     report["status"] = [text for text, _ in status.status_lines(obj)]
 basis = cage.data.shape_keys.key_blocks["Basis"]  # an edit after reopening

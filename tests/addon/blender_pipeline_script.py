@@ -59,10 +59,10 @@ report["by_cage"] = gencoords.binding_result(mesh, far) == results[1]
 report["cage_not_bound"] = gencoords.binding_result(near) is None
 # The exact binding's coordinates as the mesh stores them (the extension's internals, to
 # check the figure against what was written).
-internal = gencoords.gencoords_addon.binding.binding(mesh, near)
+internal = gencoords.gencoords_addon.bind.bindings.binding(mesh, near)
 report["stored_min_coordinate"] = float(internal.coordinates(mesh.data).min())
 report["stored_slot_count"] = internal.coordinates(mesh.data).shape[1]
-report["panel"] = [text for text, _ in gencoords.gencoords_addon.status.status_lines(mesh)]
+report["panel"] = [text for text, _ in gencoords.gencoords_addon.ui.status.status_lines(mesh)]
 
 immutable = []
 try:

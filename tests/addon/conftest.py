@@ -24,6 +24,15 @@ from fresh_process import (ENABLE_INSTEAD_OF_READING_PREFERENCES, PACKAGE, REPO,
 import bpy  # noqa: E402
 
 
+# The add-on's modules the tests reach as ``gc.<name>``.
+ADDON_MODULES = (("binding", "bind.bindings"), ("job", "bind.job"), ("attributes", "bind.attributes"),
+                 ("service", "bind.service"), ("errors", "errors"),
+                 ("bones", "bake.bones"), ("compat", "blender_io.compat"), ("deformer", "graph.deformer"),
+                 ("status", "ui.status"), ("visualise", "ui.visualise"), ("enums", "enums"),
+                 ("bind_layout", "bind_layout"), ("mesh_arrays", "blender_io.mesh_arrays"), ("handlers", "handlers"),
+                 ("operators", "ui.operators"))
+
+
 @pytest.fixture(scope="session")
 def package(tmp_path_factory):
     """The extension zip, freshly built and validated by scripts/release/build_extension.py."""
@@ -51,9 +60,7 @@ def addon(package):
         warnings.warn(f"bpy {bpy.app.version_string}: wm.read_userpref() crashes; "
                       f"subprocesses enable {PACKAGE} with addon_utils instead")
         os.environ[ENABLE_INSTEAD_OF_READING_PREFERENCES] = PACKAGE
-    modules = {name: importlib.import_module(f"{PACKAGE}.gencoords_addon.{name}")
-               for name in ("binding", "bones", "compat", "deformer", "status", "visualise",
-                            "enums", "bind_layout", "mesh_arrays", "handlers", "operators")}
+    modules = {name: importlib.import_module(f"{PACKAGE}.gencoords_addon.{path}") for name, path in ADDON_MODULES}
     yield SimpleNamespace(core=importlib.import_module(f"{PACKAGE}.core"), **modules)
     shutil.rmtree(USER_RESOURCES, ignore_errors=True)
 

@@ -40,7 +40,7 @@ def run_blender_script(script, *arguments, user_resources=USER_RESOURCES, timeou
     Fails the test with the script's output when it exits non-zero or runs past
     ``timeout``. Scripts print their results on a line ``REPORT <json>`` as their last
     act; with ``survive_exit_bug``, a crash or hang after that line (a known bpy bug at
-    interpreter exit, see ``test_addon_files_and_render``) is killed after
+    interpreter exit, see ``test_graph_files_and_render``) is killed after
     ``EXIT_GRACE_SECONDS``, reported as a warning and the output is kept.
     """
     environment = dict(os.environ, BLENDER_USER_RESOURCES=str(user_resources))
@@ -80,7 +80,7 @@ def run_blender_script(script, *arguments, user_resources=USER_RESOURCES, timeou
         import bpy  # after BLENDER_USER_RESOURCES is set (above)
 
         warnings.warn(f"bpy {bpy.app.version_string}: {script} {what} after its report "
-                      "(known bpy bug at interpreter exit, see test_addon_files_and_render)")
+                      "(known bpy bug at interpreter exit, see test_graph_files_and_render)")
         return output
     pytest.fail(f"{script} {what}{'' if reported_at else ' before its report'}:\n{output}")
 

@@ -1,6 +1,6 @@
 """Building test scenes with bpy, shared by the tests and their subprocess scripts.
 
-Mesh arrays (the add-on's own ``gencoords_addon/mesh_arrays.py``, loaded by path: some
+Mesh arrays (the add-on's own ``gencoords_addon/blender_io/mesh_arrays.py``, loaded by path: some
 subprocess scripts run without the extension installed), ``make_active`` and ``bind``
 (through the operator, as a user binds) are the scripts' own, from
 ``scripts.common.blender_objects``: one helper per idea for scripts and tests.

@@ -94,7 +94,7 @@ def test_make_cage_around_a_micro_mesh_far_from_the_origin_binds_and_follows(gc)
 
 
 def test_show_coordinate_after_the_cage_was_deleted_says_so_and_leaves_nothing(gc, capfd):
-    from test_addon_artist import delete_as_the_artist
+    from test_ui_artist import delete_as_the_artist
 
     cage = add_icosphere_cage()
     obj = add_sphere()
@@ -111,7 +111,7 @@ def test_show_coordinate_after_the_cage_was_deleted_says_so_and_leaves_nothing(g
 
 
 def test_changing_cage_vertex_of_a_shown_field_after_the_cage_was_deleted_is_quiet(gc, capfd):
-    from test_addon_artist import delete_as_the_artist
+    from test_ui_artist import delete_as_the_artist
 
     cage = add_icosphere_cage()
     obj = add_sphere()
@@ -180,7 +180,7 @@ def test_the_panel_says_when_the_bind_data_is_gone_from_a_shared_mesh(gc):
     cage = add_icosphere_cage()
     obj = add_sphere()
     assert bind(obj, cage) == {'FINISHED'}
-    gc.deformer.remove_slots(obj.data, gc.binding.binding(obj).key)
+    gc.attributes.remove_slots(obj.data, gc.binding.binding(obj).key)
     errors = [text for text, icon in gc.status.status_lines(obj) if icon == 'ERROR']
     assert errors and "bind data of 'Mesh' is missing" in errors[0]
 
@@ -192,7 +192,7 @@ def test_bake_to_bones_refuses_a_cage_whose_modifiers_change_its_vertex_count(gc
     cage.modifiers.new("Subdivision", 'SUBSURF').levels = 1
     obj = add_sphere()
     assert bind(obj, cage) == {'FINISHED'}
-    assert gc.binding.binding(obj).info["cage_vertex_count"] == 26
+    assert gc.binding.binding(obj).data.cage_vertex_count == 26
     assert_bake_refused(gc, obj, cage, r"Cannot bake 'Mesh' to bones: the cage 'Cage' has 26 vertices "
                                        r"with its modifiers and 8 without: .*Apply")
 
@@ -235,7 +235,7 @@ def test_power_bindings_that_lose_linear_precision_in_storage_are_refused(gc):
     obj.gencoords.gamma = -8.0
     make_active(obj)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
-    assert gc.binding.binding(obj).info["linear_precision"] < 1e-6
+    assert gc.binding.binding(obj).data.linear_precision < 1e-6
     assert follows(obj, cage)
 
 
@@ -302,13 +302,13 @@ def test_negative_mean_value_weights_in_a_non_convex_cage_are_explained_not_an_e
     bpy.context.collection.objects.link(cage)
     obj = add_points_object(body_points(400, seed=1))
     assert bind(obj, cage) == {'FINISHED'}
-    info = gc.binding.binding(obj).info
-    assert info["negative_points"] > 0
+    info = gc.binding.binding(obj).data
+    assert info.negative_points > 0
     lines = gc.status.status_lines(obj)
     assert not [text for text, icon in lines if icon == 'ERROR']
     texts = [text for text, _ in lines]
-    share = 100 * info["negative_points"] / info["mesh_vertex_count"]
-    assert f"{share:.2g} % of vertices have negative weights (smallest {info['min_coordinate']:.3g})" in texts
+    share = 100 * info.negative_points / info.mesh_vertex_count
+    assert f"{share:.2g} % of vertices have negative weights (smallest {info.min_coordinate:.3g})" in texts
     assert "The cage is not convex: parts of the mesh may move against the cage" in texts
     assert any("convex cage (Make Cage) keeps weights positive" in text for text in texts)
 
@@ -380,7 +380,7 @@ def test_auto_rebind_waits_for_a_modal_bind_of_the_mesh_instead_of_starting_a_se
     """Tabbing in and out while the Auto Rebind's modal Bind computes: the timer that
     would start another waits (looks again) until that Bind has ended, then rebinds once
     if the mesh still needs it."""
-    from test_addon_bind import subdivide_in_edit_mode
+    from test_bind_and_deform import subdivide_in_edit_mode
 
     monkeypatch.setattr(gc.handlers, "_in_window", lambda: True)
     cage = add_icosphere_cage()
@@ -389,16 +389,16 @@ def test_auto_rebind_waits_for_a_modal_bind_of_the_mesh_instead_of_starting_a_se
     assert bind(obj, cage) == {'FINISHED'}
     key = gc.binding.binding(obj).key
     try:
-        gc.operators.MODAL_BINDS.add(obj.session_uid)  # a modal Bind of it is computing
+        gc.service.MODAL_BINDS.add(obj.session_uid)  # a modal Bind of it is computing
         subdivide_in_edit_mode(obj)
         assert gc.handlers.rebind_in_window() == gc.handlers.REBIND_RETRY_SECONDS  # looks again
         assert gc.binding.binding(obj).key == key and obj.session_uid in gc.handlers._rebind_pending
-        gc.operators.MODAL_BINDS.discard(obj.session_uid)  # it ended (here: without binding)
+        gc.service.MODAL_BINDS.discard(obj.session_uid)  # it ended (here: without binding)
         assert gc.handlers.rebind_in_window() is None
         found = gc.binding.binding(obj)
-        assert found.key != key and found.info["mesh_vertex_count"] == len(obj.data.vertices)
+        assert found.key != key and found.data.mesh_vertex_count == len(obj.data.vertices)
         assert [m.name for m in obj.modifiers] == ["GenCoords"]
     finally:
-        gc.operators.MODAL_BINDS.discard(obj.session_uid)
+        gc.service.MODAL_BINDS.discard(obj.session_uid)
         if bpy.app.timers.is_registered(gc.handlers.rebind_in_window):
             bpy.app.timers.unregister(gc.handlers.rebind_in_window)

@@ -86,7 +86,7 @@ class RecordingLayout:
 def test_panel_draws_settings_status_and_operators(gc):
     from scene_helpers import add_icosphere_cage, add_sphere, bind
 
-    panel = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.panel")
+    panel = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.ui.panel")
     assert hasattr(bpy.types, "OBJECT_PT_gencoords") and hasattr(bpy.types, "VIEW3D_PT_gencoords")
     obj = add_sphere()
     bind(obj, add_icosphere_cage())
@@ -102,7 +102,7 @@ def test_panel_draws_settings_status_and_operators(gc):
 
 
 def test_status_lines_wrap_to_the_panel_width_without_losing_words(gc):
-    panel = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.panel")
+    panel = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.ui.panel")
     sentence = ("Mesh edited since Bind: 812 vertices added; it is not deformed until you "
                 "Bind again (or turn on Auto Rebind)")
     lines = panel.wrapped(sentence, 30)
@@ -114,21 +114,35 @@ def test_status_lines_wrap_to_the_panel_width_without_losing_words(gc):
 ADDON = REPO / "gencoords_addon"
 
 
+MAX_MODULE_LINES = 400
+MAX_MODULES_PER_FOLDER = 12
+
+
 def addon_trees():
-    """Every add-on module's name and syntax tree."""
-    return {path.stem: ast.parse(path.read_text(), str(path)) for path in sorted(ADDON.glob("*.py"))}
+    """Every add-on module's dotted name under the add-on (``bind.job``) and syntax tree."""
+    return {".".join(path.relative_to(ADDON).with_suffix("").parts): ast.parse(path.read_text(), str(path))
+            for path in sorted(ADDON.rglob("*.py"))}
 
 
-def add_on_imports(tree, modules):
-    """The add-on modules ``tree`` imports, at any depth (inside functions too)."""
-    imported = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.ImportFrom) and node.level == 1:
-            if node.module is None:  # from . import a, b
-                imported |= {alias.name for alias in node.names if alias.name in modules}
-            elif node.module.split(".")[0] in modules:
-                imported.add(node.module.split(".")[0])
-    return imported
+def test_no_add_on_module_is_over_400_lines():
+    long = {str(path.relative_to(REPO)): count for path in sorted(ADDON.rglob("*.py"))
+            if (count := len(path.read_text().splitlines())) > MAX_MODULE_LINES}
+    assert not long
+
+
+def test_the_add_on_is_grouped_in_folders_of_at_most_12_modules():
+    folders = [ADDON, *(path for path in ADDON.rglob("*") if path.is_dir() and path.name != "__pycache__")]
+    counts = {str(folder.relative_to(REPO)): len([p for p in folder.glob("*.py") if p.name != "__init__.py"])
+              for folder in folders}
+    assert all(count <= MAX_MODULES_PER_FOLDER for count in counts.values()), counts
+    assert {"ui", "bind", "graph", "blender_io"} <= {Path(folder).name for folder in counts}
+
+
+def test_add_on_tests_mirror_its_folders():
+    """A test file per folder of the add-on, named for it (``test_bind_*.py`` for ``bind/``)."""
+    tests = [path.name for path in (REPO / "tests" / "addon").glob("test_*.py")]
+    for folder in (path for path in ADDON.iterdir() if path.is_dir() and path.name != "__pycache__"):
+        assert any(name.startswith(f"test_{folder.name}_") for name in tests), folder.name
 
 
 def test_kind_ids_are_spelled_only_in_the_enum_module(addon):
@@ -141,10 +155,10 @@ def test_kind_ids_are_spelled_only_in_the_enum_module(addon):
 
 
 def test_mesh_arrays_are_read_and_written_in_one_module():
-    """``foreach_get``/``foreach_set`` on mesh data only in ``mesh_arrays`` (keyframes
+    """``foreach_get``/``foreach_set`` on mesh data only in ``blender_io.mesh_arrays`` (keyframes
     are not mesh data)."""
     found = [f"{name}.py:{node.lineno}" for name, tree in addon_trees().items()
-             if name != "mesh_arrays" for node in ast.walk(tree)
+             if name != "blender_io.mesh_arrays" for node in ast.walk(tree)
              if isinstance(node, ast.Attribute) and node.attr in ("foreach_get", "foreach_set")
              and not (isinstance(node.value, ast.Attribute) and node.value.attr == "keyframe_points")]
     assert not found

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import core
-from .mesh_arrays import (read_corner_vertices, read_face_sizes, read_faces,
-                          read_loop_triangle_faces, read_positions)
+from ... import core
+from .mesh_arrays import (read_corner_vertices, read_face_sizes, read_faces, read_loop_triangle_faces,
+                          read_positions)
 
 
 def read_triangles(mesh, positions):

@@ -42,11 +42,11 @@ def test_green_binding_is_bitwise_at_rest_and_follows_similarities_exactly(gc, s
     obj = add_subdivided_sphere(levels=2)  # 1922 vertices
     rest = read_positions(obj.data).astype(np.float64)
     assert bind_green(obj, cage, storage=storage, compact_size=24) == {'FINISHED'}
-    info = gc.binding.binding(obj).info
+    info = gc.binding.binding(obj).data
     result = importlib.import_module(gc.core.__name__.rpartition(".")[0]).binding_result(obj)
     assert (result.kind, result.storage, result.gamma) == ("GREEN", storage, None)
     slots = 42 + 80 if storage == "EXACT" else 24
-    assert (info["kind"], info["storage"], info["slot_count"], info["cage_face_count"]) == \
+    assert (info.kind, info.storage, info.slot_count, info.cage_face_count) == \
         ("green", storage, slots, 80)
     np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
     vertices, _ = cage_arrays(cage)
@@ -79,14 +79,14 @@ def test_compact_green_reports_the_deviation_of_what_it_wrote(gc):
     rest = read_positions(obj.data).astype(np.float64)
     vertices, faces = cage_arrays(cage)
     assert bind_green(obj, cage, storage="COMPACT", compact_size=36) == {'FINISHED'}
-    info = gc.binding.binding(obj).info
+    info = gc.binding.binding(obj).data
     moved = smooth_test_motion(vertices)
     write_positions(cage.data, moved)
     phi, psi = gencoords.green_coordinates(rest, vertices, faces)
     exact = rest + np.hstack([phi, psi]) @ green_displacements(vertices, moved, faces)
     diagonal = np.linalg.norm(np.ptp(vertices, axis=0))
     measured = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max() / diagonal
-    assert 0.0 < info["deviation_smooth"] and abs(measured - info["deviation_smooth"]) < 1e-5
+    assert 0.0 < info.deviation_smooth and abs(measured - info.deviation_smooth) < 1e-5
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
     assert "Coordinates: Green" in text and "Storage: Compact, 36 per vertex" in text
 

@@ -2,9 +2,9 @@
 
 import bpy
 
-from ..core.base.inputs import GAMMA_LIMIT
+from ...core.base.inputs import GAMMA_LIMIT
+from ..enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 from . import visualise
-from .enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 
 
 def _is_cage_candidate(settings, obj):

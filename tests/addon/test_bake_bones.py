@@ -303,7 +303,7 @@ class RecordingLayout:
 def test_bake_to_bones_is_in_the_object_animation_menu_and_the_panel(gc):
     """Issue 19 item 8: Object > Animation draws it (menus are what F3 searches), the
     panel shows it for a bound mesh, and the GUI's invoke path runs it."""
-    operators = importlib.import_module(f"{PACKAGE}.gencoords_addon.operators")
+    operators = importlib.import_module(f"{PACKAGE}.gencoords_addon.ui.bake_operator")
     menu = bpy.types.VIEW3D_MT_object_animation
     assert operators.draw_menu in menu._dyn_ui_initialize()
     layout = RecordingLayout()
@@ -318,7 +318,7 @@ def test_bake_to_bones_is_in_the_object_animation_menu_and_the_panel(gc):
     assert not bpy.ops.object.gencoords_bake_bones.poll()  # not bound: greyed out
     with pytest.raises(RuntimeError, match="'Mesh' is not bound: Bind it first"):
         bpy.ops.object.gencoords_bake_bones()
-    panel = importlib.import_module(f"{PACKAGE}.gencoords_addon.panel")
+    panel = importlib.import_module(f"{PACKAGE}.gencoords_addon.ui.panel")
     bind(obj, cage)
     drawn = []
 

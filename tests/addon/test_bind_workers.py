@@ -74,10 +74,10 @@ def test_bind_computes_in_chunks_and_a_cancel_changes_nothing(gc, monkeypatch, w
     obj = add_subdivided_sphere(levels=2)
     obj.gencoords.cage = cage
     before = mesh_state(obj)
-    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 3000)  # 250 points a chunk per worker
+    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 3000)  # 250 points a chunk per worker
     workers_preference(workers)
     make_active(obj)
-    job = gc.binding.BindJob(obj, bpy.context)
+    job = gc.job.BindJob(obj, bpy.context)
     steps = job.steps()
     fractions = [next(steps) for _ in range(3)]
     assert fractions == sorted(fractions) and fractions[-1] < 1.0
@@ -86,7 +86,7 @@ def test_bind_computes_in_chunks_and_a_cancel_changes_nothing(gc, monkeypatch, w
     assert not worker_processes.live()
     assert mesh_state(obj)[1] == before[1] and not obj.modifiers
     assert not [g for g in bpy.data.node_groups if "GenCoords" in g.name]
-    job = gc.binding.BindJob(obj, bpy.context)
+    job = gc.job.BindJob(obj, bpy.context)
     assert list(job.steps())[-1] == 1.0
     job.commit()
     assert gc.binding.binding(obj) is not None
@@ -99,7 +99,7 @@ def test_bind_in_worker_processes_stores_what_one_process_computes(gc, monkeypat
     # operators in 5.2 give no order guarantee).
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
-    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 5000)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 5000)
     workers_preference(1)
     bind(obj, cage)
     alone = coordinates_of(gc, obj)
@@ -119,7 +119,7 @@ def test_bind_under_windows_semantics_leaves_nothing_behind(gc, monkeypatch, tmp
     # memory (the paging file's, never a file), let go of it after every chunk of the Bind.
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
-    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 5000)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 5000)
     workers_preference(1)
     bind(obj, cage)
     alone = coordinates_of(gc, obj)
@@ -144,7 +144,7 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
     # console.
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
-    monkeypatch.setattr(gc.binding, "CHUNK_ENTRIES", 5000)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 5000)
     workers_preference(1)
     bind(obj, cage)
     alone = coordinates_of(gc, obj)
@@ -164,13 +164,15 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
     assert not gc.core.evaluation.parallel.shared_files(os.getpid())
 
 
-def test_make_cage_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, capfd, workers_preference):
+@pytest.mark.parametrize("shape", ["CONVEX", "TIGHT"])
+def test_make_cage_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, capfd, workers_preference,
+                                                                 shape):
     obj = add_subdivided_sphere(levels=1)
     make_active(obj)
     workers_preference(2)
     simulated_os.broken_start(monkeypatch)
     capfd.readouterr()
-    assert bpy.ops.object.gencoords_make_cage(target_vertices=40) == {'FINISHED'}
+    assert bpy.ops.object.gencoords_make_cage(target_vertices=40, shape=shape) == {'FINISHED'}
     assert obj.gencoords.cage is not None
     output = capfd.readouterr()
     assert "computed in Blender instead" in output.out + output.err

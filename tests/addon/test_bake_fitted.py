@@ -12,7 +12,7 @@ import pytest
 
 from fresh_process import PACKAGE, report_of, run_blender_script
 from scene_helpers import add_icosphere_cage, add_sphere, bind, make_active, read_positions
-from test_addon_bones import (animate_cage, apply_matrix, binding_motion, pose_at_time, read_accessor,
+from test_bake_bones import (animate_cage, apply_matrix, binding_motion, pose_at_time, read_accessor,
                               read_glb, skinned_positions, validate, y_up)
 
 WORST, RMS = 0.02, 0.005  # the issue's targets, fractions of the mesh's diagonal
@@ -20,7 +20,7 @@ FRAMES = range(1, 11)
 
 
 def fitted_module():
-    return importlib.import_module(f"{PACKAGE}.gencoords_addon.bake_fitted")
+    return importlib.import_module(f"{PACKAGE}.gencoords_addon.bake.fitted")
 
 
 def bound_animated_scene(gc, kind="MEAN_VALUE", radius=2.0):
@@ -209,8 +209,8 @@ def test_in_a_window_the_fit_runs_modal_with_progress_and_esc(gc, monkeypatch):
     thread: nothing is written until it ends, Esc changes nothing, other events are held."""
     from types import SimpleNamespace
 
-    from test_addon_artist import ContextStandIn, WindowStandIn
-    operators = importlib.import_module(f"{PACKAGE}.gencoords_addon.operators")
+    from test_ui_artist import ContextStandIn, WindowStandIn
+    operators = importlib.import_module(f"{PACKAGE}.gencoords_addon.ui.bake_operator")
     obj, expected = bound_animated_scene(gc)
     make_active(obj)
     monkeypatch.setattr(operators, "interactive", lambda context: True)

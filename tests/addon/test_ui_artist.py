@@ -11,7 +11,7 @@ import pytest
 from scene_helpers import (make_active, add_cube_cage, add_icosphere_cage, add_sphere, bind,
                            evaluated_positions, mesh_state, read_positions, update,
                            write_positions)
-from test_addon_errors import assert_bind_refused, bound, fault_text
+from test_bind_errors import assert_bind_refused, bound, fault_text
 
 DELETED = "The cage 'Cage' was deleted: the mesh is not deformed; pick another cage and Bind, or Unbind"
 
@@ -253,7 +253,7 @@ def drawn_panel(obj):
 
     from test_addon_package import RecordingLayout
 
-    panel = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.panel")
+    panel = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.ui.panel")
     drawn = []
     panel.draw_settings(RecordingLayout(drawn), obj)
     return drawn
@@ -269,7 +269,7 @@ def test_the_panel_of_a_cage_says_whose_cage_it_is(gc):
 
 def test_slots_show_only_where_the_storage_is_compact(gc):
     obj, cage = bound(gc)
-    assert gc.binding.binding(obj).info["storage"] == 'EXACT'
+    assert gc.binding.binding(obj).data.storage == 'EXACT'
     assert obj.gencoords.storage == 'AUTO'  # resolved to exact: the Slots do nothing
     assert ("prop", "compact_size") not in drawn_panel(obj)
     obj.gencoords.storage = 'COMPACT'
@@ -325,7 +325,7 @@ def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkey
 
     from types import SimpleNamespace
 
-    operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.operators")
+    operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.ui.operators")
     obj, cage = bound(gc)
     earlier = gc.binding.binding(obj).key
     make_active(obj)
@@ -377,7 +377,7 @@ def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeyp
 
     from types import SimpleNamespace
 
-    operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.operators")
+    operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.ui.operators")
     cage = add_icosphere_cage(subdivisions=2)
     other = add_cube_cage(size=5.0, name="Other")
     obj = add_sphere()
@@ -395,9 +395,9 @@ def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeyp
         result = running.modal(context, SimpleNamespace(type='TIMER'))
     assert result == {'FINISHED'}
     (found,) = gc.binding.bindings(obj)
-    assert found.cage == cage and found.info["kind"] == "mean_value" and "gamma" not in found.info
-    assert found.info["outside"] == "raise" and found.info["storage"] == 'EXACT'
-    assert found.info["slot_count"] == len(cage.data.vertices)
+    assert found.cage == cage and found.data.kind == "mean_value" and found.data.gamma is None
+    assert found.data.outside == "raise" and found.data.storage == 'EXACT'
+    assert found.data.slot_count == len(cage.data.vertices)
 
 
 def test_bind_and_unbind_leave_the_cage_with_the_users_it_had(gc):

@@ -25,9 +25,11 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from ..core.tools import skin_fit
-from . import binding as bindings_module
-from . import bones, compat, mesh_arrays, mesh_io
+from ...core.tools import skin_fit
+from ..bind import bindings as bindings_module
+from ..blender_io import compat, mesh_arrays, mesh_io
+from ..errors import BakeError
+from . import bones
 
 BONE_PREFIX = "GenCoords Fitted "
 DEFAULT_BONES = 64
@@ -39,7 +41,7 @@ def frame_range(scene, start=None, end=None):
     first = scene.frame_start if start is None else int(start)
     last = scene.frame_end if end is None else int(end)
     if last < first:
-        raise bindings_module.BindError(f"The frame range {first} to {last} is empty: End must "
+        raise BakeError(f"The frame range {first} to {last} is empty: End must "
                                         "be at least Start")
     return np.arange(first, last + 1)
 
@@ -77,11 +79,11 @@ def sample_deformation(obj, context, frames, modifier):
     finally:
         scene.frame_set(current[0], subframe=current[1])
     if any(len(sampled) != count for sampled in positions):
-        raise bindings_module.BindError(f"Cannot bake '{obj.name}' to fitted bones: its binding "
+        raise BakeError(f"Cannot bake '{obj.name}' to fitted bones: its binding "
                                         "changes its vertex count: Bind again")
     broken = [int(frame) for frame, sampled in zip(frames, positions) if not np.isfinite(sampled).all()]
     if broken:
-        raise bindings_module.BindError(
+        raise BakeError(
             f"Cannot bake '{obj.name}' to fitted bones: its deformed vertices are not finite "
             f"at frame {broken[0]} ({len(broken)} of the {len(frames)} frames sampled): check the cage's positions and "
             "keyframes there, or bake another frame range")

@@ -5,9 +5,9 @@ import textwrap
 
 import bpy
 
-from .binding import binding, bindings, meshes_driven_by
+from ..bind.bindings import binding, bindings, meshes_driven_by
+from ..enums import is_green, kind_parameter
 from .status import status_lines
-from .enums import is_green, kind_parameter
 from .visualise import field_range
 
 

@@ -10,10 +10,14 @@ import bmesh
 import bpy
 import numpy as np
 
-from .. import core
-from ..core.tools import enclosing
-from . import mesh_arrays, mesh_io, messages, preferences
-from .binding import FLOAT32_TOLERANCE, zero_scale_axes
+from ... import core
+from ...core.tools import enclosing
+from .. import messages, preferences
+from ..blender_io import mesh_arrays, mesh_io
+from ..errors import CageError
+from . import cage_tight
+from .scene import FLOAT32_TOLERANCE, zero_scale_axes
+from .service import in_workers_or_blender
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
@@ -22,10 +26,6 @@ CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
 MIN_MARGIN = 4 * CORNER_MERGE
 MARGIN_TRIES, MARGIN_GROWTH = 4, 4.0
 HULL_TRIES = 64  # hulls, each without the corners the last one left not convex
-
-
-class CageError(Exception):
-    """No usable cage could be made; the message says why."""
 
 
 def _hull(points):
@@ -119,7 +119,7 @@ def _enclosing_cage(obj, points, target_vertices, margin, context):
     worker failure or None)."""
     for _ in range(MARGIN_TRIES):
         stored, triangles = make_cage_geometry(points, target_vertices, margin)
-        outside, worker_failure = preferences.in_workers_or_blender(
+        outside, worker_failure = in_workers_or_blender(
             lambda workers: core.point_locations(points, stored, triangles, tolerance=FLOAT32_TOLERANCE,
                                                  workers=workers), preferences.worker_count(context))
         count = int(np.count_nonzero(outside == core.OUTSIDE))
@@ -129,10 +129,12 @@ def _enclosing_cage(obj, points, target_vertices, margin, context):
     raise CageError(f"{count} vertices of '{obj.name}' ended outside the cage: raise the margin")
 
 
-def make_cage(obj, context, target_vertices=100, margin=0.05):
+def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None):
     """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
     None or what to say about worker processes that failed, see
-    :func:`preferences.in_workers_or_blender`).
+    :func:`service.in_workers_or_blender`). ``tight``: a non-convex cage hugging the
+    mesh (``cage_tight``); ``distance``: the margin in world units, not a share of the
+    mesh's size.
 
     A mesh farther from the origin than its size gets its cage object at the middle of
     its bounds (a float32 location), with vertices relative to it: float32 vertices then
@@ -143,11 +145,17 @@ def make_cage(obj, context, target_vertices=100, margin=0.05):
     if np.linalg.norm(centre) <= np.linalg.norm(np.ptp(points, axis=0)):
         centre[:] = 0.0  # near the origin: the cage object there, read back without a transform
     points = points - centre
-    stored, triangles, worker_failure = _enclosing_cage(obj, points, target_vertices, margin, context)
+    if distance is not None:
+        margin = distance / max(float(np.linalg.norm(np.ptp(points, axis=0))), np.finfo(float).tiny)
+    if tight:  # the core checks the enclosure, as stored
+        stored, triangles, worker_failure = cage_tight.make_tight_cage(
+            points, cage_tight.enclosed_triangles(obj, context), target_vertices, margin, context)
+    else:
+        stored, triangles, worker_failure = _enclosing_cage(obj, points, target_vertices, margin, context)
     mesh = bpy.data.meshes.new(f"{obj.name} cage")
     cage = None
     try:  # all or nothing: what was added goes again on a failure
-        mesh.from_pydata(stored.tolist(), [], triangles.tolist())
+        mesh.from_pydata(stored.tolist(), [], [list(face) for face in triangles])  # Tight: quads too
         mesh.update()
         cage = bpy.data.objects.new(f"{obj.name} cage", mesh)
         cage.location = centre.tolist()

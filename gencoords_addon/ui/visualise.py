@@ -3,9 +3,9 @@ mark that vertex on the cage."""
 
 import bpy
 
-from .. import core
-from . import binding
-from .mesh_arrays import write_point_colors
+from ... import core
+from ..bind import bindings
+from ..blender_io.mesh_arrays import write_point_colors
 
 FIELD_ATTRIBUTE = "GenCoords Field"
 # On the mesh data, beside the colours: (lowest, highest) of the field shown, from
@@ -18,16 +18,16 @@ MARKER_SIZE = 0.04  # of the cage's bounding-box diagonal: visible, not in the w
 
 def field_problem(obj):
     """Why the field of ``obj.gencoords.field_vertex`` cannot be shown, or None."""
-    found = binding.binding(obj)
+    found = bindings.binding(obj)
     if found is None:
         return f"'{obj.name}' is not bound: Bind it to a cage first"
     if found.cage is None:  # the field's marker sits on the cage
         gone = f"The cage '{found.deleted_cage}' was" if found.deleted_cage else "The cage was"
         return f"{gone} deleted: pick another cage and Bind, then Show Coordinate"
-    count = found.info["cage_vertex_count"]
+    count = found.data.cage_vertex_count
     if obj.gencoords.field_vertex >= count:
         return f"Cage Vertex must be below {count}: the cage has {count} vertices"
-    if len(obj.data.vertices) != found.info["mesh_vertex_count"]:
+    if len(obj.data.vertices) != found.data.mesh_vertex_count:
         return f"'{obj.name}' was edited since Bind (vertices added or deleted): Bind again"
     return None
 
@@ -37,7 +37,7 @@ def paint_field(obj):
 
     Call only when ``field_problem(obj)`` is None.
     """
-    values = binding.binding(obj).coordinate_column(obj.data, obj.gencoords.field_vertex)
+    values = bindings.binding(obj).coordinate_column(obj.data, obj.gencoords.field_vertex)
     if values is None:
         return False
     colors = core.tools.field_colors(values)
@@ -53,7 +53,7 @@ def paint_field(obj):
     mesh.color_attributes.active_color = attribute
     mesh[FIELD_RANGE] = core.tools.field_range(values)
     mesh.update()
-    mark_cage_vertex(obj, binding.binding(obj).cage, obj.gencoords.field_vertex)
+    mark_cage_vertex(obj, bindings.binding(obj).cage, obj.gencoords.field_vertex)
     return True
 
 

@@ -19,10 +19,11 @@ frame range.
 import bpy
 import numpy as np
 
-from ..core.tools import compact, skinning
-from . import binding as bindings_module
-from . import compat, mesh_arrays, mesh_io, status
-from .enums import is_green, kind_label
+from ...core.tools import compact, skinning
+from ..bind import bindings as bindings_module
+from ..blender_io import compat, mesh_arrays, mesh_io
+from ..enums import is_green, kind_label
+from ..errors import BakeError
 
 BONE_PREFIX = "GenCoords "
 BAKE_INFO = "gencoords_bake"  # ID property of the rig's armature: the bake's figures
@@ -35,10 +36,10 @@ def bone_names(count):
 
 
 def negative_message(obj, found, count, smallest):
-    kind = kind_label(found.info["kind"])
+    kind = kind_label(found.data.kind)
     compact_note = (" (this binding uses Compact storage, which reproduces coordinates "
                     "approximately: Storage Exact may help)"
-                    if found.info.get("storage") == 'COMPACT' else "")
+                    if found.data.storage == 'COMPACT' else "")
     return (f"Cannot bake '{obj.name}' to bones: {count} of its {kind} coordinates are "
             f"negative (down to {smallest:.3g}){compact_note}, and vertex-group weights "
             "cannot be (Blender clamps them to 0 to 1). Bind with Type Wachspress, or Mean "
@@ -137,7 +138,7 @@ def bake(obj, context, max_influences=0, keyframes=True):
     motion = cage_motion(cage, context) if keyframes else None
     if motion is not None and not np.isfinite(motion[1]).all():
         frame = int(motion[0][np.flatnonzero(~np.isfinite(motion[1]).all(axis=(1, 2)))[0]])
-        raise bindings_module.BindError(
+        raise BakeError(
             f"Cannot bake '{obj.name}' to bones: the cage '{cage.name}' has undefined (NaN or "
             f"infinite) positions at frame {frame}: fix its animation, or untick Keyframe Cage Motion")
 
@@ -191,37 +192,37 @@ def bake(obj, context, max_influences=0, keyframes=True):
 def _bake_inputs(obj, max_influences):
     """The binding of ``obj`` a bake replaces, its coordinates ((k, n) float32), the
     bone weights ((k, n), truncated to ``max_influences``) and the rest cage ((n, 3)
-    float64, world space as seen from the mesh now); BindError when it cannot be baked."""
+    float64, world space as seen from the mesh now); BakeError when it cannot be baked."""
     found = bindings_module.binding(obj)
     if found.cage is None:
-        raise bindings_module.BindError("The binding's cage is missing: Bind again first")
+        raise BakeError("The binding's cage is missing: Bind again first")
     # Whatever stops the deformer (a NaN cage vertex, changed counts) would bake a rig
     # that does something else: the rig would follow what the binding does not.
-    problem = status.deformation_problem(obj, found)
+    problem = bindings_module.deformation_problem(obj, found)
     if problem is not None:
-        raise bindings_module.BindError(f"Cannot bake '{obj.name}' to bones: {problem}")
-    if is_green(found.info["kind"]):
-        raise bindings_module.BindError(
+        raise BakeError(f"Cannot bake '{obj.name}' to bones: {problem}")
+    if is_green(found.data.kind):
+        raise BakeError(
             f"Cannot bake '{obj.name}' to bones: it is bound with Green coordinates, which also "
             "follow the cage's face normals and stretch, and bones (linear blend skinning) "
             "cannot: Bind with another Type (Mean Value, say), then Bake to Bones")
-    bound, own = found.info["cage_vertex_count"], len(found.cage.data.vertices)
+    bound, own = found.data.cage_vertex_count, len(found.cage.data.vertices)
     if own != bound:
-        raise bindings_module.BindError(
+        raise BakeError(
             f"Cannot bake '{obj.name}' to bones: the cage '{found.cage.name}' has {bound} vertices "
             f"with its modifiers and {own} without: bones follow the cage's own vertices. Apply "
             "the cage's modifiers (or remove them), Bind again, then Bake to Bones")
     coordinates = found.coordinates(obj.data)
     rest_local = found.rest_cage
     if coordinates is None or rest_local is None \
-            or len(obj.data.vertices) != found.info["mesh_vertex_count"]:
-        raise bindings_module.BindError(f"The bind data of '{obj.name}' is missing or no "
+            or len(obj.data.vertices) != found.data.mesh_vertex_count:
+        raise BakeError(f"The bind data of '{obj.name}' is missing or no "
                                         "longer matches its vertices: Bind again")
     # On every coordinate, before Max Influences drops the smallest: a truncation would
     # otherwise drop negatives silently, and the kept weights would not be the binding.
     negative, smallest = skinning.negative_weights(coordinates)
     if negative:
-        raise bindings_module.BindError(negative_message(obj, found, negative, smallest))
+        raise BakeError(negative_message(obj, found, negative, smallest))
     weights = skinning.truncate(coordinates, max_influences)
     # The rig sits at the world origin: the bones rest where the bind-time cage is seen
     # from the mesh now (the deformer reads the cage relative to the mesh too).
@@ -241,7 +242,7 @@ def _add_following_bones(rig, cage, names, rest):
 
 def _following_error(rig, cage, names, rest, context):
     """How far (per cage diagonal) the rig's evaluated bones are from the evaluated cage
-    vertices the binding follows; BindError beyond FOLLOW_TOLERANCE (the rig would move
+    vertices the binding follows; BakeError beyond FOLLOW_TOLERANCE (the rig would move
     the mesh otherwise than the binding did)."""
     depsgraph = context.evaluated_depsgraph_get()
     evaluated = rig.evaluated_get(depsgraph)
@@ -252,7 +253,7 @@ def _following_error(rig, cage, names, rest, context):
     diagonal = float(np.linalg.norm(np.ptp(rest, axis=0)))
     error = float(np.linalg.norm(heads - cage_now, axis=1).max()) / diagonal
     if not error <= FOLLOW_TOLERANCE:
-        raise bindings_module.BindError(
+        raise BakeError(
             f"Cannot bake to bones: the bones of '{rig.name}' would sit {error:.2g} of the cage's size away from "
             f"the cage vertices the binding follows (modifiers or constraints on '{cage.name}'?): "
             "apply them, Bind again, then Bake to Bones")
@@ -261,7 +262,7 @@ def _following_error(rig, cage, names, rest, context):
 
 def let_go_of_deleted_cage(rig):
     """A baked rig whose cage the artist deleted lets go of it, as a binding does
-    (``binding.follow_cage``): its bones' Copy Location constraints lose their target, so
+    (``bindings.follow_cage``): its bones' Copy Location constraints lose their target, so
     the bones rest (or play their keyframes) now, as they do once the file is saved and
     reopened (a deleted object is not written). Returns whether it let go."""
     if rig.type != 'ARMATURE' or rig.pose is None or BAKE_INFO not in rig.data:

@@ -119,8 +119,8 @@ def test_vertices_outside_are_counted_and_project_or_extrapolate_bind(gc):
                                    "enlarge the cage, or set Outside to Project or Extrapolate")
     for mode, verb in (("PROJECT", "projected onto the cage"), ("EXTRAPOLATE", "extrapolated")):
         assert bind(obj, cage, outside=mode) == {'FINISHED'}
-        info = gc.binding.binding(obj).info
-        assert surely_outside <= info["points_outside"] <= np.count_nonzero(distances > 1.5)
+        info = gc.binding.binding(obj).data
+        assert surely_outside <= info.points_outside <= np.count_nonzero(distances > 1.5)
         assert np.isfinite(evaluated_positions(obj)).all()
         assert any(f"outside the cage ({verb})" in text for text, _ in gc.status.status_lines(obj))
 
@@ -180,7 +180,7 @@ def test_cage_topology_change_is_reported_until_rebind(gc, change, message):
         np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
     assert bind(obj, cage) == {'FINISHED'}
     assert fault_text(gc, obj) == ""
-    assert gc.binding.binding(obj).info["cage_vertex_count"] == len(cage.data.vertices)
+    assert gc.binding.binding(obj).data.cage_vertex_count == len(cage.data.vertices)
 
 
 def test_mesh_topology_change_is_reported_and_passed_through(gc):
@@ -250,19 +250,33 @@ def test_status_names_negative_coordinates_only_when_there_are_some(gc):
     cage = add_icosphere_cage(radius=2.0)
     obj = add_sphere(radius=1.0, location=(1.5, 0, 0))  # partly outside: extrapolated, negative
     assert bind(obj, cage, outside="EXTRAPOLATE") == {'FINISHED'}
-    info = gc.binding.binding(obj).info
-    assert info["negative_points"] > 0 and info["min_coordinate"] < 0.0
+    info = gc.binding.binding(obj).data
+    assert info.negative_points > 0 and info.min_coordinate < 0.0
     lines = gc.status.status_lines(obj)
-    share = 100 * info["negative_points"] / info["mesh_vertex_count"]
-    expected = f"{share:.2g} % of vertices have negative weights (smallest {info['min_coordinate']:.3g})"
+    share = 100 * info.negative_points / info.mesh_vertex_count
+    expected = f"{share:.2g} % of vertices have negative weights (smallest {info.min_coordinate:.3g})"
     assert (expected, 'INFO') in lines
     assert ("Vertices outside the cage are extrapolated: parts of the mesh may move against the cage",
             'BLANK1') in lines
     assert not [text for text, icon in lines if icon == 'ERROR']  # a bound mesh that deforms
     inside = add_sphere(radius=0.5)  # well inside: mean value coordinates are positive
     assert bind(inside, cage) == {'FINISHED'}
-    info = gc.binding.binding(inside).info
-    assert info["negative_points"] == 0 and info["min_coordinate"] > 0.0
+    info = gc.binding.binding(inside).data
+    assert info.negative_points == 0 and info.min_coordinate > 0.0
     lines = gc.status.status_lines(inside)
-    assert (f"Smallest coordinate: {info['min_coordinate']:.4g}", 'CHECKMARK') in lines
+    assert (f"Smallest coordinate: {info.min_coordinate:.4g}", 'CHECKMARK') in lines
     assert not any("negative" in text for text, _ in lines)
+
+
+def test_scripts_bind_through_the_service_and_catch_one_error_family(gc):
+    obj = add_sphere()
+    with pytest.raises(gc.errors.GenCoordsError, match="Choose a cage for 'Mesh' first"):
+        gc.service.bind(obj, bpy.context)
+    assert not obj.modifiers
+    cage = add_icosphere_cage()
+    obj.gencoords.cage = cage
+    report = gc.service.bind(obj, bpy.context)
+    assert report.level == 'INFO' and report.message.startswith("Bound 'Mesh' (")
+    assert gc.binding.binding(obj, cage).data.mesh_vertex_count == len(obj.data.vertices)
+    for error in (gc.errors.BindError, gc.errors.BakeError, gc.errors.CageError):
+        assert issubclass(error, gc.errors.GenCoordsError)

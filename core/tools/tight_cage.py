@@ -1,0 +1,422 @@
+"""Tight (non-convex) cages around a mesh: pushing a cage out until it encloses every
+point, the checks such a cage must pass, and how much it adds to the mesh's volume.
+
+A cage made by offsetting and simplifying a mesh's surface (the Blender add-on uses a
+voxel remesh and a decimation) hugs the mesh but need not enclose it: simplification
+cuts chords across convex parts. :func:`enclose` finds the points the cage leaves out
+(winding numbers, so any closed cage, convex or not), moves the faces nearest to them
+outward along the vertex normals by the distance they miss plus a clearance, and
+checks again, a bounded number of times. :func:`fit_tight_cage` then requires what a
+cage needs to bind: closed, manifold (at edges and at vertices: :func:`pinched_vertices`),
+outward, no self-intersection (:mod:`gencoords.tools.self_intersection`), every point
+strictly inside.
+"""
+
+import numpy as np
+
+from ..base.errors import CageError
+from ..base.simplex import closest_points_on_simplices
+from ..base.triangulation import triangulate_quads
+from ..construction.boundary import INSIDE
+from ..construction.validation import validate_cage
+from ..evaluation.barycentric import point_locations
+from .self_intersection import self_intersections
+from .volumes import signed_volume, union_volume
+
+__all__ = ["TightCageError", "vertex_normals", "pinched_vertices", "outward_pushes", "cage_triangles",
+           "enclose", "fit_tight_cage", "volume_ratio"]
+
+PUSH_ITERATIONS = 16  # push-outs before giving up
+_PAIR_BLOCK = 1 << 18  # (point, triangle) pairs per block when finding nearest triangles
+_SMALLEST_COSINE = 0.5  # a vertex moves at most twice what a face next to it needs
+_NEIGHBOUR_SHARE = 0.5  # of a vertex's push, its neighbours move at least this
+
+
+class TightCageError(ValueError):
+    """The cage cannot be made tight: ``problem`` names why ("outside",
+    "self_intersecting"), the message says what to change."""
+
+    def __init__(self, problem, message):
+        super().__init__(message)
+        self.problem = problem
+
+
+def vertex_normals(vertices, triangles):
+    """Area-weighted unit normals at the vertices of an outward triangle mesh.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+
+    Returns
+    -------
+    normals : (n, 3) float64
+        Zero at vertices of no triangle.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.tight_cage import vertex_normals
+    >>> vertices, faces = octahedron()
+    >>> bool(np.allclose(vertex_normals(vertices, faces), vertices))  # unit, along each vertex
+    True
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    corners = vertices[triangles]
+    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals = np.zeros_like(vertices)
+    for corner in range(3):
+        np.add.at(normals, triangles[:, corner], face)
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+
+
+def pinched_vertices(triangles):
+    """Vertices where a closed, edge-manifold triangle mesh touches itself: their faces
+    form more than one fan (two sheets meeting at a point).
+
+    Around each vertex, a face's corner leads across its outgoing edge to the face on the
+    other side; the corners of a vertex whose faces form one fan make a single cycle.
+
+    Parameters
+    ----------
+    triangles : (m, 3) int
+        Every edge shared by two consistently oriented triangles.
+
+    Returns
+    -------
+    vertices : (p,) int64
+        Sorted; empty for a manifold mesh.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.tight_cage import pinched_vertices
+    >>> faces = octahedron()[1]
+    >>> pinched_vertices(faces).tolist(), pinched_vertices(np.concatenate([faces, faces + 5])).tolist()
+    ([], [5])
+    """
+    triangles = np.asarray(triangles, dtype=np.int64)
+    corner_vertex = triangles.ravel()
+    following = np.roll(triangles, -1, axis=1).ravel()  # the corner's outgoing edge ends here
+    # The twin of edge (v, w) is (w, v): in its face, the corner at v follows the one at w.
+    key = {(int(w), int(v)): c for c, (v, w) in enumerate(zip(corner_vertex, following))}
+    successor = np.array([key[(int(v), int(w))] for v, w in zip(corner_vertex, following)])
+    twin_face, twin_position = np.divmod(successor, 3)
+    step = 3 * twin_face + (twin_position + 1) % 3  # the twin face's corner at v
+    seen = np.zeros(len(step), dtype=bool)
+    fans = np.zeros(int(corner_vertex.max(initial=-1)) + 1, dtype=np.int64)
+    for start in range(len(step)):
+        if not seen[start]:
+            fans[corner_vertex[start]] += 1
+            corner = start
+            while not seen[corner]:
+                seen[corner] = True
+                corner = step[corner]
+    return np.flatnonzero(fans > 1).astype(np.int64)
+
+
+def _nearest_triangles(vertices, triangles, points):
+    """Index of the nearest triangle (m,) and the distance to it, for each point (q, 3)."""
+    corners = vertices[triangles]
+    nearest = np.empty(len(points), dtype=np.int64)
+    distance = np.empty(len(points))
+    rows = max(1, _PAIR_BLOCK // len(triangles))
+    for start in range(0, len(points), rows):
+        block = points[start:start + rows]
+        _, _, found = closest_points_on_simplices(np.repeat(block, len(triangles), axis=0),
+                                                  np.tile(corners, (len(block), 1, 1)))
+        found = found.reshape(len(block), len(triangles))
+        nearest[start:start + rows] = found.argmin(axis=1)
+        distance[start:start + rows] = found.min(axis=1)
+    return nearest, distance
+
+
+def outward_pushes(vertices, triangles, points, clearance):
+    """How far each cage vertex moves along its normal for the cage to pass ``clearance``
+    beyond each of ``points`` (those it left out).
+
+    Each point's nearest triangle must move out by the point's distance to it plus the
+    clearance; a vertex moves by the most its triangles need, divided by the cosine
+    between its normal and theirs (at least 0.5), so the triangles' planes move that far.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+        Outward.
+    points : (q, 3) float
+    clearance : float
+        Absolute.
+
+    Returns
+    -------
+    pushes : (n,) float64
+        Non-negative distances along :func:`vertex_normals`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.tight_cage import outward_pushes
+    >>> vertices, faces = octahedron()
+    >>> pushes = outward_pushes(vertices, faces, [[2.0, 0.0, 0.0]], 0.5)
+    >>> # 1 + 0.5 along the nearest face's normal is sqrt(3) times that along (1, 0, 0)
+    >>> round(float(pushes[0]), 6), bool(np.isclose(pushes[0], 1.5 * np.sqrt(3.0)))
+    (2.598076, True)
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    pushes = np.zeros(len(vertices))
+    if not len(points):
+        return pushes
+    nearest, distance = _nearest_triangles(vertices, triangles, points)
+    need = np.zeros(len(triangles))
+    np.maximum.at(need, nearest, distance + clearance)
+    corners = vertices[triangles]
+    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    face /= np.maximum(np.linalg.norm(face, axis=1, keepdims=True), np.finfo(float).tiny)
+    normals = vertex_normals(vertices, triangles)
+    for corner in range(3):
+        cosine = np.einsum("mi,mi->m", normals[triangles[:, corner]], face)
+        np.maximum.at(pushes, triangles[:, corner], need / np.maximum(cosine, _SMALLEST_COSINE))
+    # Neighbours go half as far: a patch moves out, not a spike that tilts its faces away
+    # from the points beside (slow to converge, and spikes cross other faces).
+    spread = pushes.copy()
+    for first, second in ((0, 1), (1, 2), (2, 0)):
+        np.maximum.at(spread, triangles[:, first], _NEIGHBOUR_SHARE * pushes[triangles[:, second]])
+        np.maximum.at(spread, triangles[:, second], _NEIGHBOUR_SHARE * pushes[triangles[:, first]])
+    return spread
+
+
+def cage_triangles(vertices, triangles, quads=None):
+    """The triangles a cage of triangles and quads is bound with: its triangles, then
+    each quad split as :func:`gencoords.tools.triangulate_quads` splits it (the diagonal
+    depends on the positions, so it is found again whenever they move).
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+    quads : (q, 4) int or None
+
+    Returns
+    -------
+    triangles : (m + 2q, 3) int64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.tight_cage import cage_triangles
+    >>> square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    >>> cage_triangles(square, np.zeros((0, 3), int), [[0, 1, 2, 3]]).tolist()
+    [[0, 1, 2], [0, 2, 3]]
+    """
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if quads is None or not len(quads):
+        return triangles
+    return np.concatenate([triangles, triangulate_quads(vertices, quads)])
+
+
+def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
+            workers=None, stored_as=np.float64, quads=None):
+    """Push the cage out until every point is strictly inside it.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+        A closed, outward cage (convex or not).
+    points : (k, 3) float
+    clearance : float
+        Absolute: how far beyond a left-out point its face moves.
+    tolerance : float
+        Relative to the cage's size: points this close to the cage count as outside.
+    iterations : int
+        Push-outs tried before giving up.
+    workers : int or None
+        Worker processes for the winding numbers (``gencoords.point_locations``).
+    stored_as : numpy float type
+        What the cage's positions will be stored as (``np.float32`` in Blender): pushed
+        positions are rounded to it before they are checked, so the check holds for what
+        is stored.
+    quads : (q, 4) int or None
+        Quads of the cage beside its triangles, checked as :func:`cage_triangles` splits
+        them.
+
+    Returns
+    -------
+    vertices : (n, 3) float64
+        The pushed cage (values of ``stored_as``).
+    pushes : int
+        How many push-outs it took (0: it enclosed the points already).
+
+    Raises
+    ------
+    TightCageError
+        ``problem`` "outside": some points stay outside after ``iterations`` push-outs.
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.tools.tight_cage import enclose
+    >>> points = icosphere(3)[0]  # on the unit sphere: the coarse sphere's faces cut chords
+    >>> vertices, faces = icosphere(1)
+    >>> pushed, pushes = enclose(vertices, faces, points, clearance=0.02, tolerance=1e-6)
+    >>> where = gencoords.point_locations(points, pushed, faces, 1e-6)
+    >>> pushes > 0, bool((where == gencoords.INSIDE).all())
+    (True, True)
+    """
+    vertices = np.asarray(vertices, dtype=stored_as).astype(np.float64)
+    points = np.asarray(points, dtype=np.float64)
+    split = cage_triangles(vertices, triangles, quads)
+    where = point_locations(points, vertices, split, tolerance, workers)
+    pushes, checked_all = 0, True
+    while True:
+        left_out = where != INSIDE
+        if not left_out.any():
+            if checked_all:
+                return vertices, pushes
+            # The swept boxes decide up to the tolerance, which scales with the cage.
+            where, checked_all = point_locations(points, vertices, split, tolerance, workers), True
+            continue
+        if pushes == iterations:
+            raise TightCageError("outside", f"{int(left_out.sum())} mesh vertices stay outside "
+                                            f"the cage after pushing it out {iterations} times: "
+                                            "raise the offset or the vertex count")
+        pushes, checked_all = pushes + 1, False
+        # Each push out overshoots more: a vertex pushed alone tilts its faces away from
+        # the points beside the one it was pushed for.
+        moves = outward_pushes(vertices, split, points[left_out], clearance * pushes)
+        moved = vertices + moves[:, None] * vertex_normals(vertices, split)
+        moved = moved.astype(stored_as).astype(np.float64)
+        moved_split = cage_triangles(moved, triangles, quads)
+        faces = (np.asarray(triangles, dtype=np.int64).reshape(-1, 3),
+                 np.asarray(quads if quads is not None else [], dtype=np.int64).reshape(-1, 4))
+        swept = _swept(points, vertices, moved, faces, moves > 0, tolerance)
+        vertices, split = moved, moved_split
+        where[swept] = point_locations(points[swept], vertices, split, tolerance, workers)
+
+
+def _swept(points, before, after, faces, moved, tolerance):
+    """Points (indices) whose winding number a move of the cage can change: those in the
+    bounding box of a moved face's corners before and after (a face moving linearly stays
+    in the convex hull of both, whichever diagonal splits a quad), widened by the tolerance."""
+    low, high = [], []
+    for face in faces:  # triangles, quads
+        touched = face[moved[face].any(axis=1)]
+        corners = np.concatenate([before[touched], after[touched]], axis=1)
+        low.append(corners.min(axis=1))
+        high.append(corners.max(axis=1))
+    pad = 2.0 * tolerance * float(np.linalg.norm(np.ptp(after, axis=0)))
+    low, high = np.concatenate(low) - pad, np.concatenate(high) + pad
+    inside = np.zeros(len(points), dtype=bool)
+    for start in range(0, len(low), 64):  # bounded memory: points x 64 boxes
+        inside |= ((points[:, None] >= low[None, start:start + 64])
+                   & (points[:, None] <= high[None, start:start + 64])).all(axis=2).any(axis=1)
+    return np.flatnonzero(inside)
+
+
+def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
+                   workers=None, stored_as=np.float64, quads=None):
+    """A cage from ``vertices`` and ``triangles`` that binds around ``points``: pushed out
+    until it encloses them (:func:`enclose`), then checked.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+        A closed, outward cage, usually an offset and simplified copy of the mesh.
+    points : (k, 3) float
+        The mesh's vertices, in the cage's space.
+    clearance, tolerance, iterations, workers, stored_as, quads
+        As for :func:`enclose`.
+
+    Returns
+    -------
+    vertices : (n, 3) float64
+    pushes : int
+
+    Raises
+    ------
+    CageError
+        The cage is not closed, manifold, outward, or has degenerate faces (before or
+        after pushing).
+    TightCageError
+        Points stay outside, or the cage touches ("pinched") or passes through itself.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.tools.tight_cage import TightCageError, fit_tight_cage
+    >>> vertices, faces = icosphere(1)
+    >>> fitted, pushes = fit_tight_cage(vertices, faces, 0.5 * vertices, 0.01, 1e-6)
+    >>> pushes, bool(np.array_equal(fitted, vertices))  # enclosing already
+    (0, True)
+    >>> twice = np.concatenate([vertices, vertices + [0.93, 0.11, 0.07]])
+    >>> try:
+    ...     fit_tight_cage(twice, np.concatenate([faces, faces + len(vertices)]), [[0.5, 0.0, 0.0]], 0.01, 1e-6)
+    ... except TightCageError as error:
+    ...     print(error.problem)
+    self_intersecting
+    """
+    validate_cage(vertices, cage_triangles(vertices, triangles, quads), convex=False, tolerance=tolerance)
+    vertices, pushes = enclose(vertices, triangles, points, clearance, tolerance, iterations, workers,
+                               stored_as, quads)
+    triangles = cage_triangles(vertices, triangles, quads)
+    try:
+        validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
+    except CageError as error:
+        raise TightCageError("pushed", f"pushing the cage out to enclose the mesh spoiled it "
+                                       f"({error}): raise the offset or the vertex count") from None
+    pinched = pinched_vertices(triangles)
+    if len(pinched):
+        raise TightCageError("pinched", f"the cage touches itself at {len(pinched)} vertices (first: "
+                                        f"vertex {pinched[0]}), where parts of the mesh are closer "
+                                        "than twice the offset: lower the offset or raise the "
+                                        "vertex count")
+    crossing = self_intersections(vertices, triangles, tolerance)
+    if len(crossing):
+        raise TightCageError("self_intersecting", f"the cage passes through itself ({len(crossing)} "
+                                                  "pairs of faces cross, where parts of the mesh are "
+                                                  "closer than twice the offset): lower the offset or "
+                                                  "raise the vertex count")
+    return vertices, pushes
+
+
+def volume_ratio(cage_vertices, cage_triangles, mesh_vertices, mesh_triangles, columns=256):
+    """The cage's volume over the mesh's (the union of its shells, see
+    :func:`gencoords.tools.volumes.union_volume`).
+
+    Parameters
+    ----------
+    cage_vertices : (n, 3) float
+    cage_triangles : (m, 3) int
+    mesh_vertices : (k, 3) float
+    mesh_triangles : (t, 3) int
+    columns : int
+        The union volume's columns across the mesh.
+
+    Returns
+    -------
+    ratio : float
+        ``inf`` for a mesh that encloses no volume (open or flat).
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.tight_cage import volume_ratio
+    >>> vertices, faces = octahedron()
+    >>> round(volume_ratio(2.0 * vertices, faces, vertices, faces, columns=400), 2)
+    8.0
+    """
+    mesh = union_volume(mesh_vertices, mesh_triangles, columns)
+    cage = signed_volume(cage_vertices, cage_triangles)
+    return cage / mesh if mesh > 0.0 else float("inf")

@@ -1,0 +1,143 @@
+"""One Bind: ``BindJob(obj, context)`` reads everything it needs from the scene and checks
+it (``bind.scene``); ``job.steps()`` runs the core's planner (``core.tools.bind_plan``: a
+generator yielding the fraction done, so the UI can show progress and cancel between
+chunks); ``job.commit()`` then writes the plan (``bind.commit``). Nothing in the file
+changes before ``commit``, and ``commit`` undoes its own partial work if it fails, so a
+failed or cancelled Bind leaves the mesh, its modifier stack and any earlier binding as
+they were.
+"""
+
+import secrets
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ... import core
+from ...core.tools import bind_plan
+from .. import messages, preferences
+from ..bind_layout import FORMAT, BindData
+from ..enums import is_green
+from ..errors import BindError
+from . import commit
+from .scene import FLOAT32_TOLERANCE, BindSettings, check_inputs, read_bind_input
+
+
+@dataclass
+class BindResult:
+    """Everything ``commit`` writes: arrays for the mesh and the node group, and figures."""
+
+    slots: np.ndarray  # (k, s) float32
+    basis: np.ndarray  # (n, s) float64 ((n + m, s) for Green), or None for exact storage
+    triangles: np.ndarray  # (m, 3) int: Green coordinates' cage triangles, else None
+    rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
+    data: BindData  # METADATA
+
+
+class BindJob:
+    """One Bind of ``obj`` to its chosen cage: read and checked on creation (BindError),
+    computed by ``steps()``, written by ``commit()``. It reads the object's settings once,
+    on creation (``self.settings``, a ``BindSettings``)."""
+
+    def __init__(self, obj, context, in_workers=None):
+        started = time.perf_counter()
+        check_inputs(obj)
+        self.obj = obj
+        self.settings = settings = BindSettings.of(obj)
+        self.cage, self.kind_label = settings.cage, settings.kind_label
+        self.green = is_green(settings.kind)
+        # Set when the workers failed and Blender computed instead: what to tell the artist.
+        self.worker_failure = None
+        self.input = scene = read_bind_input(obj, settings, context)
+        self.request = self._request(context, in_workers)
+        # Bind data as far as the scene tells; the plan adds the storage and the figures.
+        self.data = BindData(
+            format=FORMAT, kind=settings.kind, gamma=settings.gamma, outside=settings.outside,
+            cage_vertex_count=len(scene.cage_vertices), mesh_vertex_count=len(scene.points),
+            cage_faces_hash=scene.faces_hash, cage_non_triangles=scene.non_triangles,
+            cage_name=self.cage.name, cage_face_count=len(scene.triangles) if self.green else None)
+        self.started = started
+        self.result = None
+
+    def _request(self, context, in_workers):
+        """What the core plans: the settings in its terms, the workers the preferences ask
+        for, and ``in_workers(compute, workers)`` -> (result, failure message or None): the
+        fallback to Blender's process where they fail (``bind.service``; None: no fallback)."""
+        settings = self.settings
+
+        def run(compute, workers):
+            if self.worker_failure is not None:  # they failed once: the rest in Blender too
+                workers = 1
+            if in_workers is None:
+                return compute(workers)
+            result, failure = in_workers(compute, workers)
+            if failure is not None:
+                self.worker_failure = failure
+            return result
+
+        return bind_plan.BindRequest(
+            kind=settings.kind, outside=settings.outside, gamma=settings.gamma, storage=settings.storage,
+            compact_size=settings.compact_size, workers=preferences.worker_count(context),
+            tolerance=FLOAT32_TOLERANCE, run=run)
+
+    def steps(self):
+        """Compute the bind data chunk by chunk, yielding the fraction done (0 to 1).
+
+        Raises BindError for a bad cage or vertices outside it. Closing the generator
+        early (a cancel) stops the core's worker processes and leaves nothing behind.
+        """
+        scene = self.input
+        try:
+            plan = yield from bind_plan.plan_bind(scene.points, scene.cage_vertices, scene.triangles,
+                                                  self.request)
+        except core.OutsideCageError:
+            raise BindError(self._outside_message()) from None
+        except bind_plan.ImpreciseCoordinatesError as error:
+            raise BindError(self._imprecise_message(error)) from None
+        except bind_plan.UndefinedCoordinatesError:
+            raise BindError(f"Binding to '{self.cage.name}' gave undefined coordinates: "
+                            "check the cage for tiny or overlapping faces") from None
+        except ValueError as error:  # every other core error is a ValueError
+            raise BindError(self._core_message(error)) from None
+        data = replace(self.data, storage=plan.storage, slot_count=plan.slot_count, key=secrets.token_hex(3),
+                       nbytes=int(bind_plan.stored_bytes(len(scene.points), plan.slot_count, plan.basis is not None)),
+                       bind_seconds=time.perf_counter() - self.started, **plan.figures())
+        self.result = BindResult(plan.slots, plan.basis, scene.triangles if self.green else None,
+                                 scene.rest_cage, data)
+
+    def _core_message(self, error):
+        """The core's ``error`` in Blender's terms; for a cage that is not convex, with the
+        cage's faces that dent inward."""
+        scene, dented = self.input, None
+        if isinstance(error, core.CageError) and error.problem == "non_convex":
+            dented = np.unique(scene.triangle_faces[core.advanced.concave_facets(
+                scene.cage_vertices, scene.triangles, FLOAT32_TOLERANCE)])
+        return messages.core_error(self.cage.name, error, self.kind_label, len(scene.points),
+                                   scene.triangle_faces, dented)
+
+    def _imprecise_message(self, error):
+        settings = self.settings
+        return (f"{self.kind_label} coordinates{messages.gamma_words(settings.gamma)} in the cage "
+                f"'{self.cage.name}' are too large to store (smallest {error.min_coordinate:.3g}): as "
+                f"stored they place the vertices of '{self.obj.name}' only to {bind_plan.short_number(error.error)} "
+                "of the cage's size, and the mesh would stray as the cage moves. Choose a Gamma between -1 "
+                "and -0.5, or another Type")
+
+    def _outside_message(self):
+        scene = self.input
+        where = core.point_locations(scene.points, scene.cage_vertices, scene.triangles,
+                                     tolerance=FLOAT32_TOLERANCE)
+        return messages.outside_error(self.cage.name, int(np.count_nonzero(where == core.OUTSIDE)),
+                                      len(scene.points))
+
+    def run(self, report=None):
+        """Compute to the end (scripts, background mode); ``report(fraction)`` on the way."""
+        for fraction in self.steps():
+            if report is not None:
+                report(fraction)
+        return self.result
+
+    def commit(self):
+        """Write the computed binding into the file (``bind.commit.write``); returns the
+        new ``Binding``."""
+        return commit.write(self.obj, self.cage, self.result)

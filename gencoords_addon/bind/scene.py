@@ -1,0 +1,184 @@
+"""What a Bind reads from the scene, once, and checks: the settings (``BindSettings``),
+the mesh and its cage (``BindInput``: positions in the frame the coordinates are computed
+in), and the bind-time cage exactly as the deformer's Object Info node will give it.
+Every problem is a ``BindError`` saying what to do; nothing in the file changes.
+"""
+
+from dataclasses import dataclass
+from typing import Optional
+
+import bpy
+import numpy as np
+
+from ... import core
+from .. import messages
+from ..blender_io import compat, mesh_io
+from ..enums import core_name, is_green, kind_label, kind_parameter
+from ..errors import BindError
+from ..graph import deformer, helpers
+from .bindings import drives, is_deleted
+
+# Blender stores positions as float32: a flat cage face after Apply Rotation, or a mesh
+# vertex on the cage surface, is exact only to ~1e-7 of the cage's size, which the
+# core's float64 default would call non-convex or outside.
+FLOAT32_TOLERANCE = core.base.tolerances.FLOAT32
+
+
+@dataclass(frozen=True)
+class BindSettings:
+    """The settings one Bind uses, read once when it starts: editing the panel while a
+    modal Bind computes changes nothing in it."""
+
+    cage: bpy.types.Object
+    kind: str  # the core's name, e.g. 'mean_value'
+    gamma: Optional[float]  # the kind's parameter; None for kinds without one
+    outside: str  # the core's name, e.g. 'raise'
+    storage: str  # the Storage setting: 'AUTO', 'EXACT' or 'COMPACT'
+    compact_size: int
+    kind_label: str  # the kind's user-facing name, for messages
+
+    @classmethod
+    def of(cls, obj):
+        """A snapshot of ``obj.gencoords``."""
+        settings = obj.gencoords
+        has_gamma = kind_parameter(settings.kind) == "gamma"
+        return cls(cage=settings.cage, kind=core_name(settings.kind),
+                   gamma=float(settings.gamma) if has_gamma else None,
+                   outside=core_name(settings.outside), storage=settings.storage,
+                   compact_size=int(settings.compact_size),
+                   kind_label=kind_label(settings.kind))
+
+
+@dataclass(frozen=True, eq=False)
+class BindInput:
+    """The mesh and the cage as a Bind computes with them."""
+
+    points: np.ndarray  # (k, 3) float64: world space (Green: the mesh's local space)
+    cage_vertices: np.ndarray  # (n, 3) float64, in the same space
+    triangles: np.ndarray  # (m, 3) int, outward in that space
+    triangle_faces: np.ndarray  # (m,) int: the cage face each triangle comes from
+    rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
+    faces_hash: str  # mesh_io.faces_hash of the cage
+    non_triangles: int  # the cage's quads and n-gons
+
+
+def check_inputs(obj):
+    """Raise BindError unless ``obj`` is a mesh with a usable cage chosen."""
+    if obj is None or obj.type != 'MESH':
+        raise BindError("Select a mesh object to bind")
+    if obj.library is not None or obj.data.library is not None:
+        raise BindError(f"'{obj.name}' is linked from the library "
+                        f"'{(obj.library or obj.data.library).filepath}' and cannot be "
+                        "changed: use Object > Library Override > Make, then Bind")
+    if obj.override_library is not None and obj.data.override_library is None \
+            and obj.data.library is not None:
+        raise BindError(f"The mesh of '{obj.name}' is linked from a library: make it local "
+                        "(Object > Relations > Make Local > Object and Data), then Bind")
+    cage = obj.gencoords.cage
+    if cage is None:
+        raise BindError(f"Choose a cage for '{obj.name}' first (GenCoords panel > Cage)")
+    if cage == obj:
+        raise BindError(f"'{obj.name}' cannot be its own cage: choose another mesh object")
+    if cage.type != 'MESH':
+        raise BindError(f"The cage '{cage.name}' must be a mesh object")
+    if is_deleted(cage):
+        raise BindError(f"The cage '{cage.name}' was deleted: pick another cage for "
+                        f"'{obj.name}' (GenCoords panel > Cage)")
+    if drives(obj, cage):
+        raise BindError(f"'{cage.name}' is itself bound to '{obj.name}': a mesh and its cage "
+                        "cannot drive each other")
+    if len(obj.data.vertices) == 0:
+        raise BindError(f"'{obj.name}' has no vertices to bind")
+
+
+def zero_scale_axes(matrix):
+    """The local axes ('X', 'Y', 'Z') an object matrix (4x4) scales to (nearly) nothing,
+    which flattens the object: a list, empty for a usable matrix."""
+    lengths = np.linalg.norm(np.array(matrix, dtype=np.float64)[:3, :3], axis=0)
+    return [axis for axis, length in zip("XYZ", lengths)
+            if not length > FLOAT32_TOLERANCE * lengths.max()]
+
+
+CAPTURE_GROUP = ".GenCoords capture"
+
+
+def capture_rest_cage(obj, cage, context):
+    """The evaluated cage in the mesh's local space, exactly as Object Info gives it.
+
+    The deformer subtracts this from what its Object Info node reads at every
+    evaluation; reading it through the same node (a temporary modifier last in the
+    stack) makes the difference exactly zero at rest, so the mesh is unchanged bitwise.
+    """
+    group = helpers.build_capture_group(CAPTURE_GROUP)
+    modifier = None
+    try:
+        modifier = obj.modifiers.new("GenCoords capture", 'NODES')
+        modifier.node_group = group
+        modifier.show_in_editmode = True
+        compat.set_modifier_input(modifier, deformer.CAGE, cage)
+        with mesh_io.evaluated_mesh(obj, context.evaluated_depsgraph_get()) as captured:
+            return mesh_io.read_positions(captured).copy()
+    finally:
+        if modifier is not None:
+            compat.remove_nodes_modifier(obj, modifier)
+        bpy.data.node_groups.remove(group)
+
+
+def read_bind_input(obj, settings, context):
+    """Read the mesh ``obj`` and its cage (``settings.cage``) and check them: a
+    ``BindInput`` in world space (Green coordinates: the mesh's local space)."""
+    cage = settings.cage
+    depsgraph = context.evaluated_depsgraph_get()
+    rest = mesh_io.read_positions(obj.data).astype(np.float64)
+    undefined = np.flatnonzero(~np.isfinite(rest).all(axis=1))
+    if len(undefined):
+        raise BindError(f"'{obj.name}' has {len(undefined)} vertices at undefined (NaN or "
+                        f"infinite) positions (first: vertex {undefined[0]}): fix or "
+                        "delete them, then Bind")
+    flat_axes = zero_scale_axes(obj.evaluated_get(depsgraph).matrix_world)
+    if flat_axes:  # its vertices would be flat in world space, and huge in its own
+        raise BindError(messages.zero_scale("mesh", obj.name, flat_axes, "Bind"))
+    try:
+        geometry = mesh_io.read_evaluated_cage(cage, depsgraph)
+    except core.CageError as error:  # NaN or infinite vertices: caught before triangles
+        raise BindError(messages.cage_error(cage.name, error, settings.kind_label, ())) from None
+    if len(geometry.triangles) == 0:
+        raise BindError(f"The cage '{cage.name}' has no faces: it must be a closed "
+                        "surface around the mesh (add faces, e.g. Mesh > Convex Hull)")
+    flat_axes = zero_scale_axes(cage.evaluated_get(depsgraph).matrix_world)
+    if flat_axes:
+        raise BindError(messages.zero_scale("cage", cage.name, flat_axes, "Bind"))
+    rest_cage = capture_rest_cage(obj, cage, context)
+    if len(rest_cage) != len(geometry.positions):
+        raise BindError(f"The cage '{cage.name}' changed while binding: try again")
+    # Coordinates are computed where the artist sees the shapes, in world space
+    # (they are affine combinations, so they hold in the mesh's local space too).
+    world = np.array(obj.evaluated_get(depsgraph).matrix_world, dtype=np.float64)
+    points = rest @ world[:3, :3].T + world[:3, 3]
+    cage_vertices = rest_cage.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+    if not np.isfinite(cage_vertices).all():
+        raise BindError(f"The cage '{cage.name}' has vertices at undefined (NaN or "
+                        "infinite) positions, or an object has zero scale: fix them, "
+                        "then Bind")
+    triangles = geometry.triangles
+    if is_green(settings.kind):
+        points, cage_vertices, triangles = _green_frame(obj, settings, rest, rest_cage, triangles, world)
+    return BindInput(points, cage_vertices, triangles, geometry.triangle_faces, rest_cage,
+                     geometry.faces_hash, geometry.non_triangles)
+
+
+def _green_frame(obj, settings, rest, rest_cage, triangles, world):
+    """Green coordinates are similarity invariant, not affine: they are computed where
+    the deformer evaluates them, in the mesh's local space (a mirroring object
+    transform turns the cage's triangles inside out there: they are flipped). Returns
+    the points, the cage's vertices and its triangles there."""
+    if settings.outside == 'extrapolate':
+        raise BindError("Green coordinates do not extrapolate outside the cage: set Outside "
+                        "to Report Error or Project, then Bind")
+    if np.linalg.det(world[:3, :3]) < 0.0:
+        triangles = triangles[:, ::-1].copy()
+    if len(rest) < len(triangles):
+        raise BindError(f"Green coordinates keep the cage's {len(triangles)} triangles on the "
+                        f"mesh's vertices, and '{obj.name}' has only {len(rest)}: "
+                        "subdivide the mesh, use a cage with fewer faces or another type")
+    return rest, rest_cage.astype(np.float64), triangles

@@ -1,0 +1,111 @@
+"""The one Bind path: the Bind operator (run to the end or modal), Auto Rebind and scripts
+all bind through here, with the same Edit Mode handling, progress, worker fallback and
+reports.
+
+``begin(obj, context)`` reads and checks (``BindJob``, out of Edit Mode), the caller runs
+``job.steps()`` (between events, or to the end), and ``finish(job, context)`` commits and
+returns the report; ``bind(obj, context)`` does all three. Failures are ``BindError``.
+"""
+
+import contextlib
+import warnings
+from dataclasses import dataclass
+
+import bpy
+
+from ... import core
+from .. import messages
+from . import job as bind_job
+
+
+# Meshes (Object.session_uid) a modal Bind is computing for: Auto Rebind waits for it
+# rather than start a second one (tabbing in and out of Edit Mode meanwhile).
+MODAL_BINDS = set()
+
+
+@dataclass(frozen=True)
+class BindReport:
+    """What a finished Bind tells the artist: ``level`` 'INFO', or 'WARNING' where the
+    worker processes failed and Blender computed instead."""
+
+    level: str
+    message: str
+
+
+@contextlib.contextmanager
+def object_mode(context, obj):
+    """Leave Edit Mode for the block (bind data are written to the mesh, which Edit Mode
+    would overwrite on exit), and return to it afterwards."""
+    editing = obj.mode == 'EDIT'
+    if editing:
+        bpy.ops.object.mode_set(mode='OBJECT')  # also writes the edit into the mesh
+    try:
+        yield
+    finally:
+        if editing and context.view_layer.objects.active == obj:
+            bpy.ops.object.mode_set(mode='EDIT')
+
+
+def in_workers_or_blender(compute, workers):
+    """``compute(workers)``; where the worker processes cannot start or fail, ``compute(1)``
+    in Blender's process instead: (its result, None or the message saying so).
+
+    The message is also printed to the system console with the full cause. Other
+    warnings are passed on.
+    """
+    failure = None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", core.WorkerWarning)  # automatic counts fall back here
+        try:
+            result = compute(workers)
+        except core.WorkerError as error:  # an explicit count
+            failure = error
+            result = compute(1)
+    for warning in caught:
+        if issubclass(warning.category, core.WorkerWarning):
+            failure = warning.message
+        else:
+            warnings.showwarning(warning.message, warning.category, warning.filename, warning.lineno)
+    if failure is None:
+        return result, None
+    message = messages.worker_fallback()
+    print(f"GenCoords: {message}\n  cause: {failure}", flush=True)
+    return result, message
+
+
+def begin(obj, context):
+    """A ``BindJob`` for ``obj`` and its chosen cage, read out of Edit Mode; BindError
+    when it cannot bind."""
+    with object_mode(context, obj):
+        return bind_job.BindJob(obj, context, in_workers_or_blender)
+
+
+def finish(job, context):
+    """Commit the computed ``job``; its ``BindReport``."""
+    with object_mode(context, job.obj):
+        job.commit()
+    data = job.result.data
+    headline = (f"Bound '{job.obj.name}' ({data.mesh_vertex_count} vertices) to "
+                f"'{job.cage.name}' in {data.bind_seconds:.2f} s ({data.storage.lower()} storage)")
+    if job.worker_failure is None:
+        return BindReport('INFO', headline)
+    return BindReport('WARNING', f"{headline}; {job.worker_failure}")
+
+
+def print_progress(job):
+    """A ``report(fraction)`` printing every tenth in background mode (no progress bar)."""
+    printed = [0.0]
+
+    def report(fraction):
+        if bpy.app.background and fraction - printed[0] >= 0.1 and fraction < 1.0:
+            printed[0] = fraction
+            print(f"GenCoords: binding '{job.obj.name}' {fraction:.0%}", flush=True)
+    return report
+
+
+def bind(obj, context):
+    """Bind ``obj`` to its chosen cage, to the end (scripts, background mode, Auto Rebind
+    there); its ``BindReport``. BindError when it cannot bind; nothing is changed then."""
+    job = begin(obj, context)
+    job.run(print_progress(job))
+    return finish(job, context)

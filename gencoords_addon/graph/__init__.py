@@ -1,0 +1,1 @@
+"""The node graph: the deformer's Geometry Nodes group, its helpers and their builder."""

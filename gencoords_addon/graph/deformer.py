@@ -1,0 +1,323 @@
+"""The deformer: a Geometry Nodes group that moves a bound mesh with its cage, natively.
+
+For mesh vertex i with slot values ``u_i`` (s numbers, stored on the mesh as point
+attributes) and the cage's vertices now (``C``) and at bind time (``R``), both in the
+mesh's local space, the group outputs
+
+    P_i + sum_l u_il E_l,        E_l = sum_j basis_jl (C_j - R_j)
+
+where ``P`` is the incoming position (shape keys, edits and earlier modifiers pass
+through). Exact storage has ``basis = I`` and ``u = coordinates``; compact storage a
+basis of s cage motions (``core.tools.compact``). At rest ``C == R`` bitwise (``R`` is read
+back from this same Object Info node, see ``bind.scene.capture_rest_cage``), so the mesh
+is unchanged bitwise.
+
+Evaluation cost is in the per-vertex part: Blender's field evaluator streams whole
+arrays through each node, so the slots are packed three to a vector attribute and
+accumulated with one Multiply Add per output axis (``acc_x += u_t * (E_a.x, E_b.x,
+E_c.x)``): one node per slot (Transform Direction would do the same in one node per
+three slots but costs five times as much per vertex). The small per-cage part (the
+``E`` lanes) is single values: for exact storage, lanes gathered once onto a point
+cloud of s/3 points; for compact storage, one Attribute Statistic sum per lane.
+
+Green coordinates (slots ``[phi, psi]``, n + m of them) add the cage's face terms: the
+group builds a point cloud of n + m points whose displacements are the cage vertices'
+``C_j - R_j`` and then, per triangle, ``s_j n'_j - n_j`` (its unit normal now scaled by its
+stretch factor, minus its unit normal at rest; exactly 0 while its corners have not
+moved), from the triangles' corner indices kept on the mesh's first m points. The same
+lanes and sums then give ``P + sum_i phi_i (C_i - R_i) + sum_j psi_j (s_j n'_j - n_j)``.
+
+When the cage is missing, has another vertex count or non-finite positions, or the mesh
+has another vertex count than at bind time, the group passes the mesh through
+unchanged (the panel says why). It removes its own attributes from its output, so
+Apply gives a clean mesh and later modifiers never see them.
+"""
+
+import bpy
+import numpy as np
+
+from ..bind_layout import attribute_prefix, slot_attribute_names
+from ..blender_io.compat import set_wildcard_removal
+from .builder import Builder
+from .green import green_displacements
+from .helpers import (CAGE, DISPLACEMENT, GEOMETRY, LANE_NAMES, LANES, REST, SUMS, accumulate_group,
+                      cage_info, cloud_lanes_group)
+
+STRENGTH = "Strength"
+MASK = "Mask"
+INVERT = "Invert Mask"
+
+# The binding's group reads left to right, one column per stage (``build_group``);
+# compact storage's lanes use the lane columns for its basis copy and sums.
+DEFORMER_COLUMNS = (
+    "input",  # the modifier's inputs
+    "cage",  # Object Info, the cage's index and positions
+    "rest",  # the bind-time cage, kept in the group
+    "displacement",  # cage now minus at rest, stored on the cage
+    "face_corners",  # Green: a point per cage vertex and triangle, its corners
+    "face_vectors",  # ... their edge vectors now and at rest
+    "face_normals",  # ... unit normals and the stretch factor
+    "face_store",  # ... each point's displacement, stored on it
+    "lane_index",  # per triple of slots: which cage vertices
+    "lane_gather",  # their displacements
+    "lane_split",  # ... split into axes
+    "lane_join",  # ... joined into lanes
+    "lane_store",  # ... stored on a point cloud
+    "lane_read",  # ... read back per triple
+    "accumulate",  # slots times lanes, in chains
+    "chain_sum",  # the chains added up pairwise
+    "offset",  # each mesh vertex's displacement, the mask, the guard's sizes
+    "apply",  # strength and Set Position
+    "guard_compare",  # is the result meaningful?
+    "guard_and",
+    "guard_switch",  # ... else pass the mesh through
+    "strip",  # remove the bind data's attributes from the output
+    "output",
+)
+
+
+def _exact_lanes(build, cage, displacement, slot_count):
+    """Per triple t, its three lanes: (D_3t.c, D_3t+1.c, D_3t+2.c) for axes c."""
+    triples = -(-slot_count // 3)
+    cloud = build.add('GeometryNodePoints', "lane_index")
+    cloud.inputs["Count"].default_value = triples
+    index = build.add('GeometryNodeInputIndex', "lane_index").outputs[0]
+    parts = []
+    for offset in range(3):
+        cage_vertex = build.math("lane_index", 'MULTIPLY_ADD', index, 3.0, float(offset),
+                                 vector=False)
+        sampled = build.sample_index("lane_gather", cage, displacement, cage_vertex)
+        separate = build.add('ShaderNodeSeparateXYZ', "lane_split")
+        build.link(sampled, separate.inputs[0])
+        parts.append(separate.outputs)
+    geometry = cloud.outputs[0]
+    for axis, name in enumerate(LANE_NAMES):
+        combine = build.add('ShaderNodeCombineXYZ', "lane_join")
+        for offset in range(3):
+            build.link(parts[offset][axis], combine.inputs[offset])
+        geometry = build.store("lane_store", geometry, name, combine.outputs[0])
+    helper = cloud_lanes_group()
+    lanes = []
+    for t in range(triples):
+        node = build.add('GeometryNodeGroup', "lane_read", node_tree=helper)
+        build.link(geometry, node.inputs["Cloud"])
+        node.inputs["Triple"].default_value = t
+        lanes.append([node.outputs[lane] for lane in LANES])
+    return lanes
+
+
+def _compact_lanes(build, mesh, cage, displacement, basis_names):
+    """Per triple t, its three lanes: sum_j basis[j, 3t:3t+3] * D_j.c for axes c.
+
+    The basis is stored like the slots, on the mesh's first n points (compact storage
+    needs a mesh with at least as many vertices as the cage).
+    """
+    index = build.add('GeometryNodeInputIndex', "lane_index").outputs[0]
+    for name in basis_names:  # copied onto the cage once, read by three sums each
+        basis = build.sample_index("lane_gather", mesh,
+                                   build.named_attribute("lane_gather", name), index)
+        cage = build.store("lane_split", cage, name, basis)
+    separate = build.add('ShaderNodeSeparateXYZ', "lane_gather")
+    build.link(displacement, separate.inputs[0])
+    return [[build.statistic_sum("lane_store", cage,
+                                 build.scale("lane_join", build.named_attribute("lane_split", name),
+                                             separate.outputs[axis]))
+             for axis in range(3)] for name in basis_names]
+
+
+# Accumulation chains of at most this many helper nodes, added up pairwise: Blender
+# gathers the attributes a field depends on at every node, so one chain over all slots
+# costs time quadratic in their number at every evaluation (measured: 100 ms for 642
+# slots on a 2k-vertex mesh, against 4 ms in chains of 16).
+CHAIN = 16
+
+
+def _weighted_sums(build, slot_names, lanes):
+    """The three axes' sums over triples t of ``slots_t * lanes[t][axis]``."""
+    helper = accumulate_group()
+    partial = []
+    for start in range(0, len(slot_names), CHAIN):
+        sums = None
+        for name, lane in zip(slot_names[start:start + CHAIN], lanes[start:start + CHAIN]):
+            node = build.add('GeometryNodeGroup', "accumulate", node_tree=helper)
+            node.inputs["Name"].default_value = name
+            for socket, value in zip(LANES, lane):
+                build.link(value, node.inputs[socket])
+            if sums is not None:
+                for socket, value in zip(SUMS, sums):
+                    build.link(value, node.inputs[socket])
+            sums = [node.outputs[socket] for socket in SUMS]
+        partial.append(sums)
+    while len(partial) > 1:
+        pairs = [[build.math("chain_sum", 'ADD', a, b) for a, b in zip(left, right)]
+                 for left, right in zip(partial[::2], partial[1::2])]
+        partial = pairs + partial[len(pairs) * 2:]
+    return partial[0]
+
+
+def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None,
+                triangle_name=None, face_count=0):
+    """A new node group deforming a mesh of ``mesh_vertex_count`` vertices.
+
+    Built in stages that pass sockets along, each in its own columns
+    (``DEFORMER_COLUMNS``): the interface, the cage's displacement, the lanes, the
+    weighted sums, the masked offset, the guard and the attribute stripping.
+
+    Parameters
+    ----------
+    name : str
+        Of the node group.
+    key : str
+        The binding's key: slot attributes are ``slot_attribute_names(key, slot_count)``.
+    rest_cage : (n, 3) float32
+        The cage at bind time in the mesh's local space, exactly as the group's Object
+        Info node gives it.
+    mesh_vertex_count : int
+        The bound mesh's vertex count k (another count passes the mesh through).
+    slot_count : int
+        s: n for exact storage, the basis size for compact storage.
+    basis_names : list of str, optional
+        Compact storage: the attributes holding the basis of cage motions on the first n
+        points (n + m for Green coordinates; ``bind_layout.basis_attribute_names``); None
+        for exact storage.
+    triangle_name : str, optional
+        Green coordinates: the attribute holding the cage's m triangles (corner indices)
+        on the mesh's first m points; None for the other kinds.
+    face_count : int
+        Green coordinates: m.
+    """
+    rest_cage = np.asarray(rest_cage, dtype=np.float32)
+    group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
+    group.description = ("GenCoords cage deformation: moves the mesh with its cage "
+                         "(bind data in the mesh's point attributes)")
+    _deformer_interface(group.interface)
+    build = Builder(group, DEFORMER_COLUMNS)
+    group_input = build.add('NodeGroupInput', "input")
+    mesh = group_input.outputs[GEOMETRY]
+    cage, displacement = _cage_displacement(build, group_input, rest_cage, triangle_name is not None)
+    # What the slots weigh: the cage's vertices, or for Green also its faces.
+    moving = (cage, displacement) if triangle_name is None else green_displacements(
+        build, mesh, cage, len(rest_cage), face_count, triangle_name)
+    if basis_names is None:
+        lanes = _exact_lanes(build, *moving, slot_count)
+    else:
+        lanes = _compact_lanes(build, mesh, *moving, basis_names)
+    accumulated = _weighted_sums(build, slot_attribute_names(key, slot_count), lanes)
+    moved = _moved_mesh(build, group_input, _offset(build, accumulated))
+    usable = _usable(build, mesh, cage, moving, len(rest_cage), mesh_vertex_count)
+    switch = build.add('GeometryNodeSwitch', "guard_switch", input_type='GEOMETRY')
+    build.link(usable, switch.inputs["Switch"])
+    build.link(mesh, switch.inputs["False"])
+    build.link(moved, switch.inputs["True"])
+    output = _strip_attributes(build, switch.outputs[0], key,
+                               slot_attribute_names(key, slot_count) + (basis_names or [])
+                               + ([triangle_name] if triangle_name else []))
+    build.link(output, build.add('NodeGroupOutput', "output").inputs[GEOMETRY])
+    return group
+
+
+def _deformer_interface(interface):
+    """The modifier's inputs and output."""
+    interface.new_socket(GEOMETRY, in_out='INPUT', socket_type='NodeSocketGeometry')
+    cage_socket = interface.new_socket(CAGE, in_out='INPUT', socket_type='NodeSocketObject')
+    cage_socket.description = "The cage the mesh was bound to"
+    strength = interface.new_socket(STRENGTH, in_out='INPUT', socket_type='NodeSocketFloat')
+    strength.default_value, strength.min_value, strength.max_value = 1.0, -10.0, 10.0
+    strength.description = "How much of the cage's motion the mesh follows (animatable)"
+    mask = interface.new_socket(MASK, in_out='INPUT', socket_type='NodeSocketFloat')
+    mask.default_value, mask.min_value, mask.max_value = 1.0, 0.0, 1.0
+    mask.description = ("Per-vertex factor: click the attribute toggle and pick a vertex "
+                        "group to limit the deformation to it")
+    invert = interface.new_socket(INVERT, in_out='INPUT', socket_type='NodeSocketBool')
+    invert.description = "Deform where the mask is 0 instead of where it is 1"
+    interface.new_socket(GEOMETRY, in_out='OUTPUT', socket_type='NodeSocketGeometry')
+
+
+def _cage_displacement(build, group_input, rest_cage, keep_rest=False):
+    """The cage with ``DISPLACEMENT`` (now minus at rest) stored on its points (and
+    ``REST`` with ``keep_rest``), and the displacement's field."""
+    cage = cage_info(build, group_input)
+    cage_index = build.add('GeometryNodeInputIndex', "cage").outputs[0]
+    position = build.add('GeometryNodeInputPosition', "cage").outputs[0]
+    rest = build.index_switch("rest", cage_index, rest_cage.tolist())
+    # Stored once: every consumer of a field evaluates it again, and the Index Switch
+    # over n constants costs n^2 per evaluation.
+    if keep_rest:
+        cage = build.store("displacement", cage, REST, rest)
+        rest = build.named_attribute("displacement", REST)
+    cage = build.store("displacement", cage, DISPLACEMENT,
+                       build.math("displacement", 'SUBTRACT', position, rest))
+    return cage, build.named_attribute("displacement", DISPLACEMENT)
+
+
+def _offset(build, accumulated):
+    """Each mesh vertex's displacement: the sum of each axis' three partial sums."""
+    offset = build.add('ShaderNodeCombineXYZ', "offset")
+    for axis in range(3):
+        total = build.add('ShaderNodeVectorMath', "offset", operation='DOT_PRODUCT')
+        build.link(accumulated[axis], total.inputs[0])
+        total.inputs[1].default_value = (1.0, 1.0, 1.0)
+        build.link(total.outputs["Value"], offset.inputs[axis])
+    return offset.outputs[0]
+
+
+def _moved_mesh(build, group_input, offset):
+    """P + strength * mask * offset, the mask inverted on request (1 - mask)."""
+    mask = group_input.outputs[MASK]
+    inverted = build.math("offset", 'SUBTRACT', 1.0, mask, vector=False)
+    pick = build.add('GeometryNodeSwitch', "offset", input_type='FLOAT')
+    build.link(group_input.outputs[INVERT], pick.inputs["Switch"])
+    build.link(mask, pick.inputs["False"])
+    build.link(inverted, pick.inputs["True"])
+    factor = build.math("apply", 'MULTIPLY', group_input.outputs[STRENGTH], pick.outputs[0],
+                        vector=False)
+    moved = build.add('GeometryNodeSetPosition', "apply")
+    build.link(group_input.outputs[GEOMETRY], moved.inputs["Geometry"])
+    build.link(build.scale("apply", offset, factor), moved.inputs["Offset"])
+    return moved.outputs[0]
+
+
+def _usable(build, mesh, cage, moving, cage_vertex_count, mesh_vertex_count):
+    """Whether deforming is meaningful: the cage and the mesh have their bind-time
+    vertex counts and the displacements (``moving``: geometry, field) are finite."""
+    cage_size = build.add('GeometryNodeAttributeDomainSize', "offset", component='MESH')
+    build.link(cage, cage_size.inputs[0])
+    mesh_size = build.add('GeometryNodeAttributeDomainSize', "offset", component='MESH')
+    build.link(mesh, mesh_size.inputs[0])
+    total = build.statistic_sum("offset", *moving)
+    # NaN and infinity are the only values for which x - x is not zero.
+    difference = build.math("guard_compare", 'SUBTRACT', total, total)
+    finite = build.compare("guard_compare", 'FLOAT',
+                           build.math("guard_compare", 'LENGTH', difference), 0.0)
+    counts = build.both("guard_and",
+                        build.compare("guard_compare", 'INT', cage_size.outputs[0],
+                                      cage_vertex_count),
+                        build.compare("guard_compare", 'INT', mesh_size.outputs[0],
+                                      mesh_vertex_count))
+    return build.both("guard_and", counts, finite)
+
+
+def _strip_attributes(build, geometry, key, names):
+    """``geometry`` without the binding's attributes (``names``, or by wildcard)."""
+    remove = build.add('GeometryNodeRemoveAttribute', "strip")
+    build.link(geometry, remove.inputs["Geometry"])
+    if set_wildcard_removal(remove, attribute_prefix(key) + "*"):
+        return remove.outputs[0]
+    build.group.nodes.remove(remove)  # no wildcard: one removal per attribute
+    for name in names:
+        remove = build.add('GeometryNodeRemoveAttribute', "strip")
+        remove.inputs["Name"].default_value = name
+        build.link(geometry, remove.inputs["Geometry"])
+        geometry = remove.outputs[0]
+    return geometry
+
+
+def read_rest_cage(group, count):
+    """The bind-time cage ``build_group`` keeps in ``group`` ((count, 3) float32, the
+    mesh's local space, as its Object Info node gives it), or None when it is not there."""
+    switches = [node for node in group.nodes
+                if node.bl_idname == 'GeometryNodeIndexSwitch' and node.data_type == 'VECTOR']
+    if len(switches) != 1 or len(switches[0].inputs) < count + 1:
+        return None
+    return np.array([socket.default_value[:] for socket in switches[0].inputs[1:count + 1]],
+                    dtype=np.float32).reshape(count, 3)

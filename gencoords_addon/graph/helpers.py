@@ -1,0 +1,110 @@
+"""The small node groups beside a binding's deformer: the shared helpers its group calls
+(one node per three slots keeps that group small: building a node tree from Python costs
+time quadratic in its node count) and the capture group Bind reads the rest cage through.
+"""
+
+import bpy
+
+from .builder import new_group
+
+GEOMETRY = "Geometry"
+CAGE = "Cage"
+DISPLACEMENT = "gencoords_displacement"  # on the cage's copy inside the group
+REST = "gencoords_rest"  # Green: the rest cage, also stored on it
+LANE_NAMES = ("gencoords_lane_x", "gencoords_lane_y", "gencoords_lane_z")
+# Helper groups: input, read, combine, output.
+HELPER_COLUMNS = ("input", "read", "combine", "output")
+# The rest-cage capture: the deformer's Object Info node, alone.
+CAPTURE_COLUMNS = ("input", "cage", "output")
+ACCUMULATE_GROUP = ".GenCoords accumulate 1"  # shared helpers; the number is their layout
+CLOUD_LANES_GROUP = ".GenCoords cloud lanes 1"
+HELPER_GROUPS = (ACCUMULATE_GROUP, CLOUD_LANES_GROUP)
+SUMS = ("Sum X", "Sum Y", "Sum Z")
+LANES = ("Lane X", "Lane Y", "Lane Z")
+
+
+def build_capture_group(name):
+    """A node group outputting its Cage input's geometry as the deformer's Object Info
+    node gives it (relative to the modified object): ``bind.scene.capture_rest_cage``
+    reads the rest cage through it."""
+    group, build, group_input, group_output = new_group(
+        name, [(GEOMETRY, 'NodeSocketGeometry'), (CAGE, 'NodeSocketObject')],
+        [(GEOMETRY, 'NodeSocketGeometry')], "GenCoords: the cage as the deformer sees it",
+        CAPTURE_COLUMNS)
+    build.link(cage_info(build, group_input), group_output.inputs[GEOMETRY])
+    return group
+
+
+def cage_info(build, group_input):
+    """The cage's geometry in the modified object's space.
+
+    Object Info's Relative space skips transforms within ~1e-6 of the identity (absolute:
+    a 1e-6-sized cage moved by 5e-7 would not be followed), so the cage is read in its
+    own space and moved by (mesh world)^-1 (cage world) point by point, with no shortcut;
+    where Object Info has no Transform output, by Relative space.
+    """
+    info = build.add('GeometryNodeObjectInfo', "cage", transform_space='ORIGINAL')
+    build.link(group_input.outputs[CAGE], info.inputs["Object"])
+    if "Transform" not in info.outputs:
+        info.transform_space = 'RELATIVE'
+        return info.outputs["Geometry"]
+    own = build.add('GeometryNodeObjectInfo', "cage", transform_space='ORIGINAL')
+    build.link(build.add('GeometryNodeSelfObject', "cage").outputs[0], own.inputs["Object"])
+    inverse = build.add('FunctionNodeInvertMatrix', "cage")
+    build.link(own.outputs["Transform"], inverse.inputs[0])
+    relative = build.add('FunctionNodeMatrixMultiply', "cage")
+    build.link(inverse.outputs[0], relative.inputs[0])
+    build.link(info.outputs["Transform"], relative.inputs[1])
+    moved = build.add('FunctionNodeTransformPoint', "cage")
+    build.link(build.add('GeometryNodeInputPosition', "cage").outputs[0], moved.inputs[0])
+    build.link(relative.outputs[0], moved.inputs[1])
+    placed = build.add('GeometryNodeSetPosition', "cage")
+    build.link(info.outputs["Geometry"], placed.inputs["Geometry"])
+    build.link(moved.outputs[0], placed.inputs["Position"])
+    return placed.outputs["Geometry"]
+
+
+def accumulate_group():
+    """Helper group: ``Sum c += slots(Name) * Lane c`` for the three axes c.
+
+    One node per three slots in the binding's group keeps it small: building a node tree
+    from Python costs time quadratic in its node count.
+    """
+    group = bpy.data.node_groups.get(ACCUMULATE_GROUP)
+    if group is not None:
+        return group
+    vector = 'NodeSocketVector'
+    group, build, group_input, group_output = new_group(
+        ACCUMULATE_GROUP, [("Name", 'NodeSocketString'), *((n, vector) for n in LANES + SUMS)],
+        [(n, vector) for n in SUMS], "GenCoords: adds three slots' share of the displacement", HELPER_COLUMNS)
+    slots = build.add('GeometryNodeInputNamedAttribute', "read", data_type='FLOAT_VECTOR')
+    build.link(group_input.outputs["Name"], slots.inputs["Name"])
+    for lane, total in zip(LANES, SUMS):
+        build.link(build.math("combine", 'MULTIPLY_ADD', slots.outputs["Attribute"],
+                              group_input.outputs[lane], group_input.outputs[total]),
+                   group_output.inputs[total])
+    return group
+
+
+def cloud_lanes_group():
+    """Helper group: the three lane vectors of triple ``Triple`` stored on ``Cloud``."""
+    group = bpy.data.node_groups.get(CLOUD_LANES_GROUP)
+    if group is not None:
+        return group
+    group, build, group_input, group_output = new_group(
+        CLOUD_LANES_GROUP, [("Cloud", 'NodeSocketGeometry'), ("Triple", 'NodeSocketInt')],
+        [(n, 'NodeSocketVector') for n in LANES], "GenCoords: one triple's cage displacements", HELPER_COLUMNS)
+    for lane, name in zip(LANES, LANE_NAMES):
+        build.link(build.sample_index("combine", group_input.outputs["Cloud"],
+                                      build.named_attribute("read", name),
+                                      group_input.outputs["Triple"]),
+                   group_output.inputs[lane])
+    return group
+
+
+def remove_unused_helpers():
+    """Delete the shared helper groups once no binding uses them."""
+    for name in HELPER_GROUPS:
+        group = bpy.data.node_groups.get(name)
+        if group is not None and group.users == 0:
+            bpy.data.node_groups.remove(group)

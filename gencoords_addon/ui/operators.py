@@ -1,0 +1,341 @@
+"""Operators: Bind, Unbind, Show Coordinate, Clear Coordinate, Make Cage and Bake to
+Bones (all undoable).
+
+Every operator either finishes or leaves the file as it found it: errors become a
+report saying what to do (in scripts, ``bpy.ops`` raises RuntimeError with it).
+"""
+
+import traceback
+
+import bpy
+
+from ..bind import bindings, cage_maker, service
+from ..bind.service import object_mode
+from ..errors import BindError, CageError
+from . import visualise
+
+
+class MeshOperator:
+    """Shared poll: these operators act on the active mesh object."""
+
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        if obj is None or obj.type != 'MESH':
+            cls.poll_message_set("The active object must be a mesh")
+            return False
+        return True
+
+
+def interactive(context):
+    """Whether an operator runs in a window that processes events (progress, Esc)."""
+    return not bpy.app.background and context.window is not None
+
+
+def internal_error(operator, error, changed="nothing was changed"):
+    traceback.print_exc()
+    operator.report({'ERROR'}, f"GenCoords internal error, {changed} (details in the "
+                               f"system console): {error}")
+    return {'CANCELLED'}
+
+
+class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
+    """Bind the active mesh to its cage: compute the coordinates of every vertex and add
+    the GenCoords modifier that moves the mesh with the cage"""
+
+    bl_idname = "object.gencoords_bind"
+    bl_label = "Bind"
+
+    # The Replace Binding question's OK calls execute(), which would block the window:
+    # it hands over to a second, modal Bind, told not to ask again.
+    replace_asked: bpy.props.BoolProperty(
+        name="Replace Asked", options={'HIDDEN', 'SKIP_SAVE'},
+        description="Set while the Replace Binding question is shown")
+    replace_confirmed: bpy.props.BoolProperty(
+        name="Replace Confirmed", options={'HIDDEN', 'SKIP_SAVE'},
+        description="The artist already confirmed replacing the binding: do not ask again")
+
+    def _start(self, context):
+        try:
+            self._job = service.begin(context.active_object, context)
+        except BindError as error:
+            self.report({'ERROR'}, str(error))
+            return False
+        return True
+
+    def _finish(self, context):
+        report = service.finish(self._job, context)
+        self.report({report.level}, report.message)
+        return {'FINISHED'}
+
+    def execute(self, context):
+        """Run to the end: scripts and background mode (progress printed there)."""
+        if self.replace_asked and not self.replace_confirmed and interactive(context):
+            # OK in the Replace Binding question: bind as invoke does, with progress and
+            # Esc. This call ends here (nothing changed, no undo step of its own).
+            bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', replace_confirmed=True)
+            return {'CANCELLED'}
+        try:
+            report = service.bind(context.active_object, context)
+        except BindError as error:
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+        except Exception as error:  # the file is unchanged: commit cleans up after itself
+            return internal_error(self, error)
+        self.report({report.level}, report.message)
+        return {'FINISHED'}
+
+    def invoke(self, context, event):
+        """In the UI: compute between events, with a progress bar; Esc cancels. Binding a
+        cage the mesh is already bound to asks before replacing that binding."""
+        if not interactive(context):
+            return self.execute(context)
+        obj = context.active_object
+        if obj.session_uid in service.MODAL_BINDS:
+            self.report({'WARNING'}, f"'{obj.name}' is being bound already: wait for it, or Esc")
+            return {'CANCELLED'}
+        if not self.replace_confirmed and bindings.binding(obj, obj.gencoords.cage) is not None:
+            self.replace_asked = True  # OK runs execute(), which comes back here, confirmed
+            return context.window_manager.invoke_confirm(
+                self, event, title="Replace Binding",
+                message=f"'{obj.name}' is already bound to '{obj.gencoords.cage.name}': "
+                        "bind again, replacing that binding?")
+        try:
+            if not self._start(context):
+                return {'CANCELLED'}
+        except Exception as error:
+            return internal_error(self, error)
+        self._steps = self._job.steps()
+        window_manager = context.window_manager
+        self._timer = window_manager.event_timer_add(0.01, window=context.window)
+        window_manager.progress_begin(0.0, 1.0)
+        window_manager.modal_handler_add(self)
+        self._mesh_uid = self._job.obj.session_uid
+        service.MODAL_BINDS.add(self._mesh_uid)
+        return {'RUNNING_MODAL'}
+
+    def _stop(self, context, text=None):
+        service.MODAL_BINDS.discard(self._mesh_uid)
+        window_manager = context.window_manager
+        window_manager.event_timer_remove(self._timer)
+        window_manager.progress_end()
+        context.workspace.status_text_set(text)
+        self._steps.close()
+
+    def modal(self, context, event):
+        if event.type == 'ESC':
+            self._stop(context)
+            self.report({'WARNING'}, "Bind cancelled: nothing was changed")
+            return {'CANCELLED'}
+        if event.type != 'TIMER':
+            return {'PASS_THROUGH'}
+        try:
+            fraction = next(self._steps, None)
+            if fraction is None:
+                self._stop(context)
+                return self._finish(context)
+        except BindError as error:
+            self._stop(context)
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+        except Exception as error:
+            self._stop(context)
+            return internal_error(self, error)
+        context.window_manager.progress_update(fraction)
+        in_blender = "" if self._job.worker_failure is None else ", in Blender: worker processes failed"
+        context.workspace.status_text_set(
+            f"GenCoords: binding '{self._job.obj.name}' {fraction:.0%}{in_blender} (Esc to cancel)")
+        return {'RUNNING_MODAL'}
+
+
+class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
+    """Remove GenCoords modifiers, their node groups and their bind data: without other
+    changes the mesh is exactly as it was before Bind"""
+
+    bl_idname = "object.gencoords_unbind"
+    bl_label = "Unbind"
+
+    modifier: bpy.props.StringProperty(
+        name="Modifier", options={'SKIP_SAVE'},
+        description="The binding's modifier to remove; empty: every binding of the mesh")
+
+    def execute(self, context):
+        obj = context.active_object
+        found = [b for b in bindings.bindings(obj)
+                 if not self.modifier or b.modifier.name == self.modifier]
+        if not found:
+            what = f"bound with the modifier '{self.modifier}'" if self.modifier else "bound"
+            self.report({'ERROR'}, f"'{obj.name}' is not {what}")
+            return {'CANCELLED'}
+        if obj.library is not None or obj.data.library is not None:
+            self.report({'ERROR'}, f"'{obj.name}' is linked from a library and cannot be "
+                                   "changed")
+            return {'CANCELLED'}
+        try:
+            with object_mode(context, obj):
+                bindings.remove(obj, found)
+        except Exception as error:
+            removed = getattr(error, "gencoords_removed", [])
+            if not removed:
+                return internal_error(self, error)
+            if len(removed) == len(found):  # only the cleanup after the modifiers failed
+                return internal_error(self, error, "the binding was removed but unused "
+                                                    "hidden data may remain")
+            return internal_error(self, error, f"only {', '.join(removed)} was removed: Unbind "
+                                                "again to remove the rest")
+        return {'FINISHED'}
+
+
+class OBJECT_OT_gencoords_show_field(MeshOperator, bpy.types.Operator):
+    """Paint the coordinate field of the chosen cage vertex on the mesh (purple 0 to yellow
+    largest, pink to red negative) as the colour attribute "GenCoords Field", and mark the
+    vertex on the cage"""
+
+    bl_idname = "object.gencoords_show_field"
+    bl_label = "Show Coordinate"
+
+    def execute(self, context):
+        obj = context.active_object
+        problem = visualise.field_problem(obj)
+        if problem:
+            self.report({'ERROR'}, problem)
+            return {'CANCELLED'}
+        try:
+            with object_mode(context, obj):
+                painted = visualise.paint_field(obj)
+        except Exception as error:
+            return internal_error(self, error, "the field may be partly painted: Clear "
+                                                "Coordinate removes it")
+        if not painted:
+            self.report({'ERROR'}, f"The bind data of '{obj.name}' is missing: Bind again")
+            return {'CANCELLED'}
+        visualise.show_colors_in_viewports(context.screen)
+        return {'FINISHED'}
+
+
+class OBJECT_OT_gencoords_clear_field(MeshOperator, bpy.types.Operator):
+    """Remove the coordinate field colours from the mesh"""
+
+    bl_idname = "object.gencoords_clear_field"
+    bl_label = "Clear Coordinate"
+
+    def execute(self, context):
+        obj = context.active_object
+        try:
+            with object_mode(context, obj):
+                cleared = visualise.clear_field(obj)
+        except Exception as error:
+            return internal_error(self, error, "the field may be partly cleared: Clear "
+                                                "Coordinate again")
+        if not cleared:
+            self.report({'WARNING'}, "No coordinate field is shown")
+        return {'FINISHED'}
+
+
+class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
+    """Make a closed cage around the active mesh (convex, of triangles; or tight: hugging
+    the mesh, of quads and triangles) and pick it as the mesh's cage"""
+
+    bl_idname = "object.gencoords_make_cage"
+    bl_label = "Make Cage"
+
+    shape: bpy.props.EnumProperty(
+        name="Shape", default='CONVEX', items=(
+            ('CONVEX', "Convex", "A convex hull around the mesh: quick, and every coordinate "
+                                 "type accepts it, but it fills the gaps between limbs"),
+            ('TIGHT', "Tight", "Hugs the mesh at the offset, keeping the gaps between limbs "
+                               "(voxel remesh and decimation): non-convex, so bind it with "
+                               "Mean Value or Green")))
+    target_vertices: bpy.props.IntProperty(
+        name="Vertices", default=100, min=8, soft_min=20, soft_max=500,
+        description="About how many vertices the cage gets")
+    offset_unit: bpy.props.EnumProperty(
+        name="Offset In", default='SHARE', items=(
+            ('SHARE', "Share of Size", "The gap is a share of the mesh's size (its bounding "
+                                       "box diagonal)"),
+            ('DISTANCE', "Distance", "The gap is a distance")))
+    margin: bpy.props.FloatProperty(
+        name="Margin", default=0.05, min=0.0, soft_max=0.5, subtype='FACTOR',
+        description="Gap between the mesh and a convex cage, relative to the mesh's size (0 "
+                    "keeps 0.0004: rounding must not leave a vertex outside)")
+    offset: bpy.props.FloatProperty(
+        name="Offset", default=0.01, min=0.0, soft_max=0.1, subtype='FACTOR',
+        description="Gap between the mesh and a tight cage, relative to the mesh's size "
+                    "(larger gaps close the space between limbs)")
+    distance: bpy.props.FloatProperty(
+        name="Distance", default=0.03, min=0.0, soft_max=1.0, subtype='DISTANCE',
+        description="Gap between the mesh and the cage")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "shape", expand=True)
+        layout.prop(self, "target_vertices")
+        layout.prop(self, "offset_unit", expand=True)
+        layout.prop(self, "distance" if self.offset_unit == 'DISTANCE'
+                    else "offset" if self.shape == 'TIGHT' else "margin")
+
+    def invoke(self, context, event):
+        """In the UI: ask for the shape and sizes first."""
+        if not interactive(context):
+            return self.execute(context)
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        obj = context.active_object
+        try:
+            tight = self.shape == 'TIGHT'
+            with object_mode(context, obj):
+                cage, worker_failure = cage_maker.make_cage(
+                    obj, context, self.target_vertices, self.offset if tight else self.margin,
+                    tight=tight, distance=self.distance if self.offset_unit == 'DISTANCE' else None)
+        except CageError as error:
+            self.report({'ERROR'}, f"Cannot make a cage: {error}")
+            return {'CANCELLED'}
+        except Exception as error:
+            return internal_error(self, error)
+        made = f"Made '{cage.name}' ({len(cage.data.vertices)} vertices) around '{obj.name}'"
+        if worker_failure is None:
+            self.report({'INFO'}, made)
+        else:
+            self.report({'WARNING'}, f"{made}; {worker_failure}")
+        return {'FINISHED'}
+
+
+class MESH_OT_gencoords_select_dented_faces(MeshOperator, bpy.types.Operator):
+    """Select the faces of the active cage that dent inward (meet a neighbour at an edge
+    bent inward): what keeps it from being convex"""
+
+    bl_idname = "mesh.gencoords_select_dented_faces"
+    bl_label = "Select Dented Faces"
+
+    def execute(self, context):
+        obj = context.active_object
+        with object_mode(context, obj):
+            count = cage_maker.select_dented_faces(obj)
+        if count == 0:
+            self.report({'INFO'}, f"No face of '{obj.name}' dents inward: it is convex")
+        else:
+            self.report({'INFO'}, f"Selected the {count} faces of '{obj.name}' that dent inward")
+        return {'FINISHED'}
+
+
+def draw_select_menu(self, context):
+    """Edit Mode's Select menu."""
+    self.layout.separator()
+    self.layout.operator(MESH_OT_gencoords_select_dented_faces.bl_idname)
+
+
+SELECT_MENU = bpy.types.VIEW3D_MT_select_edit_mesh
+
+
+CLASSES = (
+    OBJECT_OT_gencoords_make_cage,
+    OBJECT_OT_gencoords_bind,
+    OBJECT_OT_gencoords_unbind,
+    OBJECT_OT_gencoords_show_field,
+    OBJECT_OT_gencoords_clear_field,
+    MESH_OT_gencoords_select_dented_faces,
+)

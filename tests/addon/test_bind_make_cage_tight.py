@@ -1,0 +1,183 @@
+"""Make Cage, Tight, through the operator as a script calls it (inside
+``bpy.context.temp_override``, by the invoke path the panel's button takes): on the
+artist's character the cage encloses every vertex, is closed, manifold, outward and does
+not pass through itself, has about the vertices asked for, stays within 3 times the
+body's volume (the union of its capsules, by winding numbers along columns), binds with
+Green, the bound mesh following it, and takes the core's harmonic coordinates."""
+
+import importlib
+
+import bpy
+import numpy as np
+import pytest
+
+import gencoords
+from gencoords.tools import self_intersection, tight_cage
+from fresh_process import PACKAGE
+from scene_helpers import evaluated_positions, read_positions, write_positions, write_shape_key
+from scripts.common import scenes
+
+TOLERANCE = 1e-6
+
+
+def make_cage(obj, **options):
+    """Make Cage as the panel's button runs it (invoke: a dialog in a window, here
+    straight to execute), on ``obj`` alone."""
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        return bpy.ops.object.gencoords_make_cage('INVOKE_DEFAULT', **options)
+
+
+def world_arrays(obj, evaluated=False):
+    """World positions (float64) of ``obj``'s mesh (or evaluated mesh) and its triangles
+    as Bind reads them (the add-on's ``mesh_io.read_triangles``: quads split by the core)."""
+    mesh_io = importlib.import_module(f"{PACKAGE}.gencoords_addon.blender_io.mesh_io")
+    matrix = np.array(obj.matrix_world)
+    if evaluated:
+        mesh = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+    else:
+        mesh = obj.data
+    try:
+        local = read_positions(mesh)
+        triangles, _ = mesh_io.read_triangles(mesh, local)
+        local = local.astype(np.float64)
+    finally:
+        if evaluated:
+            obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh_clear()
+    return local @ matrix[:3, :3].T + matrix[:3, 3], triangles
+
+
+def assert_tight_cage(mesh_points, cage_points, cage_triangles):
+    """Encloses every point strictly; closed, manifold, outward, not convex, not crossing itself."""
+    gencoords.advanced.validate_cage(cage_points, cage_triangles, convex=False, tolerance=TOLERANCE)
+    with pytest.raises(gencoords.CageError, match="not convex"):
+        gencoords.advanced.validate_cage(cage_points, cage_triangles, convex=True, tolerance=TOLERANCE)
+    assert self_intersection.self_intersections(cage_points, cage_triangles).shape == (0, 2)
+    where = gencoords.point_locations(mesh_points, cage_points, cage_triangles, tolerance=TOLERANCE)
+    assert (where == gencoords.INSIDE).all()
+
+
+def test_tight_cage_around_the_character_encloses_binds_and_stays_within_3_volumes(gc):
+    mesh, artist_cage = scenes.add_character()
+    assert make_cage(mesh, shape='TIGHT', target_vertices=200) == {'FINISHED'}
+    cage = mesh.gencoords.cage
+    assert cage is not None and cage != artist_cage and len(cage.data.polygons)
+    body, body_triangles = world_arrays(mesh)
+    cage_points, cage_triangles = world_arrays(cage)
+    assert_tight_cage(body, cage_points, cage_triangles)
+    assert 170 <= len(cage_points) <= 230  # 200 asked for
+    sizes = [len(polygon.vertices) for polygon in cage.data.polygons]
+    assert set(sizes) == {3, 4} and sizes.count(4) > len(sizes) / 3  # quads, for editing
+    ratio = tight_cage.volume_ratio(cage_points, cage_triangles, body, body_triangles)
+    artist = tight_cage.volume_ratio(*world_arrays(artist_cage), body, body_triangles)
+    assert ratio <= 3.0 and ratio < artist  # the artist's box cage: 3.4 times the body
+    # The core's harmonic coordinates (non-convex cages too) accept it: non-negative,
+    # rows summing to 1, reproducing the points to within a grid cell.
+    sample = body[np.random.default_rng(0).choice(len(body), 2000, replace=False)]
+    harmonic = gencoords.harmonic_coordinates(sample, cage_points, cage_triangles, resolution=32)
+    assert harmonic.min() >= 0.0 and np.allclose(harmonic.sum(axis=1), 1.0)
+    assert np.abs(harmonic @ cage_points - sample).max() < np.ptp(cage_points, axis=0).max() / 32
+    # It binds as made (Green accepts non-convex cages), and the body follows the cage.
+    settings = mesh.gencoords
+    settings.kind, settings.storage = "GREEN", "EXACT"
+    with bpy.context.temp_override(active_object=mesh, object=mesh, selected_objects=[mesh]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+    rest = read_positions(cage.data).astype(np.float64)
+    write_positions(cage.data, rest + (0.1, 0.0, -0.05))
+    np.testing.assert_allclose(evaluated_positions(mesh), body + (0.1, 0.0, -0.05), atol=2e-4)
+    # Raising the left hand's cage: the left hand rises, the right one stays.
+    left = rest[:, 0] < -0.6
+    write_positions(cage.data, rest + np.where(left[:, None], (0.0, 0.0, 0.1), 0.0))
+    moved = evaluated_positions(mesh) - body
+    assert moved[body[:, 0] < -0.8, 2].min() > 0.05
+    assert np.abs(moved[body[:, 0] > 0.8]).max() < 0.02
+
+
+def test_tight_cage_wraps_the_evaluated_mesh_at_a_distance(gc):
+    """The mesh as the artist sees it (shape keys, modifiers) and as Bind binds it (the
+    mesh data) are both inside; Offset In Distance is world units."""
+    scenes.add_suzanne(level=1)
+    obj = bpy.context.active_object
+    obj.location = (5.0, 0.0, 1.0)
+    obj.shape_key_add(name="Basis")
+    key = obj.shape_key_add(name="Stretched")
+    write_shape_key(key, read_positions(obj.data) * (1.0, 1.0, 1.6))
+    key.value = 1.0
+    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 1
+    assert make_cage(obj, shape='TIGHT', target_vertices=150, offset_unit='DISTANCE',
+                     distance=0.08) == {'FINISHED'}
+    points, _ = world_arrays(obj, evaluated=True)
+    cage_points, cage_triangles = world_arrays(obj.gencoords.cage)
+    assert_tight_cage(points, cage_points, cage_triangles)
+    assert 120 <= len(cage_points) <= 180
+    # Around the stretched, subdivided shape (1.6 times as tall as the mesh data), about
+    # the distance beyond it above and below.
+    assert np.ptp(points[:, 2]) > 1.5 * np.ptp(world_arrays(obj)[0][:, 2])
+    assert 0.04 < points[:, 2].min() - cage_points[:, 2].min() < 0.16
+    assert 0.04 < cage_points[:, 2].max() - points[:, 2].max() < 0.16
+    # ... and around the mesh data Bind binds (the basis shape): a made cage binds.
+    assert_tight_cage(world_arrays(obj)[0], cage_points, cage_triangles)
+    obj.gencoords.kind = "MEAN_VALUE"
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+
+
+def test_tight_cage_refuses_a_mesh_without_faces_and_changes_nothing(gc):
+    mesh = bpy.data.meshes.new("Points")
+    mesh.from_pydata(np.random.default_rng(0).normal(size=(50, 3)).tolist(), [], [])
+    obj = bpy.data.objects.new("Points", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    before = (len(bpy.data.objects), len(bpy.data.meshes))
+    with pytest.raises(RuntimeError, match="Tight wraps the mesh's faces.*use Convex"):
+        make_cage(obj, shape='TIGHT')
+    assert (len(bpy.data.objects), len(bpy.data.meshes)) == before and obj.gencoords.cage is None
+
+
+@pytest.mark.parametrize("shape, unit, shown", [("CONVEX", "SHARE", "margin"), ("TIGHT", "SHARE", "offset"),
+                                                ("TIGHT", "DISTANCE", "distance"),
+                                                ("CONVEX", "DISTANCE", "distance")])
+def test_the_dialog_shows_the_gap_the_shape_uses(gc, shape, unit, shown):
+    """What the panel's button asks in a window (invoke's dialog draws these)."""
+    from types import SimpleNamespace
+
+    from test_addon_package import RecordingLayout
+
+    operator = gc.operators.OBJECT_OT_gencoords_make_cage
+    drawn = []
+    dialog = SimpleNamespace(layout=RecordingLayout(drawn), shape=shape, offset_unit=unit,
+                             bl_rna=bpy.ops.object.gencoords_make_cage.get_rna_type())
+    operator.draw(dialog, bpy.context)
+    assert drawn == [("prop", "shape"), ("prop", "target_vertices"), ("prop", "offset_unit"),
+                     ("prop", shown)]
+
+
+@pytest.mark.parametrize("scale, location", [(1e-4, (0.0, 0.0, 0.0)), (1e3, (0.0, 0.0, 0.0)),
+                                             (1.0, (300.0, -200.0, 50.0))])
+def test_tight_cages_of_tiny_huge_and_far_meshes_enclose_and_bind(gc, scale, location):
+    """The copy Blender remeshes is of unit size at the origin (voxel sizes have a floor)."""
+    obj = scenes.add_suzanne(level=1)
+    obj.scale, obj.location = (scale,) * 3, location
+    bpy.context.view_layer.update()
+    assert make_cage(obj, shape='TIGHT', target_vertices=150) == {'FINISHED'}
+    points, _ = world_arrays(obj)
+    cage_points, cage_triangles = world_arrays(obj.gencoords.cage)
+    assert_tight_cage(points, cage_points, cage_triangles)
+    assert np.ptp(cage_points, axis=0).max() < 1.2 * np.ptp(points, axis=0).max()  # hugging
+    obj.gencoords.kind = "MEAN_VALUE"  # a made cage binds as made
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+
+
+def test_a_torus_keeps_its_hole_and_a_flat_grid_gets_a_slab(gc):
+    bpy.ops.mesh.primitive_torus_add(major_radius=1.0, minor_radius=0.25)
+    torus = bpy.context.active_object
+    assert make_cage(torus, shape='TIGHT', target_vertices=150) == {'FINISHED'}
+    points, triangles = world_arrays(torus.gencoords.cage)
+    gencoords.advanced.validate_cage(points, triangles, convex=False, tolerance=TOLERANCE)
+    where = gencoords.point_locations([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], points, triangles)
+    assert where.tolist() == [gencoords.OUTSIDE, gencoords.INSIDE]  # the hole stays open
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=10, y_subdivisions=10, location=(5.0, 0.0, 0.0))
+    grid = bpy.context.active_object
+    assert make_cage(grid, shape='TIGHT', target_vertices=100) == {'FINISHED'}
+    points, triangles = world_arrays(grid.gencoords.cage)
+    assert_tight_cage(world_arrays(grid)[0], points, triangles)
+    assert np.ptp(points[:, 2]) < 0.2 * np.ptp(points[:, 0])  # a thin slab, not a box

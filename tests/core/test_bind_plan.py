@@ -1,0 +1,129 @@
+"""Bind planning without Blender (gencoords.tools.bind_plan): the storage chosen and why,
+the deviations measured on what will be written, progress and cancel."""
+
+import numpy as np
+import pytest
+
+import gencoords
+from gencoords.tools import bind_plan, compact
+from gencoords.tools.bind_plan import BindRequest, choose_storage, plan_bind
+from gencoords.tools.shapes import icosphere
+from polytopes import random_convex_polytope, random_interior_points
+
+
+def run(generator):
+    """Drive a plan to its end: (fractions yielded, the plan returned)."""
+    fractions = []
+    try:
+        while True:
+            fractions.append(next(generator))
+    except StopIteration as stop:
+        return fractions, stop.value
+
+
+@pytest.fixture(scope="module")
+def irregular():
+    """An irregular 60-vertex cage and 900 points inside it."""
+    rng = np.random.default_rng(28)
+    vertices, faces = random_convex_polytope(rng, 3, 60)
+    return vertices, faces, random_interior_points(rng, vertices, 900)
+
+
+def test_storage_is_exact_for_moderate_sizes_and_measured_beyond():
+    assert choose_storage('AUTO', 31_658, 162, 36) == 'EXACT'
+    assert choose_storage('AUTO', 1_000_000, 642, 36) == 'AUTO'  # measured at Bind
+    assert choose_storage('COMPACT', 1_000_000, 642, 36) == 'COMPACT'
+    assert choose_storage('COMPACT', 20, 42, 36) == 'EXACT'  # fewer mesh than cage vertices
+    assert choose_storage('COMPACT', 5000, 12, 36) == 'EXACT'  # nothing to save
+
+
+def test_exact_plan_writes_the_coordinates_as_float32_and_says_why(irregular):
+    vertices, faces, points = irregular
+    fractions, plan = run(plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1)))
+    exact = gencoords.coordinates(points, vertices, faces)
+    assert plan.storage == 'EXACT' and plan.basis is None and plan.slot_count == len(vertices)
+    np.testing.assert_array_equal(plan.slots, exact.astype(np.float32))
+    assert plan.storage_choice == f"Automatic: exact ({len(points)} x {len(vertices)} coordinates: cheap " \
+                                  "enough to store them all)"
+    # Figures on what is written: float32 rounding alone, and the summary of the coordinates.
+    assert 0.0 <= plan.deviation_smooth < 1e-6 and 0.0 <= plan.deviation_drag < 1e-6
+    assert plan.min_coordinate == pytest.approx(exact.min()) and plan.negative_points == 0  # convex cage
+    assert plan.points_outside == 0 and fractions[-1] == 1.0
+
+
+def test_compact_plan_measures_the_deviation_of_what_it_writes(irregular):
+    vertices, faces, points = irregular
+    request = BindRequest("mean_value", storage='COMPACT', compact_size=12, workers=1)
+    _, plan = run(plan_bind(points, vertices, faces, request))
+    assert plan.storage == 'COMPACT' and plan.slots.shape == (len(points), 12) and plan.storage_choice is None
+    exact = gencoords.coordinates(points, vertices, faces)
+    basis = plan.basis.astype(np.float32).astype(np.float64)  # as the deformer reads it
+    reproduced = plan.slots @ basis.T
+    smooth = compact.deviation(exact, plan.slots, basis, vertices, compact.smooth_test_motion(vertices))
+    assert plan.deviation_smooth == pytest.approx(smooth, rel=1e-6)
+    drags = [compact.deviation(exact, plan.slots, basis, vertices, compact.vertex_drag_motion(vertices, j))
+             for j in range(len(vertices))]
+    assert plan.deviation_drag == pytest.approx(max(drags), rel=1e-6)
+    assert plan.deviation_drag_vertex == int(np.argmax(drags))
+    assert 0.0 < plan.deviation_smooth < plan.deviation_drag  # 12 of 60 slots: a real deviation
+    assert np.abs(reproduced - exact).max() > 1e-4
+
+
+def test_automatic_beyond_the_cheap_sizes_picks_the_fewest_slots_under_the_target(monkeypatch):
+    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
+    vertices, faces = icosphere(3)  # smooth: few slots reproduce the coordinates
+    rng = np.random.default_rng(3)
+    points = 0.6 * rng.uniform(-1.0, 1.0, (3000, 3)) / np.sqrt(3.0)
+    _, plan = run(plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1)))
+    assert plan.storage == 'COMPACT' and plan.slot_count % 3 == 0 and plan.slot_count <= len(vertices) // 2
+    worst = max(plan.deviation_smooth, plan.deviation_drag)
+    assert worst < bind_plan.AUTO_DEVIATION
+    assert plan.storage_choice == (f"Automatic: compact, {plan.slot_count} slots (deviation "
+                                   f"{bind_plan.short_number(worst)} < 1e-3)")
+
+
+def test_automatic_goes_exact_when_the_whole_mesh_misses_the_target(monkeypatch, irregular):
+    vertices, faces, points = irregular
+    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(bind_plan, "AUTO_SAMPLE_MARGIN", 1e4)  # the sample accepts too few slots
+    _, plan = run(plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1)))
+    assert plan.storage == 'EXACT' and plan.slot_count == len(vertices)
+    assert plan.storage_choice.startswith("Automatic: exact (compact with ")
+    assert plan.storage_choice.endswith(" on the whole mesh)")
+
+
+def test_progress_rises_to_one_and_a_cancel_stops_the_plan(monkeypatch, irregular):
+    vertices, faces, points = irregular
+    monkeypatch.setattr(bind_plan, "CHUNK_ENTRIES", 6000)  # 100 points a chunk
+    calls = []
+    steps = plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1,
+                                                           run=lambda compute, workers: calls.append(1)
+                                                           or compute(workers)))
+    fractions = [next(steps) for _ in range(3)]
+    assert fractions == pytest.approx([100 / 900, 200 / 900, 300 / 900])
+    steps.close()
+    assert len(calls) == 3  # nothing computed after the cancel
+    fractions, _ = run(plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1)))
+    assert len(fractions) == 9 and fractions == sorted(fractions) and fractions[-1] == 1.0
+
+
+def test_points_outside_raise_the_cores_error_and_project_counts_them(irregular):
+    vertices, faces, points = irregular
+    outside = np.vstack([points, 3.0 * vertices[:2]])
+    with pytest.raises(gencoords.OutsideCageError):
+        run(plan_bind(outside, vertices, faces, BindRequest("mean_value", workers=1)))
+    _, plan = run(plan_bind(outside, vertices, faces, BindRequest("mean_value", outside="project", workers=1)))
+    assert plan.points_outside == 2
+
+
+def test_linear_precision_is_measured_on_the_stored_coordinates_and_refused_beyond(monkeypatch, irregular):
+    vertices, faces, points = irregular
+    request = BindRequest("power", gamma=-4.0, workers=1)
+    _, plan = run(plan_bind(points, vertices, faces, request))
+    assert plan.linear_precision == pytest.approx(
+        gencoords.tools.linear_precision(plan.slots, vertices, points), rel=1e-12)
+    assert 0.0 < plan.linear_precision < 1e-5  # float32 rounding alone
+    monkeypatch.setattr(bind_plan, "LINEAR_PRECISION", plan.linear_precision / 2)
+    with pytest.raises(bind_plan.ImpreciseCoordinatesError) as refused:
+        run(plan_bind(points, vertices, faces, request))
+    assert refused.value.error == plan.linear_precision and refused.value.min_coordinate == plan.min_coordinate
