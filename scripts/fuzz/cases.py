@@ -14,6 +14,7 @@ import random
 
 import gencoords
 from gencoords.construction.green import GREEN
+from gencoords.surfaces.named import MEAN_VALUE, POWER
 
 KINDS = tuple(kind.name.upper() for kind in gencoords.KIND_TABLE) + (GREEN.upper(),)
 OUTSIDE = ("RAISE", "PROJECT", "EXTRAPOLATE")
@@ -73,7 +74,7 @@ def bind_step(rng, available, op="bind"):
             "cage": role(rng, available, ("cage",) * 4 + ("made", "made", "mesh")), "kind": kind,
             "outside": rng.choice(OUTSIDE), "storage": rng.choice(STORAGE),
             "compact_size": rng.choice((4, 6, 12, 36))}
-    if kind == "POWER":
+    if kind == POWER.upper():
         step["gamma"] = rng.choice((-16.0, -8.0, -2.0, -1.0, -0.5, 0.0, 1.0, 2.0, 16.0))
     return step
 
@@ -150,7 +151,7 @@ def story(rng, available, scene):
     scene["cage"].update(defect=None, odd_scale=None)
     scene["mesh"].update(nan=False, odd_scale=None, shape=rng.choice(("sphere", "monkey", "icosphere", "grid")))
     steps = [dict(bind_step(rng, available), target="mesh", cage="cage",
-                  kind="MEAN_VALUE", outside="PROJECT")]  # any closed cage
+                  kind=MEAN_VALUE.upper(), outside="PROJECT")]  # any closed cage
     theme = rng.choice(("copies", "bake", "deleted cage", "small", "flat mesh"))
     if theme == "copies":
         steps.append({"op": "duplicate", "target": "mesh", "linked": rng.random() < 0.8})
@@ -193,7 +194,7 @@ def case_of(seed):
         available.add({"duplicate": "copy", "make_cage": "made"}.get(steps[-1]["op"], "mesh"))
         if steps[-1]["op"] == "make_cage" and rng.random() < 0.6:  # a made cage always binds
             steps.append(dict(bind_step(rng, available), target=steps[-1]["target"], cage="made",
-                              kind="MEAN_VALUE", outside="RAISE"))
+                              kind=MEAN_VALUE.upper(), outside="RAISE"))
         if steps[-1]["op"] in ("bind", "rebind", "duplicate", "unbind", "bake") and rng.random() < 0.5:
             steps.append(translation(rng, role(rng, available, ("cage", "cage", "made"))))
     return {"seed": seed, "story": theme, "scene": scene, "steps": steps}
