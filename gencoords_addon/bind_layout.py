@@ -8,8 +8,9 @@ them), and vector
 point attributes on the mesh holding its slots three to an attribute
 (``slot_attribute_names``), plus, for compact storage, its basis of cage motions on the
 mesh's first n points (``basis_attribute_names``; n + m rows for Green coordinates, whose
-slots are ``[phi, psi]``), and for Green coordinates the cage's triangles (three vertex
-indices) on the mesh's first m points (``triangle_attribute_name``).
+slots are ``[phi, psi]``). Green bindings made before their node group kept the cage's
+triangles also have those (three vertex indices) on the mesh's first m points
+(``triangle_attribute_name``): their groups read them there.
 """
 
 from dataclasses import dataclass, field, fields

@@ -5,9 +5,10 @@ figures measured on what will be written. No Blender: the add-on reads the scene
 A plan is computed chunk by chunk: :func:`plan_bind` is a generator yielding the fraction
 done (0 to 1), so a front end can show progress and cancel between chunks (closing the
 generator stops the worker processes), and returning the plan. Every decision is a
-return value: :func:`choose_storage` (from the sizes alone), :func:`choose_by_measuring`
-(Automatic beyond the cheap sizes: on a sample of the mesh) and :func:`confirm_compact`
-(after the deviations were measured on every vertex), each a :class:`StorageChoice`.
+return value: :func:`choose_storage` (from the sizes alone), :func:`choose_by_estimate`
+(Automatic's cheap first look, on a few points), :func:`choose_by_measuring` (Automatic
+beyond the cheap sizes: on a sample of the mesh) and :func:`confirm_compact` (after the
+deviations were measured on every vertex), each a :class:`StorageChoice`.
 
 Extension points, by name: a kind solved apart from ``Cage.coordinates`` (harmonic
 coordinates on grid nodes) is one more case of :func:`_solve`, with its row count in
@@ -52,6 +53,10 @@ AUTO_EXACT_MAX_BYTES = 2**31
 # bound on the dense float64 block a chunk makes (points x cage vertices).
 CHUNK_ENTRIES = 4_000_000  # per worker process
 DEVIATION_SAMPLES = 2000  # mesh vertices Automatic chooses compact storage's slots on
+# Mesh vertices Automatic first estimates on: enough to see a cage where compact storage
+# cannot save anything, and cheap next to the Bind (the coordinates of a few points and
+# one deviation), so it does not measure slots it would throw away.
+ESTIMATE_SAMPLES = 128
 REPORT_SAMPLES = 1000  # points inside the cage coordinate_report examines
 
 
@@ -241,6 +246,67 @@ def first_choice(request, mesh_vertices, cage_vertices, triangles):
     return StorageChoice(storage, basis, reason, measured=storage == 'AUTO')
 
 
+def _saving_sizes(request, cage_vertices, rows):
+    """Compact sizes worth measuring: multiples of three (an attribute holds three), enough
+    for the motions kept exact, and at most half the rows (beyond, slots and basis take as
+    much as exact storage)."""
+    smallest = 8 if request.green else cage_vertices.shape[1] + 1
+    return [size for size in range(3, rows // 2 + 1, 3) if size >= smallest]
+
+
+def _passes(request, coordinates, basis, cage_vertices, triangles, size):
+    """Whether compact storage with ``size`` slots keeps both deviations under Automatic's
+    target on the points of ``coordinates``."""
+    found, _, _ = compact.smallest_size(coordinates, basis, cage_vertices, AUTO_DEVIATION * AUTO_SAMPLE_MARGIN,
+                                        [size], triangles if request.green else None)
+    return found is not None
+
+
+def _exact_beyond_half(rows, mesh_vertices, saving):
+    """Automatic's exact choice when compact storage would need more than half the rows,
+    or None where exact does not fit AUTO_EXACT_MAX_BYTES (compact with the most slots that
+    save is then the choice)."""
+    if stored_bytes(mesh_vertices, rows, False) <= AUTO_EXACT_MAX_BYTES or not saving:
+        return StorageChoice('EXACT', reason=(f"Automatic: exact (compact would need more than {rows // 2} of the "
+                                              f"{rows} slots for {short_number(AUTO_DEVIATION, 1)})"), measured=True)
+    return None
+
+
+def choose_by_estimate(request, coordinates, cage_vertices, triangles, mesh_vertices):
+    """Automatic's cheap first look, from the coordinates of a few points of the mesh
+    ((j, rows) float64): compact storage with the most slots that still save (half the
+    rows) measured on them. Deviations are maxima over points, so these few bound the
+    whole mesh's from below: where they already miss the target, compact would need more
+    than half the rows whatever the rest of the mesh, and the choice is final (exact, or
+    compact with that half where exact does not fit). Else None: measure
+    (:func:`choose_by_measuring`)."""
+    rows = coordinates.shape[1]
+    saving = _saving_sizes(request, cage_vertices, rows)
+    if saving and _passes(request, coordinates, _basis(request, cage_vertices, triangles, saving[-1]),
+                          cage_vertices, triangles, saving[-1]):
+        return None
+    exact = _exact_beyond_half(rows, mesh_vertices, saving)
+    if exact is not None:
+        return exact
+    return StorageChoice('COMPACT', _basis(request, cage_vertices, triangles, saving[-1]), measured=True)
+
+
+def _fewest_slots(request, coordinates, basis, cage_vertices, triangles, sizes):
+    """The fewest of ``sizes`` that pass on ``coordinates`` (None if the largest does not),
+    by bisection: deviations fall as slots are added (the basis is in order of use), so
+    a few measurements find it where trying every size took most of a Bind."""
+    if not _passes(request, coordinates, basis, cage_vertices, triangles, sizes[-1]):
+        return None
+    low, high = -1, len(sizes) - 1  # sizes[low] fails (or is none), sizes[high] passes
+    while high - low > 1:
+        middle = (low + high) // 2
+        if _passes(request, coordinates, basis, cage_vertices, triangles, sizes[middle]):
+            high = middle
+        else:
+            low = middle
+    return sizes[high]
+
+
 def choose_by_measuring(request, coordinates, cage_vertices, triangles, mesh_vertices):
     """Automatic storage beyond the cheap sizes, from the coordinates of a sample of the
     mesh ((j, rows) float64): compact with the fewest slots (a multiple of three: an
@@ -249,17 +315,13 @@ def choose_by_measuring(request, coordinates, cage_vertices, triangles, mesh_ver
     storage) and exact storage fits AUTO_EXACT_MAX_BYTES; when it does not, compact with
     that half. A compact choice's reason waits for the deviations on every vertex."""
     rows = coordinates.shape[1]
-    basis = _basis(request, cage_vertices, triangles, rows)
-    smallest = 8 if request.green else cage_vertices.shape[1] + 1
-    sizes = [size for size in range(3, rows, 3) if size >= smallest]
-    size, _, _ = compact.smallest_size(coordinates, basis, cage_vertices, AUTO_DEVIATION * AUTO_SAMPLE_MARGIN,
-                                       sizes, triangles if request.green else None)
-    saving = [each for each in sizes if each <= rows // 2]
-    if size is None or size > rows // 2:
-        if stored_bytes(mesh_vertices, rows, False) <= AUTO_EXACT_MAX_BYTES or not saving:
-            needed = f"all {rows}" if size is None else f"{size} of the {rows}"
-            return StorageChoice('EXACT', reason=(f"Automatic: exact (compact would need {needed} slots "
-                                                  f"for {short_number(AUTO_DEVIATION, 1)})"), measured=True)
+    saving = _saving_sizes(request, cage_vertices, rows)
+    basis = _basis(request, cage_vertices, triangles, saving[-1]) if saving else None
+    size = _fewest_slots(request, coordinates, basis, cage_vertices, triangles, saving) if saving else None
+    if size is None:
+        exact = _exact_beyond_half(rows, mesh_vertices, saving)
+        if exact is not None:
+            return exact
         size = saving[-1]
     return StorageChoice('COMPACT', basis[:, :size], measured=True)
 
@@ -401,7 +463,10 @@ def _plan(points, cage, request):
     # Workers are chosen once for the whole plan; each call gives every one a chunk.
     workers = cage.suggested_workers(count) if request.workers is None else request.workers
     choice = first_choice(request, count, cage.vertices, cage.faces)
-    if choice.storage == 'AUTO':
+    if choice.storage == 'AUTO':  # estimate on a few points, measure on more only if that says nothing
+        few = points[::max(1, count // ESTIMATE_SAMPLES)]
+        choice = choose_by_estimate(request, _solve(request, cage, few, None), cage.vertices, cage.faces, count)
+    if choice is None:
         sample = points[::max(1, count // DEVIATION_SAMPLES)]
         choice = choose_by_measuring(request, _solve(request, cage, sample, None), cage.vertices,
                                      cage.faces, count)

@@ -2,20 +2,36 @@
 (renamed out of the deformer's reach, no copy) when an Unbind starts, then put back if it
 fails or dropped once the modifier is gone, and removed when a Bind fails half-way."""
 
-import numpy as np
 
 from ..blender_io import mesh_arrays
 from ..bind_layout import PARKED_PREFIX, attribute_prefix
+from ..steps import run_to_end
 
 
-def write(mesh, data, slots, basis=None, triangles=None):
-    """Write a binding's attributes (named by ``data``, a ``BindData``): its slots ((k, s)),
-    compact storage's basis ((rows, s)) and Green coordinates' cage triangles ((m, 3))."""
-    mesh_arrays.write_triples(mesh, data.slot_names, slots)
+# Attributes written between two steps of a Bind's writing (progress, Esc).
+STEP_ATTRIBUTES = 16
+
+
+def write(mesh, data, slots, basis=None):
+    """Write a binding's attributes (named by ``data``, a ``BindData``): its slots ((k, s))
+    and compact storage's basis ((rows, s)). (Green coordinates' cage triangles were kept
+    on the mesh too, in ``data.triangle_name``, before the group kept them.)"""
+    run_to_end(write_steps(mesh, data, slots, basis))
+
+
+def write_steps(mesh, data, slots, basis=None):
+    """:func:`write` in steps of ``STEP_ATTRIBUTES`` attributes, yielding the fraction
+    written (what is written stays: :func:`remove_slots` removes it)."""
+    parts = [(data.slot_names, slots)]
     if data.basis_names is not None:
-        mesh_arrays.write_triples(mesh, data.basis_names, basis)
-    if data.triangle_name is not None:  # vertex indices, exact in float32 below 2^24
-        mesh_arrays.write_triples(mesh, [data.triangle_name], triangles.astype(np.float32))
+        parts.append((data.basis_names, basis))
+    total, written = sum(len(names) for names, _ in parts), 0
+    for names, values in parts:
+        for start in range(0, len(names), STEP_ATTRIBUTES):
+            yield written / total
+            batch = names[start:start + STEP_ATTRIBUTES]
+            mesh_arrays.write_triples(mesh, batch, values[:, 3 * start:3 * (start + len(batch))])
+            written += len(batch)
 
 
 def remove_slots(mesh, key):

@@ -1,10 +1,10 @@
 """One Bind: ``BindJob(obj, context)`` reads everything it needs from the scene and checks
 it (``bind.scene``); ``job.steps()`` runs the core's planner (``core.tools.bind_plan``: a
 generator yielding the fraction done, so the UI can show progress and cancel between
-chunks); ``job.commit()`` then writes the plan (``bind.commit``). Nothing in the file
-changes before ``commit``, and ``commit`` undoes its own partial work if it fails, so a
-failed or cancelled Bind leaves the mesh, its modifier stack and any earlier binding as
-they were.
+chunks); ``job.commit_steps()`` (or ``job.commit()``, to the end) then writes the plan
+(``bind.commit``), in steps too. Nothing in the file changes before the writing, and the
+writing undoes its own partial work if it fails or is cancelled, so a failed or
+cancelled Bind leaves the mesh, its modifier stack and any earlier binding as they were.
 """
 
 import secrets
@@ -19,6 +19,7 @@ from .. import messages, preferences
 from ..bind_layout import FORMAT, BindData
 from ..enums import is_green
 from ..errors import BindError
+from ..steps import run_to_end
 from . import commit
 from .scene import FLOAT32_TOLERANCE, BindSettings, check_inputs, read_bind_input
 
@@ -39,8 +40,9 @@ class BindJob:
     computed by ``steps()``, written by ``commit()``. It reads the object's settings once,
     on creation (``self.settings``, a ``BindSettings``)."""
 
-    def __init__(self, obj, context, in_workers=None):
-        started = time.perf_counter()
+    def __init__(self, obj, context, in_workers=None, started=None):
+        # When the artist asked for it: the Bind time reported is the wait since then.
+        started = time.perf_counter() if started is None else started
         check_inputs(obj)
         self.obj = obj
         self.settings = settings = BindSettings.of(obj)
@@ -58,6 +60,7 @@ class BindJob:
             cage_name=self.cage.name, cage_face_count=len(scene.triangles) if self.green else None)
         self.started = started
         self.result = None
+        self.writing = False  # set while the plan is being written (commit_steps)
 
     def _request(self, context, in_workers):
         """What the core plans: the settings in its terms, the workers the preferences ask
@@ -137,7 +140,13 @@ class BindJob:
                 report(fraction)
         return self.result
 
+    def commit_steps(self):
+        """Write the computed binding into the file (``bind.commit.steps``): a generator
+        yielding the fraction written and returning the new ``Binding``; closed early, it
+        leaves the file as it was. The bind time stored is the wait until its end."""
+        self.writing = True
+        return (yield from commit.steps(self.obj, self.cage, self.result, self.started))
+
     def commit(self):
-        """Write the computed binding into the file (``bind.commit.write``); returns the
-        new ``Binding``."""
-        return commit.write(self.obj, self.cage, self.result)
+        """:meth:`commit_steps` to the end; returns the new ``Binding``."""
+        return run_to_end(self.commit_steps())

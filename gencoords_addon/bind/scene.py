@@ -177,8 +177,4 @@ def _green_frame(obj, settings, rest, rest_cage, triangles, world):
                         "to Report Error or Project, then Bind")
     if np.linalg.det(world[:3, :3]) < 0.0:
         triangles = triangles[:, ::-1].copy()
-    if len(rest) < len(triangles):
-        raise BindError(f"Green coordinates keep the cage's {len(triangles)} triangles on the "
-                        f"mesh's vertices, and '{obj.name}' has only {len(rest)}: "
-                        "subdivide the mesh, use a cage with fewer faces or another type")
     return rest, rest_cage.astype(np.float64), triangles

@@ -3,11 +3,13 @@ all bind through here, with the same Edit Mode handling, progress, worker fallba
 reports.
 
 ``begin(obj, context)`` reads and checks (``BindJob``, out of Edit Mode), the caller runs
-``job.steps()`` (between events, or to the end), and ``finish(job, context)`` commits and
-returns the report; ``bind(obj, context)`` does all three. Failures are ``BindError``.
+``steps(job, context)``, computing then writing (between events, or to the end), and
+``finish(job, context)`` returns the report; ``bind(obj, context)`` does all three.
+Failures are ``BindError``.
 """
 
 import contextlib
+import time
 import warnings
 from dataclasses import dataclass
 
@@ -15,6 +17,7 @@ import bpy
 
 from ... import core
 from .. import messages
+from ..steps import run_to_end, scaled
 from . import job as bind_job
 
 
@@ -76,14 +79,25 @@ def in_workers_or_blender(compute, workers):
 def begin(obj, context):
     """A ``BindJob`` for ``obj`` and its chosen cage, read out of Edit Mode; BindError
     when it cannot bind."""
+    started = time.perf_counter()  # the artist's wait starts here
     with object_mode(context, obj):
-        return bind_job.BindJob(obj, context, in_workers_or_blender)
+        return bind_job.BindJob(obj, context, in_workers_or_blender, started)
+
+
+# Of a Bind's progress, the computing's share; the writing takes the rest.
+COMPUTING = 0.9
+
+
+def steps(job, context):
+    """The whole Bind of ``job``: computing, then writing (out of Edit Mode), a generator
+    yielding the fraction done. Closed early (Esc), it leaves the file as it was."""
+    yield from scaled(job.steps(), 0.0, COMPUTING)
+    with object_mode(context, job.obj):
+        yield from scaled(job.commit_steps(), COMPUTING, 1.0 - COMPUTING)
 
 
 def finish(job, context):
-    """Commit the computed ``job``; its ``BindReport``."""
-    with object_mode(context, job.obj):
-        job.commit()
+    """The written ``job``'s ``BindReport``."""
     data = job.result.data
     headline = (f"Bound '{job.obj.name}' ({data.mesh_vertex_count} vertices) to "
                 f"'{job.cage.name}' in {data.bind_seconds:.2f} s ({data.storage.lower()} storage)")
@@ -107,5 +121,5 @@ def bind(obj, context):
     """Bind ``obj`` to its chosen cage, to the end (scripts, background mode, Auto Rebind
     there); its ``BindReport``. BindError when it cannot bind; nothing is changed then."""
     job = begin(obj, context)
-    job.run(print_progress(job))
+    run_to_end(steps(job, context), print_progress(job))
     return finish(job, context)

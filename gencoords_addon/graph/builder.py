@@ -75,9 +75,9 @@ class Builder:
             node.inputs["Index"].default_value = index
         return node.outputs[0]
 
-    def index_switch(self, column, index, vectors):
+    def index_switch(self, column, index, vectors, **settings):
         """A field that is ``vectors[index]``: per-cage constants kept in the group."""
-        node = self.add('GeometryNodeIndexSwitch', column, data_type='VECTOR')
+        node = self.add('GeometryNodeIndexSwitch', column, data_type='VECTOR', **settings)
         new_index_switch_items(node, len(vectors))
         self.link(index, node.inputs["Index"])
         for socket, vector in zip(node.inputs[1:], vectors):

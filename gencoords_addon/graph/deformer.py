@@ -18,7 +18,11 @@ accumulated with one Multiply Add per output axis (``acc_x += u_t * (E_a.x, E_b.
 E_c.x)``): one node per slot (Transform Direction would do the same in one node per
 three slots but costs five times as much per vertex). The small per-cage part (the
 ``E`` lanes) is single values: for exact storage, lanes gathered once onto a point
-cloud of s/3 points; for compact storage, one Attribute Statistic sum per lane.
+cloud of s/3 points; for compact storage, one Attribute Statistic sum per lane. Both
+happen inside shared chunk groups (``graph.chunks``) that take up to 16 triples of slots
+each, their attribute names set as values on the chunk's node: the binding's group holds
+a node per 16 triples and a few links per node, so Bind builds it in a fraction of a
+second whatever the cage.
 
 Green coordinates (slots ``[phi, psi]``, n + m of them) add the cage's face terms: the
 group builds a point cloud of n + m points whose displacements are the cage vertices'
@@ -38,17 +42,18 @@ import numpy as np
 
 from ..bind_layout import attribute_prefix, slot_attribute_names
 from ..blender_io.compat import set_wildcard_removal
+from ..steps import run_to_end, scaled
+from . import chunks
 from .builder import Builder
 from .green import green_displacements
-from .helpers import (CAGE, DISPLACEMENT, GEOMETRY, LANE_NAMES, LANES, REST, SUMS, accumulate_group,
-                      cage_info, cloud_lanes_group)
+from .helpers import CAGE, DISPLACEMENT, GEOMETRY, LANE_NAMES, REST, SUMS, cage_info
 
 STRENGTH = "Strength"
+REST_SWITCH = "GenCoords rest cage"  # the node keeping the bind-time cage (read_rest_cage)
 MASK = "Mask"
 INVERT = "Invert Mask"
 
-# The binding's group reads left to right, one column per stage (``build_group``);
-# compact storage's lanes use the lane columns for its basis copy and sums.
+# The binding's group reads left to right, one column per stage (``build_group``).
 DEFORMER_COLUMNS = (
     "input",  # the modifier's inputs
     "cage",  # Object Info, the cage's index and positions
@@ -63,8 +68,7 @@ DEFORMER_COLUMNS = (
     "lane_split",  # ... split into axes
     "lane_join",  # ... joined into lanes
     "lane_store",  # ... stored on a point cloud
-    "lane_read",  # ... read back per triple
-    "accumulate",  # slots times lanes, in chains
+    "accumulate",  # slots times lanes, a chunk node per 16 triples (graph.chunks), in chains
     "chain_sum",  # the chains added up pairwise
     "offset",  # each mesh vertex's displacement, the mask, the guard's sizes
     "apply",  # strength and Set Position
@@ -77,7 +81,8 @@ DEFORMER_COLUMNS = (
 
 
 def _exact_lanes(build, cage, displacement, slot_count):
-    """Per triple t, its three lanes: (D_3t.c, D_3t+1.c, D_3t+2.c) for axes c."""
+    """The lane cloud: a point per triple t of slots holding its three lanes
+    (D_3t.c, D_3t+1.c, D_3t+2.c) for axes c (``LANE_NAMES``), read by the chunks."""
     triples = -(-slot_count // 3)
     cloud = build.add('GeometryNodePoints', "lane_index")
     cloud.inputs["Count"].default_value = triples
@@ -96,58 +101,43 @@ def _exact_lanes(build, cage, displacement, slot_count):
         for offset in range(3):
             build.link(parts[offset][axis], combine.inputs[offset])
         geometry = build.store("lane_store", geometry, name, combine.outputs[0])
-    helper = cloud_lanes_group()
-    lanes = []
-    for t in range(triples):
-        node = build.add('GeometryNodeGroup', "lane_read", node_tree=helper)
-        build.link(geometry, node.inputs["Cloud"])
-        node.inputs["Triple"].default_value = t
-        lanes.append([node.outputs[lane] for lane in LANES])
-    return lanes
+    return {"Cloud": geometry}
 
 
-def _compact_lanes(build, mesh, cage, displacement, basis_names):
-    """Per triple t, its three lanes: sum_j basis[j, 3t:3t+3] * D_j.c for axes c.
-
-    The basis is stored like the slots, on the mesh's first n points (compact storage
-    needs a mesh with at least as many vertices as the cage).
-    """
-    index = build.add('GeometryNodeInputIndex', "lane_index").outputs[0]
-    for name in basis_names:  # copied onto the cage once, read by three sums each
-        basis = build.sample_index("lane_gather", mesh,
-                                   build.named_attribute("lane_gather", name), index)
-        cage = build.store("lane_split", cage, name, basis)
-    separate = build.add('ShaderNodeSeparateXYZ', "lane_gather")
-    build.link(displacement, separate.inputs[0])
-    return [[build.statistic_sum("lane_store", cage,
-                                 build.scale("lane_join", build.named_attribute("lane_split", name),
-                                             separate.outputs[axis]))
-             for axis in range(3)] for name in basis_names]
-
-
-# Accumulation chains of at most this many helper nodes, added up pairwise: Blender
-# gathers the attributes a field depends on at every node, so one chain over all slots
-# costs time quadratic in their number at every evaluation (measured: 100 ms for 642
-# slots on a 2k-vertex mesh, against 4 ms in chains of 16).
+# Chunks chained into one sum while they hold at most this many triples, then added up
+# pairwise: Blender gathers the attributes a field depends on at every node, so one chain
+# over all slots costs time quadratic in their number at every evaluation (measured:
+# 100 ms for 642 slots on a 2k-vertex mesh, against 4 ms in chains of 16).
 CHAIN = 16
+# Chunk nodes placed between two steps of a Bind's writing (progress, Esc).
+STEP_CHUNKS = 8
 
 
-def _weighted_sums(build, slot_names, lanes):
-    """The three axes' sums over triples t of ``slots_t * lanes[t][axis]``."""
-    helper = accumulate_group()
-    partial = []
-    for start in range(0, len(slot_names), CHAIN):
-        sums = None
-        for name, lane in zip(slot_names[start:start + CHAIN], lanes[start:start + CHAIN]):
-            node = build.add('GeometryNodeGroup', "accumulate", node_tree=helper)
-            node.inputs["Name"].default_value = name
-            for socket, value in zip(LANES, lane):
+def _weighted_sums(build, storage, sources, slot_names, lane_entries):
+    """The three axes' sums over triples t of ``slots_t * lanes_t[axis]``, a chunk node
+    (``graph.chunks``) per up to 16 triples: ``sources`` its geometry inputs by name,
+    ``lane_entries[t]`` where triple t's lanes come from (its cloud index or basis name).
+    A generator yielding the fraction of chunks placed, returning the sums' sockets."""
+    partial, start, chained = [], 0, CHAIN
+    plan = chunks.chunk_plan(len(slot_names))
+    for done, size in enumerate(plan):
+        if done % STEP_CHUNKS == 0:
+            yield done / len(plan)
+        node = build.add('GeometryNodeGroup', "accumulate", node_tree=chunks.chunk_group(storage, size))
+        for name, geometry in sources.items():
+            build.link(geometry, node.inputs[name])
+        slots_entry, lanes_entry = chunks.ENTRIES[storage]
+        for k in range(size):
+            node.inputs[f"{slots_entry} {k}"].default_value = slot_names[start + k]
+            node.inputs[f"{lanes_entry} {k}"].default_value = lane_entries[start + k]
+        if chained + size <= CHAIN:
+            for socket, value in zip(SUMS, partial[-1]):
                 build.link(value, node.inputs[socket])
-            if sums is not None:
-                for socket, value in zip(SUMS, sums):
-                    build.link(value, node.inputs[socket])
-            sums = [node.outputs[socket] for socket in SUMS]
-        partial.append(sums)
+            partial[-1], chained = [node.outputs[socket] for socket in SUMS], chained + size
+        else:
+            partial.append([node.outputs[socket] for socket in SUMS])
+            chained = size
+        start += size
     while len(partial) > 1:
         pairs = [[build.math("chain_sum", 'ADD', a, b) for a, b in zip(left, right)]
                  for left, right in zip(partial[::2], partial[1::2])]
@@ -155,9 +145,15 @@ def _weighted_sums(build, slot_names, lanes):
     return partial[0]
 
 
-def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None,
-                triangle_name=None, face_count=0):
-    """A new node group deforming a mesh of ``mesh_vertex_count`` vertices.
+def build_group(*args, **kwargs):
+    """A new node group deforming a mesh, built to the end (:func:`group_steps`)."""
+    return run_to_end(group_steps(*args, **kwargs))
+
+
+def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None, triangles=None):
+    """A new node group deforming a mesh of ``mesh_vertex_count`` vertices: a generator
+    yielding the fraction built (a Bind's writing shows progress and takes Esc between
+    stages) and returning the group; closed early or failing, it removes the group.
 
     Built in stages that pass sockets along, each in its own columns
     (``DEFORMER_COLUMNS``): the interface, the cage's displacement, the lanes, the
@@ -180,40 +176,55 @@ def build_group(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
         Compact storage: the attributes holding the basis of cage motions on the first n
         points (n + m for Green coordinates; ``bind_layout.basis_attribute_names``); None
         for exact storage.
-    triangle_name : str, optional
-        Green coordinates: the attribute holding the cage's m triangles (corner indices)
-        on the mesh's first m points; None for the other kinds.
-    face_count : int
-        Green coordinates: m.
+    triangles : (m, 3) int, optional
+        Green coordinates: the cage's triangles, kept in the group (groups made before
+        read them from an attribute on the mesh's first m points: the mesh needed as
+        many vertices); None for the other kinds.
     """
     rest_cage = np.asarray(rest_cage, dtype=np.float32)
     group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
     group.description = ("GenCoords cage deformation: moves the mesh with its cage "
                          "(bind data in the mesh's point attributes)")
-    _deformer_interface(group.interface)
-    build = Builder(group, DEFORMER_COLUMNS)
-    group_input = build.add('NodeGroupInput', "input")
-    mesh = group_input.outputs[GEOMETRY]
-    cage, displacement = _cage_displacement(build, group_input, rest_cage, triangle_name is not None)
-    # What the slots weigh: the cage's vertices, or for Green also its faces.
-    moving = (cage, displacement) if triangle_name is None else green_displacements(
-        build, mesh, cage, len(rest_cage), face_count, triangle_name)
-    if basis_names is None:
-        lanes = _exact_lanes(build, *moving, slot_count)
-    else:
-        lanes = _compact_lanes(build, mesh, *moving, basis_names)
-    accumulated = _weighted_sums(build, slot_attribute_names(key, slot_count), lanes)
+    try:
+        _deformer_interface(group.interface)
+        build = Builder(group, DEFORMER_COLUMNS)
+        group_input = build.add('NodeGroupInput', "input")
+        mesh = group_input.outputs[GEOMETRY]
+        cage, displacement = _cage_displacement(build, group_input, rest_cage, triangles is not None)
+        # What the slots weigh: the cage's vertices, or for Green also its faces.
+        moving = (cage, displacement) if triangles is None else green_displacements(
+            build, cage, len(rest_cage), triangles)
+        yield 0.1
+        slot_names = slot_attribute_names(key, slot_count)
+        if basis_names is None:
+            sums = _weighted_sums(build, chunks.EXACT, _exact_lanes(build, *moving, slot_count), slot_names,
+                                  range(len(slot_names)))
+        else:  # the basis is on the mesh's first n (n + m) points
+            sums = _weighted_sums(build, chunks.COMPACT, {"Mesh": mesh, "Cage": moving[0]}, slot_names,
+                                  basis_names)
+        accumulated = yield from scaled(sums, 0.1, 0.8)
+        names = slot_names + (basis_names or [])
+        _finish_group(build, group_input, (mesh, cage, moving), accumulated, key, names,
+                      (len(rest_cage), mesh_vertex_count))
+    except BaseException:  # a failure, or a cancel (GeneratorExit): nothing left behind
+        bpy.data.node_groups.remove(group)
+        raise
+    return group
+
+
+def _finish_group(build, group_input, geometries, accumulated, key, names, counts):
+    """The stages after the weighted sums: the masked offset, the guard (``geometries``:
+    the mesh, the cage and what moves; ``counts``: the cage's and the mesh's vertices),
+    the stripping of the attributes ``names``."""
+    mesh, cage, moving = geometries
     moved = _moved_mesh(build, group_input, _offset(build, accumulated))
-    usable = _usable(build, mesh, cage, moving, len(rest_cage), mesh_vertex_count)
+    usable = _usable(build, mesh, cage, moving, *counts)
     switch = build.add('GeometryNodeSwitch', "guard_switch", input_type='GEOMETRY')
     build.link(usable, switch.inputs["Switch"])
     build.link(mesh, switch.inputs["False"])
     build.link(moved, switch.inputs["True"])
-    output = _strip_attributes(build, switch.outputs[0], key,
-                               slot_attribute_names(key, slot_count) + (basis_names or [])
-                               + ([triangle_name] if triangle_name else []))
+    output = _strip_attributes(build, switch.outputs[0], key, names)
     build.link(output, build.add('NodeGroupOutput', "output").inputs[GEOMETRY])
-    return group
 
 
 def _deformer_interface(interface):
@@ -239,7 +250,7 @@ def _cage_displacement(build, group_input, rest_cage, keep_rest=False):
     cage = cage_info(build, group_input)
     cage_index = build.add('GeometryNodeInputIndex', "cage").outputs[0]
     position = build.add('GeometryNodeInputPosition', "cage").outputs[0]
-    rest = build.index_switch("rest", cage_index, rest_cage.tolist())
+    rest = build.index_switch("rest", cage_index, rest_cage.tolist(), name=REST_SWITCH)
     # Stored once: every consumer of a field evaluates it again, and the Index Switch
     # over n constants costs n^2 per evaluation.
     if keep_rest:
@@ -314,9 +325,13 @@ def _strip_attributes(build, geometry, key, names):
 
 def read_rest_cage(group, count):
     """The bind-time cage ``build_group`` keeps in ``group`` ((count, 3) float32, the
-    mesh's local space, as its Object Info node gives it), or None when it is not there."""
+    mesh's local space, as its Object Info node gives it), or None when it is not there:
+    the vector Index Switch named ``REST_SWITCH``, or in groups made before Green's
+    triangles were kept in the group too, the only one."""
     switches = [node for node in group.nodes
                 if node.bl_idname == 'GeometryNodeIndexSwitch' and node.data_type == 'VECTOR']
+    named = [node for node in switches if node.name == REST_SWITCH]
+    switches = named or switches
     if len(switches) != 1 or len(switches[0].inputs) < count + 1:
         return None
     return np.array([socket.default_value[:] for socket in switches[0].inputs[1:count + 1]],

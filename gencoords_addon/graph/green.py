@@ -7,18 +7,23 @@ import numpy as np
 from ..blender_io.compat import compare_operands
 from .helpers import DISPLACEMENT, REST
 
+CORNERS = "gencoords_corners"  # on the cloud: a triangle's corner indices
 
-def green_displacements(build, mesh, cage, cage_vertex_count, face_count, triangle_name):
+
+def green_displacements(build, cage, cage_vertex_count, triangles):
     """A point cloud of n + m points with ``DISPLACEMENT`` stored: the cage's vertices'
     (``C - R``), then each triangle's ``s n' - n`` (0 while its corners are at rest, so
-    the mesh stays bitwise at rest); and that attribute's field."""
+    the mesh stays bitwise at rest); and that attribute's field. The triangles' corner
+    indices ((m, 3) int, exact as float32 below 2^24) are kept in the group, stored on
+    the cloud once (an Index Switch over m constants costs m^2 at each evaluation)."""
     cloud = build.add('GeometryNodePoints', "face_corners")
-    cloud.inputs["Count"].default_value = cage_vertex_count + face_count
+    cloud.inputs["Count"].default_value = cage_vertex_count + len(triangles)
     index = build.add('GeometryNodeInputIndex', "face_corners").outputs[0]
     triangle = build.math("face_corners", 'SUBTRACT', index, float(cage_vertex_count), vector=False)
+    geometry = build.store("face_corners", cloud.outputs[0], CORNERS, build.index_switch(
+        "face_corners", triangle, np.asarray(triangles, dtype=np.float64).tolist()))
     corners = build.add('ShaderNodeSeparateXYZ', "face_corners")
-    build.link(build.sample_index("face_corners", mesh, build.named_attribute("face_corners", triangle_name),
-                                  triangle), corners.inputs[0])
+    build.link(build.named_attribute("face_corners", CORNERS), corners.inputs[0])
     position = build.add('GeometryNodeInputPosition', "face_corners").outputs[0]
     rest_field = build.named_attribute("face_corners", REST)
     now = [build.sample_index("face_vectors", cage, position, corners.outputs[c]) for c in range(3)]
@@ -38,7 +43,7 @@ def green_displacements(build, mesh, cage, cage_vertex_count, face_count, triang
     build.link(index, operands[0])
     operands[1].default_value = cage_vertex_count
     value = build.switch("face_store", 'VECTOR', is_vertex.outputs[0], face, vertex)
-    cloud = build.store("face_store", cloud.outputs[0], DISPLACEMENT, value)
+    cloud = build.store("face_store", geometry, DISPLACEMENT, value)
     return cloud, build.named_attribute("face_store", DISPLACEMENT)
 
 

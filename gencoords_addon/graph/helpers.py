@@ -16,9 +16,9 @@ LANE_NAMES = ("gencoords_lane_x", "gencoords_lane_y", "gencoords_lane_z")
 HELPER_COLUMNS = ("input", "read", "combine", "output")
 # The rest-cage capture: the deformer's Object Info node, alone.
 CAPTURE_COLUMNS = ("input", "cage", "output")
-ACCUMULATE_GROUP = ".GenCoords accumulate 1"  # shared helpers; the number is their layout
-CLOUD_LANES_GROUP = ".GenCoords cloud lanes 1"
-HELPER_GROUPS = (ACCUMULATE_GROUP, CLOUD_LANES_GROUP)
+HELPER_PREFIX = ".GenCoords "  # shared helpers (here and graph.chunks); the number is their layout
+ACCUMULATE_GROUP = HELPER_PREFIX + "accumulate 1"
+CLOUD_LANES_GROUP = HELPER_PREFIX + "cloud lanes 1"
 SUMS = ("Sum X", "Sum Y", "Sum Z")
 LANES = ("Lane X", "Lane Y", "Lane Z")
 
@@ -103,8 +103,11 @@ def cloud_lanes_group():
 
 
 def remove_unused_helpers():
-    """Delete the shared helper groups once no binding uses them."""
-    for name in HELPER_GROUPS:
-        group = bpy.data.node_groups.get(name)
-        if group is not None and group.users == 0:
+    """Delete the shared helper groups once no binding uses them (helpers use helpers:
+    removing one may leave another unused)."""
+    unused = True
+    while unused:
+        unused = [group for group in bpy.data.node_groups
+                  if group.name.startswith(HELPER_PREFIX) and group.users == 0]
+        for group in unused:
             bpy.data.node_groups.remove(group)

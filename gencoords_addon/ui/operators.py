@@ -107,7 +107,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
                 return {'CANCELLED'}
         except Exception as error:
             return internal_error(self, error)
-        self._steps = self._job.steps()
+        self._steps = service.steps(self._job, context)
         window_manager = context.window_manager
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
@@ -129,8 +129,8 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             self._stop(context)
             self.report({'WARNING'}, "Bind cancelled: nothing was changed")
             return {'CANCELLED'}
-        if event.type != 'TIMER':
-            return {'PASS_THROUGH'}
+        if event.type != 'TIMER':  # while writing, nothing else may change the mesh
+            return {'RUNNING_MODAL'} if self._job.writing else {'PASS_THROUGH'}
         try:
             fraction = next(self._steps, None)
             if fraction is None:
@@ -145,8 +145,9 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
             return internal_error(self, error)
         context.window_manager.progress_update(fraction)
         in_blender = "" if self._job.worker_failure is None else ", in Blender: worker processes failed"
+        doing = "writing" if self._job.writing else "binding"
         context.workspace.status_text_set(
-            f"GenCoords: binding '{self._job.obj.name}' {fraction:.0%}{in_blender} (Esc to cancel)")
+            f"GenCoords: {doing} '{self._job.obj.name}' {fraction:.0%}{in_blender} (Esc to cancel)")
         return {'RUNNING_MODAL'}
 
 

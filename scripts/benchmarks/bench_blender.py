@@ -7,9 +7,15 @@ default only on the smallest scene; 7 and more exhaust memory) and GenCoords wit
 coordinate type in exact and compact storage, each bound in a freshly built scene.
 ``--million``: a 999,547-vertex UV sphere in the 642-vertex cage instead (the native
 deformer's large-mesh target), GenCoords compact against Mesh Deform precision 5.
+``--character``: the artist's character (``scenes.add_character``: a 43k-vertex body in
+its 196-vertex box-modelled quad cage), GenCoords mean value and Green in exact storage
+(``--storages`` to change) against Mesh Deform precision 5, with Bind's writing (node
+group and attributes, ``bind.commit``) timed apart.
 
 Metrics, measured the same way for every method:
   bind       wall time of the bind operator (``meshdeform_bind`` / ``gencoords_bind``).
+  writing    of that, GenCoords' writing (``bind.commit.steps``: the node group, the
+             attributes, the modifier), and the node group's node and link counts.
   update     one live update: move one cage vertex, then time ``view_layer.update()``
              (repeated until the evaluated mesh changes) plus reading the evaluated
              positions (``position`` attribute, ``foreach_get``: 2 ms for a million
@@ -58,6 +64,8 @@ import bpy  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 
 UPDATE_REPEATS = 7
+CHARACTER = "character"  # run_method's level for the artist's character
+CHARACTER_VERTICES, CHARACTER_CAGE_VERTICES = 43236, 196
 MOVED_CAGE_VERTEX = 0  # the top vertex of every icosphere: moves many mesh vertices
 
 # A tiny watcher run in its own process: samples our resident memory, with that of our
@@ -142,15 +150,29 @@ def bind_mesh_deform(mesh, cage, precision):
 
 def bind_gencoords(mesh, cage, kind, storage):
     """GenCoords bound with ``kind`` and ``storage`` ('EXACT', 'COMPACT', 'COMPACT:<slots>'
-    or 'AUTO'); returns the bind wall time."""
+    or 'AUTO'); returns the bind wall time and, of it, the seconds spent writing."""
     storage, _, slots = storage.partition(":")
+    commit = session.addon_module("bind.commit")
+    steps, writing = commit.steps, []
+
+    def timed_steps(*args, **kwargs):  # the writing, a generator run to its end here
+        started = time.perf_counter()
+        try:
+            return (yield from steps(*args, **kwargs))
+        finally:
+            writing.append(time.perf_counter() - started)
+
+    commit.steps = timed_steps
     start = time.perf_counter()
-    with session.quiet():  # its "Info: Bound ..." report
-        result = scenes.bind(mesh, cage, kind, storage=storage, compact_size=int(slots) if slots else None)
+    try:
+        with session.quiet():  # its "Info: Bound ..." report
+            result = scenes.bind(mesh, cage, kind, storage=storage, compact_size=int(slots) if slots else None)
+    finally:
+        commit.steps = steps
     seconds = time.perf_counter() - start
     if "FINISHED" not in result or not mesh.modifiers:
         raise RuntimeError(f"gencoords_bind ({kind}) returned {result}")
-    return seconds
+    return seconds, sum(writing)
 
 
 # ---------------------------------------------------------------------------- measuring
@@ -213,20 +235,27 @@ def run_method(level, subdivisions, method):
     None is the million-vertex sphere.
     """
     scenes.reset_scene()
-    mesh = scenes.add_benchmark_mesh(level)
-    cage = scenes.add_icosphere_cage(subdivisions)
+    if level == CHARACTER:
+        mesh, cage = scenes.add_character()
+    else:
+        mesh = scenes.add_benchmark_mesh(level)
+        cage = scenes.add_icosphere_cage(subdivisions)
     rest_mesh, rest_cage = arrays.read_positions(mesh.data), arrays.read_positions(cage.data)
     size = scenes.cage_size(rest_cage)
     bpy.context.view_layer.update()
 
     with PeakMemory() as memory:
         if method[0] == "md":
-            seconds = bind_mesh_deform(mesh, cage, method[1])
+            seconds, writing = bind_mesh_deform(mesh, cage, method[1]), None
         else:
-            seconds = bind_gencoords(mesh, cage, method[1], method[2])
-    row = {"bind": seconds, "peak": memory.peak, "kept": memory.kept, "deviation": "-"}
+            seconds, writing = bind_gencoords(mesh, cage, method[1], method[2])
+    row = {"bind": seconds, "writing": writing, "peak": memory.peak, "kept": memory.kept, "deviation": "-",
+           "group": "-"}
     if method[0] == "gencoords":
-        info = session.addon_module("bind.bindings").binding(mesh).data
+        found = session.addon_module("bind.bindings").binding(mesh)
+        info = found.data
+        tree = found.modifier.node_group
+        row["group"] = f"{len(tree.nodes)} / {len(tree.links)}"
         row["storage"] = f"{info.storage.lower()} {info.slot_count}"
         if info.storage == "COMPACT":
             row["deviation"] = f"{info.deviation_smooth:.1e} / {info.deviation_drag:.1e}"
@@ -251,6 +280,10 @@ def run_method(level, subdivisions, method):
 # ------------------------------------------------------------------------------ report
 
 
+def writing_words(seconds):
+    return "" if seconds is None else f"writing {seconds:6.3f} s  "
+
+
 def fmt_time(seconds):
     return f"{seconds:.2f} s" if seconds >= 0.1 else f"{seconds * 1000:.0f} ms"
 
@@ -258,9 +291,9 @@ def fmt_time(seconds):
 def table(results):
     """The Markdown table: one row per (scene, method), ratios against Mesh Deform p5."""
     lines = [
-        "| mesh | cage | method | bind | MD5 bind / bind | update | update / MD5 update "
-        "| peak MB | kept MB | .blend MB | deviation | affine err | vs MD5 max / mean |",
-        "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---|",
+        "| mesh | cage | method | bind | MD5 bind / bind | writing | nodes / links | update "
+        "| update / MD5 update | peak MB | kept MB | .blend MB | deviation | affine err | vs MD5 max / mean |",
+        "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---|",
     ]
     for (verts, cage_verts), rows in results.items():
         reference = rows.get(("md", 5))
@@ -277,6 +310,7 @@ def table(results):
                 speedup = slowdown = versus = "-"
             lines.append(
                 f"| {verts} | {cage_verts} | {name} | {fmt_time(row['bind'])} | {speedup} "
+                f"| {'-' if row['writing'] is None else fmt_time(row['writing'])} | {row['group']} "
                 f"| {row['update'] * 1000:.1f} ms | {slowdown} "
                 f"| {row['peak'] / 2**20:.0f} | {row['kept'] / 2**20:.0f} "
                 f"| {row['blend'] / 2**20:.1f} | {row['deviation']} | {row['affine']:.1e} "
@@ -296,7 +330,10 @@ def main():
                        help="a 999,547-vertex sphere in the 642-vertex cage: GenCoords "
                             "compact against Mesh Deform precision 5")
     kinds = list(scenes.KINDS) + [scenes.GREEN]
-    parser.add_argument("--kinds", nargs="+", choices=kinds, default=kinds)
+    sweep.add_argument("--character", action="store_true",
+                       help="the artist's character (43k vertices, 196-vertex quad cage): "
+                            "mean value and Green, exact, against Mesh Deform precision 5")
+    parser.add_argument("--kinds", nargs="+", choices=kinds, default=None)
     parser.add_argument("--storages", nargs="+", default=["EXACT", "COMPACT"],
                         help="EXACT, COMPACT (36 slots), COMPACT:<slots> or AUTO (what "
                              "Automatic chooses, measured at Bind); --million "
@@ -313,6 +350,12 @@ def main():
         if args.storages == ["EXACT", "COMPACT"]:
             args.storages = ["COMPACT:12", "COMPACT:24", "COMPACT:36"]
         args.precisions = args.precisions or [5]
+    if args.character:
+        levels, cages = (CHARACTER,), (None,)
+        args.kinds = args.kinds or [scenes.MEAN_VALUE, scenes.GREEN]
+        args.storages = ["EXACT"] if args.storages == ["EXACT", "COMPACT"] else args.storages
+        args.precisions = args.precisions or [5]
+    args.kinds = args.kinds or kinds
     if args.precisions:
         everywhere, smallest_only = sorted(set(args.precisions), key=lambda p: p != 5), []
     else:
@@ -338,8 +381,9 @@ def main():
     started = time.perf_counter()
     for level in levels:
         for subdivisions in cages:
-            key = (scenes.MILLION_VERTICES if level is None else scenes.SUZANNE_VERTICES[level],
-                   scenes.ICOSPHERE_VERTICES[subdivisions])
+            key = ((CHARACTER_VERTICES, CHARACTER_CAGE_VERTICES) if level == CHARACTER else
+                   (scenes.MILLION_VERTICES if level is None else scenes.SUZANNE_VERTICES[level],
+                    scenes.ICOSPHERE_VERTICES[subdivisions]))
             rows = results.setdefault(key, {})
             smallest = (level, subdivisions) == (levels[0], cages[0])
             precisions = everywhere + (smallest_only if smallest else [])
@@ -348,7 +392,9 @@ def main():
                 rows[method] = row
                 print(f"  {key[0]:>6} / {key[1]:>3} {method[0]:9s} "
                       f"{' '.join(map(str, method[1:])):25s} "
-                      f"bind {row['bind']:7.3f} s  update {row['update'] * 1000:6.1f} ms "
+                      f"bind {row['bind']:7.3f} s  "
+                      f"{writing_words(row['writing'])}"
+                      f"group {row['group']:>11s}  update {row['update'] * 1000:6.1f} ms "
                       f"({row['passes']} passes)  peak {row['peak'] / 2**20:6.0f} MB  "
                       f"affine {row['affine']:.1e}  rest {row['rest_error']:.1e}",
                       flush=True)

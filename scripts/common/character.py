@@ -16,7 +16,7 @@ figures (how far the other limbs move when one limb's cage vertices move).
 
 import numpy as np
 
-__all__ = ["LIMBS", "body_mesh", "body_points", "cage_limb_vertices", "character_cage",
+__all__ = ["ELBOW", "LIMBS", "bent_forearm", "body_mesh", "body_points", "cage_limb_vertices", "character_cage",
            "character_capsules", "limb_labels"]
 
 # The cage's grid planes. x: hands at +-0.95, the torso and hips within +-0.2, a gap
@@ -36,6 +36,8 @@ _BOXES = {
     "head": ((-0.2, 0.2), (1.5, 1.75)),
 }
 LIMBS = tuple(_BOXES)
+# The left elbow: the middle of the left arm, on its axis (the forearm bends about y here).
+ELBOW = np.array([-0.575, 0.0, 1.325])
 
 # The body: (part, end a, end b, radius), each capsule inside its box with a margin of at
 # least 0.015.
@@ -207,3 +209,27 @@ def cage_limb_vertices(vertices, part, beyond=0.5):
         low = z <= beyond * 0.8 + 1e-9
         return np.flatnonzero(low & (x >= x0 - 1e-9) & (x <= x1 + 1e-9))
     return np.flatnonzero(z >= 1.5 - 1e-9)
+
+
+def bent_forearm(vertices, degrees=60.0):
+    """The cage with its left forearm (``cage_limb_vertices(vertices, "left_arm")``) turned
+    ``degrees`` about the y axis through ``ELBOW`` (positive: the hand goes up).
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+        The cage's vertices at rest.
+
+    Returns
+    -------
+    bent : (n, 3) float64
+    rotation : (3, 3) float64
+        The forearm's rotation.
+    """
+    angle = np.radians(degrees)
+    cos, sin = np.cos(angle), np.sin(angle)
+    rotation = np.array([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]])
+    bent = np.array(vertices, dtype=np.float64)
+    forearm = cage_limb_vertices(bent, "left_arm")
+    bent[forearm] = (bent[forearm] - ELBOW) @ rotation.T + ELBOW
+    return bent, rotation

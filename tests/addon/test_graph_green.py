@@ -36,6 +36,17 @@ def similarity(points, seed=3):
     return 1.4 * points @ rotation.T + np.array([0.3, -0.2, 0.5])
 
 
+def assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest):
+    """The bound mesh ``obj`` (``rest``: its vertices) is unchanged bitwise with ``cage`` at
+    rest, follows a similarity of the cage exactly, and is bitwise back with it."""
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    vertices, _ = cage_arrays(cage)
+    write_positions(cage.data, similarity(vertices))
+    np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
+    write_positions(cage.data, vertices)
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+
+
 @pytest.mark.parametrize("storage", ["EXACT", "COMPACT"])
 def test_green_binding_is_bitwise_at_rest_and_follows_similarities_exactly(gc, storage):
     cage = add_icosphere_cage(subdivisions=2)  # 42 vertices, 80 triangles
@@ -48,12 +59,7 @@ def test_green_binding_is_bitwise_at_rest_and_follows_similarities_exactly(gc, s
     slots = 42 + 80 if storage == "EXACT" else 24
     assert (info.kind, info.storage, info.slot_count, info.cage_face_count) == \
         ("green", storage, slots, 80)
-    np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
-    vertices, _ = cage_arrays(cage)
-    write_positions(cage.data, similarity(vertices))
-    np.testing.assert_allclose(evaluated_positions(obj), similarity(rest), atol=2e-5)
-    write_positions(cage.data, vertices)
-    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)
 
 
 def test_green_deformation_equals_the_core_and_keeps_shape_better_than_mean_value(gc):
@@ -142,3 +148,37 @@ def test_show_coordinate_paints_green_phi_and_a_second_cage_composes(gc):
     write_positions(second.data, read_positions(second.data) + (0.0, 0.5, 0.0))
     write_positions(cage.data, similarity(vertices))
     np.testing.assert_allclose(evaluated_positions(obj), similarity(rest) + (0.0, 0.5, 0.0), atol=3e-5)
+
+
+def test_the_group_does_not_grow_with_the_slots_and_big_bindings_deform_exactly(gc):
+    """Green exact storage in cages of 42 and 162 vertices (122 and 482 slots: chunks of
+    64, 16, 4 and 1 triples, graph/chunks.py): the binding's group keeps its size (Bind
+    builds it in a fraction of a second) and deforms as a small one does."""
+    size = {}
+    for subdivisions, slots in ((2, 42 + 80), (3, 162 + 320)):
+        cage = add_icosphere_cage(subdivisions=subdivisions, name=f"Cage {slots}")
+        obj = add_subdivided_sphere(levels=2, name=f"Mesh {slots}")
+        rest = read_positions(obj.data).astype(np.float64)
+        assert bind_green(obj, cage) == {'FINISHED'}
+        found = gc.binding.binding(obj)
+        assert found.data.slot_count == slots
+        size[slots] = len(found.group.nodes), len(found.group.links)
+        assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)
+    (small_nodes, small_links), (big_nodes, big_links) = size[122], size[482]
+    assert big_nodes - small_nodes <= 6 and big_links - small_links <= 12  # 4 times the slots
+
+
+def test_a_low_poly_prop_in_a_detailed_cage_binds_green_and_follows_similarities_exactly(gc):
+    """50 mesh vertices in a 162-vertex cage of 320 triangles: the group keeps the cage's
+    triangles itself (they were kept on the mesh's first m vertices, so the mesh needed
+    320), exact storage (compact keeps its basis on the mesh: nothing to save)."""
+    cage = add_icosphere_cage(subdivisions=3)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=5, radius=1.0)
+    obj = bpy.context.active_object
+    rest = read_positions(obj.data).astype(np.float64)
+    assert len(rest) == 50
+    assert bind_green(obj, cage, storage="AUTO") == {'FINISHED'}
+    info = gc.binding.binding(obj).data
+    assert (info.storage, info.slot_count, info.cage_face_count) == ('EXACT', 162 + 320, 320)
+    assert not [a.name for a in obj.data.attributes if a.name == info.triangle_name]
+    assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)

@@ -127,3 +127,55 @@ def test_linear_precision_is_measured_on_the_stored_coordinates_and_refused_beyo
     with pytest.raises(bind_plan.ImpreciseCoordinatesError) as refused:
         run(plan_bind(points, vertices, faces, request))
     assert refused.value.error == plan.linear_precision and refused.value.min_coordinate == plan.min_coordinate
+
+
+def solved_counts(monkeypatch):
+    """The number of points of every ``_solve`` call of the plans that follow."""
+    counts, solve = [], bind_plan._solve
+    monkeypatch.setattr(bind_plan, "_solve", lambda request, cage, points, *args, **kwargs: counts.append(
+        len(points)) or solve(request, cage, points, *args, **kwargs))
+    return counts
+
+
+def test_automatic_estimates_on_a_few_points_and_measures_nothing_it_would_throw_away(monkeypatch, irregular):
+    """An irregular cage where compact storage saves nothing: the few points' estimate
+    decides exact, the larger sample is never computed, and measuring it would have
+    decided the same (deviations are maxima over points: the few bound the many)."""
+    vertices, faces, points = irregular
+    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(bind_plan, "ESTIMATE_SAMPLES", 100)
+    counts = solved_counts(monkeypatch)
+    _, plan = run(plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1)))
+    assert plan.storage == 'EXACT' and plan.slot_count == len(vertices)
+    assert plan.storage_choice == "Automatic: exact (compact would need more than 30 of the 60 slots for 1e-3)"
+    assert counts == [100, len(points)]  # the estimate's points, then the slots: no sample measured
+    exact = gencoords.coordinates(points, vertices, faces)
+    request = BindRequest("mean_value", workers=1)
+    measured = bind_plan.choose_by_measuring(request, exact, vertices, faces, len(points))
+    assert measured.storage == 'EXACT' and measured.reason == plan.storage_choice
+    # The estimate is a lower bound: compact with half the slots misses on the few points
+    # by no more than on all of them.
+    basis = compact.motion_basis(vertices, faces, 30)
+    few = compact.residual_deviations(exact[::9] - exact[::9] @ basis @ basis.T, vertices)
+    every = compact.residual_deviations(exact - exact @ basis @ basis.T, vertices)
+    assert few[0] <= every[0] and few[1].max() <= every[1].max()
+    assert max(few[0], few[1].max()) >= bind_plan.AUTO_DEVIATION * bind_plan.AUTO_SAMPLE_MARGIN
+
+
+def test_automatic_measures_where_the_estimate_allows_compact_and_bisects_to_the_fewest_slots(monkeypatch):
+    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
+    vertices, faces = icosphere(3)  # smooth: few slots reproduce the coordinates
+    rng = np.random.default_rng(3)
+    points = 0.6 * rng.uniform(-1.0, 1.0, (3000, 3)) / np.sqrt(3.0)
+    counts = solved_counts(monkeypatch)
+    _, plan = run(plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1)))
+    step = len(points) // bind_plan.ESTIMATE_SAMPLES
+    assert counts[:2] == [len(points[::step]), len(points[::len(points) // bind_plan.DEVIATION_SAMPLES])]
+    assert plan.storage == 'COMPACT'
+    # The bisection finds what trying every size finds.
+    exact = gencoords.coordinates(points[::len(points) // bind_plan.DEVIATION_SAMPLES], vertices, faces)
+    sizes = list(range(6, len(vertices) // 2 + 1, 3))
+    basis = compact.motion_basis(vertices, faces, sizes[-1])
+    fewest, _, _ = compact.smallest_size(exact, basis, vertices,
+                                         bind_plan.AUTO_DEVIATION * bind_plan.AUTO_SAMPLE_MARGIN, sizes)
+    assert plan.slot_count == fewest < len(vertices) // 2

@@ -42,3 +42,14 @@ def test_body_is_inside_the_cage_and_labelled():
     assert (gencoords.point_locations(points, vertices, triangles) == gencoords.INSIDE).all()
     for limb in ("left_arm", "right_arm", "left_leg", "right_leg", "head"):
         assert len(character.cage_limb_vertices(vertices, limb)) >= 8
+
+
+def test_the_bent_forearm_turns_only_the_forearm_rigidly_about_the_elbow():
+    vertices, _ = character.character_cage()
+    bent, rotation = character.bent_forearm(vertices, 60.0)
+    moved = np.flatnonzero(np.linalg.norm(bent - vertices, axis=1) > 1e-12)
+    assert set(moved) <= set(character.cage_limb_vertices(vertices, "left_arm"))
+    assert np.allclose(rotation @ rotation.T, np.eye(3)) and np.isclose(np.linalg.det(rotation), 1.0)
+    distances = np.linalg.norm(vertices[moved] - character.ELBOW, axis=1)
+    assert np.allclose(np.linalg.norm(bent[moved] - character.ELBOW, axis=1), distances)
+    assert (bent[moved, 2] > vertices[moved, 2]).all()  # the hand goes up

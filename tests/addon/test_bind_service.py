@@ -1,0 +1,94 @@
+"""The one Bind path (bind/service.py) as the artist meets it: progress and Esc cover the
+writing too, and the Bind time reported is the time the artist waited."""
+
+import importlib
+import time
+from types import SimpleNamespace
+
+import bpy
+import numpy as np
+
+from scene_helpers import evaluated_positions, make_active, update, write_positions
+from test_bind_errors import bound
+from test_ui_artist import ContextStandIn, WindowStandIn, bind_operator_stand_in
+
+SLOW_WRITE = 0.25  # seconds each attribute write is made to take
+# What the operator call spends around the Bind itself (dispatch, report, undo step):
+# a few milliseconds, more on a loaded machine; far below the writing's SLOW_WRITE.
+AROUND = 0.05
+
+
+def slow_attribute_writes(gc, monkeypatch, step_attributes=None):
+    """Writing that takes SLOW_WRITE per step of attributes (a big mesh's, in small)."""
+    arrays = gc.attributes.mesh_arrays
+    write = arrays.write_triples
+    monkeypatch.setattr(arrays, "write_triples", lambda *args: time.sleep(SLOW_WRITE) or write(*args))
+    if step_attributes is not None:
+        monkeypatch.setattr(gc.attributes, "STEP_ATTRIBUTES", step_attributes)
+
+
+def modal_rebind(gc, obj, monkeypatch):
+    """The Bind operator's modal path (stand-ins for the window), a confirmed Rebind of
+    ``obj``: (operator, context), invoked."""
+    operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.ui.operators")
+    monkeypatch.setattr(operators, "interactive", lambda context: True)
+    make_active(obj)
+    context = ContextStandIn(WindowStandIn())
+    running = bind_operator_stand_in(operators)
+    running.replace_confirmed = True
+    assert running.invoke(context, None) == {'RUNNING_MODAL'}
+    return running, context
+
+
+def test_the_bind_time_reported_is_the_wait_writing_included(gc, monkeypatch):
+    obj, cage = bound(gc)
+    slow_attribute_writes(gc, monkeypatch)
+    make_active(obj)
+    started = time.perf_counter()
+    assert bpy.ops.object.gencoords_bind() == {'FINISHED'}  # scripts: run to the end
+    waited = time.perf_counter() - started
+    reported = gc.binding.binding(obj).data.bind_seconds
+    assert waited - AROUND <= reported <= waited and reported > SLOW_WRITE
+
+    running, context = modal_rebind(gc, obj, monkeypatch)  # the window: between events
+    started = time.perf_counter()  # invoke started the clock just before: it waited less
+    result = {'RUNNING_MODAL'}
+    while result == {'RUNNING_MODAL'}:
+        result = running.modal(context, SimpleNamespace(type='TIMER'))
+    waited = time.perf_counter() - started
+    assert result == {'FINISHED'}
+    reported = gc.binding.binding(obj).data.bind_seconds
+    assert waited - AROUND <= reported and reported > SLOW_WRITE
+    assert f"in {reported:.2f} s" in running.reports[-1]  # the report says the same
+
+
+def test_esc_while_writing_leaves_everything_as_it_was(gc, monkeypatch):
+    """Esc after the plan was computed, with the node group built and some attributes
+    written: the earlier binding, the mesh, its stack and the file's node groups are as
+    they were, and the mesh still follows its cage."""
+    obj, cage = bound(gc)
+    earlier = gc.binding.binding(obj)
+    key, groups = earlier.key, sorted(g.name for g in bpy.data.node_groups)
+    attributes = sorted(a.name for a in obj.data.attributes)
+    modifiers = [(m.name, m.type, m.node_group.name) for m in obj.modifiers]
+    slow_attribute_writes(gc, monkeypatch, step_attributes=1)
+    running, context = modal_rebind(gc, obj, monkeypatch)
+    prefix = None
+    while prefix is None or not any(a.name.startswith(prefix) for a in obj.data.attributes):
+        assert running.modal(context, SimpleNamespace(type='TIMER')) == {'RUNNING_MODAL'}
+        if running._job.writing:
+            prefix = gc.bind_layout.attribute_prefix(running._job.result.data.key)
+    assert len(bpy.data.node_groups) > len(groups)  # half written: the new group is there
+    # While writing, the window's other events wait (nothing may change the mesh).
+    assert running.modal(context, SimpleNamespace(type='LEFTMOUSE')) == {'RUNNING_MODAL'}
+    assert running.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
+    assert running.reports == ["Bind cancelled: nothing was changed"]
+    assert sorted(g.name for g in bpy.data.node_groups) == groups
+    assert sorted(a.name for a in obj.data.attributes) == attributes
+    assert [(m.name, m.type, m.node_group.name) for m in obj.modifiers] == modifiers
+    assert gc.binding.binding(obj).key == key
+    rest = np.array([v.co[:] for v in cage.data.vertices])
+    write_positions(cage.data, 1.5 * rest)
+    update()
+    np.testing.assert_allclose(evaluated_positions(obj), 1.5 * np.array([v.co[:] for v in obj.data.vertices]),
+                               atol=1e-5)
