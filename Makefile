@@ -117,6 +117,7 @@ bench: $(STAMP) build
 	$(PY) scripts/benchmarks/bench_core.py --workers --surfaces $(CGAL_REFERENCE)
 	$(PY) scripts/benchmarks/bench_blender.py
 	$(PY) scripts/benchmarks/bench_artist.py
+	$(PY) scripts/benchmarks/bench_local.py
 
 ## The core's speed table alone (no Blender).
 bench-core: $(STAMP)

@@ -5,12 +5,16 @@ Scripting API (works headless, e.g. ``blender -b`` or ``import bpy``):
 Properties, on every object as ``obj.gencoords`` (read when binding):
     cage          Object   the cage: a closed mesh object around ``obj`` (not ``obj`` itself)
     kind          enum     'WACHSPRESS', 'MEAN_VALUE' (default), 'DISCRETE_HARMONIC', 'VORONOI',
-                           'POWER' (with ``gamma``)
+                           'POWER' (with ``gamma``), 'GREEN', 'HARMONIC' (local, never
+                           negative in any closed cage; with ``resolution``)
     gamma         float    power coordinates' exponent, -16 to 16 (default -0.5)
     outside       enum     vertices outside the cage: 'RAISE' (default: refuse to bind),
                            'PROJECT' (nearest cage surface point), 'EXTRAPOLATE'
-    storage       enum     'AUTO' (default), 'EXACT', 'COMPACT' (see the README)
+    resolution    int      harmonic coordinates: grid cells along the cage's longest side (48)
+    storage       enum     'AUTO' (default), 'EXACT', 'COMPACT', 'SPARSE' (see the README)
     compact_size  int      numbers per vertex in compact storage (default 36)
+    sparse_size   int      (cage vertex, weight) pairs per vertex in sparse storage (16;
+                           harmonic: per grid node)
     auto_rebind   bool     bind again on leaving Edit Mode after vertices were added/deleted
     field_vertex  int      cage vertex whose coordinate field Show Coordinate paints
 

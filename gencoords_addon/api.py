@@ -31,18 +31,20 @@ class BindingResult:
     modifier: str  # the binding's Geometry Nodes modifier on the object
     cage: str | None  # the cage object it follows; None once the cage was deleted
     format: int  # bind data layout (``is_current``: this extension's)
-    kind: str  # 'MEAN_VALUE', 'WACHSPRESS', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN'
+    kind: str  # 'MEAN_VALUE', 'WACHSPRESS', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN', 'HARMONIC'
     gamma: float | None  # the power family's exponent; None for the other kinds
     outside: str  # 'RAISE', 'PROJECT', 'EXTRAPOLATE'
-    storage: str  # the storage chosen: 'EXACT' or 'COMPACT' (Automatic decided)
-    slot_count: int  # numbers stored per mesh vertex (exact: the cage's vertex count)
+    storage: str  # the storage chosen: 'EXACT', 'COMPACT' or 'SPARSE' (Automatic decided)
+    # Numbers stored per mesh vertex (exact: the cage's vertex count; sparse: pairs, in two
+    # levels the grid cell's 8 nodes).
+    slot_count: int
     cage_vertex_count: int
     mesh_vertex_count: int
     min_coordinate: float  # smallest coordinate of any mesh vertex
     negative_points: int  # mesh vertices with a negative coordinate
     max_affine_error: float  # largest |sum of a vertex's coordinates - 1|
-    # Compact storage's deviation from exact, of the cage size, for a standard smooth
-    # cage motion and for one dragged cage vertex (0 for exact storage).
+    # Compact and sparse storage's deviation from exact, of the cage size, for a standard
+    # smooth cage motion and for one dragged cage vertex (float32 rounding for exact).
     deviation_smooth: float
     deviation_drag: float
     points_outside: int  # mesh vertices outside the cage (projected or extrapolated)
@@ -50,6 +52,10 @@ class BindingResult:
     report: str | None  # core.tools.coordinate_report's headline for this kind in this cage
     nbytes: int  # bytes of bind data stored on the mesh
     bind_seconds: float
+    negative_entries: int | None = None  # coordinates below 0 (of mesh x cage vertices)
+    resolution: int | None = None  # harmonic coordinates' grid: cells along the longest side
+    node_count: int | None = None  # sparse storage in two levels: grid nodes (else 0)
+    node_slot_count: int | None = None  # ... and pairs per grid node
     metadata: Mapping = field(default_factory=dict, compare=False, repr=False)
 
     @property

@@ -10,19 +10,25 @@ point attributes on the mesh holding its slots three to an attribute
 mesh's first n points (``basis_attribute_names``; n + m rows for Green coordinates, whose
 slots are ``[phi, psi]``). Green bindings made before their node group kept the cage's
 triangles also have those (three vertex indices) on the mesh's first m points
-(``triangle_attribute_name``): their groups read them there.
+(``triangle_attribute_name``): their groups read them there. Sparse storage keeps instead
+per vertex K INT and K FLOAT attributes (its pairs), and in two levels the grid nodes'
+pairs three to a vector attribute (``graph.sparse``: ``BindData.attribute_names``).
+
+Format 3 added sparse storage and harmonic coordinates; format 2 bindings are the same
+bind data without them and read as format 3 (``BindData.from_properties``).
 """
 
 from dataclasses import dataclass, field, fields
 from types import MappingProxyType
 from typing import Mapping, Optional
 
-FORMAT = 2  # bind data layout; data of another number read as "Bind again"
+FORMAT = 3  # bind data layout; data of another number read as "Bind again"
+READABLE_FORMATS = (2,)  # earlier layouts read as this one (they are a part of it)
 METADATA = "gencoords"  # ID property of the binding's node group
 ATTRIBUTE_PREFIX = ".gencoords_"  # a leading dot keeps them out of the attribute lists
 # Slot attributes an Unbind in progress has taken away (hidden: the leading dot).
 PARKED_PREFIX = ".unbinding"
-STORAGES = ('EXACT', 'COMPACT')  # the storages a binding is written in
+STORAGES = ('EXACT', 'COMPACT', 'SPARSE')  # the storages a binding is written in
 
 
 @dataclass(frozen=True)
@@ -62,6 +68,10 @@ class BindData:
     points_on_boundary: Optional[int] = None
     nbytes: Optional[int] = None  # bytes of the bind data's attributes
     bind_seconds: Optional[float] = None
+    negative_entries: Optional[int] = None  # coordinates below 0, of k x n
+    resolution: Optional[int] = None  # harmonic coordinates: grid cells along the longest side
+    node_count: Optional[int] = None  # sparse storage in two levels: grid nodes N (else 0)
+    node_slot_count: Optional[int] = None  # ... and pairs per node K'
     # Stored keys this version does not know (a later version's), kept as they are.
     unknown: Mapping = field(default_factory=lambda: MappingProxyType({}), compare=False, repr=False)
 
@@ -78,6 +88,15 @@ class BindData:
     @property
     def slot_names(self):
         return slot_attribute_names(self.key, self.slot_count)
+
+    @property
+    def attribute_names(self):
+        """The attributes the binding's group reads from the mesh (Green bindings made
+        before their group kept the cage's triangles have those too)."""
+        if self.storage == 'SPARSE':
+            return sparse_attribute_names(self.key, self.slot_count, self.mesh_vertex_count,
+                                          self.node_count or 0, self.node_slot_count or 0)
+        return self.slot_names + (self.basis_names or [])
 
     @property
     def basis_names(self):
@@ -107,6 +126,8 @@ class BindData:
         fields are read.
         """
         names = {f.name for f in fields(cls)} - {"unknown"}
+        if properties.get("format") in READABLE_FORMATS:
+            properties = dict(properties, format=FORMAT)
         known = {name: value for name, value in properties.items() if name in names}
         unknown = {name: value for name, value in properties.items() if name not in names}
         return cls(**known, unknown=MappingProxyType(unknown))
@@ -130,3 +151,51 @@ def basis_attribute_names(key, slot_count):
 def triangle_attribute_name(key):
     """Name of the vector attribute holding a Green binding's cage triangles."""
     return f"{attribute_prefix(key)}triangles"
+
+
+# Sparse storage (graph/sparse.py): per vertex K index and K weight attributes, in two
+# levels the grid nodes' pairs three to a vector, stacked.
+NODE_DISPLACEMENT_SUFFIX = "node_displacement"
+SLOT_MARK = "#"  # stands for the slot number in a name template
+
+
+def name_template(key, level, what):
+    """An attribute name with ``SLOT_MARK`` where the slot number goes (the deformer's
+    Repeat Zone fills it in)."""
+    return f"{attribute_prefix(key)}{level}_{what}{SLOT_MARK}"
+
+
+def index_attribute_names(key, slot_count, level="vertex"):
+    """Names of the K INT attributes holding each point's gathered indices: ``level``
+    'vertex' for the mesh vertices' slots, 'node' for the grid nodes' (two-level)."""
+    template = name_template(key, level, "index")
+    return [template.replace(SLOT_MARK, str(k)) for k in range(slot_count)]
+
+
+def weight_attribute_names(key, slot_count, level="vertex"):
+    """Names of the K FLOAT attributes holding the weights matching
+    ``index_attribute_names``."""
+    template = name_template(key, level, "weight")
+    return [template.replace(SLOT_MARK, str(k)) for k in range(slot_count)]
+
+
+def node_displacement_name(key):
+    """The attribute the two-level group stores its grid nodes' displacements in (on the
+    mesh's first N points, inside the group only: stripped from the output)."""
+    return attribute_prefix(key) + NODE_DISPLACEMENT_SUFFIX
+
+
+def node_column_count(mesh_vertex_count, node_count, node_slot_count):
+    """Stacked vector columns the grid nodes' pairs take, three to a vector
+    (``core.tools.sparse.stacked_columns``)."""
+    if not node_count:
+        return 0
+    triples, per_column = -(-node_slot_count // 3), mesh_vertex_count // node_count
+    return -(-triples // per_column)
+
+
+def sparse_attribute_names(key, slot_count, mesh_vertex_count, node_count=0, node_slot_count=0):
+    """Every attribute a sparse binding keeps on the mesh."""
+    columns = node_column_count(mesh_vertex_count, node_count, node_slot_count)
+    return (index_attribute_names(key, slot_count) + weight_attribute_names(key, slot_count)
+            + index_attribute_names(key, columns, "node") + weight_attribute_names(key, columns, "node"))

@@ -7,11 +7,17 @@ kinds (``core.KIND_TABLE``) is the one list of them, with Green coordinates afte
 
 from .. import core
 from ..core.construction.green import GREEN, GREEN_DESCRIPTION, GREEN_LABEL
+from ..core.tools.bind_plan import HARMONIC
 
+HARMONIC_LABEL = "Harmonic"  # short: the Properties editor's default width shows it whole
+HARMONIC_DESCRIPTION = ("Local, positive: never negative in any closed cage, and, as Mesh Deform, moving one "
+                        "limb's cage moves that limb alone. Solved on a grid (Resolution); stored "
+                        "sparse by default")
 # The paper's kinds, then Green coordinates (not a generating surface: the core keeps
-# them out of its table, and the deformer adds the cage's face terms for them).
+# them out of its table, and the deformer adds the cage's face terms for them) and
+# harmonic coordinates (solved on a grid: gencoords.harmonic_field).
 KIND_ITEMS = tuple((kind.name.upper(), kind.label, kind.description) for kind in core.KIND_TABLE) + (
-    (GREEN.upper(), GREEN_LABEL, GREEN_DESCRIPTION),)
+    (GREEN.upper(), GREEN_LABEL, GREEN_DESCRIPTION), (HARMONIC.upper(), HARMONIC_LABEL, HARMONIC_DESCRIPTION))
 DEFAULT_KIND = "MEAN_VALUE"
 OUTSIDE_ITEMS = (
     ("RAISE", "Report Error", "Refuse to bind when mesh vertices lie outside the cage"),
@@ -23,13 +29,18 @@ OUTSIDE_ITEMS = (
 STORAGE_ITEMS = (
     ("AUTO", "Automatic",
      "Exact while its cost is moderate (mesh vertices x cage vertices up to 8 million, "
-     "cages up to 400 vertices); beyond, Compact with the fewest slots that keep the "
-     "deviation under 1e-3 of the cage diagonal, measured at Bind, else Exact"),
+     "cages up to 400 vertices); beyond, Sparse or else Compact with the fewest pairs or "
+     "slots that keep the deviation under 1e-3 of the cage diagonal, measured at Bind, else "
+     "Exact. Harmonic: Sparse in two levels"),
     ("EXACT", "Exact",
      "Every coordinate of every vertex: the deformation is exact to float32 rounding"),
     ("COMPACT", "Compact",
      "A few numbers per vertex: exact for affine and smooth cage motions, close for "
      "others (the panel shows the deviation); for dense meshes and large cages"),
+    ("SPARSE", "Sparse",
+     "Each vertex's largest coordinates as (cage vertex, weight) pairs summing to 1: "
+     "translations exact, fast for local coordinates (Harmonic: pairs per grid node, each "
+     "vertex its grid cell's 8 nodes); the panel shows the deviation"),
 )
 
 
@@ -51,7 +62,7 @@ def kind_label(name):
 
 def kind_parameter(identifier):
     """The name of the kind's parameter ('gamma' for the power family), or None."""
-    if is_green(identifier):
+    if is_green(identifier) or is_harmonic(identifier):
         return None
     return core.KIND_TABLE[core.advanced.KINDS.index(core_name(identifier))].parameter
 
@@ -59,3 +70,8 @@ def kind_parameter(identifier):
 def is_green(identifier):
     """Whether a kind (enum identifier or core name) is Green coordinates."""
     return core_name(identifier) == GREEN
+
+
+def is_harmonic(identifier):
+    """Whether a kind (enum identifier or core name) is harmonic coordinates."""
+    return core_name(identifier) == HARMONIC

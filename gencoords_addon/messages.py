@@ -2,6 +2,7 @@
 
 from ..core import CageError, OutsideCageError
 from ..core.surfaces.named import MEAN_VALUE
+from .enums import HARMONIC_LABEL
 
 RECALCULATE_NORMALS = "in Edit Mode use Mesh > Normals > Recalculate Outside"
 SELECT_DENTED = "Select > Select Dented Faces"
@@ -86,14 +87,15 @@ def zero_scale(what, name, axes, then):
             f"parent is): give it a non-zero Scale (Object Properties > Transform), then {then}")
 
 
-# What keeps weights positive, for the panel's note on negative ones. A kind that stays
-# positive in any closed cage (Harmonic, being added) belongs in this sentence once it lands.
-POSITIVE_WEIGHTS = "A convex cage (Make Cage) keeps weights positive; Type Green follows a bent cage smoothly"
+# What keeps weights positive, for the panel's note on negative ones.
+POSITIVE_WEIGHTS = (f"Type {HARMONIC_LABEL} (local, positive) keeps weights positive and each part of the mesh to its own "
+                    "part of the cage, in any closed cage; so does a convex cage (Make Cage)")
 
 
 def negative_weights(data, kind_label):
     """Panel lines (text, icon) explaining a binding's negative coordinates, from its
-    ``BindData``: how many, why, what keeps them positive."""
+    ``BindData``: how many (vertices, and of all its coordinates), why, what keeps them
+    positive."""
     share = 100.0 * data.negative_points / max(data.mesh_vertex_count, 1)
     if data.points_outside and data.outside == "extrapolate":
         why = "Vertices outside the cage are extrapolated"
@@ -101,6 +103,11 @@ def negative_weights(data, kind_label):
         why = "The cage is not convex"
     else:
         why = f"{kind_label} coordinates can be negative in this cage"
-    return [(f"{share:.2g} % of vertices have negative weights (smallest {data.min_coordinate:.3g})", 'INFO'),
+    # Earlier binds lack the count of negative coordinates.
+    entries = "" if data.negative_entries is None else (
+        f", {100.0 * data.negative_entries / max(data.mesh_vertex_count * data.cage_vertex_count, 1):.2g} % "
+        "of all coordinates")
+    return [(f"{share:.2g} % of vertices have negative weights{entries} (smallest {data.min_coordinate:.3g})",
+             'INFO'),
             (f"{why}: parts of the mesh may move against the cage", 'BLANK1'),
             (POSITIVE_WEIGHTS, 'BLANK1')]

@@ -50,17 +50,22 @@ def winding_numbers(cage, points):
     if dim not in (2, 3):
         raise NotImplementedError("winding numbers are implemented for 2D and 3D cages")
     x = cage.local(points)
-    corners = cage.vertices[cage.topology.faces][None] - x[:, None, None, :]  # (k, m, N, N)
-    dot = lambda u, v: np.einsum("kmN,kmN->km", u, v)  # noqa: E731
+    facets = cage.vertices[cage.topology.faces]  # (m, N corners, N)
+    # One (k, m) array per corner and axis: contiguous arithmetic, several times faster
+    # than (k, m, N, N) blocks reduced over their short last axis.
+    corners = [[facets[None, :, corner, axis] - x[:, axis, None] for axis in range(dim)]
+               for corner in range(dim)]
     if dim == 2:  # signed angle subtended by each edge
-        a, b = corners[..., 0, :], corners[..., 1, :]
-        angle = np.arctan2(a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0], dot(a, b))
+        (ax, ay), (bx, by) = corners
+        angle = np.arctan2(ax * by - ay * bx, ax * bx + ay * by)
         return angle.sum(axis=1) / (2.0 * np.pi)
     # Signed solid angle of each triangle (Van Oosterom and Strackee).
-    a, b, c = corners[..., 0, :], corners[..., 1, :], corners[..., 2, :]
-    la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
-    denominator = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la
-    return (2.0 * np.arctan2(dot(a, np.cross(b, c)), denominator)).sum(axis=1) / (4.0 * np.pi)
+    (ax, ay, az), (bx, by, bz), (cx, cy, cz) = corners
+    la, lb, lc = (np.sqrt(u * u + v * v + w * w) for u, v, w in corners)
+    triple = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+    denominator = (la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (ax * cx + ay * cy + az * cz) * lb
+                   + (bx * cx + by * cy + bz * cz) * la)
+    return (2.0 * np.arctan2(triple, denominator)).sum(axis=1) / (4.0 * np.pi)
 
 
 def _nearest_of_pairs(cage, points, point_index, facet_index):

@@ -185,8 +185,9 @@ def coordinate_summary(coordinates):
     -------
     summary : dict
         ``min`` (smallest coordinate), ``negative_points`` (points with any coordinate
-        below ``-tolerances.NEGATIVE``), ``max_affine_error`` (largest ``|row sum - 1|``) and
-        ``nbytes`` (memory of the matrix).
+        below ``-tolerances.NEGATIVE``), ``negative_entries`` (how many coordinates are),
+        ``max_affine_error`` (largest ``|row sum - 1|``) and ``nbytes`` (memory of the
+        matrix).
 
     Examples
     --------
@@ -200,11 +201,12 @@ def coordinate_summary(coordinates):
     """
     coordinates = np.asarray(coordinates)
     if coordinates.size == 0:
-        return {"min": 0.0, "negative_points": 0, "max_affine_error": 0.0, "nbytes": 0}
+        return {"min": 0.0, "negative_points": 0, "negative_entries": 0, "max_affine_error": 0.0, "nbytes": 0}
     row_min = coordinates.min(axis=1)
     return {
         "min": float(row_min.min()),
         "negative_points": int(np.count_nonzero(row_min < -tolerances.NEGATIVE)),
+        "negative_entries": int(np.count_nonzero(coordinates < -tolerances.NEGATIVE)),
         "max_affine_error": float(np.abs(coordinates.sum(axis=1, dtype=np.float64) - 1.0).max()),
         "nbytes": int(coordinates.nbytes),
     }

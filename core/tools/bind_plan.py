@@ -10,29 +10,32 @@ return value: :func:`choose_storage` (from the sizes alone), :func:`choose_by_es
 beyond the cheap sizes: on a sample of the mesh) and :func:`confirm_compact` (after the
 deviations were measured on every vertex), each a :class:`StorageChoice`.
 
-Extension points, by name: a kind solved apart from ``Cage.coordinates`` (harmonic
-coordinates on grid nodes) is one more case of :func:`_solve`, with its row count in
-:func:`coordinate_rows`; a storage (sparse: per vertex K (cage vertex, weight) pairs) is
-one more case of :func:`choose_storage` / :func:`choose_by_measuring` (the smallest K whose
-measured deviation stays under ``AUTO_DEVIATION``), :func:`encode` and :func:`reproduce`.
+Harmonic coordinates are solved once on a grid (``gencoords.harmonic_field``) and looked
+up (:func:`_solve`); in sparse storage, their default, they are written in two levels
+(:func:`_plan_two_level`: each vertex its grid cell's 8 nodes, each node its own pairs over
+the cage, ``tools.sparse.two_level_layout``). Sparse storage of any other kind keeps each
+vertex's K largest coordinates (``tools.sparse``): Automatic chooses it, with the fewest K
+whose deviations stay under ``AUTO_DEVIATION``, before compact storage (:func:`encode` and
+:func:`reproduce` know each storage).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Optional
 
 import numpy as np
 
 from ..base.tolerances import LINEAR_PRECISION
-from ..construction.boundary import BOUNDARY, OUTSIDE
+from ..construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from ..construction.green import GREEN
 from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
 from ..evaluation.deformation import coordinate_summary, linear_precision
-from . import compact
+from ..harmonic import harmonic_field
+from . import compact, sparse
 from .report import coordinate_report
 
 __all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "plan_bind",
-           "choose_storage"]
+           "choose_storage", "plan_bytes"]
 
 # Automatic storage is exact without measuring while its per-evaluation cost and node
 # group stay moderate: k x n multiply-adds (about 1.5 ns each on two cores) and a node
@@ -58,6 +61,14 @@ DEVIATION_SAMPLES = 2000  # mesh vertices Automatic chooses compact storage's sl
 # one deviation), so it does not measure slots it would throw away.
 ESTIMATE_SAMPLES = 128
 REPORT_SAMPLES = 1000  # points inside the cage coordinate_report examines
+HARMONIC = "harmonic"  # the core's name of harmonic coordinates (gencoords.harmonic_field)
+# A Bind's grid for harmonic coordinates unless asked otherwise: on the character
+# (bench_local.py, 43k vertices, 196-vertex cage) 48 cells bind in 1.4x Mesh Deform p5's
+# time and memory, play back in 0.8x its CPU time and bend a limb as evenly (1.8 / 14.4
+# degrees mean / 99th percentile against 2.5 / 14.1); the core's default, 64, took 2-3x
+# as long to bind, twice the memory, and bent less evenly there (2.0 / 18.8).
+BIND_RESOLUTION = 48
+SPARSE_SIZE = 16  # sparse storage's pairs per vertex when asked for
 
 
 class UndefinedCoordinatesError(ValueError):
@@ -93,8 +104,10 @@ class BindRequest:
     kind: str  # e.g. 'mean_value', 'green'
     outside: str = "raise"  # 'raise', 'project' or 'extrapolate'
     gamma: Optional[float] = None  # the kind's parameter, for the kinds that have one
-    storage: str = 'AUTO'  # 'AUTO', 'EXACT' or 'COMPACT'
+    storage: str = 'AUTO'  # 'AUTO', 'EXACT', 'COMPACT' or 'SPARSE'
     compact_size: int = 36  # compact storage's slots when asked for
+    sparse_size: int = SPARSE_SIZE  # sparse storage's pairs per vertex (per grid node: two levels)
+    resolution: int = BIND_RESOLUTION  # harmonic coordinates: cells along the cage's longest side
     workers: Optional[int] = None  # worker processes (None: the core's choice; 1: none)
     tolerance: float = DEFAULT_TOLERANCE  # relative to the cage's size
     # ``run(compute, workers)`` calls ``compute(workers)``: a front end's hook to fall
@@ -105,21 +118,33 @@ class BindRequest:
     def green(self):
         return self.kind == GREEN
 
+    @property
+    def harmonic(self):
+        return self.kind == HARMONIC
+
 
 @dataclass(frozen=True, eq=False)
 class StorageChoice:
-    """A storage decision: ``storage`` ('EXACT', 'COMPACT', or 'AUTO': measure), for
-    compact storage its ``basis`` ((rows, s) float64), ``reason`` (why, in the panel's
-    words; None where there is nothing to say) and whether Automatic ``measured``."""
+    """A storage decision: ``storage`` ('EXACT', 'COMPACT', 'SPARSE', or 'AUTO': measure),
+    for compact storage its ``basis`` ((rows, s) float64), for sparse storage its ``pairs``
+    per vertex, ``reason`` (why, in the panel's words; None where there is nothing to
+    say) and whether Automatic ``measured``."""
 
     storage: str
     basis: Optional[np.ndarray] = None
     reason: Optional[str] = None
     measured: bool = False
+    pairs: Optional[int] = None
 
     @property
     def slot_count(self):
-        return None if self.basis is None else self.basis.shape[1]
+        return self.pairs if self.basis is None else self.basis.shape[1]
+
+    @property
+    def label(self):
+        """``compact, 24 slots`` / ``sparse, 16 pairs``: the reasons' words for it."""
+        return (f"sparse, {self.pairs} pairs" if self.storage == 'SPARSE' else
+                f"{self.storage.lower()}, {self.slot_count} slots")
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,7 +171,7 @@ class BindPlan:
     ['deviation_drag', 'deviation_drag_vertex', 'deviation_smooth']
     """
 
-    storage: str  # 'EXACT' or 'COMPACT'
+    storage: str  # 'EXACT', 'COMPACT' or 'SPARSE'
     slots: np.ndarray  # (k, s) float32
     basis: Optional[np.ndarray]  # (rows, s) float64 for compact storage, else None
     locations: np.ndarray  # (k,) int8: INSIDE, BOUNDARY or OUTSIDE per point
@@ -159,10 +184,25 @@ class BindPlan:
     deviation_smooth: float  # of the cage's diagonal, against the exact coordinates
     deviation_drag: float
     deviation_drag_vertex: int
+    negative_entries: int = 0  # coordinates below 0, of k x n
+    # Sparse storage: each vertex's pairs are ``indices`` ((k, K) int32) with the weights in
+    # ``slots``; in two levels the indices are grid nodes, whose own pairs over the cage
+    # are ``node_indices`` and ``node_weights`` ((N, K') int32, float32).
+    indices: Optional[np.ndarray] = None
+    node_indices: Optional[np.ndarray] = None
+    node_weights: Optional[np.ndarray] = None
 
     @property
     def slot_count(self):
         return self.slots.shape[1]
+
+    @property
+    def node_count(self):
+        return 0 if self.node_indices is None else len(self.node_indices)
+
+    @property
+    def node_slot_count(self):
+        return 0 if self.node_indices is None else self.node_indices.shape[1]
 
     @property
     def points_outside(self):
@@ -176,7 +216,7 @@ class BindPlan:
         """The measured figures by name (what a front end stores beside the slots)."""
         names = ("storage_choice", "report", "min_coordinate", "negative_points", "max_affine_error",
                  "linear_precision", "deviation_smooth", "deviation_drag", "deviation_drag_vertex", "points_outside",
-                 "points_on_boundary")
+                 "points_on_boundary", "negative_entries", "node_count", "node_slot_count")
         return {name: getattr(self, name) for name in names}
 
 
@@ -185,6 +225,30 @@ def stored_bytes(mesh_vertices, slot_count, compact_storage):
     last one padded), and compact storage's basis in as many attributes again."""
     stored = mesh_vertices * 3 * -(-slot_count // 3) * 4
     return stored * (2 if compact_storage else 1)
+
+
+def plan_bytes(plan):
+    """Bytes of the attributes ``plan`` writes: :func:`stored_bytes`, or for sparse storage
+    an int32 and a float32 per pair, and in two levels the nodes' pairs three to a vector
+    in columns as long as the mesh (``tools.sparse.stacked_columns``).
+
+    Examples
+    --------
+    >>> from gencoords.tools.bind_plan import BindRequest, plan_bind, plan_bytes
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> steps = plan_bind(0.5 * vertices, vertices, faces, BindRequest("mean_value", storage='SPARSE',
+    ...                                                                sparse_size=4, workers=1))
+    >>> plan = list(steps) and None
+    """
+    count = len(plan.slots)
+    if plan.storage != 'SPARSE':
+        return stored_bytes(count, plan.slot_count, plan.basis is not None)
+    nodes = 0
+    if plan.node_count:
+        triples, per_column = -(-plan.node_slot_count // 3), count // plan.node_count
+        nodes = 2 * -(-triples // per_column) * count * 12
+    return count * plan.slot_count * 8 + nodes
 
 
 def short_number(value, digits=2):
@@ -212,6 +276,8 @@ def choose_storage(setting, mesh_vertices, cage_vertices, compact_size):
     >>> choose_storage('COMPACT', 5000, 12, 36)  # nothing to save
     'EXACT'
     """
+    if setting == 'SPARSE':
+        return setting
     if mesh_vertices < cage_vertices or cage_vertices <= compact_size:
         return 'EXACT'
     if setting != 'AUTO':
@@ -234,7 +300,12 @@ def first_choice(request, mesh_vertices, cage_vertices, triangles):
     rows = coordinate_rows(request.kind, len(cage_vertices), len(triangles))
     # Green's basis starts with the 8 columns that keep similarities exact.
     size = max(request.compact_size, 8) if request.green else request.compact_size
-    storage = choose_storage(request.storage, mesh_vertices, rows, size)
+    # Green coordinates' face terms have no sparse form: Automatic decides for them.
+    setting = 'AUTO' if request.green and request.storage == 'SPARSE' else request.storage
+    storage = choose_storage(setting, mesh_vertices, rows, size)
+    if storage == 'SPARSE':
+        pairs = min(request.sparse_size, rows)
+        return StorageChoice('SPARSE', reason=f"Sparse: each vertex's {pairs} largest coordinates", pairs=pairs)
     reason = None
     if request.storage != 'EXACT' and storage == 'EXACT':
         small = mesh_vertices < rows or rows <= request.compact_size
@@ -274,13 +345,18 @@ def _exact_beyond_half(rows, mesh_vertices, saving):
 
 def choose_by_estimate(request, coordinates, cage_vertices, triangles, mesh_vertices):
     """Automatic's cheap first look, from the coordinates of a few points of the mesh
-    ((j, rows) float64): compact storage with the most slots that still save (half the
-    rows) measured on them. Deviations are maxima over points, so these few bound the
+    ((j, rows) float64): sparse storage with its most pairs, then compact storage with
+    the most slots that still save (half the rows), measured on them. Deviations are maxima over points, so these few bound the
     whole mesh's from below: where they already miss the target, compact would need more
     than half the rows whatever the rest of the mesh, and the choice is final (exact, or
     compact with that half where exact does not fit). Else None: measure
     (:func:`choose_by_measuring`)."""
     rows = coordinates.shape[1]
+    # Sparse storage is tried first: where its most pairs keep the target on these few
+    # points, measure (they bound the whole mesh's deviations from below only).
+    if not request.green and sparse.fewest_slots(coordinates, cage_vertices, AUTO_DEVIATION * AUTO_SAMPLE_MARGIN,
+                                                 sparse.SLOT_COUNTS[-1:])[0] is not None:
+        return None
     saving = _saving_sizes(request, cage_vertices, rows)
     if saving and _passes(request, coordinates, _basis(request, cage_vertices, triangles, saving[-1]),
                           cage_vertices, triangles, saving[-1]):
@@ -315,6 +391,10 @@ def choose_by_measuring(request, coordinates, cage_vertices, triangles, mesh_ver
     storage) and exact storage fits AUTO_EXACT_MAX_BYTES; when it does not, compact with
     that half. A compact choice's reason waits for the deviations on every vertex."""
     rows = coordinates.shape[1]
+    if not request.green:  # local coordinates: a few pairs per vertex do
+        pairs, _, _ = sparse.fewest_slots(coordinates, cage_vertices, AUTO_DEVIATION * AUTO_SAMPLE_MARGIN)
+        if pairs is not None:
+            return StorageChoice('SPARSE', measured=True, pairs=pairs)
     saving = _saving_sizes(request, cage_vertices, rows)
     basis = _basis(request, cage_vertices, triangles, saving[-1]) if saving else None
     size = _fewest_slots(request, coordinates, basis, cage_vertices, triangles, saving) if saving else None
@@ -327,42 +407,51 @@ def choose_by_measuring(request, coordinates, cage_vertices, triangles, mesh_ver
 
 
 def confirm_compact(choice, deviation, mesh_vertices, rows):
-    """Automatic's compact ``choice`` once its ``deviation`` (the worse of the two) was
-    measured on every vertex: kept with its reason, or exact when the sample missed where
-    compact deviates most and exact storage fits AUTO_EXACT_MAX_BYTES (the slots are then
-    computed again)."""
-    slot_count, target = choice.slot_count, short_number(AUTO_DEVIATION, 1)
+    """Automatic's compact or sparse ``choice`` once its ``deviation`` (the worse of the
+    two) was measured on every vertex: kept with its reason, or exact when the sample
+    missed where it deviates most and exact storage fits AUTO_EXACT_MAX_BYTES (the slots
+    are then computed again)."""
+    label, target = choice.label, short_number(AUTO_DEVIATION, 1)
     exact_bytes = stored_bytes(mesh_vertices, rows, False)
     if deviation < AUTO_DEVIATION:
-        reason = f"Automatic: compact, {slot_count} slots (deviation {short_number(deviation)} < {target})"
+        reason = f"Automatic: {label} (deviation {short_number(deviation)} < {target})"
     elif exact_bytes <= AUTO_EXACT_MAX_BYTES:
-        return StorageChoice('EXACT', reason=(f"Automatic: exact (compact with {slot_count} slots deviated "
+        return StorageChoice('EXACT', reason=(f"Automatic: exact ({label} deviated "
                                               f"{short_number(deviation)} on the whole mesh)"), measured=True)
     else:
-        reason = (f"Automatic: compact, {slot_count} slots (deviation {short_number(deviation)} > {target}; "
+        reason = (f"Automatic: {label} (deviation {short_number(deviation)} > {target}; "
                   f"exact would take {exact_bytes / 1e9:.1f} GB: choose Exact for it)")
-    return StorageChoice('COMPACT', choice.basis, reason, measured=True)
+    return StorageChoice(choice.storage, choice.basis, reason, measured=True, pairs=choice.pairs)
 
 
 def encode(choice, coordinates):
     """The slots written for ``coordinates`` ((j, rows) float64) in ``choice``'s storage:
-    (j, s) float32."""
+    (j, s) float32, and for sparse storage the pairs' columns ((j, s) int32; else None)."""
+    if choice.storage == 'SPARSE':
+        indices, weights = sparse.largest_pairs(coordinates, choice.pairs)
+        return weights.astype(np.float32), indices
     if choice.storage == 'COMPACT':
-        return (coordinates @ choice.basis).astype(np.float32)
-    return coordinates.astype(np.float32)
+        return (coordinates @ choice.basis).astype(np.float32), None
+    return coordinates.astype(np.float32), None
 
 
-def reproduce(choice, slots):
+def reproduce(choice, slots, indices=None, rows=None):
     """The coordinates the deformer reproduces from ``slots`` ((j, s) float32, as
-    written; compact storage's basis too): (j, rows) float64."""
+    written; compact storage's basis too, sparse storage's ``indices`` and ``rows``):
+    (j, rows) float64."""
+    if choice.storage == 'SPARSE':
+        return sparse.dense_weights(indices, slots, rows)
     if choice.storage == 'COMPACT':
         return slots @ choice.basis.astype(np.float32).astype(np.float64).T
     return slots.astype(np.float64)
 
 
-def _solve(request, cage, points, workers, locations=None):
-    """The coordinates of ``points`` ((j, rows) float64) in ``cage``, in ``request.run``."""
+def _solve(request, cage, points, workers, locations=None, field=None):
+    """The coordinates of ``points`` ((j, rows) float64) in ``cage``, in ``request.run``
+    (harmonic coordinates: looked up in their solved ``field``)."""
     def compute(count):
+        if field is not None:
+            return field.coordinates(points, outside=request.outside)
         if request.green:  # phi and psi side by side: the slots' n + m rows
             return np.hstack(cage.green_coordinates(points, outside=request.outside, locations=locations,
                                                     workers=count))
@@ -370,33 +459,48 @@ def _solve(request, cage, points, workers, locations=None):
                                 workers=count, gamma=request.gamma)
 
     coordinates = request.run(compute, workers)
+    if field is not None and locations is not None:
+        locations[:] = _locations(request, cage, points)
     if not np.isfinite(coordinates).all():
         raise UndefinedCoordinatesError("the coordinates are not finite: tiny or overlapping cage faces")
     return coordinates
 
 
-def _slots(request, cage, points, choice, workers):
+def _locations(request, cage, points):
+    """Where the points are (INSIDE, BOUNDARY, OUTSIDE): harmonic coordinates refuse
+    points outside (``outside="raise"``) or project them, so only then is it asked."""
+    if request.outside == "raise":
+        return np.full(len(points), INSIDE, dtype=np.int8)
+    return cage.point_locations(points)
+
+
+def _slots(request, cage, points, choice, workers, field=None):
     """The slots of every point in ``choice``'s storage, chunk by chunk, yielding the
-    fraction done; returns them with their locations and the figures measured on them
-    as written (the deviations from the exact coordinates on every point)."""
+    fraction done; returns them with sparse storage's pairs' columns (else None), their
+    locations and the figures measured on them as written (the deviations from the
+    exact coordinates on every point)."""
     count, rows = len(points), coordinate_rows(request.kind, len(cage.vertices), len(cage.faces))
-    slot_count = rows if choice.basis is None else choice.slot_count
+    slot_count = rows if choice.slot_count is None else choice.slot_count
     slots = np.empty((count, slot_count), dtype=np.float32)
+    indices = np.empty((count, slot_count), dtype=np.int32) if choice.storage == 'SPARSE' else None
     locations = np.empty(count, dtype=np.int8)
-    smallest, negative, affine_error, precision = np.inf, 0, 0.0, 0.0
+    totals = {"min": np.inf, "negative_points": 0, "negative_entries": 0, "max_affine_error": 0.0}
+    precision = 0.0
     smooth, drag = 0.0, np.zeros(len(cage.vertices))
     faces = cage.faces if request.green else None
     chunk = max(1, CHUNK_ENTRIES * workers // rows)
     for start in range(0, count, chunk):
         part = slice(start, min(start + chunk, count))
-        coordinates = _solve(request, cage, points[part], workers, locations[part])
+        coordinates = _solve(request, cage, points[part], workers, locations[part], field)
         # Green's phi (the first n) sum to 1 and weigh the vertices as the others do.
         summary = coordinate_summary(coordinates[:, :len(cage.vertices)])
-        smallest = min(smallest, summary["min"])
-        negative += summary["negative_points"]
-        affine_error = max(affine_error, summary["max_affine_error"])
-        slots[part] = encode(choice, coordinates)
-        reproduced = reproduce(choice, slots[part])
+        for name, combine in (("min", min), ("negative_points", int.__add__), ("negative_entries", int.__add__),
+                              ("max_affine_error", max)):
+            totals[name] = combine(totals[name], summary[name])
+        slots[part], pairs = encode(choice, coordinates)
+        if indices is not None:
+            indices[part] = pairs
+        reproduced = reproduce(choice, slots[part], pairs, rows)
         precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
         residual = np.subtract(coordinates, reproduced, out=reproduced)
         chunk_smooth, chunk_drag = compact.residual_deviations(residual, cage.vertices, faces=faces)
@@ -404,10 +508,10 @@ def _slots(request, cage, points, choice, workers):
         # With workers, shared memory: freed before the next chunk's.
         del coordinates, residual
         yield part.stop / count
-    return slots, locations, {
-        "min_coordinate": float(smallest), "negative_points": int(negative),
-        "max_affine_error": float(affine_error), "linear_precision": float(precision),
-        "deviation_smooth": float(smooth),
+    return slots, indices, locations, {
+        "min_coordinate": float(totals["min"]), "negative_points": totals["negative_points"],
+        "negative_entries": totals["negative_entries"], "max_affine_error": float(totals["max_affine_error"]),
+        "linear_precision": float(precision), "deviation_smooth": float(smooth),
         "deviation_drag": float(drag.max(initial=0.0)), "deviation_drag_vertex": int(np.argmax(drag))}
 
 
@@ -462,25 +566,84 @@ def _plan(points, cage, request):
     count = len(points)
     # Workers are chosen once for the whole plan; each call gives every one a chunk.
     workers = cage.suggested_workers(count) if request.workers is None else request.workers
+    field = None
+    if request.harmonic:  # solved once, on the grid; the points look it up
+        field = request.run(lambda count: harmonic_field(
+            cage.vertices, cage.faces, resolution=request.resolution, tolerance=request.tolerance,
+            workers=count), request.workers)
+        yield 0.5
+        if request.storage in ('AUTO', 'SPARSE'):
+            plan = _plan_two_level(points, cage, request, field)
+            if plan is not None:
+                return plan
     choice = first_choice(request, count, cage.vertices, cage.faces)
+    if field is not None and request.storage == 'AUTO' and choice.storage == 'EXACT':
+        choice = replace(choice, reason=f"Automatic: exact ({count} vertices, fewer than the grid nodes their "
+                                        "cells use: two levels would save nothing)")
     if choice.storage == 'AUTO':  # estimate on a few points, measure on more only if that says nothing
         few = points[::max(1, count // ESTIMATE_SAMPLES)]
-        choice = choose_by_estimate(request, _solve(request, cage, few, None), cage.vertices, cage.faces, count)
+        choice = choose_by_estimate(request, _solve(request, cage, few, None, field=field), cage.vertices,
+                                    cage.faces, count)
     if choice is None:
         sample = points[::max(1, count // DEVIATION_SAMPLES)]
-        choice = choose_by_measuring(request, _solve(request, cage, sample, None), cage.vertices,
+        choice = choose_by_measuring(request, _solve(request, cage, sample, None, field=field), cage.vertices,
                                      cage.faces, count)
-    slots, locations, figures = yield from _slots(request, cage, points, choice, workers)
-    if choice.measured and choice.storage == 'COMPACT':
+    slots, indices, locations, figures = yield from _slots(request, cage, points, choice, workers, field)
+    if choice.measured and choice.storage in ('COMPACT', 'SPARSE'):
         choice = confirm_compact(choice, max(figures["deviation_smooth"], figures["deviation_drag"]), count,
                                  coordinate_rows(request.kind, len(cage.vertices), len(cage.faces)))
         if choice.storage == 'EXACT':
-            slots, locations, figures = yield from _slots(request, cage, points, choice, workers)
-    if figures["linear_precision"] > LINEAR_PRECISION:  # on what will be written
+            slots, indices, locations, figures = yield from _slots(request, cage, points, choice, workers, field)
+    # On what will be written; sparse storage and harmonic coordinates place points only
+    # approximately by design (their deviations say how far), so only huge coordinates
+    # losing their point to float32 rounding are refused.
+    if figures["linear_precision"] > LINEAR_PRECISION and choice.storage != 'SPARSE' and field is None:
         raise ImpreciseCoordinatesError(figures["linear_precision"], figures["min_coordinate"])
-    # How this kind behaves in this cage, away from the mesh's own vertices (the figures
-    # cover those): positivity and well-definedness on a sample.
-    report = ("Green: similarity invariant, shape-preserving; any closed cage" if request.green else
-              coordinate_report(cage.vertices, cage.faces, request.kind, gamma=request.gamma,
-                                samples=REPORT_SAMPLES, tolerance=request.tolerance).headline)
-    return BindPlan(choice.storage, slots, choice.basis, locations, choice.reason, report, **figures)
+    return BindPlan(choice.storage, slots, choice.basis, locations, choice.reason, _report(request, cage, field),
+                    indices=indices, **figures)
+
+
+def _report(request, cage, field=None):
+    """How this kind behaves in this cage, away from the mesh's own vertices (the figures
+    cover those): positivity and well-definedness on a sample."""
+    if request.green:
+        return "Green: similarity invariant, shape-preserving; any closed cage"
+    if field is not None:
+        return (f"Harmonic: local, never negative; any closed cage (resolution {field.resolution}: "
+                f"{len(field.node_coordinates)} grid nodes)")
+    return coordinate_report(cage.vertices, cage.faces, request.kind, gamma=request.gamma,
+                             samples=REPORT_SAMPLES, tolerance=request.tolerance).headline
+
+
+def _plan_two_level(points, cage, request, field):
+    """Harmonic coordinates in sparse storage, two levels: each point its grid cell's 8
+    nodes and trilinear weights, each node its fewest pairs over the cage that keep the
+    deviations under AUTO_DEVIATION (Automatic; Sparse: ``request.sparse_size``). None
+    where the cells use more nodes than there are points (per point pairs do better)."""
+    corners, trilinear = field.interpolation(points, outside=request.outside)
+    if len(np.unique(corners)) > len(points):
+        return None
+    automatic = request.storage == 'AUTO'
+    counts = sparse.NODE_SLOT_COUNTS if automatic else (request.sparse_size,)
+    layout = sparse.two_level_layout(field.node_coordinates, corners, trilinear, cage.vertices, AUTO_DEVIATION,
+                                     counts)
+    deviation = max(layout.deviation_smooth, layout.deviation_drag)
+    reason = (f"{'Automatic: s' if automatic else 'S'}parse in two levels, each vertex its grid cell's 8 nodes, "
+              f"each node its {layout.node_slot_count} largest coordinates (deviation {short_number(deviation)} "
+              f"{'<' if deviation < AUTO_DEVIATION else '>'} {short_number(AUTO_DEVIATION, 1)})")
+    node_sums = layout.node_weights.astype(np.float64).sum(axis=1)
+    point_sums = (layout.trilinear.astype(np.float64) * node_sums[layout.corners]).sum(axis=1)
+    every_column = layout.node_slot_count >= len(cage.vertices)
+    locations = _locations(request, cage, points)
+    # Where the stored weights place each point: the nodes' places, interpolated.
+    node_places = np.einsum("nk,nkc->nc", layout.node_weights.astype(np.float64), cage.vertices[layout.node_indices])
+    miss = np.linalg.norm(sparse.interpolated(node_places, layout.corners, layout.trilinear) - points, axis=1)
+    placed = miss if request.outside != 'project' else miss[locations != OUTSIDE]
+    return BindPlan(
+        'SPARSE', layout.trilinear, None, locations, reason, _report(request, cage, field),
+        min_coordinate=float(layout.node_weights.min()) if every_column else 0.0, negative_points=0,
+        max_affine_error=float(np.abs(point_sums - 1.0).max(initial=0.0)),
+        linear_precision=float(placed.max(initial=0.0) / np.linalg.norm(np.ptp(cage.vertices, axis=0))),
+        deviation_smooth=layout.deviation_smooth, deviation_drag=layout.deviation_drag,
+        deviation_drag_vertex=layout.deviation_drag_vertex, indices=layout.corners,
+        node_indices=layout.node_indices, node_weights=layout.node_weights)

@@ -4,6 +4,7 @@ fails or dropped once the modifier is gone, and removed when a Bind fails half-w
 
 
 from ..blender_io import mesh_arrays
+from ..graph import sparse
 from ..bind_layout import PARKED_PREFIX, attribute_prefix
 from ..steps import run_to_end
 
@@ -32,6 +33,14 @@ def write_steps(mesh, data, slots, basis=None):
             batch = names[start:start + STEP_ATTRIBUTES]
             mesh_arrays.write_triples(mesh, batch, values[:, 3 * start:3 * (start + len(batch))])
             written += len(batch)
+
+
+def write_sparse(mesh, data, weights, indices, nodes=None):
+    """Write a sparse binding's pairs: each vertex's ``indices`` and ``weights`` ((k, K)),
+    and in two levels the grid nodes' pairs (``nodes``: (N, K') indices and weights)."""
+    sparse.write_pairs(mesh, data.key, indices, weights)
+    if nodes is not None:
+        sparse.write_node_pairs(mesh, data.key, *nodes)
 
 
 def remove_slots(mesh, key):

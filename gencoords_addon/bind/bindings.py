@@ -12,7 +12,7 @@ import numpy as np
 
 from ..blender_io import compat, mesh_arrays, mesh_io
 from ..bind_layout import METADATA, BindData
-from ..graph import deformer, helpers
+from ..graph import deformer, helpers, sparse
 from . import attributes
 
 
@@ -46,8 +46,12 @@ class Binding:
 
     def coordinates(self, mesh):
         """The (k, rows) float32 coordinates the mesh deforms with (compact: as reproduced
-        by its slots and basis), or None when the bind data is missing."""
+        by its slots and basis; sparse: its pairs'), or None when the bind data is missing."""
         data = self.data
+        if data.storage == 'SPARSE':
+            coordinates = sparse.read_coordinates(mesh, data.key, data.cage_vertex_count, data.slot_count,
+                                                  data.node_count or 0, data.node_slot_count or 0)
+            return None if coordinates is None else coordinates.astype(np.float32)
         slots = mesh_arrays.read_triples(mesh, data.slot_names, data.slot_count)
         if slots is None or data.basis_names is None:
             return slots
@@ -57,6 +61,9 @@ class Binding:
     def coordinate_column(self, mesh, cage_vertex):
         """Every mesh vertex's coordinate for ``cage_vertex`` ((k,) float32), or None."""
         data = self.data
+        if data.storage == 'SPARSE':
+            coordinates = self.coordinates(mesh)
+            return None if coordinates is None else coordinates[:, cage_vertex]
         slots = mesh_arrays.read_triples(mesh, data.slot_names, data.slot_count)
         if slots is None:
             return None
@@ -214,7 +221,7 @@ def deformation_problem(obj, found, depsgraph=None):
         return (f"The bind data of '{obj.name}' is from another version of GenCoords: "
                 "Bind again or Unbind")
     mesh_attributes = obj.data.attributes
-    if any(name not in mesh_attributes for name in data.slot_names + (data.basis_names or [])):
+    if any(name not in mesh_attributes for name in data.attribute_names):
         return (f"The bind data of '{obj.name}' is missing from its mesh (removed through an object "
                 "sharing it?): the mesh is not deformed; Bind again or Unbind")
     cage = found.cage

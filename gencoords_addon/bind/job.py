@@ -10,6 +10,7 @@ cancelled Bind leaves the mesh, its modifier stack and any earlier binding as th
 import secrets
 import time
 from dataclasses import dataclass, replace
+from typing import Optional
 
 import numpy as np
 
@@ -33,6 +34,10 @@ class BindResult:
     triangles: np.ndarray  # (m, 3) int: Green coordinates' cage triangles, else None
     rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
     data: BindData  # METADATA
+    # Sparse storage: each vertex's pairs' columns ((k, K) int32, their weights are the
+    # slots); in two levels grid nodes, whose own pairs are ``nodes`` ((N, K') each).
+    indices: Optional[np.ndarray] = None
+    nodes: Optional[tuple] = None
 
 
 class BindJob:
@@ -57,7 +62,8 @@ class BindJob:
             format=FORMAT, kind=settings.kind, gamma=settings.gamma, outside=settings.outside,
             cage_vertex_count=len(scene.cage_vertices), mesh_vertex_count=len(scene.points),
             cage_faces_hash=scene.faces_hash, cage_non_triangles=scene.non_triangles,
-            cage_name=self.cage.name, cage_face_count=len(scene.triangles) if self.green else None)
+            cage_name=self.cage.name, cage_face_count=len(scene.triangles) if self.green else None,
+            resolution=settings.resolution)
         self.started = started
         self.result = None
         self.writing = False  # set while the plan is being written (commit_steps)
@@ -80,7 +86,8 @@ class BindJob:
 
         return bind_plan.BindRequest(
             kind=settings.kind, outside=settings.outside, gamma=settings.gamma, storage=settings.storage,
-            compact_size=settings.compact_size, workers=preferences.worker_count(context),
+            compact_size=settings.compact_size, sparse_size=settings.sparse_size,
+            resolution=settings.resolution, workers=preferences.worker_count(context),
             tolerance=FLOAT32_TOLERANCE, run=run)
 
     def steps(self):
@@ -103,10 +110,11 @@ class BindJob:
         except ValueError as error:  # every other core error is a ValueError
             raise BindError(self._core_message(error)) from None
         data = replace(self.data, storage=plan.storage, slot_count=plan.slot_count, key=secrets.token_hex(3),
-                       nbytes=int(bind_plan.stored_bytes(len(scene.points), plan.slot_count, plan.basis is not None)),
-                       bind_seconds=time.perf_counter() - self.started, **plan.figures())
+                       nbytes=int(bind_plan.plan_bytes(plan)), bind_seconds=time.perf_counter() - self.started,
+                       **plan.figures())
+        nodes = None if plan.node_indices is None else (plan.node_indices, plan.node_weights)
         self.result = BindResult(plan.slots, plan.basis, scene.triangles if self.green else None,
-                                 scene.rest_cage, data)
+                                 scene.rest_cage, data, plan.indices, nodes)
 
     def _core_message(self, error):
         """The core's ``error`` in Blender's terms; for a cage that is not convex, with the

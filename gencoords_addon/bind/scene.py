@@ -13,7 +13,7 @@ import numpy as np
 from ... import core
 from .. import messages
 from ..blender_io import compat, mesh_io
-from ..enums import core_name, is_green, kind_label, kind_parameter
+from ..enums import core_name, is_green, is_harmonic, kind_label, kind_parameter
 from ..errors import BindError
 from ..graph import deformer, helpers
 from .bindings import drives, is_deleted
@@ -33,8 +33,10 @@ class BindSettings:
     kind: str  # the core's name, e.g. 'mean_value'
     gamma: Optional[float]  # the kind's parameter; None for kinds without one
     outside: str  # the core's name, e.g. 'raise'
-    storage: str  # the Storage setting: 'AUTO', 'EXACT' or 'COMPACT'
+    storage: str  # the Storage setting: 'AUTO', 'EXACT', 'COMPACT' or 'SPARSE'
     compact_size: int
+    sparse_size: int
+    resolution: Optional[int]  # harmonic coordinates' grid; None for the other kinds
     kind_label: str  # the kind's user-facing name, for messages
 
     @classmethod
@@ -45,7 +47,8 @@ class BindSettings:
         return cls(cage=settings.cage, kind=core_name(settings.kind),
                    gamma=float(settings.gamma) if has_gamma else None,
                    outside=core_name(settings.outside), storage=settings.storage,
-                   compact_size=int(settings.compact_size),
+                   compact_size=int(settings.compact_size), sparse_size=int(settings.sparse_size),
+                   resolution=int(settings.resolution) if is_harmonic(settings.kind) else None,
                    kind_label=kind_label(settings.kind))
 
 

@@ -202,3 +202,30 @@ def write_weights(obj, names, weights):
         bm.to_mesh(obj.data)
     finally:
         bm.free()
+
+
+def write_columns(mesh, names, values, data_type):
+    """Store each column of ``values`` ((rows, len(names)), rows <= the mesh's vertex
+    count) as a new point attribute of ``names``: ``data_type`` 'INT' (int32) or 'FLOAT'
+    (float32); zeros beyond ``rows``. Sparse storage's indices and weights."""
+    dtype = np.int32 if data_type == 'INT' else np.float32
+    column = np.zeros(len(mesh.vertices), dtype=dtype)
+    for j, name in enumerate(names):
+        column[:len(values)] = values[:, j]
+        column[len(values):] = 0
+        mesh.attributes.new(name, data_type, 'POINT').data.foreach_set("value", column)
+
+
+def read_columns(mesh, names, data_type):
+    """The point attributes ``names`` written by ``write_columns`` as a (k, len(names))
+    array (int32 or float32), or None when one is missing or of another type."""
+    dtype = np.int32 if data_type == 'INT' else np.float32
+    result = np.empty((len(mesh.vertices), len(names)), dtype=dtype)
+    column = np.empty(len(mesh.vertices), dtype=dtype)
+    for j, name in enumerate(names):
+        attribute = mesh.attributes.get(name)
+        if attribute is None or attribute.data_type != data_type or attribute.domain != 'POINT':
+            return None
+        attribute.data.foreach_get("value", column)
+        result[:, j] = column
+    return result

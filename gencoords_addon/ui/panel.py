@@ -6,7 +6,7 @@ import textwrap
 import bpy
 
 from ..bind.bindings import binding, bindings, meshes_driven_by
-from ..enums import is_green, kind_parameter
+from ..enums import is_green, is_harmonic, kind_parameter
 from .status import status_lines
 from .visualise import field_range
 
@@ -18,6 +18,23 @@ def wrapped(text, width):
     """``text`` in lines of at most ``width`` characters (``None``: one line); status
     lines are sentences, and a label Blender cuts off loses their end."""
     return [text] if width is None else textwrap.wrap(text, max(width, 16)) or [""]
+
+
+def draw_type(column, settings, width=None):
+    """The Type setting, its parameter (Gamma, Resolution) and, for the types that differ
+    most, a line saying what they do."""
+    column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
+    if kind_parameter(settings.kind) == "gamma":
+        column.prop(settings, "gamma")
+    if is_harmonic(settings.kind):
+        column.prop(settings, "resolution")
+    # Green: the one type that is not affine invariant; Harmonic: the local one.
+    explanation = ("Keeps details' shape when the cage stretches" if is_green(settings.kind) else
+                   "Local, never negative: a limb's cage moves that limb alone"
+                   if is_harmonic(settings.kind) else None)
+    if explanation is not None:
+        for number, line in enumerate(wrapped(explanation, width)):
+            column.label(text=line, icon='INFO' if number == 0 else 'BLANK1')
 
 
 def draw_settings(layout, obj, width=None):
@@ -35,16 +52,13 @@ def draw_settings(layout, obj, width=None):
     else:
         # Artists keep cages out of the way: as wires or bounds, or hidden (still driving).
         column.prop(settings.cage, "display_type", text="Display")
-    column.prop(settings, "kind", text="Type")  # short: the Properties editor is narrow
-    if kind_parameter(settings.kind) == "gamma":
-        column.prop(settings, "gamma")
-    if is_green(settings.kind):  # the one type that is not affine invariant: say what it does
-        for number, line in enumerate(wrapped("Keeps details' shape when the cage stretches", width)):
-            column.label(text=line, icon='INFO' if number == 0 else 'BLANK1')
+    draw_type(column, settings, width)
     column.prop(settings, "outside")
     column.prop(settings, "storage")
     if settings.storage == 'COMPACT':  # Automatic picks its own slots, by measuring
         column.prop(settings, "compact_size", text="Slots")
+    if settings.storage == 'SPARSE':
+        column.prop(settings, "sparse_size", text="Pairs")
     column.prop(settings, "auto_rebind")
 
     row = layout.row(align=True)

@@ -3,6 +3,7 @@
 import bpy
 
 from ...core.base.inputs import GAMMA_LIMIT
+from ...core.tools.bind_plan import BIND_RESOLUTION, SPARSE_SIZE
 from ..enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 from . import visualise
 
@@ -33,6 +34,13 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
                     "cages, up to 1 on regular ones (docs/POWER.md). Bind refuses coordinates too large "
                     "to store precisely (large |gamma| in irregular cages)",
     )
+    resolution: bpy.props.IntProperty(
+        name="Resolution", default=BIND_RESOLUTION, min=4, soft_min=8, soft_max=128, max=512,
+        options=set(),
+        description="Harmonic coordinates: grid cells along the cage's longest side (cubes, so "
+                    "a thin limb gets the cells its thickness allows). Finer follows the cage "
+                    "more closely and binds slower (the time grows as its cube)",
+    )
     outside: bpy.props.EnumProperty(
         name="Outside", items=OUTSIDE_ITEMS, default="RAISE", options=set(),
         description="What to do with mesh vertices that lie outside the cage when binding",
@@ -45,6 +53,12 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
         name="Compact Slots", default=36, min=4, soft_max=96, options=set(),
         description="Numbers per vertex in Compact storage: more follow sharper cage "
                     "edits, fewer evaluate faster (Automatic measures how many it needs)",
+    )
+    sparse_size: bpy.props.IntProperty(
+        name="Sparse Pairs", default=SPARSE_SIZE, min=1, soft_max=64, max=256, options=set(),
+        description="Pairs (cage vertex, weight) per vertex in Sparse storage (Harmonic: per "
+                    "grid node): more follow the exact coordinates more closely, fewer evaluate "
+                    "faster (Automatic measures how many it needs)",
     )
     auto_rebind: bpy.props.BoolProperty(
         name="Auto Rebind", default=False, options=set(),

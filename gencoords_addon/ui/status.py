@@ -27,6 +27,17 @@ def status_lines(obj, depsgraph=None):
     return lines
 
 
+def _storage_words(data):
+    """``Exact, 196 per vertex`` / ``Sparse, 16 pairs per vertex`` / the two levels."""
+    storage = enum_label(STORAGE_ITEMS, data.storage)
+    if data.storage != 'SPARSE':
+        return f"{storage}, {data.slot_count} per vertex"
+    if not data.node_count:
+        return f"{storage}, {data.slot_count} pairs per vertex"
+    return (f"{storage} in two levels, each vertex its grid cell's {data.slot_count} nodes, "
+            f"{data.node_count} nodes of {data.node_slot_count} pairs")
+
+
 def binding_lines(obj, found, depsgraph=None):
     """Lines describing one binding of ``obj``."""
     lines = []
@@ -47,18 +58,18 @@ def binding_lines(obj, found, depsgraph=None):
     kind_name = kind_label(data.kind)
     if data.gamma is not None:
         kind_name += f" (gamma {data.gamma:g})"
+    if data.resolution is not None:
+        kind_name += f", resolution {data.resolution}"
     lines.append((f"Coordinates: {kind_name}", 'MOD_LATTICE'))
     lines.append((f"Cage: {data.cage_vertex_count} vertices", 'MESH_ICOSPHERE'))
     lines.append((f"Mesh: {data.mesh_vertex_count} vertices", 'MESH_DATA'))
     if data.cage_non_triangles:
         lines.append((f"Cage triangulated: {data.cage_non_triangles} quads/n-gons",
                       'MOD_TRIANGULATE'))
-    storage = enum_label(STORAGE_ITEMS, data.storage)
-    lines.append((f"Storage: {storage}, {data.slot_count} per vertex, "
-                  f"{data.nbytes / 2**20:.1f} MB", 'DISK_DRIVE'))
+    lines.append((f"Storage: {_storage_words(data)}, {data.nbytes / 2**20:.1f} MB", 'DISK_DRIVE'))
     if data.storage_choice is not None:  # what Automatic chose and why
         lines.append((data.storage_choice, 'INFO'))
-    if data.storage == 'COMPACT':  # measured on every vertex, as written
+    if data.storage in ('COMPACT', 'SPARSE'):  # measured on every vertex, as written
         worst = data.deviation_drag_vertex  # absent from earlier versions' binds
         drag = "vertex drag" if worst is None else f"drag of cage vertex {worst}"
         lines.append((f"Deviation: {data.deviation_smooth:.1e} (smooth), "

@@ -42,14 +42,7 @@ Usage: bench_blender.py [--quick | --full] [--kinds mean_value ...] [--precision
 """
 
 import argparse
-import ctypes
-import datetime
-import os
-import platform
-import shlex
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -62,73 +55,12 @@ session.prepare()  # before bpy is imported: Blender reads its user folder then
 from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
+from scripts.common.playback import settle, time_updates  # noqa: E402
+from scripts.common.memory import PeakMemory, blend_size  # noqa: E402
 
-UPDATE_REPEATS = 7
 CHARACTER = "character"  # run_method's level for the artist's character
 CHARACTER_VERTICES, CHARACTER_CAGE_VERTICES = 43236, 196
 MOVED_CAGE_VERTEX = 0  # the top vertex of every icosphere: moves many mesh vertices
-
-# A tiny watcher run in its own process: samples our resident memory, with that of our
-# child processes (the core's workers, which Bind starts) but not its own, every
-# millisecond until told to stop on stdin, then prints the peak in bytes.
-_WATCHER = r"""
-import os, select, sys
-page = os.sysconf("SC_PAGE_SIZE")
-parent, me = sys.argv[1], str(os.getpid())
-def statm(pid):
-    try:
-        with open("/proc/%s/statm" % pid) as f:
-            return int(f.read().split()[1]) * page
-    except OSError:  # a worker that just ended
-        return 0
-def rss():
-    try:
-        with open("/proc/%s/task/%s/children" % (parent, parent)) as f:
-            children = [pid for pid in f.read().split() if pid != me]
-    except OSError:
-        children = []
-    return statm(parent) + sum(statm(pid) for pid in children)
-peak = rss()
-print("ready", flush=True)
-while not select.select([sys.stdin], [], [], 0.001)[0]:
-    peak = max(peak, rss())
-print(max(peak, rss()), flush=True)
-"""
-
-
-try:  # glibc keeps freed memory for reuse; trimming makes RSS deltas mean something
-    _malloc_trim = ctypes.CDLL("libc.so.6").malloc_trim
-except (OSError, AttributeError):  # not glibc: deltas may under-report after big runs
-    _malloc_trim = None
-
-
-def resident_bytes():
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-
-
-class PeakMemory:
-    """Context manager: ``peak`` and ``kept`` resident-memory growth (bytes) over a block."""
-
-    def __enter__(self):
-        if _malloc_trim is not None:
-            _malloc_trim(0)
-        self._watcher = subprocess.Popen(
-            [sys.executable, "-c", _WATCHER, str(os.getpid())],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-        self._watcher.stdout.readline()  # wait until it samples
-        self.before = resident_bytes()
-        return self
-
-    def __exit__(self, *exc):
-        if _malloc_trim is not None:
-            _malloc_trim(0)  # "kept" is live data, not free memory malloc holds for reuse
-        after = resident_bytes()
-        out, _ = self._watcher.communicate("stop\n", timeout=30)
-        self.peak = max(int(out), after) - self.before
-        self.kept = after - self.before
-        return False
-
 
 # ------------------------------------------------------------------------------ methods
 
@@ -178,56 +110,6 @@ def bind_gencoords(mesh, cage, kind, storage):
 # ---------------------------------------------------------------------------- measuring
 
 
-def update_until_changed(mesh, previous, buffer=None, max_passes=4):
-    """``view_layer.update()`` until the evaluated mesh differs from ``previous``.
-
-    Returns ``(positions, passes)``. GenCoords writes the deformed shape from a
-    depsgraph handler; Blender evaluates such writes within the same update, so one
-    pass normally suffices for both methods, and the loop is what makes the timing
-    "until the evaluated mesh shows the move" whatever a method needs.
-    """
-    for passes in range(1, max_passes + 1):
-        bpy.context.view_layer.update()
-        now = arrays.evaluated_positions(mesh, out=buffer)
-        if not np.array_equal(now, previous):
-            break
-    return now, passes
-
-
-def settle(mesh):
-    """The evaluated mesh after a cage change (made outside any timing)."""
-    return update_until_changed(mesh, arrays.evaluated_positions(mesh).copy())[0].copy()
-
-
-def time_updates(mesh, cage, rest_cage):
-    """Median seconds of one live update after moving one cage vertex, and passes used."""
-    buffer = np.empty(len(mesh.data.vertices) * 3, dtype=np.float32)
-    previous = arrays.evaluated_positions(mesh).copy()
-    times, passes_used = [], []
-    for repeat in range(UPDATE_REPEATS):
-        offset = 0.05 * (repeat + 1) * (1 if repeat % 2 else -1)
-        cage.data.vertices[MOVED_CAGE_VERTEX].co = (
-            rest_cage[MOVED_CAGE_VERTEX] + np.array([0.0, 0.0, offset]))
-        cage.data.update()  # only tags the cage: evaluation happens inside the timing
-        start = time.perf_counter()
-        now, passes = update_until_changed(mesh, previous, buffer)
-        times.append(time.perf_counter() - start)
-        passes_used.append(passes)
-        previous = now.copy()
-    arrays.write_positions(cage.data, rest_cage)
-    settle(mesh)
-    return float(np.median(times)), max(passes_used)
-
-
-def blend_size(tag):
-    """Bytes of an uncompressed .blend of the current scene (written, measured, deleted)."""
-    with tempfile.TemporaryDirectory(prefix="gencoords-bench-") as folder:
-        path = Path(folder) / f"{tag}.blend"
-        with session.quiet():
-            bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True, compress=False)
-        return path.stat().st_size
-
-
 def run_method(level, subdivisions, method):
     """Build the scene, bind with ``method`` and measure everything for one table row.
 
@@ -264,7 +146,7 @@ def run_method(level, subdivisions, method):
     bound = arrays.evaluated_positions(mesh)
     row["rest_error"] = float(np.abs(bound - rest_mesh).max()) / size
     row["blend"] = blend_size(f"{method[0]}-{method[1]}")
-    row["update"], row["passes"] = time_updates(mesh, cage, rest_cage)
+    row["update"], row["passes"] = time_updates(mesh, cage, rest_cage, MOVED_CAGE_VERTEX)
 
     # Green coordinates are exact for similarities, the others for every affine map.
     exact_map = scenes.similarity_map if method[1] == scenes.GREEN else scenes.affine_map
@@ -361,14 +243,7 @@ def main():
     else:
         everywhere, smallest_only = ([5, 6], []) if args.full else ([5], [6])
 
-    header = [
-        "# GenCoords vs Mesh Deform (Blender)",
-        "",
-        f"Command: `{shlex.join([Path(sys.executable).name] + sys.argv)}`  ",
-        f"Date: {datetime.datetime.now().isoformat(timespec='seconds')}; "
-        f"Blender {bpy.app.version_string}, numpy {np.__version__}, "
-        f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.machine()}",
-    ]
+    header = session.report_header("GenCoords vs Mesh Deform (Blender)")
     print("\n".join(header), flush=True)
     zip_path = session.install_extension()
     print(f"extension: {zip_path.relative_to(session.REPO)}\n", flush=True)

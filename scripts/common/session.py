@@ -123,3 +123,20 @@ def quiet():
             os.dup2(saved[1], 2)
             os.close(saved[0])
             os.close(saved[1])
+
+
+def report_header(title):
+    """A benchmark report's first lines: its title, the command that made it, the date and
+    the versions and machine (printed as it starts, written with the tables)."""
+    import datetime
+    import platform
+    import shlex
+
+    import bpy
+    import numpy as np
+
+    return [f"# {title}", "",
+            f"Command: `{shlex.join([Path(sys.executable).name] + sys.argv)}`  ",
+            f"Date: {datetime.datetime.now().isoformat(timespec='seconds')}; "
+            f"Blender {bpy.app.version_string}, numpy {np.__version__}, "
+            f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.machine()}"]

@@ -308,9 +308,13 @@ def test_negative_mean_value_weights_in_a_non_convex_cage_are_explained_not_an_e
     assert not [text for text, icon in lines if icon == 'ERROR']
     texts = [text for text, _ in lines]
     share = 100 * info.negative_points / info.mesh_vertex_count
-    assert f"{share:.2g} % of vertices have negative weights (smallest {info.min_coordinate:.3g})" in texts
+    of_all = 100 * info.negative_entries / (info.mesh_vertex_count * info.cage_vertex_count)
+    assert 0 < of_all < share  # some of each vertex's coordinates
+    assert (f"{share:.2g} % of vertices have negative weights, {of_all:.2g} % of all coordinates (smallest "
+            f"{info.min_coordinate:.3g})") in texts
     assert "The cage is not convex: parts of the mesh may move against the cage" in texts
-    assert any("convex cage (Make Cage) keeps weights positive" in text for text in texts)
+    assert any(text.startswith("Type Harmonic (local, positive) keeps weights positive") for text in texts)
+    assert any("convex cage (Make Cage)" in text for text in texts)
 
 
 def test_the_convexity_refusal_counts_the_dented_faces_and_select_dented_faces_selects_them(gc):

@@ -49,12 +49,15 @@ def test_installed_extension_is_enabled_with_its_api(gc):
         assert hasattr(bpy.ops.object, operator)
     properties = bpy.types.Object.bl_rna.properties["gencoords"].fixed_type.properties
     for name in ("cage", "kind", "gamma", "outside", "storage", "compact_size", "auto_rebind",
-                 "field_vertex"):
+                 "field_vertex", "resolution", "sparse_size"):
         assert properties[name].description, name
         assert not properties[name].is_animatable, name  # read at bind time only
     assert properties["kind"].default == 'MEAN_VALUE'
     assert {item.identifier for item in properties["kind"].enum_items} == {
-        'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN'}
+        'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN', 'HARMONIC'}
+    assert properties["kind"].enum_items['HARMONIC'].name == "Harmonic"
+    assert properties["kind"].enum_items['HARMONIC'].description.startswith("Local, positive: ")
+    assert {item.identifier for item in properties["storage"].enum_items} == {'AUTO', 'EXACT', 'COMPACT', 'SPARSE'}
     assert properties["kind"].enum_items['GREEN'].name == "Green"
 
 

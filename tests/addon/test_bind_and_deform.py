@@ -156,13 +156,13 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     smooth, drag = deviations_in_blender(gc, obj, cage, worst)
     assert smooth < 1e-3 and drag < 1e-3
     # A sample that promised too much (a wide margin here): measured on every vertex,
-    # compact misses, and Automatic binds exactly after all.
+    # sparse storage (tried first: 4 pairs) misses, and Automatic binds exactly after all.
     margin = gc.core.tools.bind_plan.AUTO_SAMPLE_MARGIN
     monkeypatch.setattr(gc.core.tools.bind_plan, "AUTO_SAMPLE_MARGIN", 100.0)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
     info = gc.binding.binding(obj).data
     assert info.storage == 'EXACT' and info.slot_count == cage_count
-    assert info.storage_choice.startswith("Automatic: exact (compact with ")
+    assert info.storage_choice.startswith("Automatic: exact (sparse, 4 pairs deviated ")
     assert info.storage_choice.endswith(" on the whole mesh)")
     # Exact storage over Automatic's memory cap: compact with half the cage's vertices
     # as slots, and the panel says it misses and what exact would take.

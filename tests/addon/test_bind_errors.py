@@ -254,7 +254,9 @@ def test_status_names_negative_coordinates_only_when_there_are_some(gc):
     assert info.negative_points > 0 and info.min_coordinate < 0.0
     lines = gc.status.status_lines(obj)
     share = 100 * info.negative_points / info.mesh_vertex_count
-    expected = f"{share:.2g} % of vertices have negative weights (smallest {info.min_coordinate:.3g})"
+    of_all = 100 * info.negative_entries / (info.mesh_vertex_count * info.cage_vertex_count)
+    expected = (f"{share:.2g} % of vertices have negative weights, {of_all:.2g} % of all coordinates "
+                f"(smallest {info.min_coordinate:.3g})")
     assert (expected, 'INFO') in lines
     assert ("Vertices outside the cage are extrapolated: parts of the mesh may move against the cage",
             'BLANK1') in lines

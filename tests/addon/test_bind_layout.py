@@ -30,3 +30,23 @@ def test_other_versions_data_are_read_as_far_as_they_go_and_kept(gc):
     assert data.to_properties() == later  # a key this version does not know survives
     with pytest.raises(AttributeError):
         data.kind = "wachspress"  # frozen
+
+
+def test_format_2_binds_read_as_the_current_format(gc):
+    """Format 3 added sparse storage and harmonic coordinates: earlier binds are a part of
+    it, so files bound before still open, deform and show their figures."""
+    layout = gc.bind_layout
+    earlier = {"format": 2, "kind": "mean_value", "storage": 'EXACT', "slot_count": 42, "key": "abc123"}
+    data = layout.BindData.from_properties(earlier)
+    assert layout.FORMAT == 3 and data.is_current and data.storage == 'EXACT'
+    assert data.node_count is None and data.attribute_names == layout.slot_attribute_names("abc123", 42)
+    assert not layout.BindData.from_properties(dict(earlier, format=1)).is_current
+
+
+def test_a_sparse_binds_attributes_are_all_named_by_its_record(gc):
+    obj = add_sphere()
+    assert bind(obj, add_icosphere_cage(subdivisions=2), storage='SPARSE') == {'FINISHED'}
+    data = gc.binding.binding(obj).data
+    prefix = gc.bind_layout.attribute_prefix(data.key)
+    assert data.storage == 'SPARSE' and data.slot_count == 16
+    assert sorted(data.attribute_names) == sorted(a.name for a in obj.data.attributes if a.name.startswith(prefix))

@@ -8,23 +8,31 @@ import pytest
 from fresh_process import report_of, run_blender_script
 
 
-@pytest.fixture(scope="module", params=["MEAN_VALUE", "GREEN"])
+@pytest.fixture(scope="module", params=["MEAN_VALUE", "GREEN", "HARMONIC"])
 def bound_file(addon, tmp_path_factory, request):
     """A saved file with the mesh bound with each deformer type: the paper's kinds all
-    evaluate alike, Green coordinates add the cage's face terms."""
+    evaluate alike, Green coordinates add the cage's face terms, harmonic coordinates are
+    stored sparse in two levels (their own node group)."""
     folder = tmp_path_factory.mktemp("bound_file")
     blend, saved = folder / "bound.blend", folder / "saved_positions.npy"
     run_blender_script("blender_make_bound_file.py", blend, saved, request.param)
     return blend, saved
 
 
-def test_reopened_file_is_still_bound_and_deforms(bound_file):
+def edit_tolerance(request):
+    """How closely the reopened mesh follows the cage scaled by 1.25 (radius 2): exactly
+    for the affine-invariant kinds; harmonic coordinates within their linear precision
+    (docs/MATH.md: under 1e-3 of the cage's diagonal at the default resolution)."""
+    return 1e-3 * 4.0 if request.node.callspec.params["bound_file"] == "HARMONIC" else 1e-5
+
+
+def test_reopened_file_is_still_bound_and_deforms(bound_file, request):
     report = report_of(run_blender_script("blender_open_file.py", *bound_file))
     assert report["enabled"]
     assert report["mesh_data_is_rest"]  # Bind never wrote positions
     assert report["frame_2_as_saved"] and report["frame_1_is_rest"]
     assert "Bound to 'Cage' (modifier 'GenCoords')" in report["status"]
-    assert report["follows_an_edit"] < 1e-5
+    assert report["follows_an_edit"] < edit_tolerance(request)
     # The deleted object's binding was not saved: one group and its shared helpers.
     assert [g for g in report["node_groups"] if not g.startswith(".")] == ["GenCoords: Mesh in Cage"]
     assert "Deleted" not in report["meshes"]
@@ -66,7 +74,7 @@ def test_disabling_and_enabling_the_extension_keeps_bound_meshes_working(addon):
     assert report["unbind"] == ["FINISHED"] and report["restored"] and report["modifiers"] == []
 
 
-def test_file_opens_and_deforms_without_the_extension(bound_file):
+def test_file_opens_and_deforms_without_the_extension(bound_file, request):
     with tempfile.TemporaryDirectory() as bare_user_folder:
         output = run_blender_script("blender_open_file.py", *bound_file,
                                     user_resources=bare_user_folder)
@@ -75,4 +83,4 @@ def test_file_opens_and_deforms_without_the_extension(bound_file):
     assert not report["enabled"]
     assert report["mesh_data_is_rest"]
     assert report["frame_2_as_saved"] and report["frame_1_is_rest"]
-    assert report["follows_an_edit"] < 1e-5
+    assert report["follows_an_edit"] < edit_tolerance(request)

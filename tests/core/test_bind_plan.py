@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import bind_plan, compact
+from gencoords.tools import bind_plan, compact, sparse
 from gencoords.tools.bind_plan import BindRequest, choose_storage, plan_bind
 from gencoords.tools.shapes import icosphere
 from polytopes import random_convex_polytope, random_interior_points
@@ -88,7 +88,8 @@ def test_automatic_goes_exact_when_the_whole_mesh_misses_the_target(monkeypatch,
     monkeypatch.setattr(bind_plan, "AUTO_SAMPLE_MARGIN", 1e4)  # the sample accepts too few slots
     _, plan = run(plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1)))
     assert plan.storage == 'EXACT' and plan.slot_count == len(vertices)
-    assert plan.storage_choice.startswith("Automatic: exact (compact with ")
+    # Sparse storage is tried first: its sample accepted 4 pairs.
+    assert plan.storage_choice.startswith("Automatic: exact (sparse, 4 pairs deviated ")
     assert plan.storage_choice.endswith(" on the whole mesh)")
 
 
@@ -179,3 +180,52 @@ def test_automatic_measures_where_the_estimate_allows_compact_and_bisects_to_the
     fewest, _, _ = compact.smallest_size(exact, basis, vertices,
                                          bind_plan.AUTO_DEVIATION * bind_plan.AUTO_SAMPLE_MARGIN, sizes)
     assert plan.slot_count == fewest < len(vertices) // 2
+
+
+def test_automatic_picks_sparse_with_the_fewest_pairs_under_the_target(monkeypatch):
+    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
+    vertices, faces = gencoords.tools.shapes.octahedron((1.0, 1.2, 1.5))  # 6 vertices
+    points = random_interior_points(np.random.default_rng(6), vertices, 400)
+    request = BindRequest("mean_value", compact_size=4, workers=1)
+    _, plan = run(plan_bind(points, vertices, faces, request))
+    # 4 of 6 pairs miss the target, 8 (all 6) keep it: the deviation is float32 rounding.
+    assert (plan.storage, plan.slot_count) == ('SPARSE', 6)
+    assert plan.storage_choice.startswith("Automatic: sparse, 6 pairs (deviation ")
+    np.testing.assert_allclose(sparse.dense_weights(plan.indices, plan.slots, 6),
+                               gencoords.coordinates(points, vertices, faces), atol=1e-7)
+
+
+def test_sparse_plan_keeps_the_largest_pairs_and_measures_them(irregular):
+    vertices, faces, points = irregular
+    request = BindRequest("wachspress", storage='SPARSE', sparse_size=8, workers=1)
+    _, plan = run(plan_bind(points, vertices, faces, request))
+    exact = gencoords.coordinates(points, vertices, faces, kind="wachspress")
+    indices, weights = sparse.largest_pairs(exact, 8)
+    assert plan.storage == 'SPARSE' and plan.storage_choice == "Sparse: each vertex's 8 largest coordinates"
+    np.testing.assert_array_equal(plan.indices, indices)
+    np.testing.assert_array_equal(plan.slots, weights.astype(np.float32))
+    smooth, drag, vertex = sparse.deviations(exact, indices, weights.astype(np.float32), vertices)
+    assert (plan.deviation_smooth, plan.deviation_drag) == pytest.approx((smooth, drag), rel=1e-9)
+    assert plan.deviation_drag_vertex == vertex and drag > 1e-4  # 8 of 60: not exact, and said so
+    assert bind_plan.plan_bytes(plan) == len(points) * 8 * 8
+
+
+def test_harmonic_plans_two_levels_by_default_positive_and_local():
+    from scripts.common import character
+    cage_vertices, quads = character.character_cage()
+    triangles = gencoords.tools.triangulate_quads(cage_vertices, quads)
+    points, _, labels = character.body_mesh(0.2)
+    request = BindRequest("harmonic", resolution=24, workers=1)
+    fractions, plan = run(plan_bind(points, cage_vertices, triangles, request))
+    assert plan.storage == 'SPARSE' and plan.slot_count == 8 and 0 < plan.node_count <= len(points)
+    assert plan.storage_choice.startswith("Automatic: sparse in two levels")
+    assert max(plan.deviation_smooth, plan.deviation_drag) < bind_plan.AUTO_DEVIATION
+    assert (plan.node_weights >= 0).all() and (plan.slots >= 0).all() and plan.negative_points == 0
+    coordinates = sparse.layout_coordinates(plan.indices, plan.slots, len(cage_vertices),
+                                            (plan.node_indices, plan.node_weights))
+    np.testing.assert_allclose(coordinates.sum(axis=1), 1.0, atol=1e-6)
+    # The left hand's cage vertices weigh nothing in the other limbs (locality).
+    hand = character.cage_limb_vertices(cage_vertices, "left_arm")
+    others = np.isin(labels, ("right_arm", "left_leg", "right_leg", "head"))
+    assert coordinates[np.ix_(others, hand)].max() < 1e-5
+    assert fractions[-1] == 1.0 or fractions == [0.5]

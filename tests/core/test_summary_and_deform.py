@@ -13,10 +13,12 @@ def test_coordinate_summary_counts_points_with_a_coordinate_below_minus_the_thre
                      [1.5, -2 * threshold, -0.5 + 2 * threshold], [1.2, -0.1, -0.1], [0.2, 0.3, 0.5]])
     summary = gencoords.tools.coordinate_summary(rows)
     assert summary["negative_points"] == 2  # rows 2 and 3; rounding noise of row 1 is not
+    assert summary["negative_entries"] == 4  # (2, 1), (2, 2), (3, 1), (3, 2)
     assert summary["min"] == pytest.approx(-0.5 + 2 * threshold)
     assert summary["max_affine_error"] == pytest.approx(0.0, abs=1e-15)
     assert summary["nbytes"] == rows.nbytes
     assert gencoords.tools.coordinate_summary(np.zeros((0, 3)))["negative_points"] == 0
+    assert gencoords.tools.coordinate_summary(np.zeros((0, 3)))["negative_entries"] == 0
 
 
 @pytest.mark.parametrize("coordinate_dtype,out_dtype", [(np.float64, np.float64), (np.float64, np.float32),

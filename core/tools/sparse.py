@@ -1,0 +1,461 @@
+"""Sparse bind-data storage: per point its K largest coordinates as (cage vertex, weight)
+pairs, renormalised to sum 1.
+
+A point with coordinates ``w`` (a row of ``W``, shape (k, n)) moves by ``w @ D`` when the
+cage's vertices move by ``D`` (n, 3). Local coordinates (harmonic, and any kind on a cage
+where each point sees few vertices) keep nearly all of ``w``'s mass in a few entries;
+sparse storage keeps the K largest (by magnitude) and divides them by their sum, so the
+stored weights still sum to 1 and translations of the cage stay exact. Evaluating costs K
+gathers per point whatever the cage (``gencoords_addon/sparse_graph.py``).
+
+Two levels (harmonic coordinates: trilinear interpolations of grid-node values): the
+grid nodes a point's cell touches carry their own sparse pairs over the cage, and each
+point keeps its cell's 8 nodes with their trilinear weights. The truncation then happens
+at the nodes only, and a node can keep many pairs cheaply: the N nodes are few beside the
+k points. Their pairs are stored stacked (:func:`stacked_columns`) in columns as long as
+the points, so they take about N x K' numbers each, not k x K'.
+
+How far the sparse form is from the exact one is measured like compact storage's
+(``compact.residual_deviations``: the standard smooth motion and the worst single-vertex
+drag, of the cage's diagonal) on the residual ``W - sparse(W)``; :func:`fewest_slots`
+finds the smallest K that keeps both under a target.
+"""
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..base import tolerances
+from . import compact
+
+__all__ = ["largest_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
+           "stacked_columns", "unstacked", "layout_coordinates", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS"]
+
+SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
+# Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
+# cheap (bench_sparse_routes.py: 48 pairs on 1,286 nodes play back in 0.8x Mesh Deform's time).
+NODE_SLOT_COUNTS = (8, 16, 24, 32, 48, 64, 96, 128)
+SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
+SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
+
+
+def largest_pairs(coordinates, count):
+    """Each row's ``count`` largest-magnitude coordinates, renormalised to sum 1.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+    count : int
+        K; at most n (more are clipped to n).
+
+    Returns
+    -------
+    indices : (k, K) int32
+        Column indices, largest magnitude first.
+    weights : (k, K) float64
+        Rows sum to 1 (the kept values divided by their sum).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import largest_pairs
+    >>> indices, weights = largest_pairs(np.array([[0.1, 0.6, 0.05, 0.25]]), 2)
+    >>> indices.tolist(), weights.round(4).tolist()
+    ([[1, 3]], [[0.7059, 0.2941]])
+    """
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    count = min(int(count), coordinates.shape[1])
+    magnitude = np.abs(coordinates)
+    kept = np.argpartition(-magnitude, count - 1, axis=1)[:, :count]
+    order = np.argsort(-np.take_along_axis(magnitude, kept, axis=1), axis=1, kind="stable")
+    indices = np.take_along_axis(kept, order, axis=1)
+    values = np.take_along_axis(coordinates, indices, axis=1)
+    total = values.sum(axis=1, keepdims=True)
+    # A row whose kept values cancel (never for non-negative coordinates) keeps them as
+    # they are rather than dividing by ~0.
+    total[np.abs(total) < tolerances.WELL_DEFINED_WEIGHT_SUM] = 1.0
+    return indices.astype(np.int32), values / total
+
+
+def dense_weights(indices, weights, column_count):
+    """The (k, column_count) matrix the pairs stand for (zeros elsewhere).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import dense_weights
+    >>> dense_weights(np.array([[2, 0]]), np.array([[0.75, 0.25]]), 3).tolist()
+    [[0.25, 0.0, 0.75]]
+    """
+    dense = np.zeros((len(indices), column_count))
+    np.put_along_axis(dense, np.asarray(indices, dtype=np.int64), np.asarray(weights, dtype=np.float64), axis=1)
+    return dense
+
+
+def interpolated(values, corners, trilinear):
+    """Rows interpolated from node rows: ``sum_c trilinear[:, c] * values[corners[:, c]]``.
+
+    Parameters
+    ----------
+    values : (N, n) float
+        Per grid node.
+    corners : (k, 8) int
+        Each point's cell corners (rows of ``values``).
+    trilinear : (k, 8) float
+        Their trilinear weights.
+
+    Returns
+    -------
+    (k, n) float64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import interpolated
+    >>> nodes = np.eye(8)
+    >>> interpolated(nodes, np.arange(8)[None], np.full((1, 8), 0.125)).sum()
+    1.0
+    """
+    values = np.asarray(values, dtype=np.float64)
+    result = np.zeros((len(corners), values.shape[1]))
+    for c in range(np.shape(corners)[1]):
+        result += np.asarray(trilinear, dtype=np.float64)[:, c, None] * values[np.asarray(corners)[:, c]]
+    return result
+
+
+def deviations(coordinates, indices, weights, rest, interpolation=None):
+    """How far the pairs as stored are from the exact coordinates, of the cage's diagonal.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+        Exact coordinates; with ``interpolation``, of the grid nodes ((N, n)).
+    indices, weights : (k, K) (or (N, K')) int and float
+        The pairs, weights as stored (float32 is measured as float32).
+    rest : (n, 3) float
+        The cage at rest.
+    interpolation : ((p, 8) int, (p, 8) float), optional
+        The points' cell corners (rows of ``coordinates``) and trilinear weights: the
+        deviations are then those of the p points.
+
+    Returns
+    -------
+    smooth : float
+        Under the standard smooth motion (``compact.smooth_test_motion``).
+    drag : float
+        Under the worst single cage vertex dragged by ``compact.DRAG_FRACTION`` of the
+        diagonal.
+    drag_vertex : int
+        That vertex.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import deviations, largest_pairs
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> exact = np.array([[0.5, 0.3, 0.2, 0.0, 0.0, 0.0]])
+    >>> smooth, drag, vertex = deviations(exact, *largest_pairs(exact, 3), vertices)
+    >>> float(drag) < 1e-15
+    True
+    """
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    residual = coordinates - dense_weights(indices, weights, coordinates.shape[1])
+    if interpolation is None:
+        smooth, drag = compact.residual_deviations(residual, rest)
+        if len(drag) == 0:
+            return float(smooth), 0.0, 0
+        return float(smooth), float(drag.max()), int(np.argmax(drag))
+    return _interpolated_deviations(residual, *interpolation, rest)
+
+
+def _interpolated_deviations(residual, corners, trilinear, rest):
+    """``deviations`` of the points interpolated from node ``residual`` ((N, n)) without
+    the (k, n) point residual: the smooth motion is linear (interpolate the nodes' moves),
+    and a dragged vertex j deviates ``DRAG_FRACTION * max_i |point residual_ij|``, bounded
+    by the nodes' largest ``|residual_aj|`` (the trilinear weights are a convex
+    combination): exact columns are computed in decreasing bound order until no bound
+    can beat the worst found, so the largest and where it is are exact."""
+    rest = np.asarray(rest, dtype=np.float64)
+    diagonal = np.linalg.norm(np.ptp(rest, axis=0))
+    if len(corners) == 0 or residual.shape[1] == 0:
+        return 0.0, 0.0, 0
+    moves = interpolated(residual @ (compact.smooth_test_motion(rest) - rest), corners, trilinear)
+    smooth = float(np.linalg.norm(moves, axis=1).max() / diagonal)
+    used = np.unique(np.asarray(corners))
+    bounds = np.abs(residual[used]).max(axis=0)
+    worst, worst_column = -1.0, 0
+    for j in np.argsort(-bounds):
+        if bounds[j] <= worst:
+            break
+        column = interpolated(residual[:, j:j + 1], corners, trilinear)
+        largest = float(np.abs(column).max())
+        if largest > worst:
+            worst, worst_column = largest, int(j)
+    return smooth, compact.DRAG_FRACTION * worst, worst_column
+
+
+def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=None):
+    """The fewest pairs per row whose deviations both stay under ``target``.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+        Exact coordinates of sample points; with ``interpolation``, of the grid nodes
+        ((N, n)), the points' coordinates being their trilinear interpolation.
+    rest : (n, 3) float
+        The cage at rest.
+    target : float
+        Largest deviation allowed, of the cage's diagonal.
+    counts : increasing sequence of int
+        Candidate K.
+    interpolation : ((k, 8) int, (k, 8) float), optional
+        The points' cell corners and trilinear weights (two-level layout).
+
+    Returns
+    -------
+    count : int or None
+        The first of ``counts`` (at most n) whose smooth and worst drag deviations
+        (weights rounded to float32, as stored) are below ``target``; None if none is.
+    smooth, drag : float
+        Those deviations at ``count`` (at the last count when None).
+
+    Examples
+    --------
+    >>> import gencoords
+    >>> from gencoords.tools.sparse import fewest_slots
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(1)
+    >>> w = gencoords.coordinates([[0.1, 0.2, 0.3]], vertices, faces, workers=1)
+    >>> count, smooth, drag = fewest_slots(w, vertices, 1e-3, counts=(4, 42))
+    >>> count, drag < 1e-3
+    (42, True)
+    """
+    smooth = drag = np.inf
+    columns = np.shape(coordinates)[1]
+    for count in sorted({min(count, columns) for count in counts}):  # K beyond n keeps n
+        indices, weights = largest_pairs(coordinates, count)
+        smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
+        if smooth < target and drag < target:
+            return count, smooth, drag
+    return None, smooth, drag
+
+
+def used_nodes(corners):
+    """The grid nodes the points' cells use, and the corners renumbered into them.
+
+    Parameters
+    ----------
+    corners : (k, 8) int
+        Each point's cell corners (rows of a grid's nodes).
+
+    Returns
+    -------
+    used : (N,) int
+        Sorted node rows.
+    local : (k, 8) int32
+        ``corners`` as rows of ``used``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import used_nodes
+    >>> used, local = used_nodes(np.array([[7, 3, 7, 9, 3, 3, 9, 7]]))
+    >>> used.tolist(), local.tolist()
+    ([3, 7, 9], [[1, 0, 1, 2, 0, 0, 2, 1]])
+    """
+    used, local = np.unique(np.asarray(corners), return_inverse=True)
+    return used, local.reshape(np.shape(corners)).astype(np.int32)
+
+
+def stacked_columns(values, row_count):
+    """Node slots stacked into columns of ``row_count`` rows: slot j of node a at row
+    ``(j % S) * N + a`` of column ``j // S``, with ``S = row_count // N`` slots a column.
+
+    Parameters
+    ----------
+    values : (N, K') array
+        Per node its K' slot values (indices or weights); N <= ``row_count``.
+    row_count : int
+        The column length (the mesh's vertex count).
+
+    Returns
+    -------
+    columns : (row_count, C) array of ``values``' dtype
+        ``C = ceil(K' / S)``; zeros where no slot is stored.
+    per_column : int
+        S.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import stacked_columns
+    >>> columns, per_column = stacked_columns(np.array([[1, 2, 3], [4, 5, 6]]), 5)
+    >>> per_column, columns.T.tolist()
+    (2, [[1, 4, 2, 5, 0], [3, 6, 0, 0, 0]])
+    """
+    values = np.asarray(values)
+    count, slots = values.shape[:2]
+    if count == 0 or count > row_count:
+        raise ValueError(f"{count} nodes do not fit in columns of {row_count} rows")
+    per_column = row_count // count
+    columns = np.zeros((row_count, -(-slots // per_column)) + values.shape[2:], dtype=values.dtype)
+    for j in range(slots):
+        start = (j % per_column) * count
+        columns[start:start + count, j // per_column] = values[:, j]
+    return columns, per_column
+
+
+def unstacked(columns, node_count, slot_count):
+    """The inverse of :func:`stacked_columns`: (N, K') from the stacked columns.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import stacked_columns, unstacked
+    >>> values = np.arange(1, 7).reshape(2, 3)
+    >>> unstacked(stacked_columns(values, 5)[0], 2, 3).tolist()
+    [[1, 2, 3], [4, 5, 6]]
+    """
+    columns = np.asarray(columns)
+    per_column = len(columns) // node_count
+    values = np.empty((node_count, slot_count) + columns.shape[2:], dtype=columns.dtype)
+    for j in range(slot_count):
+        start = (j % per_column) * node_count
+        values[:, j] = columns[start:start + node_count, j // per_column]
+    return values
+
+
+def layout_coordinates(indices, weights, column_count, nodes=None):
+    """The coordinates sparse bind data stands for: (k, n) float64.
+
+    Parameters
+    ----------
+    indices, weights : (k, K) int and float
+        The points' pairs: cage vertices, or with ``nodes`` rows of the grid nodes.
+    column_count : int
+        n, the cage's vertex count.
+    nodes : ((N, K') int, (N, K') float), optional
+        The grid nodes' pairs over the cage (two levels).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import layout_coordinates
+    >>> nodes = (np.array([[0, 1], [2, 1]]), np.array([[0.5, 0.5], [1.0, 0.0]]))
+    >>> layout_coordinates(np.array([[0, 1]]), np.array([[0.5, 0.5]]), 3, nodes).tolist()
+    [[0.25, 0.25, 0.5]]
+    """
+    if nodes is None:
+        return dense_weights(indices, weights, column_count)
+    node_rows = dense_weights(*nodes, column_count)
+    return interpolated(node_rows, indices, weights)
+
+
+@dataclass(frozen=True, eq=False)
+class TwoLevelLayout:
+    """Sparse bind data in two levels (:func:`two_level_layout`), as written: float32
+    weights, int32 indices.
+
+    Attributes
+    ----------
+    corners : (k, 8) int32
+        Each point's cell corners, as rows of the N nodes kept.
+    trilinear : (k, 8) float32
+        Their trilinear weights.
+    node_indices : (N, K') int32
+        Each node's cage vertices, largest weight first.
+    node_weights : (N, K') float32
+        Their weights, summing to 1 per node.
+    node_coordinates_kept : (N,) int
+        The rows of the field's nodes kept (``used_nodes``).
+    deviation_smooth, deviation_drag : float
+        Of the cage's diagonal, measured on every point against the points' exact
+        (interpolated) coordinates.
+    deviation_drag_vertex : int
+    reason : str or None
+        Why K' is what it is, where the target was missed.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import TwoLevelLayout
+    >>> one_node = TwoLevelLayout(np.zeros((1, 8), np.int32), np.full((1, 8), 0.125, np.float32),
+    ...                           np.zeros((1, 4), np.int32), np.full((1, 4), 0.25, np.float32),
+    ...                           np.array([7]), 0.0, 0.0, 0)
+    >>> one_node.node_count, one_node.node_slot_count
+    (1, 4)
+    """
+
+    corners: np.ndarray
+    trilinear: np.ndarray
+    node_indices: np.ndarray
+    node_weights: np.ndarray
+    node_coordinates_kept: np.ndarray
+    deviation_smooth: float
+    deviation_drag: float
+    deviation_drag_vertex: int
+    reason: Optional[str] = None
+
+    @property
+    def node_count(self):
+        return len(self.node_indices)
+
+    @property
+    def node_slot_count(self):
+        return self.node_indices.shape[1]
+
+
+def two_level_layout(node_coordinates, corners, trilinear, rest, target, counts=NODE_SLOT_COUNTS):
+    """The two-level sparse layout of points interpolated from grid nodes: the nodes
+    their cells use, with the fewest pairs each (of ``counts``) whose deviations stay
+    under ``target`` (chosen on a sample of the points, measured on all).
+
+    Parameters
+    ----------
+    node_coordinates : (g, n) float
+        Every grid node's coordinates (rows summing to 1).
+    corners : (k, 8) int
+        Each point's cell corners (rows of ``node_coordinates``).
+    trilinear : (k, 8) float
+        Their trilinear weights.
+    rest : (n, 3) float
+        The cage at rest.
+    target : float
+        Of the cage's diagonal.
+    counts : increasing sequence of int
+        Candidate K'; the last is used when none meets the target.
+
+    Returns
+    -------
+    TwoLevelLayout
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import two_level_layout
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> nodes = np.random.default_rng(0).dirichlet(np.ones(6), 20)
+    >>> corners = np.arange(16).reshape(2, 8)
+    >>> layout = two_level_layout(nodes, corners, np.full((2, 8), 0.125), vertices, 1e-3, counts=(2, 6))
+    >>> layout.node_count, layout.node_slot_count, layout.deviation_drag < 1e-6
+    (16, 6, True)
+    """
+    used, local = used_nodes(corners)
+    nodes = np.asarray(node_coordinates, dtype=np.float64)[used]
+    trilinear = np.asarray(trilinear, dtype=np.float32)
+    sample = slice(None, None, max(1, len(local) // SAMPLE_POINTS))
+    count, _, _ = fewest_slots(nodes, rest, target * SAMPLE_MARGIN, counts,
+                               interpolation=(local[sample], trilinear[sample]))
+    reason = None
+    if count is None:
+        count = counts[-1]
+    indices, weights = largest_pairs(nodes, count)
+    weights = weights.astype(np.float32)
+    smooth, drag, vertex = deviations(nodes, indices, weights, rest, (local, trilinear))
+    if max(smooth, drag) >= target:
+        reason = (f"{count} pairs per grid node deviate {max(smooth, drag):.1e} of the cage's "
+                  f"diagonal (more than {target:.0e})")
+    return TwoLevelLayout(local, trilinear, indices, weights, used, smooth, drag, vertex, reason)

@@ -1,0 +1,247 @@
+"""Local coordinates on the artist's character, against Mesh Deform (part of ``make bench``).
+
+The character (``scripts/common/character.py``): a 43k-vertex body of capsules in its
+box-modelled, non-convex T-pose quad cage (196 vertices). Methods, each bound in a fresh
+scene: Mesh Deform at precision 5 and 6, GenCoords mean value and GenCoords harmonic
+(local, positive; sparse storage), both with Automatic storage.
+
+Metrics:
+  bind       wall time of the bind operator (``meshdeform_bind`` / ``gencoords_bind``).
+  peak MB    peak resident memory growth during the bind (the process and its workers,
+             ``scripts/common/memory.py``).
+  .blend MB  uncompressed .blend size the binding adds to the unbound scene.
+  update     live update (move one cage vertex, ``view_layer.update()``, read the
+             evaluated mesh), every method bound side by side in one scene and timed in
+             turns (``--rounds`` rounds): median and least wall time, and the ratio of the
+             median CPU time (the process's, all threads: steadier on a shared machine)
+             to Mesh Deform p5's.
+  locality   each of the two arms, two legs and head in turn: its cage vertices
+             (``character.cage_limb_vertices``: the outer half of a limb) moved forward by
+             20 % of the cage's diagonal; the largest move of the body's vertices of the
+             four other limbs (``limb_labels``; the torso and neck, which they hang on,
+             not counted), of the diagonal: the worst over the arms and legs, and the
+             head's (its cage's lowest vertices sit a cell above the shoulders).
+  bend       the left forearm's cage vertices turned 60 degrees about the elbow (the
+             y axis through the middle of the arm): per triangle of the left arm, the
+             change of its three angles; mean and 99th percentile (degrees), and triangles
+             flipped (normal against both its rest normal and its rest normal turned 60
+             degrees).
+  negative   share of the (mesh vertex, cage vertex) coordinates below 0, and the
+             smallest (GenCoords; Mesh Deform has none).
+
+Usage: bench_local.py [--precisions 5 6] [--kinds mean_value harmonic] [--rounds 15]
+"""
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
+from scripts.common import session  # noqa: E402
+
+session.prepare()  # before bpy is imported
+from scripts.common import character, scenes  # noqa: E402
+import bpy  # noqa: E402
+from scripts.common import playback  # noqa: E402
+from scripts.common.memory import PeakMemory, blend_size  # noqa: E402
+from scripts.common.playback import settle  # noqa: E402
+from scripts.common.scenes import arrays  # noqa: E402
+from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
+from gencoords.tools.bind_plan import HARMONIC  # noqa: E402
+
+MOVED_LIMBS = ("left_arm", "right_arm", "left_leg", "right_leg", "head")
+LOCALITY_MOVE = 0.2  # of the cage's diagonal
+BEND_DEGREES = 60.0
+
+
+def bind(mesh, cage, method):
+    """Bind ``mesh`` to ``cage`` with ``method`` (("md", precision) or ("gencoords",
+    kind[:resolution])); returns the wall time."""
+    scenes.make_active(mesh)
+    start = time.perf_counter()
+    with session.quiet():
+        if method[0] == "md":
+            modifier = mesh.modifiers.new("MeshDeform", 'MESH_DEFORM')
+            modifier.object, modifier.precision = cage, method[1]
+            bpy.ops.object.meshdeform_bind(modifier=modifier.name)
+            ok = modifier.is_bound
+        else:
+            kind, _, resolution = method[1].partition(":")
+            if resolution:
+                mesh.gencoords.resolution = int(resolution)
+            ok = "FINISHED" in scenes.bind(mesh, cage, kind, storage='AUTO')
+    if not ok:
+        raise RuntimeError(f"{method} did not bind")
+    return time.perf_counter() - start
+
+
+def locality(mesh, cage, rest_cage, labels, size):
+    """The largest move of the other limbs' vertices when one limb's cage vertices move
+    by LOCALITY_MOVE of the diagonal, of the diagonal: {limb: figure}."""
+    rest = settle(mesh)
+    moves = {}
+    for limb in MOVED_LIMBS:
+        moved = rest_cage.astype(np.float64)
+        moved[character.cage_limb_vertices(rest_cage, limb)] += (0.0, -LOCALITY_MOVE * size, 0.0)
+        arrays.write_positions(cage.data, moved)
+        now = settle(mesh)
+        other = np.isin(labels, MOVED_LIMBS) & (labels != limb)
+        moves[limb] = float(np.linalg.norm(now[other] - rest[other], axis=1).max()) / size
+    arrays.write_positions(cage.data, rest_cage)
+    settle(mesh)
+    return moves
+
+
+def triangle_angles(points, triangles):
+    """(t, 3) angles in degrees."""
+    corners = points[triangles]
+    angles = []
+    for c in range(3):
+        a = corners[:, (c + 1) % 3] - corners[:, c]
+        b = corners[:, (c + 2) % 3] - corners[:, c]
+        cosine = (a * b).sum(1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-30)
+        angles.append(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+    return np.stack(angles, axis=1)
+
+
+def normals(points, triangles):
+    corners = points[triangles]
+    return np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+
+
+def bend(mesh, cage, rest_cage, labels, triangles):
+    """The left forearm's cage vertices turned BEND_DEGREES about the elbow
+    (``character.bent_forearm``): the left arm's triangle angle changes (mean, 99th
+    percentile, degrees) and flipped triangles."""
+    rest = settle(mesh).astype(np.float64)
+    moved, rotation = character.bent_forearm(rest_cage, BEND_DEGREES)
+    arrays.write_positions(cage.data, moved)
+    now = settle(mesh).astype(np.float64)
+    arrays.write_positions(cage.data, rest_cage)
+    settle(mesh)
+    arm = triangles[(labels[triangles] == "left_arm").all(axis=1)]
+    change = np.abs(triangle_angles(now, arm) - triangle_angles(rest, arm)).ravel()
+    before, after = normals(rest, arm), normals(now, arm)
+    flipped = ((after * before).sum(1) < 0) & ((after * (before @ rotation.T)).sum(1) < 0)
+    return float(change.mean()), float(np.percentile(change, 99)), int(flipped.sum())
+
+
+def measure(method, empty_blend, rows):
+    """Bind ``method`` in a fresh scene and measure everything but the update."""
+    scenes.reset_scene()
+    mesh, cage = scenes.add_character()
+    rest_cage = arrays.read_positions(cage.data).copy()
+    points = arrays.read_positions(mesh.data)
+    labels = character.limb_labels(points)
+    triangles = arrays.read_loop_triangles(mesh.data)
+    size = scenes.cage_size(rest_cage)
+    bpy.context.view_layer.update()
+    with PeakMemory() as memory:
+        seconds = bind(mesh, cage, method)
+    row = {"bind": seconds, "peak": memory.peak}
+    row["blend"] = blend_size("local") - empty_blend
+    moves = locality(mesh, cage, rest_cage, labels, size)
+    row["locality"] = max(moves[limb] for limb in MOVED_LIMBS if limb != "head")
+    row["locality_head"] = moves["head"]
+    row["bend_mean"], row["bend_99"], row["flipped"] = bend(mesh, cage, rest_cage, labels, triangles)
+    row["storage"], row["negative"] = stored(mesh) if method[0] == "gencoords" else ("-", "0")
+    rows[method] = row
+    print(f"  {label(method)}: bind {seconds:.2f} s, peak {memory.peak / 2**20:.0f} MB, "
+          f".blend +{row['blend'] / 2**20:.1f} MB, locality {row['locality']:.1e} "
+          f"(head {row['locality_head']:.1e}), bend {row['bend_mean']:.2f} / {row['bend_99']:.1f} deg, "
+          f"{row['flipped']} flipped, {row['storage']}", flush=True)
+
+
+def stored(mesh):
+    """The storage Automatic chose, and the share of negative coordinates."""
+    result = session.addon_module("api").binding_result(mesh)
+    share = (result.negative_entries or 0) / (result.mesh_vertex_count * result.cage_vertex_count)
+    return f"{result.storage.lower()} {result.slot_count}", f"{share:.1%} (min {result.min_coordinate:.3f})"
+
+
+def time_side_by_side(methods, rows, rounds):
+    """Every method bound in one scene, each on its own mesh and cage; median updates
+    timed in turns."""
+    scenes.reset_scene()
+    bound = []
+    for method in methods:
+        mesh, cage = scenes.add_character()
+        bpy.context.view_layer.update()
+        bind(mesh, cage, method)
+        bound.append((method, mesh, cage, arrays.read_positions(cage.data).copy()))
+    bpy.context.view_layer.update()
+    state = [settle(mesh) for _, mesh, _, _ in bound]
+    times = [[] for _ in bound]
+    for repeat in range(rounds):
+        for i, (_, mesh, cage, rest_cage) in enumerate(bound):
+            seconds, _, state[i], cpu = playback.time_update(mesh, cage, rest_cage, repeat, state[i])
+            times[i].append((seconds, cpu))
+    for (method, *_), measured in zip(bound, times):
+        wall, cpu = np.array(measured).T
+        rows[method]["update"], rows[method]["cpu"] = float(np.median(wall)), float(np.median(cpu))
+        rows[method]["update_min"] = float(wall.min())
+
+
+def label(method):
+    if method[0] == "md":
+        return f"Mesh Deform p{method[1]}"
+    kind, _, resolution = method[1].partition(":")
+    return f"GenCoords {kind.replace('_', ' ')}" + (f" (resolution {resolution})" if resolution else "")
+
+
+def table(rows):
+    reference = rows.get(("md", 5))
+    lines = ["| method | storage | bind | bind / MD p5 | peak MB | .blend MB added | update median / min "
+             "| CPU / MD p5 | arms and legs: other limbs' largest move | head: other limbs' largest move "
+             "| bend: mean / 99th pct angle change | flipped | negative |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for method, row in rows.items():
+        ratio = (f"{row['bind'] / reference['bind']:.2f}", f"{row['cpu'] / reference['cpu']:.2f}") \
+            if reference else ("-", "-")
+        lines.append(
+            f"| {label(method)} | {row['storage']} | {row['bind']:.2f} s | {ratio[0]} "
+            f"| {row['peak'] / 2**20:.0f} | {row['blend'] / 2**20:.1f} "
+            f"| {row['update'] * 1e3:.1f} / {row['update_min'] * 1e3:.1f} ms | {ratio[1]} "
+            f"| {row['locality']:.1e} | {row['locality_head']:.1e} "
+            f"| {row['bend_mean']:.2f} / {row['bend_99']:.1f} deg | {row['flipped']} | {row['negative']} |")
+    return "\n".join(lines)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--precisions", nargs="+", type=int, default=[5, 6])
+    parser.add_argument("--kinds", nargs="+", default=[MEAN_VALUE, HARMONIC],
+                        help="GenCoords kinds; harmonic:<resolution> for another grid")
+    parser.add_argument("--rounds", type=int, default=15)
+    parser.add_argument("--output", type=Path, default=session.OUT / "bench_local.md")
+    args = parser.parse_args()
+    header = session.report_header("Local coordinates on the character, against Mesh Deform")
+    print("\n".join(header), flush=True)
+    session.install_extension()
+    scenes.reset_scene()
+    mesh, cage = scenes.add_character()
+    print(f"character: {len(mesh.data.vertices)} vertices, cage {len(cage.data.vertices)} vertices",
+          flush=True)
+    empty_blend = blend_size("unbound")
+    # One throw-away bind of each kind on a small body, so one-time costs (first imports,
+    # worker processes) are not charged to the first measured row.
+    for kind in {kind.partition(":")[0] for kind in args.kinds}:
+        scenes.reset_scene()
+        bind(*scenes.add_character(detail=0.2), ("gencoords", kind))
+    methods = [("md", p) for p in args.precisions] + [("gencoords", kind) for kind in args.kinds]
+    rows = {}
+    for method in methods:
+        measure(method, empty_blend, rows)
+    time_side_by_side(methods, rows, args.rounds)
+    body = table(rows)
+    print("\n" + body, flush=True)
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    args.output.write_text("\n".join(header) + "\n\n" + body + "\n")
+    print(f"written to {args.output}")
+
+
+if __name__ == "__main__":
+    main()

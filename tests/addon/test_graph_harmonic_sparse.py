@@ -1,0 +1,225 @@
+"""Harmonic coordinates (local, positive) in sparse storage, bound through the operator as
+a script binds (inside ``bpy.context.temp_override``), on the artist's non-convex
+character cage: bitwise at rest, translations exact, weights never negative, other limbs
+still when one limb moves; strength, mask, two cages, Unbind, Bake to Bones; sparse
+storage for the other kinds; and the panel's words for mean value in a non-convex cage."""
+
+import importlib
+
+import bpy
+import numpy as np
+import pytest
+
+from scene_helpers import (add_icosphere_cage, add_sphere, evaluated_positions, read_positions,
+                           write_positions)
+from scripts.common import character
+
+RESOLUTION = 24  # cells along the cage's longest side: quick, and still local
+
+
+def add_character(detail=0.3):
+    """The character's body (about 4,000 vertices at 0.3) and its box-modelled cage."""
+    vertices, triangles, labels = character.body_mesh(detail)
+    cage_vertices, quads = character.character_cage()
+    return (_mesh_object("Body", vertices, triangles), _mesh_object("Cage", cage_vertices, quads),
+            labels)
+
+
+def _mesh_object(name, vertices, faces):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices.tolist(), [], faces.tolist())
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def bind(obj, cage, kind="HARMONIC", storage="AUTO", **settings):
+    """The Bind operator as a pipeline script calls it: settings, then an override."""
+    options = obj.gencoords
+    options.cage, options.kind, options.storage = cage, kind, storage
+    if kind == "HARMONIC":
+        options.resolution = settings.pop("resolution", RESOLUTION)
+    for name, value in settings.items():
+        setattr(options, name, value)
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        return bpy.ops.object.gencoords_bind()
+
+
+def unbind(obj):
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        return bpy.ops.object.gencoords_unbind()
+
+
+def result_of(gc, obj):
+    return importlib.import_module(gc.core.__name__.rpartition(".")[0]).binding_result(obj)
+
+
+def stored_weights(obj, key):
+    """Every FLOAT attribute of the binding ``key`` (its weights), concatenated."""
+    prefix = f".gencoords_{key}_"
+    values = []
+    for attribute in obj.data.attributes:
+        if attribute.name.startswith(prefix) and attribute.data_type == 'FLOAT':
+            column = np.empty(len(attribute.data), dtype=np.float32)
+            attribute.data.foreach_get("value", column)
+            values.append(column)
+    return np.concatenate(values)
+
+
+def diagonal(cage):
+    points = read_positions(cage.data)
+    return float(np.linalg.norm(np.ptp(points, axis=0)))
+
+
+@pytest.fixture
+def bound_character(gc):
+    obj, cage, labels = add_character()
+    rest = read_positions(obj.data).copy()
+    assert bind(obj, cage) == {'FINISHED'}
+    return obj, cage, labels, rest
+
+
+def test_harmonic_binding_is_sparse_positive_bitwise_at_rest_and_translates_exactly(gc, bound_character):
+    obj, cage, _, rest = bound_character
+    result = result_of(gc, obj)
+    assert (result.kind, result.storage) == ("HARMONIC", "SPARSE")
+    assert result.min_coordinate >= 0.0 and result.negative_points == 0
+    assert max(result.deviation_smooth, result.deviation_drag) < 1e-3  # Automatic's target
+    weights = stored_weights(obj, gc.binding.binding(obj).key)
+    assert len(weights) and (weights >= 0).all()
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)  # bitwise
+    cage_rest = read_positions(cage.data).copy()
+    shift = np.array([0.31, -0.17, 0.44], dtype=np.float32)
+    write_positions(cage.data, cage_rest + shift)
+    np.testing.assert_allclose(evaluated_positions(obj), rest + shift, atol=2e-6 * diagonal(cage))
+    write_positions(cage.data, cage_rest)
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    assert "Harmonic" in " ".join(text for text, _ in gc.status.status_lines(obj))
+
+
+@pytest.mark.parametrize("limb", ["left_arm", "right_arm", "right_leg"])
+def test_moving_one_limb_leaves_the_other_limbs_still(gc, bound_character, limb):
+    obj, cage, labels, rest = bound_character
+    cage_rest = read_positions(cage.data).astype(np.float64)
+    moved = cage_rest.copy()
+    size = diagonal(cage)
+    moved[character.cage_limb_vertices(cage_rest, limb)] += (0.0, -0.2 * size, 0.1 * size)
+    write_positions(cage.data, moved)
+    now = evaluated_positions(obj)
+    others = np.isin(labels, ("left_arm", "right_arm", "left_leg", "right_leg", "head")) & (labels != limb)
+    assert np.linalg.norm(now[others] - rest[others], axis=1).max() < 1e-5 * size
+    assert np.linalg.norm(now[labels == limb] - rest[labels == limb], axis=1).max() > 0.05 * size
+
+
+def test_strength_and_mask_scale_the_harmonic_displacement(gc, bound_character):
+    obj, cage, _, rest = bound_character
+    cage_rest = read_positions(cage.data).copy()
+    write_positions(cage.data, cage_rest * np.float32(1.2))
+    full = evaluated_positions(obj).copy()
+    modifier = gc.binding.binding(obj).modifier
+    gc.compat.set_modifier_input(modifier, "Strength", 0.5)
+    obj.data.update()
+    np.testing.assert_allclose(evaluated_positions(obj), rest + 0.5 * (full - rest), atol=1e-5)
+    gc.compat.set_modifier_input(modifier, "Strength", 1.0)
+    group = obj.vertex_groups.new(name="Upper")
+    upper = np.flatnonzero(rest[:, 2] > 1.0)
+    group.add(upper.tolist(), 1.0, 'REPLACE')
+    gc.compat.set_modifier_input_attribute(modifier, "Mask", "Upper")
+    obj.data.update()
+    now = evaluated_positions(obj)
+    lower = np.setdiff1d(np.arange(len(rest)), upper)
+    np.testing.assert_array_equal(now[lower], rest[lower])  # masked out: bitwise
+    np.testing.assert_allclose(now[upper], full[upper], atol=1e-6)
+    gc.compat.set_modifier_input(modifier, "Invert Mask", True)
+    obj.data.update()
+    now = evaluated_positions(obj)
+    np.testing.assert_array_equal(now[upper], rest[upper])
+    np.testing.assert_allclose(now[lower], full[lower], atol=1e-6)
+
+
+def test_two_harmonic_cages_compose_and_unbind_restores_bitwise(gc):
+    obj, cage, _ = add_character()
+    outer = add_icosphere_cage(radius=2.5, subdivisions=2, name="Outer")
+    outer.location = (0.0, 0.0, 0.9)
+    bpy.context.view_layer.update()
+    rest = read_positions(obj.data).copy()
+    before = {a.name for a in obj.data.attributes}
+    assert bind(obj, cage) == {'FINISHED'}
+    assert bind(obj, outer) == {'FINISHED'}
+    assert [m.type for m in obj.modifiers] == ['NODES', 'NODES']
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    outer.location = (0.3, 0.0, 0.9)  # the outer cage moves the whole body with it
+    bpy.context.view_layer.update()
+    np.testing.assert_allclose(evaluated_positions(obj), rest + (0.3, 0.0, 0.0), atol=2e-6 * 5)
+    outer.location = (0.0, 0.0, 0.9)
+    bpy.context.view_layer.update()
+    assert unbind(obj) == {'FINISHED'}  # Unbind All
+    assert list(obj.modifiers) == [] and {a.name for a in obj.data.attributes} == before
+    np.testing.assert_array_equal(read_positions(obj.data), rest)
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+
+
+def test_bake_to_bones_takes_a_harmonic_binding(gc, bound_character):
+    obj, cage, _, rest = bound_character
+    cage_rest = read_positions(cage.data).copy()
+    moved = cage_rest * np.float32(1.1) + np.float32(0.05)
+    write_positions(cage.data, moved)
+    bound = evaluated_positions(obj).copy()
+    write_positions(cage.data, cage_rest)
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bake_bones(keyframes=False) == {'FINISHED'}
+    assert [m.type for m in obj.modifiers] == ['ARMATURE']
+    write_positions(cage.data, moved)
+    np.testing.assert_allclose(evaluated_positions(obj), bound, atol=1e-4 * diagonal(cage))
+
+
+@pytest.mark.parametrize("kind", ["MEAN_VALUE", "WACHSPRESS"])
+def test_sparse_storage_keeps_the_largest_pairs_and_translations_exact(gc, kind):
+    cage = add_icosphere_cage(subdivisions=2)  # 42 vertices
+    obj = add_sphere()
+    rest = read_positions(obj.data).copy()
+    assert bind(obj, cage, kind=kind, storage="SPARSE", sparse_size=8) == {'FINISHED'}
+    result = result_of(gc, obj)
+    assert (result.storage, result.slot_count) == ("SPARSE", 8)
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    cage_rest = read_positions(cage.data).copy()
+    write_positions(cage.data, cage_rest + np.float32(0.25))
+    np.testing.assert_allclose(evaluated_positions(obj), rest + 0.25, atol=1e-6)
+    # The deformation is the stored pairs' own, as the core computes them.
+    sparse = gc.core.tools.sparse
+    coordinates = gc.core.coordinates(rest.astype(np.float64), cage_rest.astype(np.float64),
+                                      np.array([p.vertices[:] for p in cage.data.polygons]),
+                                      kind=kind.lower(), workers=1)
+    indices, weights = sparse.largest_pairs(coordinates, 8)
+    moved = cage_rest * np.float32(1.3)
+    write_positions(cage.data, moved)
+    expected = rest + np.einsum("pk,pkc->pc", weights, (moved - cage_rest)[indices])
+    np.testing.assert_allclose(evaluated_positions(obj), expected, atol=1e-5)
+    assert result.deviation_drag > 0.0  # 8 of 42 pairs: not exact, and said so
+
+
+def test_mean_value_in_a_non_convex_cage_states_its_negative_share_and_points_to_harmonic(gc):
+    obj, cage, _ = add_character(detail=0.2)
+    assert bind(obj, cage, kind="MEAN_VALUE") == {'FINISHED'}
+    lines = " ".join(text for text, _ in gc.status.status_lines(obj))
+    assert "negative" in lines and "%" in lines and "Harmonic" in lines
+
+
+def test_a_hidden_cage_drives_and_auto_rebind_binds_harmonic_again(gc):
+    from test_bind_and_deform import subdivide_in_edit_mode
+
+    cage = add_icosphere_cage(subdivisions=2)
+    obj = add_sphere()
+    obj.gencoords.auto_rebind = True
+    assert bind(obj, cage, resolution=16) == {'FINISHED'}
+    subdivide_in_edit_mode(obj)  # Auto Rebind binds again, with the same settings
+    data = gc.binding.binding(obj).data
+    assert (data.kind, data.resolution) == ("harmonic", 16)
+    assert data.mesh_vertex_count == len(obj.data.vertices)
+    # A few hundred vertices use more grid nodes than they are: exact storage, and why.
+    assert data.storage == 'EXACT' and "fewer than the grid nodes" in data.storage_choice
+    rest = read_positions(obj.data).copy()
+    cage.hide_viewport = cage.hide_render = True  # hidden, it still drives the mesh
+    write_positions(cage.data, read_positions(cage.data) + np.float32(0.2))
+    np.testing.assert_allclose(evaluated_positions(obj), rest + 0.2, atol=1e-5)

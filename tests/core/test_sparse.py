@@ -1,0 +1,122 @@
+"""Sparse storage's pairs: rows sum to 1 (translations exact), the kept entries are the
+largest, the deviations fall as K grows and agree with moving the cage, and the two-level
+layout's residual is the interpolated node residual."""
+
+import numpy as np
+import pytest
+
+import gencoords
+from gencoords.tools import compact, sparse
+from polytopes import random_convex_polytope, random_interior_points
+
+
+@pytest.fixture(scope="module")
+def cage_and_coordinates():
+    rng = np.random.default_rng(23)
+    vertices, faces = random_convex_polytope(rng, 3, 40)
+    points = random_interior_points(rng, vertices, 300)
+    return vertices, points, gencoords.coordinates(points, vertices, faces, kind="wachspress")
+
+
+@pytest.mark.parametrize("count", [1, 4, 16, 40])
+def test_pairs_sum_to_one_and_keep_the_largest(cage_and_coordinates, count):
+    vertices, points, coordinates = cage_and_coordinates
+    indices, weights = sparse.largest_pairs(coordinates, count)
+    assert indices.shape == weights.shape == (len(points), count)
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0, atol=1e-12)
+    kept = np.take_along_axis(coordinates, indices.astype(np.int64), axis=1)
+    smallest_kept = kept.min(axis=1)
+    dropped = coordinates.copy()
+    np.put_along_axis(dropped, indices.astype(np.int64), -np.inf, axis=1)
+    assert np.all(dropped.max(axis=1) <= smallest_kept + 1e-15)
+    # A translated cage translates every point exactly, whatever K.
+    shift = np.array([0.3, -1.2, 2.0])
+    moved = sparse.dense_weights(indices, weights, len(vertices)) @ np.tile(shift, (len(vertices), 1))
+    np.testing.assert_allclose(moved, np.tile(shift, (len(points), 1)), atol=1e-12)
+    if count == len(vertices):  # every entry kept: the exact coordinates
+        np.testing.assert_allclose(sparse.dense_weights(indices, weights, len(vertices)), coordinates,
+                                   atol=1e-12)
+
+
+def test_deviations_fall_with_count_and_match_moving_the_cage(cage_and_coordinates):
+    vertices, _, coordinates = cage_and_coordinates
+    drags = []
+    for count in (4, 8, 16, 40):
+        found, smooth, drag = sparse.fewest_slots(coordinates, vertices, 0.0, counts=(count,))
+        assert found is None  # nothing is under a target of 0
+        indices, weights = sparse.largest_pairs(coordinates, count)
+        stored = sparse.dense_weights(indices, weights.astype(np.float32), len(vertices))
+        moved = compact.smooth_test_motion(vertices)
+        direct = compact.deviation(coordinates, stored, np.eye(len(vertices)), vertices, moved)
+        assert smooth == pytest.approx(direct, rel=1e-9, abs=1e-15)
+        drags.append(drag)
+    assert drags == sorted(drags, reverse=True)
+    assert drags[-1] < 1e-6  # float32 rounding only
+    # Dense (Wachspress in a convex cage): only all 40 keep the drag under 1e-3.
+    count, smooth, drag = sparse.fewest_slots(coordinates, vertices, 1e-3, counts=(4, 8, 16, 32, 40))
+    assert count is not None and smooth < 1e-3 and drag < 1e-3
+    assert sparse.fewest_slots(coordinates, vertices, 1e-3, counts=(4,))[0] is None
+
+
+def test_two_level_residual_is_the_interpolated_node_residual(cage_and_coordinates):
+    vertices, _, node_coordinates = cage_and_coordinates  # 300 "nodes"
+    rng = np.random.default_rng(5)
+    corners = rng.integers(0, len(node_coordinates), (50, 8))
+    trilinear = rng.dirichlet(np.ones(8), 50)
+    points = sparse.interpolated(node_coordinates, corners, trilinear)
+    np.testing.assert_allclose(points.sum(axis=1), 1.0, atol=1e-12)
+    for count in (4, 12):
+        _, smooth, drag = sparse.fewest_slots(node_coordinates, vertices, 0.0, counts=(count,),
+                                             interpolation=(corners, trilinear))
+        indices, weights = sparse.largest_pairs(node_coordinates, count)
+        stored = sparse.dense_weights(indices, weights.astype(np.float32), len(vertices))
+        residual = points - sparse.interpolated(stored, corners, trilinear)
+        expected_smooth, expected_drag = compact.residual_deviations(residual, vertices)
+        assert smooth == pytest.approx(expected_smooth, rel=1e-9)
+        assert drag == pytest.approx(expected_drag.max(), rel=1e-9)
+
+
+def test_stacked_columns_put_every_slot_where_the_deformer_reads_it():
+    rng = np.random.default_rng(2)
+    values = rng.integers(1, 1000, (7, 11))
+    columns, per_column = sparse.stacked_columns(values, 30)
+    assert per_column == 4 and columns.shape == (30, 3)
+    for a in range(7):
+        for j in range(11):
+            assert columns[(j % per_column) * 7 + a, j // per_column] == values[a, j]
+    assert np.count_nonzero(columns) == values.size  # nothing else written
+    with pytest.raises(ValueError):
+        sparse.stacked_columns(values, 6)  # more nodes than rows
+
+
+def test_used_nodes_renumber_the_corners():
+    corners = np.random.default_rng(4).integers(0, 50, (20, 8))
+    used, local = sparse.used_nodes(corners)
+    np.testing.assert_array_equal(used[local], corners)
+    assert len(used) == len(np.unique(corners))
+
+
+def test_two_level_layout_meets_the_target_with_the_fewest_node_pairs(cage_and_coordinates):
+    vertices, _, node_coordinates = cage_and_coordinates  # 300 "grid nodes"
+    rng = np.random.default_rng(8)
+    corners = rng.integers(0, 200, (500, 8))  # the last 100 nodes unused
+    trilinear = rng.dirichlet(np.ones(8), 500)
+    layout = sparse.two_level_layout(node_coordinates, corners, trilinear, vertices, 1e-3,
+                                     counts=(4, 8, 16, 32, 40))
+    assert layout.node_count == len(np.unique(corners)) <= 200
+    np.testing.assert_array_equal(layout.node_coordinates_kept[layout.corners], corners)
+    assert max(layout.deviation_smooth, layout.deviation_drag) < 1e-3 and layout.reason is None
+    fewer = (4, 8, 16, 32, 40)[(4, 8, 16, 32, 40).index(layout.node_slot_count) - 1]
+    kept = node_coordinates[layout.node_coordinates_kept]
+    missed = sparse.deviations(kept, *sparse.largest_pairs(kept, fewer), vertices,
+                               (layout.corners, layout.trilinear))
+    assert max(missed[:2]) >= 1e-3 * sparse.SAMPLE_MARGIN  # one count fewer misses
+    assert (layout.node_weights >= 0).all()  # non-negative coordinates stay so
+    np.testing.assert_allclose(layout.node_weights.sum(axis=1), 1.0, atol=1e-6)
+
+
+def test_stacked_columns_of_triples_unstack_to_the_same_values():
+    values = np.random.default_rng(9).random((5, 7, 3)).astype(np.float32)
+    columns, per_column = sparse.stacked_columns(values, 12)
+    assert per_column == 2 and columns.shape == (12, 4, 3)
+    np.testing.assert_array_equal(sparse.unstacked(columns, 5, 7), values)
