@@ -37,7 +37,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
 .PHONY: help setup test-tools demo test test-core lint build bench bench-core test-blender-matrix \
-        setup-blender-matrix check-release clean distclean
+        setup-blender-matrix check-release fuzz clean distclean
 
 ## This list: every target with what its `##` comment says.
 help:
@@ -122,6 +122,20 @@ bench: $(STAMP) build
 ## The core's speed table alone (no Blender).
 bench-core: $(STAMP)
 	$(PY) scripts/benchmarks/bench_core.py --workers --surfaces $(CGAL_REFERENCE)
+
+CASES ?= 200
+FIRST_SEED ?= 0
+JOBS ?= 1
+
+## The seeded operator fuzz (scripts/fuzz/run.py, docs/ARCHITECTURE.md): CASES random cases
+## (default 200) from seed FIRST_SEED, each in a fresh Blender process, JOBS at once; prints
+## each failing case's steps and replay command. `make fuzz SEED=123` replays one case.
+fuzz: $(STAMP)
+ifdef SEED
+	$(PY) scripts/fuzz/run.py --replay $(SEED)
+else
+	nice -n 10 $(PY) scripts/fuzz/run.py --cases $(CASES) --first-seed $(FIRST_SEED) --jobs $(JOBS)
+endif
 
 ## Build outputs and caches.
 clean:

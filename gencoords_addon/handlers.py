@@ -23,6 +23,7 @@ import traceback
 import bpy
 from bpy.app.handlers import persistent
 
+from .bake import bones
 from .bind import bindings, service
 from .errors import BindError
 
@@ -115,8 +116,9 @@ def rebind_in_window():
 
 
 def release_deleted_cages():
-    """Let go of deleted cages (see the module's docstring and ``bindings.follow_cage``)
-    and clear the Cage settings holding them. Returns the names of the cages let go of."""
+    """Let go of deleted cages (see the module's docstring and ``bindings.follow_cage``;
+    baked rigs too, ``bones.let_go_of_deleted_cage``) and clear the Cage settings holding
+    them. Returns the names of the cages bindings let go of."""
     released = set()
     _cage_names.clear()
     for obj in bpy.data.objects:
@@ -132,6 +134,7 @@ def release_deleted_cages():
         settings = getattr(obj, "gencoords", None)
         if settings is not None and bindings.is_deleted(settings.cage):
             settings.cage = None
+        bones.let_go_of_deleted_cage(obj)
     return released
 
 

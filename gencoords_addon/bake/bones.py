@@ -260,6 +260,20 @@ def _following_error(rig, cage, names, rest, context):
     return error
 
 
+def let_go_of_deleted_cage(rig):
+    """A baked rig whose cage the artist deleted lets go of it, as a binding does
+    (``bindings.follow_cage``): its bones' Copy Location constraints lose their target, so
+    the bones rest (or play their keyframes) now, as they do once the file is saved and
+    reopened (a deleted object is not written). Returns whether it let go."""
+    if rig.type != 'ARMATURE' or rig.pose is None or BAKE_INFO not in rig.data:
+        return False
+    held = [constraint for bone in rig.pose.bones for constraint in bone.constraints
+            if constraint.type == 'COPY_LOCATION' and bindings_module.is_deleted(constraint.target)]
+    for constraint in held:
+        constraint.target = None
+    return bool(held)
+
+
 def _remove_rig(rig):
     """Delete ``rig`` (None: nothing), its armature and its action."""
     if rig is None:

@@ -60,6 +60,25 @@ def test_deleting_the_cage_with_x_passes_the_mesh_through_and_the_cage_can_be_pu
     assert not obj.modifiers and not gc.binding.bindings(obj)
 
 
+def test_deleting_the_cage_of_a_baked_rig_lets_its_bones_rest_as_the_saved_file_does(gc, tmp_path):
+    """Found by the fuzz (seed 242 of scripts/fuzz): the rig's bones followed the deleted
+    cage until the file was saved and reopened (a deleted object is not written), then
+    rested: the mesh jumped on reopening."""
+    obj, cage = bound(gc)
+    make_active(obj)
+    assert bpy.ops.object.gencoords_bake_bones(max_influences=0, keyframes=False) == {'FINISHED'}
+    rest = read_positions(obj.data).copy()
+    write_positions(cage.data, read_positions(cage.data) * 1.2)
+    update()
+    assert np.abs(evaluated_positions(obj) - rest).max() > 0.1  # the rig follows the cage
+    delete_as_the_artist(cage)
+    np.testing.assert_allclose(evaluated_positions(obj), rest, atol=1e-6)
+    path = tmp_path / "deleted cage of a rig.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    np.testing.assert_allclose(evaluated_positions(bpy.data.objects["Mesh"]), rest, atol=1e-6)
+
+
 def test_undo_of_deleting_the_cage_brings_it_back_driving_the_mesh(gc):
     """Ctrl+Z as in the UI (see test_undo_and_redo_of_bind_and_unbind): the step the UI
     pushes after Delete is pushed here explicitly."""
