@@ -114,7 +114,7 @@ def interpolated(values, corners, trilinear):
     >>> import numpy as np
     >>> from gencoords.tools.sparse import interpolated
     >>> nodes = np.eye(8)
-    >>> interpolated(nodes, np.arange(8)[None], np.full((1, 8), 0.125)).sum()
+    >>> float(interpolated(nodes, np.arange(8)[None], np.full((1, 8), 0.125)).sum())
     1.0
     """
     values = np.asarray(values, dtype=np.float64)

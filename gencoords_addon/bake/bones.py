@@ -70,13 +70,19 @@ def _mode_set(rig, mode):
         view_layer.objects.active = previous
 
 
+# Blender deletes bones of (near) zero length on leaving Edit Mode (4.2 did so for the bones
+# of a 1e-6 cage): each bone is at least 1e-5 long (a
+# bone's length changes nothing here: the bones translate).
+MIN_BONE_LENGTH = 1e-5
+
+
 def add_bones(rig, names, heads, size):
     """Give the armature of ``rig`` a bone resting at each of ``heads``."""
     _mode_set(rig, 'EDIT')
     try:
         for name, head in zip(names, heads):
             bone = rig.data.edit_bones.new(name)
-            bone.head, bone.tail = head, head + (0.0, 0.0, 0.05 * size)
+            bone.head, bone.tail = head, head + (0.0, 0.0, max(0.05 * size, MIN_BONE_LENGTH))
     finally:
         _mode_set(rig, 'OBJECT')
 

@@ -10,7 +10,8 @@ cage is back and drives the mesh), rebinds through the Replace Binding confirmat
 (Return), finds Bake to Bones with the F3 menu search (typed) and runs it, undoes that,
 then, with Auto Rebind on, deletes a vertex in Edit Mode (Tab, a click on the vertex, X >
 Vertices, Tab): the Bind operator's invoke path binds again; last, Type Green, Bind
-through the window (Return to replace) and a 1.6x stretch of the cage. Each check
+through the window (Return to replace) and a 1.6x stretch of the cage; then Type Harmonic,
+Bind through the window, and a move of the cage. Each check
 prints ``PASS``/``FAIL`` with what was measured, screenshots go to the output folder,
 and Blender exits non-zero when a check failed.
 """
@@ -281,10 +282,50 @@ def after_green_stretch():
     shots.shoot('PROPERTIES', "green_bound")
 
 
+def harmonic_rebind():
+    """Type Harmonic in the panel, then Bind through the window (Replace Binding: Return)."""
+    mesh, _ = mesh_and_cage()
+    select_only(mesh)
+    mesh.gencoords.kind = addon("enums").HARMONIC.upper()
+    with shots.in_area('PROPERTIES'):
+        bpy.ops.object.gencoords_bind('INVOKE_DEFAULT')
+    keys("Return", over='PROPERTIES')
+
+
+HARMONIC_SHIFT = np.array([0.3, -0.2, 0.1])
+
+
+def after_harmonic_bind():
+    mesh, cage = mesh_and_cage()
+    found = addon("bind.bindings").binding(mesh)
+    data = found.data if found else None
+    check("Bind with Type Harmonic binds harmonic coordinates, stored sparse",
+          data is not None and data.kind == addon("enums").HARMONIC and data.storage == 'SPARSE',
+          f"kind {data and data.kind}, storage {data and data.storage}")
+    check("harmonic weights are never negative", data is not None and data.min_coordinate >= 0.0,
+          f"smallest {data and data.min_coordinate}")
+    check("Harmonic binding at rest equals the mesh", moved_by(mesh) < 1e-5, f"max move {moved_by(mesh):.2e}")
+    text = status_text(mesh)
+    check("the panel names Harmonic", "Coordinates: Harmonic" in text, text)
+    shots.shoot('PROPERTIES', "harmonic_bound")
+    arrays.write_positions(cage.data, arrays.read_positions(cage.data).astype(np.float64) + HARMONIC_SHIFT)
+    bpy.ops.ed.undo_push(message="Move cage")
+
+
+def after_harmonic_move():
+    mesh, _ = mesh_and_cage()
+    moved = arrays.evaluated_positions(mesh).astype(np.float64) - arrays.read_positions(mesh.data)
+    error = np.abs(moved - HARMONIC_SHIFT).max()
+    check("the mesh follows the cage's translation with harmonic coordinates", error < 1e-5,
+          f"largest error {error:.1e}")
+    shots.shoot('VIEW_3D', "harmonic_moved")
+
+
 STEPS = [open_bound, edit_cage, delete_cage, after_delete, after_undo, after_rebind,
          search_bake, run_bake, confirm_bake, after_bake, after_bake_undo,
          edit_vertices, click_vertex, delete_vertex, pick_vertices, leave_edit_mode,
-         after_auto_rebind, green_rebind, after_green_bind, after_green_stretch]
+         after_auto_rebind, green_rebind, after_green_bind, after_green_stretch,
+         harmonic_rebind, after_harmonic_bind, after_harmonic_move]
 
 
 def run_next_step():

@@ -162,7 +162,11 @@ def test_the_group_does_not_grow_with_the_slots_and_big_bindings_deform_exactly(
         assert bind_green(obj, cage) == {'FINISHED'}
         found = gc.binding.binding(obj)
         assert found.data.slot_count == slots
-        size[slots] = len(found.group.nodes), len(found.group.links)
+        # Blender 4.2's Remove Named Attribute has no wildcard: there the group strips its
+        # attributes one node each (compat.set_wildcard_removal), which the count leaves out.
+        removals = [n for n in found.group.nodes if n.bl_idname == 'GeometryNodeRemoveAttribute']
+        assert len(removals) == 1 or "Pattern Mode" not in removals[0].inputs
+        size[slots] = len(found.group.nodes) - len(removals), len(found.group.links) - len(removals)
         assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)
     (small_nodes, small_links), (big_nodes, big_links) = size[122], size[482]
     assert big_nodes - small_nodes <= 6 and big_links - small_links <= 12  # 4 times the slots
