@@ -10,6 +10,7 @@ import bmesh
 import bpy
 import numpy as np
 
+from scripts.common import session
 from scripts.common.blender_objects import arrays, make_active
 from . import checks, scene
 
@@ -76,9 +77,12 @@ def bindings_of(obj):
 
 
 def cage_of_modifier(modifier):
+    """The object input of a binding's modifier (read through the add-on's compat: 5.2 moved
+    modifier inputs to a new API)."""
+    compat = session.addon_module("blender_io.compat")
     for item in modifier.node_group.interface.items_tree:
         if getattr(item, "socket_type", "") == 'NodeSocketObject' and item.in_out == 'INPUT':
-            return modifier[item.identifier]
+            return compat.get_modifier_input(modifier, item.name)
     return None
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 COUNTS = re.compile(r"(\d+) (passed|failed|error|errors|skipped|xfailed)")
+CLOSING = re.compile(r"\d+ (passed|failed|errors?)\b.* in [\d.]+s")  # pytest's closing line
 
 
 def run(version):
@@ -30,11 +31,11 @@ def run(version):
     start = time.monotonic()
     process = subprocess.Popen(["make", "--no-print-directory", "test", f"BLENDER={version}"],
                                cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    last = ""
+    last = ""  # pytest's closing line (make's own error line may follow it)
     for line in process.stdout:  # streamed, so a long run shows progress
         sys.stdout.write(f"[{version}] {line}")
         sys.stdout.flush()
-        if line.strip():
+        if CLOSING.search(line):
             last = line
     code = process.wait()
     counts = {kind.rstrip("s") if kind == "errors" else kind: int(number)
@@ -53,8 +54,9 @@ def main():
               f"{counts.get('failed', 0):>7} {counts.get('error', 0):>7} "
               f"{counts.get('skipped', 0):>8} {set_up:>9.0f} {tests:>8.0f}")
     passed = sum(counts.get("passed", 0) for _, counts, *_ in results.values())
-    failed = sum(counts.get("failed", 0) + counts.get("error", 0)
-                 for _, counts, *_ in results.values())
+    # A version that failed without counting a failure (its set-up, a crash) counts as one.
+    failed = sum(max(counts.get("failed", 0) + counts.get("error", 0), int(code != 0))
+                 for code, counts, *_ in results.values())
     print(f"matrix: {passed} passed, {failed} failed")
     sys.exit(0 if all(code == 0 for code, *_ in results.values()) else 1)
 
