@@ -54,6 +54,7 @@ from scripts.common import session  # noqa: E402
 session.prepare()  # before bpy is imported: Blender reads its user folder then
 from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
+from gencoords.tools.bind_plan import HARMONIC  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 from scripts.common.playback import settle, time_updates  # noqa: E402
 from scripts.common.memory import PeakMemory, blend_size  # noqa: E402
@@ -211,7 +212,7 @@ def main():
     sweep.add_argument("--million", action="store_true",
                        help="a 999,547-vertex sphere in the 642-vertex cage: GenCoords "
                             "compact against Mesh Deform precision 5")
-    kinds = list(scenes.KINDS) + [scenes.GREEN]
+    kinds = list(scenes.KINDS) + [scenes.GREEN, HARMONIC]
     sweep.add_argument("--character", action="store_true",
                        help="the artist's character (43k vertices, 196-vertex quad cage): "
                             "mean value and Green, exact, against Mesh Deform precision 5")

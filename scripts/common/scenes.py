@@ -13,6 +13,7 @@ import numpy as np
 import gencoords
 from gencoords.construction.general import prepare_cage
 from gencoords.construction.green import GREEN_LABEL
+from gencoords.tools.bind_plan import HARMONIC
 from .blender_objects import arrays, bind, make_active  # noqa: F401 (scripts use them from here)
 from mathutils import Euler
 
@@ -32,7 +33,7 @@ KINDS = tuple(kind.name for kind in gencoords.KIND_TABLE if kind.parameter is No
 # The core's spellings of kinds scripts name (the deformer's Green beside the paper's kinds).
 from gencoords.construction.green import GREEN  # noqa: E402
 from gencoords.surfaces.named import DISCRETE_HARMONIC, MEAN_VALUE, POWER, WACHSPRESS  # noqa: E402, F401
-KIND_LABELS = {kind.name: kind.label for kind in gencoords.KIND_TABLE} | {GREEN: GREEN_LABEL}
+KIND_LABELS = {kind.name: kind.label for kind in gencoords.KIND_TABLE} | {GREEN: GREEN_LABEL, HARMONIC: "Harmonic"}
 
 
 # ------------------------------------------------------------------------------ scenes
