@@ -10,7 +10,7 @@ from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 from .boundary_values import nearest_boundary_points
 from .grid import fit_grid, inside_nodes, node_positions, surface_cells
 from .interpolation import CORNERS, cell_of, trilinear
-from .reproduction import reproduce_points
+from .reproduction import placing_largest, reproduce_points
 from .solve import dirichlet_rhs, solve_nodes
 
 __all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]
@@ -276,13 +276,8 @@ class HarmonicField:
 
     def _placing(self, rows, local, count):
         """``count`` largest of ``rows`` reweighted to place ``local``: (columns, values,
-        residual of the frame's size)."""
-        kept = min(int(count), rows.shape[1])
-        columns = np.argpartition(-rows, kept - 1, axis=1)[:, :kept]
-        values = np.take_along_axis(rows, columns, axis=1)
-        values /= values.sum(axis=1, keepdims=True)
-        values, residual = reproduce_points(columns, values, self._prepared.vertices, local)
-        return columns, values, residual
+        residual in frame units)."""
+        return placing_largest(rows, count, self._prepared.vertices, local)
 
     def _along_the_normal(self, local, rows):
         """Priors that span points near the cage ((c, 3), frame units): ``(1 - t) hat(p)
@@ -413,12 +408,8 @@ def _placing_exactly(coordinates, solved, positions, vertices, grid, ids, within
     others = np.flatnonzero(~solved)
     nearest, found = _nearest_exact_nodes(grid, ids, exact, positions[others])
     others, nearest = others[found], nearest[found]
-    prior = coordinates[others] + _WIDENING * coordinates[nearest]
-    kept = min(CUT_SUPPORT, len(vertices))
-    columns = np.argpartition(-prior, kept - 1, axis=1)[:, :kept]
-    values = np.take_along_axis(prior, columns, axis=1)
-    values, residual = reproduce_points(columns, values / values.sum(axis=1, keepdims=True), vertices,
-                                        positions[others], iterations=_WIDENED_ITERATIONS)
+    columns, values, residual = placing_largest(coordinates[others] + _WIDENING * coordinates[nearest], CUT_SUPPORT,
+                                                vertices, positions[others], _WIDENED_ITERATIONS)
     reached = residual <= within
     rows = np.zeros((int(reached.sum()), len(vertices)))
     np.put_along_axis(rows, columns[reached], values[reached], axis=1)
