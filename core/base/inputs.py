@@ -84,6 +84,13 @@ def check_tolerance(tolerance):
     return value
 
 
+def _solver_tolerance(value):
+    """A relative residual for the harmonic solve: a float in [1e-14, 1e-2]."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not 1e-14 <= value <= 1e-2:
+        raise ValueError(f"solver_tolerance must be a relative residual from 1e-14 to 1e-2, got {value!r}")
+    return float(value)
+
+
 def bounding_frame(vertices):
     """The frame every formula works in: the cage centred on its bounding box and
     divided by a power of two near its size (exact in binary: no rounding is added).
@@ -433,6 +440,7 @@ CHECKS = {
     "radius": _radius,
     "levels": _levels,
     "resolution": _resolution,
+    "solver_tolerance": lambda value, context: _solver_tolerance(value),
 }
 
 

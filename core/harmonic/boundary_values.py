@@ -9,7 +9,7 @@ does), so each row has at most three non-zero entries, all non-negative, summing
 import numpy as np
 
 
-__all__ = ["closest_on_triangles", "nearest_boundary_points", "hat_values"]
+__all__ = ["closest_on_triangles", "nearest_boundary_points", "hat_values", "segment_crossings"]
 
 _PAIR_CHUNK = 1 << 16  # (node, facet) pairs measured at a time: bounded memory
 
@@ -128,3 +128,64 @@ def hat_values(positions, vertices, triangles, reach):
     int, values (b, 3) float), as :func:`nearest_boundary_points`."""
     columns, values, _ = nearest_boundary_points(positions, vertices, triangles, reach)
     return columns, values
+
+
+def _crossing_pairs(starts, steps, corners):
+    """(segment, facet) pairs whose boxes overlap: every facet a segment meets is among them."""
+    middles, reach = starts + 0.5 * steps, 0.5 * np.abs(steps).max(axis=1).max(initial=0.0)
+    return _candidate_pairs(middles, corners, reach)
+
+
+def segment_crossings(starts, steps, vertices, triangles):
+    """Where each segment ``start + t step`` (0 <= t <= 1) first meets the cage.
+
+    Parameters
+    ----------
+    starts, steps : (s, 3) float
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+
+    Returns
+    -------
+    fraction : (s,) float
+        The smallest t of a crossing; inf where the segment meets no triangle.
+    columns : (s, 3) int
+        The crossed triangle's vertices.
+    barycentric : (s, 3) float
+        The crossing's barycentric coordinates in it (its hat values): non-negative,
+        summing to 1.
+    """
+    corners = vertices[triangles]
+    segment, facet = _crossing_pairs(starts, steps, corners)
+    fraction = np.full(len(starts), np.inf)
+    columns = np.zeros((len(starts), 3), dtype=np.int64)
+    barycentric = np.zeros((len(starts), 3))
+    for start in range(0, len(segment), _PAIR_CHUNK):
+        rows, faces = segment[start:start + _PAIR_CHUNK], facet[start:start + _PAIR_CHUNK]
+        a = corners[faces, 0]
+        first, second = corners[faces, 1] - a, corners[faces, 2] - a
+        direction = steps[rows]
+        normal = np.cross(direction, second)
+        determinant = np.einsum("pN,pN->p", first, normal)
+        usable = np.abs(determinant) > 1e-14 * np.einsum("pN,pN->p", first, first) * np.abs(direction).max(axis=1)
+        inverse = np.where(usable, 1.0 / np.where(usable, determinant, 1.0), 0.0)
+        offset = starts[rows] - a
+        u = np.einsum("pN,pN->p", offset, normal) * inverse
+        across = np.cross(offset, first)
+        v = np.einsum("pN,pN->p", direction, across) * inverse
+        t = np.einsum("pN,pN->p", second, across) * inverse
+        slack = 1e-12  # an edge or vertex crossed belongs to both sides: no miss between them
+        hit = usable & (u >= -slack) & (v >= -slack) & (u + v <= 1.0 + slack) & (t >= -slack) & (t <= 1.0)
+        rows, faces, t = rows[hit], faces[hit], t[hit].clip(0.0, 1.0)
+        u, v = u[hit].clip(0.0, 1.0), v[hit].clip(0.0, 1.0)
+        order = np.lexsort((t, rows))  # per segment its nearest crossing first
+        rows, faces, t, u, v = rows[order], faces[order], t[order], u[order], v[order]
+        nearest = np.r_[True, rows[1:] != rows[:-1]] if len(rows) else np.zeros(0, dtype=bool)
+        rows, faces, t, u, v = rows[nearest], faces[nearest], t[nearest], u[nearest], v[nearest]
+        closer = t < fraction[rows]
+        rows, faces, t, u, v = rows[closer], faces[closer], t[closer], u[closer], v[closer]
+        fraction[rows] = t
+        columns[rows] = triangles[faces]
+        total = np.maximum(1.0, u + v)
+        barycentric[rows] = np.column_stack([1.0 - (u + v) / total, u / total, v / total])
+    return fraction, columns, barycentric

@@ -11,15 +11,12 @@ from .boundary_values import nearest_boundary_points
 from .grid import fit_grid, inside_nodes, node_positions, surface_cells
 from .interpolation import CORNERS, cell_of, trilinear
 from .reproduction import placing_largest, reproduce_points
-from .solve import dirichlet_rhs, solve_nodes
+from .solve import NEAREST_CROSSING, SOLVER_TOLERANCE, boundary_rhs, solve_nodes
 
 __all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]
 
 DEFAULT_RESOLUTION = 64
-_WINDING_PAIRS = 1 << 18
-# Inside nodes closer to the cage than this many cells take their nearest boundary
-# point's hat values instead of being solved for (docs/MATH.md: halves the error there).
-_SOLVED_DEPTH = 0.5
+_WINDING_PAIRS = 1 << 18  # (point, facet) pairs per winding-number batch
 # A point in a cell with a corner that does not place itself exactly keeps this many of
 # its largest interpolated coordinates, reweighted to place it (docs/MATH.md): the rest
 # weigh little (per-point sparse storage of 32 deviates 5e-5 of the diagonal on the
@@ -80,11 +77,13 @@ class HarmonicField:
     node_coordinates : (g, n) float
         Their harmonic coordinates: non-negative, rows summing to 1.
     node_inside : (g,) bool
-        Whether each node was solved for: inside the cage by half a cell or more (the
-        others hold hat values).
+        Whether each node was solved for: inside the cage, farther from it than 1e-2 of a
+        cell (the others hold their nearest boundary point's hat values).
     node_exact : (g,) bool
         Whether each node's coordinates place it exactly (``sum_j w_j R_j`` is the node):
-        the solved nodes, reweighted after the solve (:mod:`.reproduction`). A point whose
+        the solved nodes (the solve is exact for linear functions; a reweighting after it
+        removes the solver's and the nearest crossings' rounding: :mod:`.reproduction`),
+        and the outside nodes the reweighting reaches. A point whose
         cell's 8 corners are all exact is placed exactly by their interpolation; the
         others are reweighted themselves (:meth:`cut_pairs`).
     convergence : list of float
@@ -116,7 +115,7 @@ class HarmonicField:
         self.node_inside = parts["inside"]
         self.node_exact = parts["exact"]
         self._exact = parts["exact_within"]  # frame units
-        self._node_geometric = parts["geometric"]  # inside the cage, solved or not
+        self._node_geometric = parts["geometric"]  # inside the cage
         self.convergence = parts["convergence"]
 
     def __repr__(self):
@@ -345,11 +344,11 @@ def _grid_nodes(grid, corners, tolerance):
 
 
 def _boundary_nodes(grid, parts, vertices, faces):
-    """The hat values of the nodes that are not solved for, and which nodes are.
-
-    Nodes outside the cage, and inside nodes closer to it than half a cell (their own
-    hat values are then nearer the truth than a solve from Dirichlet nodes up to a cell
-    beyond the cage), take the hat values of their nearest boundary point.
+    """The Dirichlet nodes and their values: the kept nodes outside the cage and those
+    inside nearer to it than ``solve.NEAREST_CROSSING`` of a cell (on it, to rounding:
+    a crossing there is ambiguous and its row's weight 1 / theta unbounded) hold their
+    nearest boundary point's hat values. The other inside nodes are solved for; the
+    solve meets the cage where the grid's edges cross it (``solve.boundary_rhs``).
 
     Returns
     -------
@@ -363,7 +362,7 @@ def _boundary_nodes(grid, parts, vertices, faces):
     columns, values, distance = nearest_boundary_points(
         node_positions(grid, parts["indices"][measured]), vertices, faces, 1.75 * grid.spacing)
     solved = parts["inside"].copy()
-    solved[measured[distance < _SOLVED_DEPTH * grid.spacing]] = False
+    solved[measured[distance < NEAREST_CROSSING * grid.spacing]] = False
     return measured, columns, values, solved
 
 
@@ -420,14 +419,15 @@ def _placing_exactly(coordinates, solved, positions, vertices, grid, ids, within
 
 @checked
 def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEFAULT_TOLERANCE, progress=None,
-                   workers=None):
+                   workers=None, solver_tolerance=SOLVER_TOLERANCE):
     """Solve harmonic coordinates on a grid fitted to a closed 3D triangle cage.
 
     A 7-point Laplacian on cubic cells, ``resolution`` of them along the longest side of
-    the cage's box; the nodes inside the cage are the unknowns, the others take the
-    cage's piecewise-linear hat values at their nearest boundary point (as Blender's
-    Mesh Deform does). Every coordinate is non-negative and each row sums to 1 (the
-    discrete maximum principle); docs/MATH.md gives the precision measured.
+    the cage's box, meeting the cage where the grid's edges cross it (Shortley-Weller):
+    the nodes inside the cage are the unknowns, the crossings hold the cage's
+    piecewise-linear hat values. Every coordinate is non-negative and each row sums to 1
+    (the discrete maximum principle), and the coordinates place every point exactly
+    (linear precision); docs/MATH.md gives the figures measured.
 
     Parameters
     ----------
@@ -451,6 +451,9 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
         with a :class:`gencoords.WorkerWarning` where they cannot start (an explicit
         count raises :class:`gencoords.WorkerError`). The result is the same whatever
         the number.
+    solver_tolerance : float
+        Relative residual each cage vertex's column is solved to (the Bind takes 1e-6:
+        its weights are float32 and those below 1e-5 are dropped).
 
     Returns
     -------
@@ -482,9 +485,9 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     hat_ids[tuple(parts["indices"][measured].T)] = np.arange(len(measured))
     unknowns = np.zeros(grid.shape, dtype=bool)
     unknowns[tuple(parts["indices"][solved].T)] = True
-    rhs = dirichlet_rhs(unknowns, hat_ids, columns, values)
-    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, faces), progress=progress,
-                                               workers=workers)
+    rhs = boundary_rhs(unknowns, grid, local, faces, hat_ids, columns, values)
+    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, faces), solver_tolerance,
+                                               progress=progress, workers=workers)
     coordinates = np.zeros((len(parts["indices"]), len(local)))
     coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
     fixed = np.flatnonzero(~solved[measured])

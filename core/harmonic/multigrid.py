@@ -46,6 +46,10 @@ class Level:
         (parents: coarse indices, the coarse count where a parent is not an unknown).
     inverse : (u, u) float or None
         The dense inverse, on the coarsest level only.
+    diagonal : (u + 1, 1) float or None
+        The finest level's own diagonal where it is not 6 everywhere (Shortley-Weller
+        rows at the cage: ``solve.boundary_rhs``); the coarse levels keep 6 (a
+        preconditioner needs only to be close).
     """
 
     count: int
@@ -53,6 +57,13 @@ class Level:
     scale: float
     transfer: list = None
     inverse: np.ndarray = None
+    diagonal: np.ndarray = None
+
+    def diagonal_of(self, dtype):
+        """The diagonal as a (u + 1, 1) array of ``dtype``, or the scalar 6 * scale."""
+        if self.diagonal is None:
+            return 6.0 * self.scale
+        return self.diagonal.astype(dtype, copy=False)
 
 
 def _indices(mask):
@@ -89,13 +100,15 @@ def _transfer(fine_mask, coarse_ids, coarse_count):
     return groups
 
 
-def build_levels(mask):
-    """The multigrid hierarchy of the unknowns ``mask`` (x, y, z bool): list of Level,
-    finest first."""
+def build_levels(mask, diagonal=None):
+    """The multigrid hierarchy of the unknowns ``mask`` (x, y, z bool), the finest
+    level's ``diagonal`` (u,) where it is not 6: list of Level, finest first."""
     levels, scale = [], 1.0
     while True:
         ids = _indices(mask)
         level = Level(int(np.count_nonzero(mask)), _neighbours(mask, ids), scale)
+        if diagonal is not None and not levels:
+            level.diagonal = np.append(np.asarray(diagonal, dtype=np.float64), 1.0)[:, None]
         levels.append(level)
         if level.count <= _COARSEST or min(mask.shape) < 3:
             break
@@ -106,14 +119,15 @@ def build_levels(mask):
     dense = np.zeros((last.count + 1, last.count + 1))
     rows = np.repeat(np.arange(last.count), 6)
     np.add.at(dense, (rows, last.neighbours.reshape(-1)), -last.scale)
-    dense = dense[:-1, :-1] + 6.0 * last.scale * np.eye(last.count)
+    own = 6.0 * last.scale if last.diagonal is None else last.diagonal[:-1, 0]
+    dense = dense[:-1, :-1] + np.diag(np.broadcast_to(own, (last.count,)))
     last.inverse = (np.linalg.inv(dense) if last.count else np.zeros((0, 0))).astype(np.float32)
     return levels
 
 
 def apply_matrix(level, x, out=None, scratch=None):
     """``A x`` for (u + 1, c) ``x``: (u + 1, c), its last row zero."""
-    out = np.multiply(x, 6.0, out=out)
+    out = np.multiply(x, 6.0 if level.diagonal is None else level.diagonal_of(x.dtype), out=out)
     total = np.empty((level.count, x.shape[1]), x.dtype) if scratch is None else scratch[:-1]
     gathered = np.empty_like(total)
     columns = level.neighbours.T
@@ -164,7 +178,7 @@ def v_cycle(levels, residual, depth=0):
         result = np.zeros_like(residual)
         result[:-1] = level.inverse @ residual[:-1]
         return result
-    step = _JACOBI_WEIGHT / (6.0 * level.scale)
+    step = _JACOBI_WEIGHT / level.diagonal_of(residual.dtype)
     x = step * residual
     product, scratch = np.empty_like(x), np.empty_like(x)
     for _ in range(_SWEEPS - 1):

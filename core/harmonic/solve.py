@@ -17,9 +17,11 @@ import numpy as np
 from ..base.errors import WorkerError
 from ..evaluation.parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead,
                                    dispatch_units, python_executable)
+from .boundary_values import segment_crossings
+from .grid import node_positions
 from .multigrid import STEPS, build_levels, solve
 
-__all__ = ["SOLVER_TOLERANCE", "dirichlet_rhs", "solve_nodes", "solve_columns_task", "worker_count"]
+__all__ = ["SOLVER_TOLERANCE", "NEAREST_CROSSING", "boundary_rhs", "solve_nodes", "solve_columns_task", "worker_count"]
 
 # Relative residual each column is solved to: errors far below the 1e-5 that sparse
 # storage drops, so locality is the discretisation's, not the solver's.
@@ -34,41 +36,64 @@ _PAIRS_PER_WORKER = 1 << 21
 _MAX_ITERATIONS = 200
 _levels_cache = {}  # a worker's hierarchy, built once per solve
 _STEPS = np.array(STEPS)
+# Inside nodes nearer the cage than this fraction of a cell are Dirichlet nodes (their
+# nearest boundary point's hat values place them to within it), so every crossing an
+# unknown's grid edge meets is at least this far and each row's weight 1 / theta is
+# bounded (conditioning). A crossing nearer still (rounding) counts as this far.
+NEAREST_CROSSING = 1e-2
 
 
-def dirichlet_rhs(inside, node_ids, hat_columns, hat_values):
-    """The right-hand side as triplets: inside node i gets the hat values of each of its
-    neighbours that is not inside.
+def boundary_rhs(inside, grid, vertices, triangles, node_ids, hat_columns, hat_values):
+    """The right-hand side and the diagonal of the Shortley-Weller system.
+
+    An inside node i whose neighbour along a grid direction is not inside sees the cage
+    at the first crossing of the grid edge between them, a fraction theta of the cell
+    from i: the stencil weighs that direction 1 / theta (on the diagonal) and puts
+    1 / theta times the crossing's hat values on the right-hand side. Every row's
+    equation, ``sum over directions of (u_i - u_other) / theta = 0`` (theta 1 towards
+    inside neighbours), holds exactly for every linear function whose boundary values
+    are its values at the crossings: the solved nodes reproduce their positions. The
+    matrix stays symmetric (the unknowns' couplings are -1, as before) and an M-matrix.
 
     Parameters
     ----------
     inside : (x, y, z) bool
         The unknowns (row order: ``np.argwhere(inside)``).
-    node_ids : (x, y, z) int
-        Each node's row in ``hat_columns`` / ``hat_values`` (-1 where it has none; every
-        neighbour of an inside node that is not inside must have one).
-    hat_columns : (b, 3) int
-    hat_values : (b, 3) float
+    grid : Grid
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+    node_ids, hat_columns, hat_values
+        Each Dirichlet node's row (-1 where none) in its nearest boundary point's hat
+        values (b, 3): used, with theta 1, where the edge to it does not cross the cage
+        (an inside Dirichlet node, on the cage to within ``NEAREST_CROSSING``).
 
     Returns
     -------
-    rows : (t,) int
-    columns : (t,) int
-    values : (t,) float
+    rhs : ((t,) int rows, (t,) int columns, (t,) float values)
+    diagonal : (u,) float
+        6 for a node whose neighbours are all inside; more where the cage is near.
     """
     nodes = np.argwhere(inside)
     padded_inside = np.pad(inside, 1)
-    padded_ids = np.pad(node_ids, 1, constant_values=-1)
-    rows, hats = [], []
-    for step in _STEPS:
-        neighbour = tuple((nodes + 1 + step).T)
-        boundary = ~padded_inside[neighbour]
-        rows.append(np.flatnonzero(boundary))
-        hats.append(padded_ids[neighbour][boundary])
-    rows, hats = np.concatenate(rows), np.concatenate(hats)
-    if (hats < 0).any():
-        raise RuntimeError("an inside node's neighbour has no boundary value")
-    return np.repeat(rows, 3), hat_columns[hats].reshape(-1), hat_values[hats].reshape(-1)
+    rows, directions = [], []
+    for index, step in enumerate(_STEPS):
+        boundary = np.flatnonzero(~padded_inside[tuple((nodes + 1 + step).T)])
+        rows.append(boundary)
+        directions.append(np.full(len(boundary), index))
+    rows, directions = np.concatenate(rows), np.concatenate(directions)
+    steps = _STEPS[directions]
+    starts = node_positions(grid, nodes[rows])
+    fraction, columns, values = segment_crossings(starts, steps * grid.spacing, vertices, triangles)
+    found = np.isfinite(fraction)
+    if not found.all():  # rounding at an edge or a vertex: the neighbour's own hat values
+        neighbour = node_ids[tuple((nodes[rows[~found]] + steps[~found]).T)]
+        if (neighbour < 0).any():
+            raise RuntimeError("an inside node's neighbour has no boundary value")
+        columns[~found], values[~found] = hat_columns[neighbour], hat_values[neighbour]
+    weight = 1.0 / np.where(found, np.maximum(fraction, NEAREST_CROSSING), 1.0)
+    diagonal = np.full(len(nodes), 6.0)
+    np.add.at(diagonal, rows, weight - 1.0)
+    return (np.repeat(rows, 3), columns.reshape(-1), (weight[:, None] * values).reshape(-1)), diagonal
 
 
 def worker_count(workers, unknowns, column_count):
@@ -104,7 +129,7 @@ def solve_columns_task(arrays, job, start, stop):
     ``start:stop`` into ``arrays["result"]`` (n, u) and ``arrays["history"]``."""
     if job["key"] not in _levels_cache:
         _levels_cache.clear()
-        _levels_cache[job["key"]] = build_levels(arrays["inside"].astype(bool))
+        _levels_cache[job["key"]] = build_levels(arrays["inside"].astype(bool), arrays["diagonal"])
     levels = _levels_cache[job["key"]]
     rhs = (arrays["rows"], arrays["columns"], arrays["values"])
     for begin in range(start, stop, job["block"]):
@@ -115,13 +140,15 @@ def solve_columns_task(arrays, job, start, stop):
 
 def _solve_in_workers(vertices, faces, inside, rhs, column_count, count, block, tolerance, workers, progress):
     """The columns spread over ``workers`` processes: ((n, u) solution, history)."""
+    rhs, diagonal = rhs
     blocks = -(-column_count // block)
     specs = {"inside": (inside.shape, np.uint8), "rows": (rhs[0].shape, np.int64),
              "columns": (rhs[1].shape, np.int64), "values": (rhs[2].shape, np.float64),
              "history": ((blocks, _MAX_ITERATIONS + 2), np.float64), "locations": ((column_count,), np.int8),
-             "result": ((column_count, count), np.float64)}
+             "result": ((column_count, count), np.float64), "diagonal": (diagonal.shape, np.float64)}
     shared = SharedArrays(specs)
-    for name, value in (("inside", inside), ("rows", rhs[0]), ("columns", rhs[1]), ("values", rhs[2])):
+    for name, value in (("inside", inside), ("rows", rhs[0]), ("columns", rhs[1]), ("values", rhs[2]),
+                        ("diagonal", diagonal)):
         shared.arrays[name][...] = value
     shared.arrays["history"][...] = np.nan
     job = dict(task="harmonic.solve:solve_columns_task", key=secrets.token_hex(8), block=block, tolerance=tolerance)
@@ -142,8 +169,8 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
     ----------
     inside : (x, y, z) bool
         The unknowns.
-    rhs : (rows, columns, values)
-        From :func:`dirichlet_rhs`.
+    rhs : ((rows, columns, values), diagonal)
+        From :func:`boundary_rhs`.
     cage : (vertices (n, 3), faces (m, 3))
         The cage (its n columns; the workers are started with it).
     tolerance : float
@@ -163,20 +190,21 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
         The largest relative residual after each conjugate-gradient iteration, of the
         block that needed most.
     """
+    rhs, diagonal = rhs
     column_count = len(cage[0])
     count = int(np.count_nonzero(inside))
     block = _block_size(count, column_count)
     chosen = worker_count(workers, count, column_count)
     if chosen > 1:
         try:
-            result, history = _solve_in_workers(*cage, inside, rhs, column_count, count, block, tolerance,
-                                                chosen, progress)
+            result, history = _solve_in_workers(*cage, inside, (rhs, diagonal), column_count, count, block,
+                                                tolerance, chosen, progress)
             return _normalised(result.T), history
         except WorkerError as error:
             if workers is not None:
                 raise
             computed_here_instead(error)
-    levels = build_levels(inside)
+    levels = build_levels(inside, diagonal)
     result, history = np.empty((count, column_count)), []
     for start in range(0, column_count, block):
         stop = min(start + block, column_count)

@@ -68,6 +68,10 @@ HARMONIC = "harmonic"  # the core's name of harmonic coordinates (gencoords.harm
 # degrees mean / 99th percentile against 2.5 / 14.1); the core's default, 64, took 2-3x
 # as long to bind, twice the memory, and bent less evenly there (2.0 / 18.8).
 BIND_RESOLUTION = 48
+# The harmonic solve's relative residual in a Bind: the weights are written as float32 and
+# sparse storage drops those below about 1e-4, so 1e-10 (the core's default) would buy
+# nothing; this takes 7 conjugate-gradient iterations on the character against 12.
+BIND_SOLVER_TOLERANCE = 1e-6
 SPARSE_SIZE = 16  # sparse storage's pairs per vertex when asked for
 
 
@@ -572,7 +576,7 @@ def _plan(points, cage, request):
     if request.harmonic:  # solved once, on the grid; the points look it up
         field = request.run(lambda count: harmonic_field(
             cage.vertices, cage.faces, resolution=request.resolution, tolerance=request.tolerance,
-            workers=count), request.workers)
+            workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers)
         yield 0.5
         if request.storage in ('AUTO', 'SPARSE'):
             plan = _plan_two_level(points, cage, request, field)
