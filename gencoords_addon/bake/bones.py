@@ -229,7 +229,7 @@ def _bake_inputs(obj, max_influences):
     negative, smallest = skinning.negative_weights(coordinates)
     if negative:
         raise BakeError(negative_message(obj, found, negative, smallest))
-    weights = skinning.truncate(coordinates, max_influences)
+    weights = skinning.truncate(coordinates, max_influences, found.rest_cage.astype(np.float64))
     # The rig sits at the world origin: the bones rest where the bind-time cage is seen
     # from the mesh now (the deformer reads the cage relative to the mesh too).
     world = np.array(obj.matrix_world, dtype=np.float64)

@@ -63,3 +63,19 @@ def test_clamped_weights_skin_as_blender_normalises_them(cage):
     moved = vertices + np.arange(14)[:, None]
     displacement = skinning.skin(weights, vertices, moved)
     np.testing.assert_allclose(displacement, [[0.5, 0.5, 0.5], [0.0, 0.0, 0.0]])
+
+
+def test_truncation_on_the_cage_places_the_points_that_their_bones_surround(cage):
+    vertices, faces, points = cage
+    coordinates = gencoords.coordinates(points, vertices, faces, kind="wachspress")
+    plain, placed = skinning.truncate(coordinates, 8), skinning.truncate(coordinates, 8, vertices)
+    np.testing.assert_array_equal(placed != 0, plain != 0)  # the same bones
+    assert placed.min() >= 0.0
+    np.testing.assert_allclose(placed.sum(axis=1), 1.0, atol=1e-12)
+    # A turned and scaled cage: the placed skin follows exactly where the kept bones
+    # surround the point, and never worse than the plain truncation.
+    turn = np.linalg.qr(np.array([[1.0, 2.0, 0.5], [-2.0, 1.0, 0.3], [0.2, -1.0, 1.0]]))[0] * 1.3
+    moved = vertices @ turn.T
+    miss = np.linalg.norm(placed @ moved - points @ turn.T, axis=1)
+    plain_miss = np.linalg.norm(plain @ moved - points @ turn.T, axis=1)
+    assert (miss <= plain_miss + 1e-12).all() and np.mean(miss < 1e-12) > 0.5 and plain_miss.min() > 1e-6
