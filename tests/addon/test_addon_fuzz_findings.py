@@ -10,7 +10,7 @@ import pytest
 
 import gencoords
 from fresh_process import PACKAGE
-from scene_helpers import bind, edit_mesh, read_positions, write_positions
+from scene_helpers import bind, edit_mesh, evaluated_positions, read_positions, write_positions
 
 TOLERANCE = 1e-6
 
@@ -27,6 +27,12 @@ def world_arrays(obj):
     triangles, _ = mesh_io.read_triangles(obj.data, local)
     matrix = np.array(obj.matrix_world)
     return local.astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3], triangles
+
+
+def world_positions(obj):
+    """The evaluated mesh's vertices in world space ((k, 3) float64)."""
+    matrix = np.array(obj.matrix_world)
+    return evaluated_positions(obj).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
 
 
 def test_tight_cage_of_8_vertices_at_offset_0_around_a_monkey_with_holes_encloses_it(gc):
@@ -70,3 +76,26 @@ def test_a_cage_made_around_mesh_data_far_from_its_origin_binds(gc, options):
     assert make_cage(obj, **options) == {'FINISHED'}
     with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
         assert bind(obj, obj.gencoords.cage, kind='MEAN_VALUE', outside='RAISE') == {'FINISHED'}
+
+
+def test_a_small_mesh_far_from_the_origin_binds_to_its_made_cage_and_follows_it(gc):
+    """Seed 3128: a 2 mm cube 6.2e4 from the origin (object scale 0.001), its convex made
+    cage refused by Bind (5 of 8 vertices outside). The deformer (and Bind, reading the
+    cage through it) moved the cage into the mesh's space by (mesh world)^-1 (cage world)
+    in float32, whose translation (6.2e7) cancelled to within 4 mesh units. The cage now
+    lands where it is, and the mesh follows a translation of it."""
+    bpy.ops.mesh.primitive_cube_add(size=2.0)
+    obj = bpy.context.active_object
+    obj.location, obj.scale = (-62131.585, 31065.79, -20710.53), (0.001, 0.001, 0.001)
+    obj.rotation_euler = (-1.784, -3.149, 3.054)
+    bpy.context.view_layer.update()
+    assert make_cage(obj, shape='CONVEX', target_vertices=300, margin=0.5) == {'FINISHED'}
+    cage = obj.gencoords.cage
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        assert bind(obj, cage, kind='MEAN_VALUE', outside='RAISE') == {'FINISHED'}
+    before, start = world_positions(obj), np.array(cage.matrix_world)[:3, 3]
+    cage.location = start + (2 ** -7, -(2 ** -8), 2 ** -8)  # float32 steps there are 2^-8
+    bpy.context.view_layer.update()
+    shift = np.array(cage.matrix_world)[:3, 3] - start
+    assert np.linalg.norm(shift) > 0.004
+    np.testing.assert_allclose(world_positions(obj) - before, np.tile(shift, (8, 1)), atol=1e-7)
