@@ -10,6 +10,7 @@ from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 from .boundary_values import nearest_boundary_points
 from .grid import fit_grid, inside_nodes, node_positions, surface_cells
 from .interpolation import CORNERS, cell_of, trilinear
+from .reproduction import placing_largest, reproduce_points
 from .solve import dirichlet_rhs, solve_nodes
 
 __all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]
@@ -18,7 +19,18 @@ DEFAULT_RESOLUTION = 64
 _WINDING_PAIRS = 1 << 18
 # Inside nodes closer to the cage than this many cells take their nearest boundary
 # point's hat values instead of being solved for (docs/MATH.md: halves the error there).
-_SOLVED_DEPTH = 0.5  # (point, facet) pairs per winding-number batch
+_SOLVED_DEPTH = 0.5
+# A point in a cell with a corner that does not place itself exactly keeps this many of
+# its largest interpolated coordinates, reweighted to place it (docs/MATH.md): the rest
+# weigh little (per-point sparse storage of 32 deviates 5e-5 of the diagonal on the
+# character) and the reweighting costs in proportion to the count.
+CUT_SUPPORT = 32
+# Of the nearest exact node's coordinates added to a prior that cannot reach its point.
+_WIDENING = 1e-2
+# Newton steps for widened Dirichlet nodes: those that can be reached are within a dozen;
+# the others (beyond a convex part of the cage) would spend the full count for nothing.
+_WIDENED_ITERATIONS = 12
+_EXACT = 1e-12  # of the cage's size: a node's reweighted coordinates place it exactly
 
 
 def _cell_corners_any(cells):
@@ -70,6 +82,11 @@ class HarmonicField:
     node_inside : (g,) bool
         Whether each node was solved for: inside the cage by half a cell or more (the
         others hold hat values).
+    node_exact : (g,) bool
+        Whether each node's coordinates place it exactly (``sum_j w_j R_j`` is the node):
+        the solved nodes, reweighted after the solve (:mod:`.reproduction`). A point whose
+        cell's 8 corners are all exact is placed exactly by their interpolation; the
+        others are reweighted themselves (:meth:`cut_pairs`).
     convergence : list of float
         The solver's largest relative residual after each iteration (docs/MATH.md).
 
@@ -97,6 +114,8 @@ class HarmonicField:
         self.node_positions = node_positions(grid, self.node_indices) * prepared.scale + prepared.origin
         self.node_coordinates = parts["coordinates"]
         self.node_inside = parts["inside"]
+        self.node_exact = parts["exact"]
+        self._exact = parts["exact_within"]  # frame units
         self._node_geometric = parts["geometric"]  # inside the cage, solved or not
         self.convergence = parts["convergence"]
 
@@ -128,6 +147,11 @@ class HarmonicField:
         --------
         See :class:`HarmonicField`.
         """
+        local = self._located(points, outside)
+        return self._interpolation(local)
+
+    def _located(self, points, outside):
+        """Points in the grid's frame, those outside projected (or refused)."""
         if outside == "extrapolate":
             raise ValueError("harmonic coordinates do not extrapolate outside the cage; use "
                              "outside='raise' or outside='project'")
@@ -139,6 +163,9 @@ class HarmonicField:
             columns, barycentric, _ = nearest_boundary_points(
                 local[out], self._prepared.vertices, self.faces, 2.0 * self._grid.spacing)
             local[out] = np.einsum("bc,bcN->bN", barycentric, self._prepared.vertices[columns])
+        return local
+
+    def _interpolation(self, local):
         corners, weights = trilinear(self._grid, local)
         nodes = self._ids[tuple(corners.transpose(2, 0, 1))]
         if (nodes < 0).any():  # every cell holding a point inside or on the cage is kept
@@ -161,11 +188,124 @@ class HarmonicField:
         --------
         See :class:`HarmonicField`.
         """
-        nodes, weights = self.interpolation(points, outside)
+        nodes, weights, cut, columns, values = self.sparse_rows(points, outside)
         result = np.zeros((len(nodes), len(self.vertices)), dtype=dtype)
         for corner in range(8):
-            result += weights[:, corner, None] * self.node_coordinates[nodes[:, corner]]
+            result[~cut] += weights[~cut, corner, None] * self.node_coordinates[nodes[~cut, corner]]
+        rows = np.zeros((len(columns), len(self.vertices)), dtype=dtype)
+        np.put_along_axis(rows, columns, values, axis=1)
+        result[cut] = rows
         return result
+
+    @checked
+    def sparse_rows(self, points, outside="raise"):
+        """Points' coordinates in two parts: interpolated from their cell's 8 nodes where
+        those place themselves exactly, else their own sparse pairs (:meth:`cut_pairs`).
+
+        Parameters
+        ----------
+        points : (k, 3) float
+        outside : str
+            As :meth:`interpolation`.
+
+        Returns
+        -------
+        nodes, weights : (k, 8) int and float
+            :meth:`interpolation`.
+        cut : (k,) bool
+            The points whose coordinates are their own pairs, not the interpolation.
+        columns, values : (c, K) int and float
+            Those c points' pairs (:meth:`cut_pairs`).
+        """
+        local = self._located(points, outside)
+        nodes, weights = self._interpolation(local)
+        cut = self.cut(nodes)
+        placed = local[cut] * self._prepared.scale + self._prepared.origin
+        return (nodes, weights, cut) + self.cut_pairs(placed, nodes[cut], weights[cut])
+
+    def cut(self, nodes):
+        """Whether each point's cell has a corner that does not place itself exactly (a
+        cell at the cage): (k,) bool, from :meth:`interpolation`'s ``nodes`` (k, 8)."""
+        return ~self.node_exact[nodes].all(axis=1)
+
+    def cut_pairs(self, points, nodes, weights, count=CUT_SUPPORT):
+        """The coordinates of points in cut cells (:meth:`cut`), placing them exactly:
+        their ``count`` largest interpolated coordinates reweighted by maximum entropy
+        (:func:`.reproduction.reproduce_points`), non-negative and local. Where those
+        do not span the point (every corner of its cell holds the values of the same
+        few boundary triangles), the prior is the mix along the normal instead: the
+        nearest boundary point's hat values and the coordinates of a point deeper along
+        the line through both, the deeper point's cell placing itself exactly.
+
+        Parameters
+        ----------
+        points : (c, 3) float
+            Inside or on the cage (world units).
+        nodes, weights : (c, 8) int and float
+            Their :meth:`interpolation`.
+        count : int
+
+        Returns
+        -------
+        columns : (c, K) int
+            Cage vertices, K = min(count, n).
+        values : (c, K) float
+            Non-negative, rows summing to 1.
+        """
+        local = self._prepared.local(points)
+        rows = self._mixed(nodes, weights)
+        columns, values, residual = self._placing(rows, local, count)
+        short = np.flatnonzero(residual > self._exact)
+        if len(short):
+            rows = self._along_the_normal(local[short], rows[short])
+            columns[short], values[short], residual[short] = self._placing(rows, local[short], count)
+        shorter = residual[short] > self._exact
+        if shorter.any():  # near an edge or corner of the cage: the nearest exact node widens the prior
+            short, rows = short[shorter], rows[shorter]
+            nearest, _ = _nearest_exact_nodes(self._grid, self._ids, self.node_exact, local[short])
+            rows += _WIDENING * self.node_coordinates[nearest]
+            columns[short], values[short], _ = self._placing(rows, local[short], count)
+        return columns, values
+
+    def _mixed(self, nodes, weights):
+        """The trilinear mix of the nodes' coordinates: (c, n) float64."""
+        rows = np.zeros((len(nodes), len(self.vertices)))
+        for corner in range(8):
+            rows += weights[:, corner, None] * self.node_coordinates[nodes[:, corner]]
+        return rows
+
+    def _placing(self, rows, local, count):
+        """``count`` largest of ``rows`` reweighted to place ``local``: (columns, values,
+        residual in frame units)."""
+        return placing_largest(rows, count, self._prepared.vertices, local)
+
+    def _along_the_normal(self, local, rows):
+        """Priors that span points near the cage ((c, 3), frame units): ``(1 - t) hat(p)
+        + t coordinates(q)`` with p the nearest boundary point, q = p + depth (x - p) / |x - p|
+        the first of a few depths whose cell places itself exactly, t = |x - p| / depth
+        (so the prior places x). ``rows`` are kept where no depth is found."""
+        vertices, spacing = self._prepared.vertices, self._grid.spacing
+        columns, barycentric, distance = nearest_boundary_points(local, vertices, self.faces, 2.0 * spacing)
+        nearest = np.einsum("bc,bcN->bN", barycentric, vertices[columns])
+        hat = np.zeros_like(rows)
+        np.put_along_axis(hat, columns, barycentric, axis=1)
+        direction = (local - nearest) / np.where(distance > 0.0, distance, 1.0)[:, None]
+        on = distance <= self._exact
+        rows[on] = hat[on]
+        pending = np.flatnonzero(~on)
+        for cells in (1.0, 1.5, 2.0, 3.0, 4.0, 6.0):
+            depth = distance[pending] + cells * spacing
+            deeper = nearest[pending] + depth[:, None] * direction[pending]
+            inside = np.flatnonzero(self._inside_or_on(deeper))
+            nodes, weights = self._interpolation(deeper[inside])
+            found = inside[~self.cut(nodes)]
+            t = (distance[pending[found]] / depth[found])[:, None]
+            rows[pending[found]] = (1.0 - t) * hat[pending[found]] + t * self._mixed(*(part[~self.cut(nodes)]
+                                                                                       for part in (nodes, weights)))
+            pending = np.delete(pending, found)
+            if not len(pending):
+                break
+        return rows
 
     def _inside_or_on(self, local):
         """Whether each point (frame units) is inside the cage or within the tolerance of it."""
@@ -225,6 +365,57 @@ def _boundary_nodes(grid, parts, vertices, faces):
     solved = parts["inside"].copy()
     solved[measured[distance < _SOLVED_DEPTH * grid.spacing]] = False
     return measured, columns, values, solved
+
+
+def _nearest_exact_nodes(grid, ids, exact, local):
+    """The nearest node that places itself exactly to each point ((c, 3), frame units),
+    searched in growing blocks of nodes around it, up to 7 across: (rows (c,) int,
+    found (c,) bool)."""
+    nearest, found = np.zeros(len(local), dtype=np.int64), np.zeros(len(local), dtype=bool)
+    centre = np.rint((local - grid.origin) / grid.spacing).astype(np.int64)
+    for reach in (1, 2, 3):
+        pending = np.flatnonzero(~found)
+        if not len(pending):
+            break
+        steps = np.arange(-reach, reach + 1)
+        offsets = np.stack(np.meshgrid(steps, steps, steps, indexing="ij"), axis=-1).reshape(-1, 3)
+        nodes = (centre[pending, None, :] + offsets[None]).clip(0, np.array(grid.shape) - 1)
+        rows = ids[tuple(nodes.transpose(2, 0, 1))]
+        usable = np.where(rows >= 0, exact[rows.clip(0)], False)
+        offset = nodes * grid.spacing + grid.origin - local[pending, None]
+        gap = np.einsum("cbN,cbN->cb", offset, offset)
+        best = np.argmin(np.where(usable, gap, np.inf), axis=1)
+        nearest[pending] = rows[np.arange(len(pending)), best]
+        found[pending] = usable.any(axis=1)
+    return nearest, found
+
+
+def _placing_exactly(coordinates, solved, positions, vertices, grid, ids, within):
+    """The nodes' coordinates ((g, n)) reweighted to place their ``positions`` ((g, 3))
+    exactly (:mod:`.reproduction`), and which now do: (g,) bool.
+
+    The grid places a node only to within a fraction of a cell (the Dirichlet nodes hold
+    their nearest boundary point's values). A solved node lies inside the cage, in the
+    convex hull of the cage vertices its coordinates weigh (all of them), so the
+    reweighting reaches it. A Dirichlet node's hat values weigh one triangle: widened by
+    the nearest solved node's coordinates (their CUT_SUPPORT largest: local), they reach
+    it where it is inside the cage or in a hollow of it; elsewhere (beyond a convex part
+    of the cage no non-negative weights reach) it keeps its hat values."""
+    every = np.broadcast_to(np.arange(len(vertices)), (int(solved.sum()), len(vertices)))
+    coordinates[solved], residual = reproduce_points(every, coordinates[solved], vertices, positions[solved])
+    exact = solved.copy()
+    exact[solved] = residual <= within
+    others = np.flatnonzero(~solved)
+    nearest, found = _nearest_exact_nodes(grid, ids, exact, positions[others])
+    others, nearest = others[found], nearest[found]
+    columns, values, residual = placing_largest(coordinates[others] + _WIDENING * coordinates[nearest], CUT_SUPPORT,
+                                                vertices, positions[others], _WIDENED_ITERATIONS)
+    reached = residual <= within
+    rows = np.zeros((int(reached.sum()), len(vertices)))
+    np.put_along_axis(rows, columns[reached], values[reached], axis=1)
+    coordinates[others[reached]] = rows
+    exact[others[reached]] = True
+    return exact
 
 
 @checked
@@ -299,6 +490,9 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     fixed = np.flatnonzero(~solved[measured])
     coordinates[measured[fixed, None], columns[fixed]] = values[fixed]
     parts["coordinates"], parts["geometric"], parts["inside"] = coordinates, parts["inside"], solved
+    parts["exact_within"] = _EXACT * np.linalg.norm(np.ptp(local, axis=0))
+    parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, grid,
+                                      parts["ids"], parts["exact_within"])
     return HarmonicField(prepared, np.array(vertices), np.array(faces), resolution, grid, parts)
 
 

@@ -424,11 +424,13 @@ def confirm_compact(choice, deviation, mesh_vertices, rows):
     return StorageChoice(choice.storage, choice.basis, reason, measured=True, pairs=choice.pairs)
 
 
-def encode(choice, coordinates):
+def encode(choice, coordinates, rest):
     """The slots written for ``coordinates`` ((j, rows) float64) in ``choice``'s storage:
-    (j, s) float32, and for sparse storage the pairs' columns ((j, s) int32; else None)."""
+    (j, s) float32, and for sparse storage the pairs' columns ((j, s) int32; else None;
+    ``sparse.placed_pairs``: placing each point where its coordinates do, in the cage
+    ``rest`` (n, 3))."""
     if choice.storage == 'SPARSE':
-        indices, weights = sparse.largest_pairs(coordinates, choice.pairs)
+        indices, weights = sparse.placed_pairs(coordinates, choice.pairs, rest)
         return weights.astype(np.float32), indices
     if choice.storage == 'COMPACT':
         return (coordinates @ choice.basis).astype(np.float32), None
@@ -497,7 +499,7 @@ def _slots(request, cage, points, choice, workers, field=None):
         for name, combine in (("min", min), ("negative_points", int.__add__), ("negative_entries", int.__add__),
                               ("max_affine_error", max)):
             totals[name] = combine(totals[name], summary[name])
-        slots[part], pairs = encode(choice, coordinates)
+        slots[part], pairs = encode(choice, coordinates, cage.vertices)
         if indices is not None:
             indices[part] = pairs
         reproduced = reproduce(choice, slots[part], pairs, rows)
@@ -618,19 +620,26 @@ def _report(request, cage, field=None):
 def _plan_two_level(points, cage, request, field):
     """Harmonic coordinates in sparse storage, two levels: each point its grid cell's 8
     nodes and trilinear weights, each node its fewest pairs over the cage that keep the
-    deviations under AUTO_DEVIATION (Automatic; Sparse: ``request.sparse_size``). None
-    where the cells use more nodes than there are points (per point pairs do better)."""
-    corners, trilinear = field.interpolation(points, outside=request.outside)
-    if len(np.unique(corners)) > len(points):
+    deviations under AUTO_DEVIATION (Automatic; Sparse: ``request.sparse_size``). A point
+    in a cell at the cage (``field.cut``) is a node of its own: its pairs place it
+    exactly, which the cell's nodes cannot. None where there would be more nodes than
+    points (per point pairs do better)."""
+    corners, trilinear, cut, columns, values = field.sparse_rows(points, outside=request.outside)
+    used, local = sparse.used_nodes(corners[~cut])
+    if len(used) + len(columns) > len(points):
         return None
+    node_rows = np.vstack([field.node_coordinates[used], sparse.dense_weights(columns, values, len(cage.vertices))])
+    corners = np.empty(corners.shape, dtype=np.int32)
+    corners[~cut], corners[cut] = local, len(used) + np.arange(len(columns), dtype=np.int32)[:, None]
+    trilinear[cut] = np.eye(1, 8)
     automatic = request.storage == 'AUTO'
     counts = sparse.NODE_SLOT_COUNTS if automatic else (request.sparse_size,)
-    layout = sparse.two_level_layout(field.node_coordinates, corners, trilinear, cage.vertices, AUTO_DEVIATION,
-                                     counts)
+    layout = sparse.two_level_layout(node_rows, corners, trilinear, cage.vertices, AUTO_DEVIATION, counts)
     deviation = max(layout.deviation_smooth, layout.deviation_drag)
-    reason = (f"{'Automatic: s' if automatic else 'S'}parse in two levels, each vertex its grid cell's 8 nodes, "
-              f"each node its {layout.node_slot_count} largest coordinates (deviation {short_number(deviation)} "
-              f"{'<' if deviation < AUTO_DEVIATION else '>'} {short_number(AUTO_DEVIATION, 1)})")
+    reason = (f"{'Automatic: s' if automatic else 'S'}parse in two levels, each vertex its grid cell's 8 nodes "
+              f"(its own node at the cage), each node its {layout.node_slot_count} largest coordinates (deviation "
+              f"{short_number(deviation)} {'<' if deviation < AUTO_DEVIATION else '>'} "
+              f"{short_number(AUTO_DEVIATION, 1)})")
     node_sums = layout.node_weights.astype(np.float64).sum(axis=1)
     point_sums = (layout.trilinear.astype(np.float64) * node_sums[layout.corners]).sum(axis=1)
     every_column = layout.node_slot_count >= len(cage.vertices)

@@ -17,6 +17,7 @@ deformation.
 import numpy as np
 
 from ..base import tolerances
+from ..harmonic.reproduction import reproduce_points  # noqa: F401  (part of this module's API)
 
 NEGATIVE_TOLERANCE = tolerances.SKINNING_NEGATIVE  # see there
 
@@ -59,70 +60,6 @@ def top_k(coordinates, k):
     total = chosen.sum(axis=1, keepdims=True)
     weights = np.divide(chosen, total, out=np.full_like(chosen, 1.0 / kept), where=total > 0.0)
     return indices.astype(np.int64), weights
-
-
-def reproduce_points(indices, weights, vertices, points, iterations=30):
-    """Reweight sparse non-negative weights so that they reproduce their points exactly.
-
-    The closest weights to ``weights`` in relative entropy that satisfy ``sum_j w_j = 1``
-    and ``sum_j w_j R_j = x`` (maximum entropy coordinates with ``weights`` as the
-    prior): ``w_j proportional to weights_j exp(lambda . (R_j - x))``, one lambda (3,)
-    per point found by Newton's method. The result is positive where the input is and
-    zero where it is zero (sparsity and locality are kept), sums to 1, and reproduces x
-    (linear precision: a rotated or scaled cage moves the points exactly) wherever x
-    lies inside the convex hull of its kept vertices; elsewhere it comes as close as the
-    iterations allow.
-
-    Parameters
-    ----------
-    indices : (p, K) int
-        Cage vertices of each point's weights (:func:`top_k`).
-    weights : (p, K) float
-        Non-negative, rows summing to 1.
-    vertices : (n, 3) float
-        The cage the weights were computed in.
-    points : (p, 3) float
-    iterations : int
-        Newton steps at most.
-
-    Returns
-    -------
-    weights : (p, K) float64
-    residual : (p,) float
-        ``|sum_j w_j R_j - x|`` after the correction (world units).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.tools.skinning import reproduce_points
-    >>> corners = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
-    >>> weights, residual = reproduce_points([[0, 1, 2, 3]], [[0.25, 0.25, 0.25, 0.25]], corners, [[0.1, 0.2, 0.3]])
-    >>> weights.round(3).tolist(), bool(residual[0] < 1e-12)
-    ([[0.4, 0.1, 0.2, 0.3]], True)
-    """
-    prior = np.asarray(weights, dtype=np.float64)
-    offsets = np.asarray(vertices, dtype=np.float64)[np.asarray(indices)] - np.asarray(points, dtype=np.float64)[:, None]
-    span = np.abs(offsets).max(axis=(1, 2), keepdims=True)[:, :, 0]
-    offsets = offsets / np.where(span > 0.0, span, 1.0)[:, :, None]  # per point, unit size
-    multiplier = np.zeros((len(prior), 3))
-    for _ in range(iterations):
-        exponent = np.einsum("pKN,pN->pK", offsets, multiplier)
-        scaled = prior * np.exp(exponent - exponent.max(axis=1, keepdims=True))
-        result = scaled / scaled.sum(axis=1, keepdims=True)
-        mean = np.einsum("pK,pKN->pN", result, offsets)
-        if not (np.abs(mean) > 1e-14).any():
-            break
-        covariance = np.einsum("pK,pKN,pKM->pNM", result, offsets, offsets) - mean[:, :, None] * mean[:, None, :]
-        covariance += 1e-12 * np.eye(3)
-        step = np.linalg.solve(covariance, mean[:, :, None])[:, :, 0]
-        # Each exponent changes by at most 1 per step: Newton's step where it is small.
-        largest = np.abs(np.einsum("pKN,pN->pK", offsets, step)).max(axis=1, keepdims=True)
-        multiplier -= step / np.maximum(largest, 1.0)
-    exponent = np.einsum("pKN,pN->pK", offsets, multiplier)
-    scaled = prior * np.exp(exponent - exponent.max(axis=1, keepdims=True))
-    result = scaled / scaled.sum(axis=1, keepdims=True)
-    residual = np.linalg.norm(np.einsum("pK,pKN->pN", result, offsets), axis=1) * span[:, 0]
-    return result, residual
 
 
 def truncate(coordinates, max_influences):

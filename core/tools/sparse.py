@@ -27,9 +27,10 @@ from typing import Optional
 import numpy as np
 
 from ..base import tolerances
+from ..harmonic.reproduction import reproduce_points
 from . import compact
 
-__all__ = ["largest_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
+__all__ = ["largest_pairs", "placed_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
            "stacked_columns", "unstacked", "layout_coordinates", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
@@ -76,6 +77,48 @@ def largest_pairs(coordinates, count):
     # they are rather than dividing by ~0.
     total[np.abs(total) < tolerances.WELL_DEFINED_WEIGHT_SUM] = 1.0
     return indices.astype(np.int32), values / total
+
+
+def placed_pairs(coordinates, count, rest):
+    """:func:`largest_pairs`, reweighted to place each row where its full coordinates do.
+
+    Dropping the smaller weights moves the point a row places (``sum_j w_j R_j``); rows
+    whose kept weights are non-negative are reweighted by maximum entropy
+    (``gencoords.harmonic.reproduction``) to place it again, so a rotated or scaled cage
+    still moves the points exactly, with the same cage vertices, still non-negative.
+    Rows with a negative weight keep :func:`largest_pairs`' weights.
+
+    Parameters
+    ----------
+    coordinates : (k, n) float
+    count : int
+    rest : (n, 3) float
+        The cage the coordinates were computed in.
+
+    Returns
+    -------
+    indices : (k, K) int32
+    weights : (k, K) float64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import placed_pairs
+    >>> from gencoords.tools.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> row = np.array([[0.3, 0.1, 0.25, 0.15, 0.12, 0.08]])
+    >>> indices, weights = placed_pairs(row, 4, vertices)
+    >>> bool(np.allclose(weights @ vertices[indices[0]], row @ vertices)), bool(weights.min() > 0)
+    (True, True)
+    """
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    indices, weights = largest_pairs(coordinates, count)
+    rest = np.asarray(rest, dtype=np.float64)
+    positive = np.flatnonzero((weights >= 0.0).all(axis=1))
+    if count < coordinates.shape[1] and len(positive):
+        weights[positive] = reproduce_points(indices[positive], weights[positive], rest,
+                                             coordinates[positive] @ rest)[0]
+    return indices, weights
 
 
 def dense_weights(indices, weights, column_count):
@@ -197,7 +240,8 @@ def _interpolated_deviations(residual, corners, trilinear, rest):
 
 
 def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=None):
-    """The fewest pairs per row whose deviations both stay under ``target``.
+    """The fewest pairs per row (:func:`placed_pairs`) whose deviations both stay under
+    ``target``.
 
     Parameters
     ----------
@@ -235,7 +279,7 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     smooth = drag = np.inf
     columns = np.shape(coordinates)[1]
     for count in sorted({min(count, columns) for count in counts}):  # K beyond n keeps n
-        indices, weights = largest_pairs(coordinates, count)
+        indices, weights = placed_pairs(coordinates, count, rest)
         smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
         if smooth < target and drag < target:
             return count, smooth, drag
@@ -368,8 +412,6 @@ class TwoLevelLayout:
         Each node's cage vertices, largest weight first.
     node_weights : (N, K') float32
         Their weights, summing to 1 per node.
-    node_coordinates_kept : (N,) int
-        The rows of the field's nodes kept (``used_nodes``).
     deviation_smooth, deviation_drag : float
         Of the cage's diagonal, measured on every point against the points' exact
         (interpolated) coordinates.
@@ -383,7 +425,7 @@ class TwoLevelLayout:
     >>> from gencoords.tools.sparse import TwoLevelLayout
     >>> one_node = TwoLevelLayout(np.zeros((1, 8), np.int32), np.full((1, 8), 0.125, np.float32),
     ...                           np.zeros((1, 4), np.int32), np.full((1, 4), 0.25, np.float32),
-    ...                           np.array([7]), 0.0, 0.0, 0)
+    ...                           0.0, 0.0, 0)
     >>> one_node.node_count, one_node.node_slot_count
     (1, 4)
     """
@@ -392,7 +434,6 @@ class TwoLevelLayout:
     trilinear: np.ndarray
     node_indices: np.ndarray
     node_weights: np.ndarray
-    node_coordinates_kept: np.ndarray
     deviation_smooth: float
     deviation_drag: float
     deviation_drag_vertex: int
@@ -408,14 +449,16 @@ class TwoLevelLayout:
 
 
 def two_level_layout(node_coordinates, corners, trilinear, rest, target, counts=NODE_SLOT_COUNTS):
-    """The two-level sparse layout of points interpolated from grid nodes: the nodes
-    their cells use, with the fewest pairs each (of ``counts``) whose deviations stay
-    under ``target`` (chosen on a sample of the points, measured on all).
+    """The two-level sparse layout of points interpolated from nodes: the nodes with the
+    fewest pairs each (of ``counts``: :func:`placed_pairs`) whose deviations stay under
+    ``target`` (chosen on a sample of the points, measured on all).
 
     Parameters
     ----------
-    node_coordinates : (g, n) float
-        Every grid node's coordinates (rows summing to 1).
+    node_coordinates : (N, n) float
+        The nodes' coordinates (rows summing to 1): the grid nodes the points' cells use
+        (:func:`used_nodes`), and any point's own row where it is not interpolated (its
+        corners all that row, its first trilinear weight 1).
     corners : (k, 8) int
         Each point's cell corners (rows of ``node_coordinates``).
     trilinear : (k, 8) float
@@ -437,25 +480,26 @@ def two_level_layout(node_coordinates, corners, trilinear, rest, target, counts=
     >>> from gencoords.tools.sparse import two_level_layout
     >>> from gencoords.tools.shapes import octahedron
     >>> vertices, _ = octahedron()
-    >>> nodes = np.random.default_rng(0).dirichlet(np.ones(6), 20)
+    >>> nodes = np.random.default_rng(0).dirichlet(np.ones(6), 16)
     >>> corners = np.arange(16).reshape(2, 8)
     >>> layout = two_level_layout(nodes, corners, np.full((2, 8), 0.125), vertices, 1e-3, counts=(2, 6))
     >>> layout.node_count, layout.node_slot_count, layout.deviation_drag < 1e-6
     (16, 6, True)
     """
-    used, local = used_nodes(corners)
-    nodes = np.asarray(node_coordinates, dtype=np.float64)[used]
+    nodes = np.asarray(node_coordinates, dtype=np.float64)
+    corners = np.asarray(corners, dtype=np.int32)
     trilinear = np.asarray(trilinear, dtype=np.float32)
-    sample = slice(None, None, max(1, len(local) // SAMPLE_POINTS))
-    count, _, _ = fewest_slots(nodes, rest, target * SAMPLE_MARGIN, counts,
-                               interpolation=(local[sample], trilinear[sample]))
+    sample = slice(None, None, max(1, len(corners) // SAMPLE_POINTS))
+    sampled, sample_corners = used_nodes(corners[sample])  # only the sample's nodes are paired
+    count, _, _ = fewest_slots(nodes[sampled], rest, target * SAMPLE_MARGIN, counts,
+                               interpolation=(sample_corners, trilinear[sample]))
     reason = None
     if count is None:
         count = counts[-1]
-    indices, weights = largest_pairs(nodes, count)
+    indices, weights = placed_pairs(nodes, count, rest)
     weights = weights.astype(np.float32)
-    smooth, drag, vertex = deviations(nodes, indices, weights, rest, (local, trilinear))
+    smooth, drag, vertex = deviations(nodes, indices, weights, rest, (corners, trilinear))
     if max(smooth, drag) >= target:
         reason = (f"{count} pairs per grid node deviate {max(smooth, drag):.1e} of the cage's "
                   f"diagonal (more than {target:.0e})")
-    return TwoLevelLayout(local, trilinear, indices, weights, used, smooth, drag, vertex, reason)
+    return TwoLevelLayout(corners, trilinear, indices, weights, smooth, drag, vertex, reason)

@@ -93,6 +93,14 @@ def test_harmonic_binding_is_sparse_positive_bitwise_at_rest_and_translates_exac
     shift = np.array([0.31, -0.17, 0.44], dtype=np.float32)
     write_positions(cage.data, cage_rest + shift)
     np.testing.assert_allclose(evaluated_positions(obj), rest + shift, atol=2e-6 * diagonal(cage))
+    # Linear precision: the cage turned 30 degrees and scaled by 1.2 about its centre moves
+    # the mesh by the same map (float32 rounding only), at the cage as deep inside.
+    turn = np.radians(30.0)
+    affine = 1.2 * np.array([[np.cos(turn), -np.sin(turn), 0.0], [np.sin(turn), np.cos(turn), 0.0], [0, 0, 1]])
+    centre = cage_rest.astype(np.float64).mean(axis=0)
+    write_positions(cage.data, ((cage_rest - centre) @ affine.T + centre).astype(np.float32))
+    expected = (rest.astype(np.float64) - centre) @ affine.T + centre
+    assert np.linalg.norm(evaluated_positions(obj) - expected, axis=1).max() < 1e-5 * diagonal(cage)
     write_positions(cage.data, cage_rest)
     np.testing.assert_array_equal(evaluated_positions(obj), rest)
     assert "Harmonic" in " ".join(text for text, _ in gc.status.status_lines(obj))
@@ -186,12 +194,12 @@ def test_sparse_storage_keeps_the_largest_pairs_and_translations_exact(gc, kind)
     cage_rest = read_positions(cage.data).copy()
     write_positions(cage.data, cage_rest + np.float32(0.25))
     np.testing.assert_allclose(evaluated_positions(obj), rest + 0.25, atol=1e-6)
-    # The deformation is the stored pairs' own, as the core computes them.
+    # The deformation is the stored pairs' own, as the core computes them (placing each point).
     sparse = gc.core.tools.sparse
     coordinates = gc.core.coordinates(rest.astype(np.float64), cage_rest.astype(np.float64),
                                       np.array([p.vertices[:] for p in cage.data.polygons]),
                                       kind=kind.lower(), workers=1)
-    indices, weights = sparse.largest_pairs(coordinates, 8)
+    indices, weights = sparse.placed_pairs(coordinates, 8, cage_rest.astype(np.float64))
     moved = cage_rest * np.float32(1.3)
     write_positions(cage.data, moved)
     expected = rest + np.einsum("pk,pkc->pc", weights, (moved - cage_rest)[indices])

@@ -200,7 +200,7 @@ def test_sparse_plan_keeps_the_largest_pairs_and_measures_them(irregular):
     request = BindRequest("wachspress", storage='SPARSE', sparse_size=8, workers=1)
     _, plan = run(plan_bind(points, vertices, faces, request))
     exact = gencoords.coordinates(points, vertices, faces, kind="wachspress")
-    indices, weights = sparse.largest_pairs(exact, 8)
+    indices, weights = sparse.placed_pairs(exact, 8, vertices)
     assert plan.storage == 'SPARSE' and plan.storage_choice == "Sparse: each vertex's 8 largest coordinates"
     np.testing.assert_array_equal(plan.indices, indices)
     np.testing.assert_array_equal(plan.slots, weights.astype(np.float32))
@@ -224,6 +224,10 @@ def test_harmonic_plans_two_levels_by_default_positive_and_local():
     coordinates = sparse.layout_coordinates(plan.indices, plan.slots, len(cage_vertices),
                                             (plan.node_indices, plan.node_weights))
     np.testing.assert_allclose(coordinates.sum(axis=1), 1.0, atol=1e-6)
+    # Linear precision: the stored pairs place every point (float32 rounding only).
+    diagonal = np.linalg.norm(np.ptp(cage_vertices, axis=0))
+    assert np.linalg.norm(coordinates @ cage_vertices - points, axis=1).max() < 1e-6 * diagonal
+    assert plan.linear_precision < 1e-6
     # The left hand's cage vertices weigh nothing in the other limbs (locality).
     hand = character.cage_limb_vertices(cage_vertices, "left_arm")
     others = np.isin(labels, ("right_arm", "left_leg", "right_leg", "head"))

@@ -44,7 +44,7 @@ def test_deviations_fall_with_count_and_match_moving_the_cage(cage_and_coordinat
     for count in (4, 8, 16, 40):
         found, smooth, drag = sparse.fewest_slots(coordinates, vertices, 0.0, counts=(count,))
         assert found is None  # nothing is under a target of 0
-        indices, weights = sparse.largest_pairs(coordinates, count)
+        indices, weights = sparse.placed_pairs(coordinates, count, vertices)
         stored = sparse.dense_weights(indices, weights.astype(np.float32), len(vertices))
         moved = compact.smooth_test_motion(vertices)
         direct = compact.deviation(coordinates, stored, np.eye(len(vertices)), vertices, moved)
@@ -68,7 +68,7 @@ def test_two_level_residual_is_the_interpolated_node_residual(cage_and_coordinat
     for count in (4, 12):
         _, smooth, drag = sparse.fewest_slots(node_coordinates, vertices, 0.0, counts=(count,),
                                              interpolation=(corners, trilinear))
-        indices, weights = sparse.largest_pairs(node_coordinates, count)
+        indices, weights = sparse.placed_pairs(node_coordinates, count, vertices)
         stored = sparse.dense_weights(indices, weights.astype(np.float32), len(vertices))
         residual = points - sparse.interpolated(stored, corners, trilinear)
         expected_smooth, expected_drag = compact.residual_deviations(residual, vertices)
@@ -99,20 +99,40 @@ def test_used_nodes_renumber_the_corners():
 def test_two_level_layout_meets_the_target_with_the_fewest_node_pairs(cage_and_coordinates):
     vertices, _, node_coordinates = cage_and_coordinates  # 300 "grid nodes"
     rng = np.random.default_rng(8)
-    corners = rng.integers(0, 200, (500, 8))  # the last 100 nodes unused
+    used, corners = sparse.used_nodes(rng.integers(0, 200, (500, 8)))  # the last 100 nodes unused
+    kept = node_coordinates[used]
     trilinear = rng.dirichlet(np.ones(8), 500)
-    layout = sparse.two_level_layout(node_coordinates, corners, trilinear, vertices, 1e-3,
-                                     counts=(4, 8, 16, 32, 40))
-    assert layout.node_count == len(np.unique(corners)) <= 200
-    np.testing.assert_array_equal(layout.node_coordinates_kept[layout.corners], corners)
+    layout = sparse.two_level_layout(kept, corners, trilinear, vertices, 1e-3, counts=(4, 8, 16, 32, 40))
+    assert layout.node_count == len(used) <= 200
+    np.testing.assert_array_equal(layout.corners, corners)
     assert max(layout.deviation_smooth, layout.deviation_drag) < 1e-3 and layout.reason is None
     fewer = (4, 8, 16, 32, 40)[(4, 8, 16, 32, 40).index(layout.node_slot_count) - 1]
-    kept = node_coordinates[layout.node_coordinates_kept]
-    missed = sparse.deviations(kept, *sparse.largest_pairs(kept, fewer), vertices,
+    missed = sparse.deviations(kept, *sparse.placed_pairs(kept, fewer, vertices), vertices,
                                (layout.corners, layout.trilinear))
     assert max(missed[:2]) >= 1e-3 * sparse.SAMPLE_MARGIN  # one count fewer misses
     assert (layout.node_weights >= 0).all()  # non-negative coordinates stay so
     np.testing.assert_allclose(layout.node_weights.sum(axis=1), 1.0, atol=1e-6)
+    # Each node's pairs place it where its coordinates do (float32 weights).
+    places = np.einsum("nk,nkc->nc", layout.node_weights.astype(np.float64), vertices[layout.node_indices])
+    np.testing.assert_allclose(places, kept @ vertices, atol=1e-6 * np.ptp(vertices))
+
+
+def test_placed_pairs_place_their_points_with_the_same_non_negative_support(cage_and_coordinates):
+    vertices, points, coordinates = cage_and_coordinates
+    for count in (6, 16):
+        largest = sparse.largest_pairs(coordinates, count)
+        indices, weights = sparse.placed_pairs(coordinates, count, vertices)
+        np.testing.assert_array_equal(indices, largest[0])  # the same cage vertices
+        assert (weights > 0).all()
+        np.testing.assert_allclose(weights.sum(axis=1), 1.0, atol=1e-12)
+        miss = np.linalg.norm(np.einsum("pk,pkc->pc", weights, vertices[indices]) - points, axis=1)
+        dropped = np.linalg.norm(np.einsum("pk,pkc->pc", largest[1], vertices[indices]) - points, axis=1)
+        assert (miss <= dropped + 1e-12).all() and dropped.max() > 1e-2  # never further
+        # Exact wherever the point lies in its kept vertices' hull (most with 16 of 40).
+        assert np.mean(miss < 1e-12) > (0.99 if count == 16 else 0.1)
+    # Rows with a negative entry keep the truncated weights.
+    mixed = coordinates[:5] + np.array([-0.05] + [0.05 / 39] * 39)
+    np.testing.assert_array_equal(sparse.placed_pairs(mixed, 40, vertices)[1], sparse.largest_pairs(mixed, 40)[1])
 
 
 def test_stacked_columns_of_triples_unstack_to_the_same_values():
