@@ -23,7 +23,11 @@ def test_two_hundred_seeds_try_every_step_defect_shape_and_modifier():
     assert {s["cage"]["shape"] for s in scenes} == set(cases.CAGE_SHAPES)
     assert {s["cage"]["modifier"] for s in scenes} == set(cases.CAGE_MODIFIERS) | {None}
     assert {s["mesh"]["shape"] for s in scenes} == set(cases.MESH_SHAPES)
-    assert {step["kind"] for case in drawn for step in case["steps"] if step["op"] == "bind"} == set(cases.KINDS)
+    binds = [step for case in drawn for step in case["steps"] if step["op"] == "bind"]
+    assert {step["kind"] for step in binds} == set(cases.KINDS) and "HARMONIC" in cases.KINDS
+    # Harmonic binds on coarse grids only (a case plays in seconds), each of them drawn.
+    assert {step["resolution"] for step in binds if step["kind"] == "HARMONIC"} == set(cases.HARMONIC_RESOLUTIONS)
+    assert max(cases.HARMONIC_RESOLUTIONS) <= 16
     scales = [s["placement"]["scale"] for s in scenes]
     assert min(scales) < 1e-4 and max(scales) > 1e4
 

@@ -23,7 +23,7 @@ from ..evaluation.barycentric import point_locations
 from .self_intersection import self_intersections
 from .volumes import signed_volume, union_volume
 
-__all__ = ["TightCageError", "vertex_normals", "pinched_vertices", "outward_pushes", "cage_triangles",
+__all__ = ["TightCageError", "vertex_normals", "pinched_vertices", "degenerate_pieces", "outward_pushes", "cage_triangles",
            "enclose", "fit_tight_cage", "volume_ratio"]
 
 PUSH_ITERATIONS = 16  # push-outs before giving up
@@ -118,6 +118,31 @@ def pinched_vertices(triangles):
                 seen[corner] = True
                 corner = step[corner]
     return np.flatnonzero(fans > 1).astype(np.int64)
+
+
+def degenerate_pieces(triangles):
+    """Whether a simplified surface has pieces that enclose nothing: a triangle twice (a
+    closed piece collapsed to two back-to-back faces) or a vertex in fewer than 3
+    triangles. A collapse decimation keeps every separate piece, down to 3 vertices.
+
+    Parameters
+    ----------
+    triangles : (m, 3) int
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.tight_cage import degenerate_pieces
+    >>> degenerate_pieces(octahedron()[1]), degenerate_pieces([[0, 1, 2], [0, 2, 1]])
+    (False, True)
+    """
+    faces = np.sort(np.asarray(triangles, dtype=np.int64).reshape(-1, 3), axis=1)
+    uses = np.bincount(faces.ravel())
+    return len(np.unique(faces, axis=0)) < len(faces) or bool(((uses > 0) & (uses < 3)).any())
 
 
 def _nearest_triangles(vertices, triangles, points):

@@ -25,6 +25,11 @@ CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
 # move the cage's faces by up to ~2 CORNER_MERGE, which must not cut a vertex off.
 MIN_MARGIN = 4 * CORNER_MERGE
 MARGIN_TRIES, MARGIN_GROWTH = 4, 4.0
+# Bind reads the cage in the mesh's local space, in float32, through Blender's float32
+# matrix arithmetic (``scene.capture_rest_cage``): its vertices there are off by up to
+# this many float32 steps (two roundings of half a step) at the size of the mesh's local
+# coordinates.
+BIND_ROUNDING_STEPS = 1.0
 HULL_TRIES = 64  # hulls, each without the corners the last one left not convex
 
 
@@ -91,8 +96,8 @@ def make_cage_geometry(points, target_vertices, margin):
 
 def _enclosed_points(obj, context):
     """The mesh's vertices to enclose, in world space ((k, 3) float64): those Bind binds
-    (the mesh data) and those the artist sees (with modifiers and shape keys); CageError
-    when they cannot be."""
+    (the mesh data) and those the artist sees (with modifiers and shape keys), with
+    ``with_rounding_copies``; CageError when they cannot be."""
     depsgraph = context.evaluated_depsgraph_get()
     with mesh_io.evaluated_mesh(obj, depsgraph) as evaluated:
         seen = mesh_io.read_positions(evaluated).astype(np.float64)
@@ -109,7 +114,22 @@ def _enclosed_points(obj, context):
     if flat_axes:  # the cage would be flat
         raise CageError(messages.zero_scale("mesh", obj.name, flat_axes, "Make Cage"))
     world = np.array(obj.matrix_world, dtype=np.float64)
-    return local @ world[:3, :3].T + world[:3, 3]
+    return with_rounding_copies(local @ world[:3, :3].T + world[:3, 3], local, world)
+
+
+def with_rounding_copies(points, local, world):
+    """``points`` ((k, 3), world space), and where Bind's rounding of the cage into the
+    mesh's local space (r per coordinate, ``BIND_ROUNDING_STEPS``) is not negligible
+    against the mesh's size (its data lies far from its object's origin), the corners
+    of a box of half-width r about each (in the mesh's local axes): a cage enclosing them
+    keeps ``points`` inside once Bind has rounded its vertices, which moves a face by at
+    most r |n|_1 along its normal n (some corner lies that far beyond the point)."""
+    step = BIND_ROUNDING_STEPS * float(np.spacing(np.float32(np.abs(local).max(initial=0.0))))
+    signs = np.array(np.meshgrid([-1.0, 1.0], [-1.0, 1.0], [-1.0, 1.0])).reshape(3, -1).T
+    corners = (signs * step) @ world[:3, :3].T  # (8, 3): the box's corners in world space
+    if np.linalg.norm(corners, axis=1).max() <= FLOAT32_TOLERANCE * np.linalg.norm(np.ptp(points, axis=0)):
+        return points
+    return np.concatenate([points] + [points + corner for corner in corners])
 
 
 def _enclosing_cage(obj, points, target_vertices, margin, context):

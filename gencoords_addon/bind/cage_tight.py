@@ -88,23 +88,38 @@ def _evaluated(obj, context):
         evaluated.to_mesh_clear()
 
 
+def _decimated(obj, remeshed_count, target_vertices, context):
+    decimate = obj.modifiers.get("Vertices") or obj.modifiers.new("Vertices", 'DECIMATE')
+    decimate.decimate_type, decimate.use_collapse_triangulate = 'COLLAPSE', True
+    # A share of the faces: a closed mesh's faces and vertices shrink in proportion.
+    decimate.ratio = min(1.0, target_vertices / remeshed_count)
+    return _evaluated(obj, context)
+
+
 def offset_surface(points, triangles, offset, target_vertices, context):
     """The mesh's surface offset by ``offset`` and decimated to about ``target_vertices``:
-    vertices (n, 3) float64 and triangles (m, 3), in the points' space."""
+    vertices (n, 3) float64 and triangles (m, 3), in the points' space.
+
+    A mesh with holes or thin open parts can come out of a fine voxel remesh in many
+    small pieces, each of which the decimation shrinks to two back-to-back triangles:
+    the coarsest voxels are tried then, which keep such a mesh in one piece."""
     size = float(np.linalg.norm(np.ptp(points, axis=0)))
     obj = _temporary_object(points, triangles, context)
     mesh = obj.data
     try:
-        _add_modifiers(obj, offset, voxel_size(offset, size))
-        remeshed, _ = _evaluated(obj, context)
-        if len(remeshed) < 4:
-            raise CageError("the voxel remesh left nothing: the mesh has no volume to wrap "
-                            "(close it, or use Convex)")
-        decimate = obj.modifiers.new("Vertices", 'DECIMATE')
-        decimate.decimate_type, decimate.use_collapse_triangulate = 'COLLAPSE', True
-        # A share of the faces: a closed mesh's faces and vertices shrink in proportion.
-        decimate.ratio = min(1.0, target_vertices / len(remeshed))
-        return _evaluated(obj, context)
+        for voxel in dict.fromkeys((voxel_size(offset, size), COARSEST_VOXEL * size)):
+            obj.modifiers.clear()
+            _add_modifiers(obj, offset, voxel)
+            remeshed, _ = _evaluated(obj, context)
+            if len(remeshed) < 4:
+                raise CageError("the voxel remesh left nothing: the mesh has no volume to wrap "
+                                "(close it, or use Convex)")
+            surface = _decimated(obj, len(remeshed), target_vertices, context)
+            if not tight_cage.degenerate_pieces(surface[1]):
+                return surface
+        raise CageError("the voxel remesh breaks the mesh into more pieces than the vertices asked "
+                        "for can wrap (holes or thin open parts): raise Vertices or Offset, close "
+                        "the holes, or use Convex")
     finally:
         bpy.data.objects.remove(obj)
         bpy.data.meshes.remove(mesh)

@@ -40,8 +40,13 @@ def cage_info(build, group_input):
 
     Object Info's Relative space skips transforms within ~1e-6 of the identity (absolute:
     a 1e-6-sized cage moved by 5e-7 would not be followed), so the cage is read in its
-    own space and moved by (mesh world)^-1 (cage world) point by point, with no shortcut;
-    where Object Info has no Transform output, by Relative space.
+    own space and moved into the object's point by point, with no shortcut; where Object
+    Info has no Transform output, by Relative space. Not by the product (mesh world)^-1
+    (cage world) either: for objects far from the world's origin against the mesh
+    object's scale, its translation is the float32 difference of two huge numbers (6e7
+    for objects 6e4 away at scale 0.001: the cage lands 4 mesh units off). Instead
+    ``L_mesh^-1 (L_cage c + (t_cage - t_mesh))``: the two origins' difference first,
+    exact for nearby objects, then only the linear parts, on numbers of the cage's size.
     """
     info = build.add('GeometryNodeObjectInfo', "cage", transform_space='ORIGINAL')
     build.link(group_input.outputs[CAGE], info.inputs["Object"])
@@ -50,18 +55,30 @@ def cage_info(build, group_input):
         return info.outputs["Geometry"]
     own = build.add('GeometryNodeObjectInfo', "cage", transform_space='ORIGINAL')
     build.link(build.add('GeometryNodeSelfObject', "cage").outputs[0], own.inputs["Object"])
+    origins = [_transformed(build, 'FunctionNodeTransformPoint', matrix, (0.0, 0.0, 0.0))
+               for matrix in (info.outputs["Transform"], own.outputs["Transform"])]
+    position = build.add('GeometryNodeInputPosition', "cage").outputs[0]
+    turned = _transformed(build, 'FunctionNodeTransformDirection', info.outputs["Transform"], position)
+    world = build.math("cage", 'ADD', turned, build.math("cage", 'SUBTRACT', *origins))
     inverse = build.add('FunctionNodeInvertMatrix', "cage")
     build.link(own.outputs["Transform"], inverse.inputs[0])
-    relative = build.add('FunctionNodeMatrixMultiply', "cage")
-    build.link(inverse.outputs[0], relative.inputs[0])
-    build.link(info.outputs["Transform"], relative.inputs[1])
-    moved = build.add('FunctionNodeTransformPoint', "cage")
-    build.link(build.add('GeometryNodeInputPosition', "cage").outputs[0], moved.inputs[0])
-    build.link(relative.outputs[0], moved.inputs[1])
     placed = build.add('GeometryNodeSetPosition', "cage")
     build.link(info.outputs["Geometry"], placed.inputs["Geometry"])
-    build.link(moved.outputs[0], placed.inputs["Position"])
+    build.link(_transformed(build, 'FunctionNodeTransformDirection', inverse.outputs[0], world),
+               placed.inputs["Position"])
     return placed.outputs["Geometry"]
+
+
+def _transformed(build, node_type, matrix, vector):
+    """A Transform Point or Transform Direction node's output: ``vector`` (a socket or a
+    value) by ``matrix``."""
+    node = build.add(node_type, "cage")
+    if isinstance(vector, bpy.types.NodeSocket):
+        build.link(vector, node.inputs[0])
+    else:
+        node.inputs[0].default_value = vector
+    build.link(matrix, node.inputs[1])
+    return node.outputs[0]
 
 
 def accumulate_group():

@@ -15,8 +15,12 @@ import random
 import gencoords
 from gencoords.construction.green import GREEN
 from gencoords.surfaces.named import MEAN_VALUE, POWER
+from gencoords.tools.bind_plan import HARMONIC
 
-KINDS = tuple(kind.name.upper() for kind in gencoords.KIND_TABLE) + (GREEN.upper(),)
+# The core's kinds, Green coordinates and harmonic coordinates (the add-on's enum order).
+KINDS = tuple(kind.name.upper() for kind in gencoords.KIND_TABLE) + (GREEN.upper(), HARMONIC.upper())
+# Harmonic coordinates' grid: coarse, so a case binds in a second (the setting's minimum is 4).
+HARMONIC_RESOLUTIONS = (4, 8, 16)
 OUTSIDE = ("RAISE", "PROJECT", "EXTRAPOLATE")
 STORAGE = ("AUTO", "EXACT", "COMPACT")
 BAKE_MODES = ("CAGE_VERTICES", "CAGE_VERTICES", "FITTED")
@@ -76,6 +80,8 @@ def bind_step(rng, available, op="bind"):
             "compact_size": rng.choice((4, 6, 12, 36))}
     if kind == POWER.upper():
         step["gamma"] = rng.choice((-16.0, -8.0, -2.0, -1.0, -0.5, 0.0, 1.0, 2.0, 16.0))
+    if kind == HARMONIC.upper():
+        step["resolution"] = rng.choice(HARMONIC_RESOLUTIONS)
     return step
 
 

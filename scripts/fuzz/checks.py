@@ -182,10 +182,11 @@ def check_unchanged(before, after, what):
         raise Violation(what, "; ".join(lines[:8]) + (f" (+{len(lines) - 8} more)" if len(lines) > 8 else ""))
 
 
-def tolerance(*position_sets):
-    """Float32 rounding of the positions involved, with room for the arithmetic."""
+def tolerance(*position_sets, steps=64):
+    """Float32 rounding of the positions involved, with room for the arithmetic (``steps``
+    float32 epsilons of their largest coordinate)."""
     extent = max((float(np.abs(p[np.isfinite(p)]).max(initial=0.0)) for p in position_sets), default=0.0)
-    return 64 * np.finfo(np.float32).eps * extent
+    return steps * np.finfo(np.float32).eps * extent
 
 
 def size_of(positions):
@@ -193,9 +194,17 @@ def size_of(positions):
     return float(np.linalg.norm(np.ptp(finite, axis=0))) if len(finite) else 0.0
 
 
-def check_moved(names, before, after, shift, scale, what):
+# A cage vertex read in float32 is off by up to an epsilon of its coordinate; the mesh
+# moves by a combination of them whose weights' magnitudes sum to a few at most.
+CAGE_ROUNDING = 8
+
+
+def check_moved(names, before, after, shift, scale, what, cage=None):
     """Objects ``names`` moved by ``shift`` ((3,), world) between two ``world_positions``,
-    to 1e-4 of ``scale`` (the cage's size) beyond float32 rounding."""
+    to 1e-4 of ``scale`` (the cage's size) beyond float32 rounding: of their positions, and
+    of the ``cage``'s world positions (k, 3) as each object's deformer reads them, in the
+    object's local space (a cage far from the object's origin is rounded there: 0.016 at
+    1.7e5, as with Blender's Mesh Deform)."""
     for name in names:
         if name not in before or name not in after or before[name].shape != after[name].shape:
             continue
@@ -203,6 +212,9 @@ def check_moved(names, before, after, shift, scale, what):
             continue
         error = np.abs(after[name] - before[name] - shift).max(initial=0.0)
         allowed = 1e-4 * scale + tolerance(before[name], after[name])
+        if cage is not None:
+            origin = np.array(bpy.data.objects[name].matrix_world, dtype=np.float64)[:3, 3]
+            allowed += tolerance(cage - origin, steps=CAGE_ROUNDING)
         if not error <= allowed:
             raise Violation(what, f"'{name}' is off by {error:.3g} (allowed {allowed:.3g}, cage "
                                   f"size {scale:.3g}, moved by {np.linalg.norm(shift):.3g})")

@@ -98,28 +98,42 @@ def _live(obj, modifier, group):
     return cage if np.isfinite(arrays.read_positions(evaluated)).all() else None
 
 
-def drivers_of(obj, reshaped=()):
-    """The objects ``obj`` follows directly: its live bindings' cages, its baked rigs' cages
-    (unless the cage's topology was changed since: ``reshaped``, names)."""
-    found = [_live(obj, m, g) for m, g in bindings_of(obj)]
+def drivers_of(obj):
+    """The objects ``obj`` follows directly: its live bindings' cages, its baked rigs' cages."""
+    return [cage for cage in [_live(obj, m, g) for m, g in bindings_of(obj)] + rig_cages(obj) if cage is not None]
+
+
+def rig_cages(obj):
+    """The cages the rigs of ``obj``'s Armature modifiers follow (Bake to Bones' rigs)."""
+    found = []
     for modifier in obj.modifiers:
         rig = getattr(modifier, "object", None) if modifier.type == 'ARMATURE' else None
         if rig is not None and rig.pose is not None:
             targets = [c.target for b in rig.pose.bones for c in b.constraints if c.type == RIG_CONSTRAINT]
-            if targets and targets[0] is not None and targets[0].name not in reshaped:
+            if targets and targets[0] is not None:
                 found.append(targets[0])
-    return [cage for cage in found if cage is not None]
+    return found
+
+
+def follows_exactly(obj, reshaped=()):
+    """Whether ``obj`` moves exactly as its drivers do: not when a rig it is baked to
+    follows a cage whose topology a step changed since (``reshaped``, names). Such a rig
+    still follows that cage (its bones' vertex groups travel with a subdivision, and an
+    emptied group leaves the bone on the cage's origin), but no longer as the binding did."""
+    return not any(cage.name in reshaped for cage in rig_cages(obj))
 
 
 def single_followers(cage, reshaped=()):
-    """Mesh objects that follow ``cage`` along exactly one path (they move as it moves)."""
+    """Mesh objects that follow ``cage`` along exactly one path, exactly (they move as it moves)."""
     meshes = [o for o in bpy.context.view_layer.objects if o.type == 'MESH']
-    drivers = {o.name: [d.name for d in drivers_of(o, reshaped)] for o in meshes}
+    drivers = {o.name: [d.name for d in drivers_of(o)] for o in meshes}
     follows = {cage.name}
     for _ in meshes:  # to a fixed point: chains of cages
         follows |= {name for name, found in drivers.items() if set(found) & follows}
     return [name for name, found in drivers.items() if name != cage.name
-            and sum(d in follows for d in found) == 1 and translates(bpy.data.objects[name])]
+            and sum(d in follows for d in found) == 1 and translates(bpy.data.objects[name])
+            and all(follows_exactly(bpy.data.objects[d], reshaped) for d in [name, *found]
+                    if bpy.data.objects[d].type == 'MESH')]
 
 
 def translates(obj):
@@ -146,6 +160,8 @@ def bind(state, step):
     settings.storage, settings.compact_size = step["storage"], step["compact_size"]
     if "gamma" in step:
         settings.gamma = step["gamma"]
+    if "resolution" in step:
+        settings.resolution = step["resolution"]
     return _bind_operator(state, target)
 
 
@@ -233,7 +249,8 @@ def _check_translation(state, cage, before, shift, undo):
     followers = single_followers(cage, state.reshaped)
     size = checks.size_of(before[cage.name])
     if np.isfinite(before[cage.name]).all():
-        checks.check_moved(followers, before, after, shift, size, "a translated cage translates the mesh")
+        checks.check_moved(followers, before, after, shift, size, "a translated cage translates the mesh",
+                           cage=before[cage.name])
     if undo is not None:
         undo()
         bpy.context.view_layer.update()
@@ -458,7 +475,7 @@ def move_mesh(state, step):
     direction = np.array(step["direction"]) / (np.linalg.norm(step["direction"]) or 1.0)
     obj.location = obj.location + type(obj.location)(direction * step["amount"] * checks.size_of(before[obj.name]))
     bpy.context.view_layer.update()
-    drivers = drivers_of(obj, state.reshaped)
+    drivers = drivers_of(obj)
     if len(drivers) != 1 or len(bindings_of(obj)) != 1 or not translates(obj) or \
             'ARMATURE' in {m.type for m in obj.modifiers}:
         return "done, not checked"
