@@ -400,8 +400,7 @@ def _placing_exactly(coordinates, solved, positions, vertices, grid, ids, within
     the nearest solved node's coordinates (their CUT_SUPPORT largest: local), they reach
     it where it is inside the cage or in a hollow of it; elsewhere (beyond a convex part
     of the cage no non-negative weights reach) it keeps its hat values."""
-    every = np.broadcast_to(np.arange(len(vertices)), (int(solved.sum()), len(vertices)))
-    coordinates[solved], residual = reproduce_points(every, coordinates[solved], vertices, positions[solved])
+    coordinates[solved], residual = reproduce_points(None, coordinates[solved], vertices, positions[solved])
     exact = solved.copy()
     exact[solved] = residual <= within
     others = np.flatnonzero(~solved)

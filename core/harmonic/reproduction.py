@@ -54,13 +54,52 @@ def _newton(prior, offsets, iterations):
     return weights, residual
 
 
+def _newton_dense(prior, vertices, points, iterations):
+    """:func:`_newton` for rows over every cage vertex, in matrix products: the exponent
+    ``lambda . R_j`` (the ``lambda . x`` part cancels in the normalisation), the moments
+    ``w @ R`` and ``w @ (R_a R_b)``; in the cage's unit frame. Returns (weights (p, n),
+    residual (p,) in the frame's units)."""
+    centre = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+    size = max(float(np.abs(vertices - centre).max()), 1e-300)
+    frame, places = (vertices - centre) / size, (points - centre) / size
+    products = np.column_stack([frame[:, a] * frame[:, b] for a in range(3) for b in range(a, 3)])
+    pairs = [(a, b) for a in range(3) for b in range(a, 3)]
+    reach = np.linalg.norm(frame, axis=1).max() + np.linalg.norm(places, axis=1)  # >= |R_j - x|
+    multiplier = np.zeros((len(prior), 3))
+    weights = prior.copy()
+    active = np.arange(len(prior))
+    for step_count in range(iterations + 1):
+        exponent = multiplier[active] @ frame.T
+        exponent -= exponent.max(axis=1, keepdims=True)
+        scaled = prior[active] * np.exp(exponent)
+        scaled /= scaled.sum(axis=1, keepdims=True)
+        weights[active] = scaled
+        placed = scaled @ frame
+        mean = placed - places[active]
+        moving = np.abs(mean).max(axis=1) > _CONVERGED
+        if not moving.any() or step_count == iterations:
+            break
+        active, scaled, placed, mean = active[moving], scaled[moving], placed[moving], mean[moving]
+        moments = scaled @ products
+        covariance = np.empty((len(active), 3, 3))
+        for column, (a, b) in enumerate(pairs):
+            covariance[:, a, b] = covariance[:, b, a] = moments[:, column] - placed[:, a] * placed[:, b]
+        covariance += 1e-12 * np.eye(3)
+        step = np.linalg.solve(covariance, mean[:, :, None])[:, :, 0]
+        # As _newton: no exponent changes by more than 1 (bounded through |R_j - x|).
+        largest = np.linalg.norm(step, axis=1) * reach[active]
+        multiplier[active] -= step / np.maximum(largest, 1.0)[:, None]
+    return weights, np.linalg.norm(weights @ frame - places, axis=1) * size
+
+
 def reproduce_points(indices, weights, vertices, points, iterations=_ITERATIONS):
     """Reweight non-negative weights so that they place their points exactly.
 
     Parameters
     ----------
-    indices : (p, K) int
-        Cage vertices of each point's weights (all n for dense rows).
+    indices : (p, K) int or None
+        Cage vertices of each point's weights; None: every row weighs all n in order
+        (dense rows: computed in matrix products).
     weights : (p, K) float
         Non-negative, rows summing to 1: the prior.
     vertices : (n, 3) float
@@ -88,8 +127,10 @@ def reproduce_points(indices, weights, vertices, points, iterations=_ITERATIONS)
     ([[0.4, 0.1, 0.2, 0.3]], True)
     """
     prior = np.asarray(weights, dtype=np.float64)
-    indices = np.asarray(indices)
     vertices, points = np.asarray(vertices, dtype=np.float64), np.asarray(points, dtype=np.float64)
+    if indices is None:
+        return _newton_dense(prior, vertices, points, iterations)
+    indices = np.asarray(indices)
     result, residual = np.empty_like(prior), np.empty(len(prior))
     step = max(1, _CHUNK_ENTRIES // max(1, prior.shape[1]))
     for start in range(0, len(prior), step):
