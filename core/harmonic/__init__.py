@@ -1,9 +1,11 @@
 """Harmonic coordinates on a grid: local and non-negative in any closed cage.
 
 Modules, bottom up: ``grid`` (cubic cells fitted to the cage's box, inside nodes),
-``boundary_values`` (the cage's hat values at nodes on or outside it), ``multigrid``
-(the Laplace solver), ``solve`` (every cage vertex's Dirichlet problem),
-``interpolation`` (trilinear lookup), ``field`` (the public :class:`HarmonicField`).
+``boundary_values`` (the cage's hat values at nodes outside it, and where grid edges
+cross it), ``multigrid`` (the Laplace solver), ``solve`` (every cage vertex's
+Shortley-Weller problem), ``interpolation`` (trilinear lookup), ``reproduction``
+(weights reweighted to place their points exactly), ``field`` (the public
+:class:`HarmonicField`).
 """
 
 from .field import DEFAULT_RESOLUTION, HarmonicField, harmonic_coordinates, harmonic_field

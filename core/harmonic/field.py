@@ -526,9 +526,9 @@ def harmonic_coordinates(points, vertices, faces, resolution=DEFAULT_RESOLUTION,
     >>> import numpy as np, gencoords
     >>> corners = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
     >>> triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
-    >>> b = gencoords.harmonic_coordinates([[0.25, 0.25, 0.25]], corners, triangles, resolution=24)
-    >>> print(b.round(1), bool(b.min() >= 0.0))
-    [[0.3 0.2 0.2 0.2]] True
+    >>> b = gencoords.harmonic_coordinates([[0.1, 0.2, 0.3]], corners, triangles, resolution=24)
+    >>> print(b.round(6), bool(b.min() >= 0.0))  # in a tetrahedron: its barycentric coordinates
+    [[0.4 0.1 0.2 0.3]] True
     """
     field = harmonic_field(vertices, faces, resolution, tolerance, progress, workers)
     return field.coordinates(points, outside, dtype)

@@ -63,10 +63,10 @@ ESTIMATE_SAMPLES = 128
 REPORT_SAMPLES = 1000  # points inside the cage coordinate_report examines
 HARMONIC = "harmonic"  # the core's name of harmonic coordinates (gencoords.harmonic_field)
 # A Bind's grid for harmonic coordinates unless asked otherwise: on the character
-# (bench_local.py, 43k vertices, 196-vertex cage) 48 cells bind in 1.4x Mesh Deform p5's
-# time and memory, play back in 0.8x its CPU time and bend a limb as evenly (1.8 / 14.4
-# degrees mean / 99th percentile against 2.5 / 14.1); the core's default, 64, took 2-3x
-# as long to bind, twice the memory, and bent less evenly there (2.0 / 18.8).
+# (bench_local.py, 43k vertices, 196-vertex cage) 48 cells bind in 2.9x Mesh Deform p5's
+# time, play back in 1.1x its CPU time and bend a limb 1.7 / 16.2 degrees (mean / 99th
+# percentile, against 2.5 / 14.1); 64 took 1.8x as long to bind and 32 played back in
+# 1.6x (most of its vertices are in cells at the cage: nodes of their own).
 BIND_RESOLUTION = 48
 # The harmonic solve's relative residual in a Bind: the weights are written as float32 and
 # sparse storage drops those below about 1e-4, so 1e-10 (the core's default) would buy
