@@ -75,6 +75,13 @@ def worker_fallback():
             "Preferences > Add-ons > GenCoords > Worker Processes to '1: Compute in Blender'")
 
 
+def follows_twice(mesh, cage, modifier, rig):
+    """What to say when a bound mesh also follows its cage through an armature whose
+    bones follow the cage's vertices (a rig baked from it)."""
+    return (f"'{mesh}' also follows '{cage}' through the armature '{rig}' (modifier "
+            f"'{modifier}'), so it now moves twice as far: remove that modifier, or Unbind")
+
+
 def gamma_words(gamma):
     """`` (gamma -8)`` for messages about a kind with that parameter; empty for None."""
     return "" if gamma is None else f" (gamma {gamma:g})"

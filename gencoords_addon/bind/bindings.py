@@ -163,6 +163,22 @@ def drives(obj, cage):
     return False
 
 
+def armatures_following(obj, cage):
+    """The enabled Armature modifiers of ``obj`` whose armature has a bone following one
+    of ``cage``'s vertices (a Copy Location onto it: a rig baked from that cage), as
+    (modifier name, armature object name) pairs: the mesh already moves with the cage
+    through them, so a binding to the same cage moves it twice."""
+    found = []
+    for modifier in obj.modifiers:
+        rig = modifier.object if modifier.type == 'ARMATURE' else None
+        if rig is None or not modifier.show_viewport or rig.pose is None:
+            continue
+        if any(constraint.type == 'COPY_LOCATION' and constraint.target == cage
+               for bone in rig.pose.bones for constraint in bone.constraints):
+            found.append((modifier.name, rig.name))
+    return found
+
+
 def keys_used_elsewhere(obj):
     """Keys of the bindings that other objects sharing the mesh of ``obj`` (linked
     duplicates, Alt+D) deform with: their bind data on the shared mesh must stay."""

@@ -18,6 +18,7 @@ import bpy
 from ... import core
 from .. import messages
 from ..steps import run_to_end, scaled
+from . import bindings
 from . import job as bind_job
 
 
@@ -97,13 +98,15 @@ def steps(job, context):
 
 
 def finish(job, context):
-    """The written ``job``'s ``BindReport``."""
+    """The written ``job``'s ``BindReport``: a warning where the worker processes failed,
+    or where the mesh already follows the cage through a rig baked from it."""
     data = job.result.data
     headline = (f"Bound '{job.obj.name}' ({data.mesh_vertex_count} vertices) to "
                 f"'{job.cage.name}' in {data.bind_seconds:.2f} s ({data.storage.lower()} storage)")
-    if job.worker_failure is None:
-        return BindReport('INFO', headline)
-    return BindReport('WARNING', f"{headline}; {job.worker_failure}")
+    notes = [] if job.worker_failure is None else [job.worker_failure]
+    notes += [messages.follows_twice(job.obj.name, job.cage.name, modifier, rig)
+              for modifier, rig in bindings.armatures_following(job.obj, job.cage)]
+    return BindReport('WARNING', "; ".join([headline] + notes)) if notes else BindReport('INFO', headline)
 
 
 def print_progress(job):
