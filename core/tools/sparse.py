@@ -39,6 +39,9 @@ SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 NODE_SLOT_COUNTS = (8, 16, 24, 32, 48, 64, 96, 128)
 SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
 SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
+# The worst drag's columns are computed this many at a time (reweighted pairs leave bounds
+# alike, so many are), over this many points at a time (bounded memory).
+_DRAG_COLUMNS, _DRAG_POINTS = 32, 1 << 15
 
 
 def largest_pairs(coordinates, count):
@@ -218,8 +221,8 @@ def _interpolated_deviations(residual, corners, trilinear, rest):
     the (k, n) point residual: the smooth motion is linear (interpolate the nodes' moves),
     and a dragged vertex j deviates ``DRAG_FRACTION * max_i |point residual_ij|``, bounded
     by the nodes' largest ``|residual_aj|`` (the trilinear weights are a convex
-    combination): exact columns are computed in decreasing bound order until no bound
-    can beat the worst found, so the largest and where it is are exact."""
+    combination): exact columns are computed, a batch at a time, in decreasing bound order
+    until no bound can beat the worst found, so the largest and where it is are exact."""
     rest = np.asarray(rest, dtype=np.float64)
     diagonal = np.linalg.norm(np.ptp(rest, axis=0))
     if len(corners) == 0 or residual.shape[1] == 0:
@@ -229,13 +232,19 @@ def _interpolated_deviations(residual, corners, trilinear, rest):
     used = np.unique(np.asarray(corners))
     bounds = np.abs(residual[used]).max(axis=0)
     worst, worst_column = -1.0, 0
-    for j in np.argsort(-bounds):
-        if bounds[j] <= worst:
+    order = np.argsort(-bounds)
+    for start in range(0, len(order), _DRAG_COLUMNS):
+        batch = order[start:start + _DRAG_COLUMNS]
+        if bounds[batch[0]] <= worst:
             break
-        column = interpolated(residual[:, j:j + 1], corners, trilinear)
-        largest = float(np.abs(column).max())
-        if largest > worst:
-            worst, worst_column = largest, int(j)
+        largest = np.zeros(len(batch))
+        for first in range(0, len(corners), _DRAG_POINTS):
+            rows = slice(first, first + _DRAG_POINTS)
+            part = interpolated(residual[:, batch], corners[rows], trilinear[rows])
+            np.maximum(largest, np.abs(part).max(axis=0), out=largest)
+        best = int(np.argmax(largest))
+        if largest[best] > worst:
+            worst, worst_column = float(largest[best]), int(batch[best])
     return smooth, compact.DRAG_FRACTION * worst, worst_column
 
 
