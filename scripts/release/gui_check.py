@@ -11,7 +11,7 @@ cage is back and drives the mesh), rebinds through the Replace Binding confirmat
 then, with Auto Rebind on, deletes a vertex in Edit Mode (Tab, a click on the vertex, X >
 Vertices, Tab): the Bind operator's invoke path binds again; last, Type Green, Bind
 through the window (Return to replace) and a 1.6x stretch of the cage; then Type Harmonic,
-Bind through the window, and a move of the cage. Each check
+Bind through the window, a move of the cage, then a turn and scale of it. Each check
 prints ``PASS``/``FAIL`` with what was measured, screenshots go to the output folder,
 and Blender exits non-zero when a check failed.
 """
@@ -319,13 +319,45 @@ def after_harmonic_move():
     check("the mesh follows the cage's translation with harmonic coordinates", error < 1e-5,
           f"largest error {error:.1e}")
     shots.shoot('VIEW_3D', "harmonic_moved")
+    mesh, cage = mesh_and_cage()
+    cage_rest = arrays.read_positions(cage.data).astype(np.float64)
+    centre = cage_rest.mean(axis=0)
+    arrays.write_positions(cage.data, (cage_rest - centre) @ HARMONIC_TURN.T + centre)
+    bpy.ops.ed.undo_push(message="Turn cage")
+
+
+# A turn of 30 degrees about z and a scale of 1.2 (about the cage's centre): an affine map
+# harmonic coordinates now follow exactly (they place every vertex: docs/MATH.md).
+HARMONIC_TURN = 1.2 * np.array([[np.cos(np.pi / 6), -np.sin(np.pi / 6), 0.0],
+                                [np.sin(np.pi / 6), np.cos(np.pi / 6), 0.0], [0.0, 0.0, 1.0]])
+
+
+def after_harmonic_turn():
+    """The cage (already moved by HARMONIC_SHIFT) turned and scaled: every mesh vertex
+    lands where that affine map of the cage, seen from the mesh, puts it."""
+    mesh, cage = mesh_and_cage()
+    to_mesh = np.linalg.inv(np.array(mesh.matrix_world)) @ np.array(cage.matrix_world)
+    cage_now = arrays.read_positions(cage.data).astype(np.float64)
+    cage_before = (cage_now - cage_now.mean(axis=0)) @ np.linalg.inv(HARMONIC_TURN).T + cage_now.mean(axis=0)
+    centre = cage_before.mean(axis=0)
+    affine = np.eye(4)
+    affine[:3, :3], affine[:3, 3] = HARMONIC_TURN, centre - HARMONIC_TURN @ centre
+    in_mesh = to_mesh @ affine @ np.linalg.inv(to_mesh)  # the map, in the mesh's space
+    shifted = arrays.read_positions(mesh.data).astype(np.float64) + HARMONIC_SHIFT
+    expected = shifted @ in_mesh[:3, :3].T + in_mesh[:3, 3]
+    evaluated = arrays.evaluated_positions(mesh).astype(np.float64)
+    size = float(np.linalg.norm(np.ptp(cage_now, axis=0)))
+    error = float(np.linalg.norm(evaluated - expected, axis=1).max()) / size
+    check("the mesh follows a turned and scaled cage with harmonic coordinates (linear precision)",
+          error < 1e-5, f"largest error {error:.1e} of the cage's size")
+    shots.shoot('VIEW_3D', "harmonic_turned")
 
 
 STEPS = [open_bound, edit_cage, delete_cage, after_delete, after_undo, after_rebind,
          search_bake, run_bake, confirm_bake, after_bake, after_bake_undo,
          edit_vertices, click_vertex, delete_vertex, pick_vertices, leave_edit_mode,
          after_auto_rebind, green_rebind, after_green_bind, after_green_stretch,
-         harmonic_rebind, after_harmonic_bind, after_harmonic_move]
+         harmonic_rebind, after_harmonic_bind, after_harmonic_move, after_harmonic_turn]
 
 
 def run_next_step():
