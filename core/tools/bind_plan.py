@@ -19,6 +19,7 @@ whose deviations stay under ``AUTO_DEVIATION``, before compact storage (:func:`e
 :func:`reproduce` know each storage).
 """
 
+import threading
 from dataclasses import dataclass, replace
 from typing import Callable, Optional
 
@@ -72,6 +73,8 @@ BIND_RESOLUTION = 48
 # sparse storage drops those below about 1e-4, so 1e-10 (the core's default) would buy
 # nothing; this takes 7 conjugate-gradient iterations on the character against 12.
 BIND_SOLVER_TOLERANCE = 1e-6
+# While a long computation runs beside the caller, how often it hears of its progress.
+POLL_SECONDS = 0.05
 SPARSE_SIZE = 16  # sparse storage's pairs per vertex when asked for
 
 
@@ -91,6 +94,48 @@ class ImpreciseCoordinatesError(ValueError):
 
 def _in_this_process(compute, workers):
     return compute(workers)
+
+
+class _Cancelled(Exception):
+    """Raised in a computation's progress callback once its Bind was cancelled."""
+
+
+def _beside(compute, share):
+    """``compute(progress)`` in a thread beside the caller: a generator yielding the
+    fraction done (``share`` of it at the end) every POLL_SECONDS while it runs, and
+    returning its result (or raising its error).
+
+    One call that takes long (the harmonic solve: half a minute at a million vertices)
+    thus lets a modal Bind show progress and take Esc between the yields: closing the
+    generator makes the next progress call raise, and waits for the thread to end. The
+    core is numpy only, whose large operations release the interpreter lock."""
+    state = {"fraction": 0.0, "cancelled": False}
+
+    def progress(fraction):
+        if state["cancelled"]:
+            raise _Cancelled
+        state["fraction"] = fraction
+
+    def run():
+        try:
+            state["result"] = compute(progress)
+        except BaseException as error:  # re-raised in the caller
+            state["error"] = error
+
+    thread = threading.Thread(target=run, name="gencoords-bind", daemon=True)
+    thread.start()
+    try:
+        while thread.is_alive():
+            thread.join(POLL_SECONDS)
+            if thread.is_alive():
+                yield share * state["fraction"]
+    finally:
+        if thread.is_alive():  # closed early: a cancel
+            state["cancelled"] = True
+            thread.join()
+    if "error" in state:
+        raise state["error"]
+    return state["result"]
 
 
 @dataclass(frozen=True)
@@ -574,9 +619,9 @@ def _plan(points, cage, request):
     workers = cage.suggested_workers(count) if request.workers is None else request.workers
     field = None
     if request.harmonic:  # solved once, on the grid; the points look it up
-        field = request.run(lambda count: harmonic_field(
+        field = yield from _beside(lambda progress: request.run(lambda count: harmonic_field(
             cage.vertices, cage.faces, resolution=request.resolution, tolerance=request.tolerance,
-            workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers)
+            progress=progress, workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers), 0.5)
         yield 0.5
         if request.storage in ('AUTO', 'SPARSE'):
             plan = _plan_two_level(points, cage, request, field)

@@ -92,3 +92,25 @@ def test_esc_while_writing_leaves_everything_as_it_was(gc, monkeypatch):
     update()
     np.testing.assert_allclose(evaluated_positions(obj), 1.5 * np.array([v.co[:] for v in obj.data.vertices]),
                                atol=1e-5)
+
+
+def test_esc_during_the_harmonic_solve_stops_it_and_changes_nothing(gc, monkeypatch):
+    """The harmonic grid's solve (one long call: half a minute at a million vertices)
+    runs beside the modal Bind, which shows its progress and takes Esc meanwhile."""
+    import threading
+
+    obj, cage = bound(gc)
+    key, attributes = gc.binding.binding(obj).key, sorted(a.name for a in obj.data.attributes)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "POLL_SECONDS", 0.005)
+    obj.gencoords.kind, obj.gencoords.resolution = 'HARMONIC', 64
+    running, context = modal_rebind(gc, obj, monkeypatch)
+    progress = []
+    monkeypatch.setattr(context.window_manager, "progress_update", progress.append, raising=False)
+    while not any(fraction > 0.0 for fraction in progress):  # timer events: the solve reports
+        assert running.modal(context, SimpleNamespace(type='TIMER')) == {'RUNNING_MODAL'}
+        assert not running._job.writing
+    # Reported from inside the solve: below what the grid's end reports (half the plan).
+    assert 0.0 < max(progress) < 0.5 * gc.service.COMPUTING
+    assert running.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
+    assert not any(thread.name == "gencoords-bind" for thread in threading.enumerate())
+    assert gc.binding.binding(obj).key == key and sorted(a.name for a in obj.data.attributes) == attributes

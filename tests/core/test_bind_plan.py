@@ -232,4 +232,30 @@ def test_harmonic_plans_two_levels_by_default_positive_and_local():
     hand = character.cage_limb_vertices(cage_vertices, "left_arm")
     others = np.isin(labels, ("right_arm", "left_leg", "right_leg", "head"))
     assert coordinates[np.ix_(others, hand)].max() < 1e-5
-    assert fractions[-1] == 1.0 or fractions == [0.5]
+    assert fractions[-1] in (0.5, 1.0) and fractions == sorted(fractions)  # the solve's progress, then the layout
+
+
+def test_the_harmonic_solve_reports_progress_and_closing_the_plan_stops_it(monkeypatch):
+    """The solve runs beside the plan's generator, which yields its progress meanwhile (a
+    modal Bind's progress bar and Esc); closing the generator (Esc) ends it."""
+    import threading
+
+    monkeypatch.setattr(bind_plan, "POLL_SECONDS", 0.005)
+    vertices, faces = icosphere(1)
+    points = 0.5 * vertices[:20]
+    request = BindRequest("harmonic", resolution=32, workers=1)
+    fractions, plan = run(plan_bind(points, vertices, faces, request))
+    during = [f for f in fractions if 0.0 < f < 0.5]
+    assert len(during) >= 2 and during == sorted(during) and plan.linear_precision < 1e-6
+    steps = plan_bind(points, vertices, faces, request)
+    while next(steps) == 0.0:  # until the solve has begun reporting
+        pass
+    steps.close()
+    assert not any(thread.name == "gencoords-bind" for thread in threading.enumerate())
+    # A failure in the solve reaches the caller.
+    def failing(*args, **kwargs):
+        raise gencoords.CageError("bad_faces", "a failure in the solve")
+
+    monkeypatch.setattr(bind_plan, "harmonic_field", failing)
+    with pytest.raises(gencoords.CageError, match="a failure in the solve"):
+        run(plan_bind(points, vertices, faces, request))
