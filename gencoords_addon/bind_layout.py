@@ -25,6 +25,7 @@ from typing import Mapping, Optional
 FORMAT = 3  # bind data layout; data of another number read as "Bind again"
 READABLE_FORMATS = (2,)  # earlier layouts read as this one (they are a part of it)
 METADATA = "gencoords"  # ID property of the binding's node group
+BAKE_INFO = "gencoords_bake"  # ID property of a baked rig's armature: the bake's figures
 ATTRIBUTE_PREFIX = ".gencoords_"  # a leading dot keeps them out of the attribute lists
 # Slot attributes an Unbind in progress has taken away (hidden: the leading dot).
 PARKED_PREFIX = ".unbinding"

@@ -78,8 +78,8 @@ def worker_fallback():
 def follows_twice(mesh, cage, modifier, rig):
     """What to say when a bound mesh also follows its cage through an armature whose
     bones follow the cage's vertices (a rig baked from it)."""
-    return (f"'{mesh}' also follows '{cage}' through the armature '{rig}' (modifier "
-            f"'{modifier}'), so it now moves twice as far: remove that modifier, or Unbind")
+    return (f"'{mesh}' also follows '{cage}' through the armature '{rig}' baked from it "
+            f"(modifier '{modifier}'), so it now moves twice: remove that modifier, or Unbind")
 
 
 def gamma_words(gamma):

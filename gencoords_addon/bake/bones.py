@@ -20,13 +20,14 @@ import bpy
 import numpy as np
 
 from ...core.tools import compact, skinning
+from .. import bind_layout
 from ..bind import bindings as bindings_module
 from ..blender_io import compat, mesh_arrays, mesh_io
 from ..enums import is_green, kind_label
 from ..errors import BakeError
 
 BONE_PREFIX = "GenCoords "
-BAKE_INFO = "gencoords_bake"  # ID property of the rig's armature: the bake's figures
+BAKE_INFO = bind_layout.BAKE_INFO  # the rig's armature's ID property: the bake's figures
 # Bones on their cage vertices (float32 positions, constraint evaluation), per cage diagonal.
 FOLLOW_TOLERANCE = 1e-5
 

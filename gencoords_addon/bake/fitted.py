@@ -194,7 +194,7 @@ def _write(obj, context, found, fit, rest, sampled, frames):
         found.modifier.show_viewport = False  # measure the rig alone
         played = sample_deformation(obj, context, frames, skin)
         gaps = np.linalg.norm(played - sampled, axis=2) / max(diagonal, 1e-300)
-        figures = {"mode": "FITTED", "worst": float(gaps.max()),
+        figures = {"mode": "FITTED", "cage": found.cage.name, "worst": float(gaps.max()),
                    "rms": float(np.sqrt(np.mean(gaps ** 2))), "frames": [int(frames[0]), int(frames[-1])],
                    "bones": len(names), "max_influences": int(fit.indices.shape[1])}
         bindings_module.remove(obj, [found])

@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from ..blender_io import compat, mesh_arrays, mesh_io
-from ..bind_layout import METADATA, BindData
+from ..bind_layout import BAKE_INFO, METADATA, BindData
 from ..graph import deformer, helpers, sparse
 from . import attributes
 
@@ -164,17 +164,20 @@ def drives(obj, cage):
 
 
 def armatures_following(obj, cage):
-    """The enabled Armature modifiers of ``obj`` whose armature has a bone following one
-    of ``cage``'s vertices (a Copy Location onto it: a rig baked from that cage), as
-    (modifier name, armature object name) pairs: the mesh already moves with the cage
-    through them, so a binding to the same cage moves it twice."""
+    """The enabled Armature modifiers of ``obj`` whose armature was baked from ``cage``:
+    a bone follows one of its vertices (a Copy Location onto it), or Bake to Bones'
+    Fitted mode recorded it. As (modifier name, armature object name) pairs: the mesh
+    already moves with the cage (or replays its baked motion) through them, so a binding
+    to the same cage moves it twice."""
     found = []
     for modifier in obj.modifiers:
         rig = modifier.object if modifier.type == 'ARMATURE' else None
         if rig is None or not modifier.show_viewport or rig.pose is None:
             continue
-        if any(constraint.type == 'COPY_LOCATION' and constraint.target == cage
-               for bone in rig.pose.bones for constraint in bone.constraints):
+        baked = rig.data.get(BAKE_INFO)
+        if (baked is not None and "cage" in baked and baked["cage"] == cage.name) or any(
+                constraint.type == 'COPY_LOCATION' and constraint.target == cage
+                for bone in rig.pose.bones for constraint in bone.constraints):
             found.append((modifier.name, rig.name))
     return found
 

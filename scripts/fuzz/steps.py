@@ -36,7 +36,7 @@ class CaseState:
     def __init__(self, roles, folder):
         self.roles = dict(roles)
         self.pristine = {}
-        self.reshaped = set()  # cages whose topology a step changed: their baked rigs no longer fit
+        self.reshaped = set()  # objects whose topology a step changed: their baked rigs no longer fit
         self.made_for = {}  # made cage -> (mesh name, signature of both when it was made)
         self.folder = Path(folder)
 
@@ -105,22 +105,27 @@ def drivers_of(obj):
 
 def rig_cages(obj):
     """The cages the rigs of ``obj``'s Armature modifiers follow (Bake to Bones' rigs)."""
-    found = []
-    for modifier in obj.modifiers:
-        rig = getattr(modifier, "object", None) if modifier.type == 'ARMATURE' else None
-        if rig is not None and rig.pose is not None:
-            targets = [c.target for b in rig.pose.bones for c in b.constraints if c.type == RIG_CONSTRAINT]
-            if targets and targets[0] is not None:
-                found.append(targets[0])
-    return found
+    return [cage for modifier in obj.modifiers if modifier.type == 'ARMATURE' for cage in rig_cages_of(modifier)]
+
+
+def rig_cages_of(modifier):
+    """The cage an Armature modifier's rig follows ([cage] or [])."""
+    rig = modifier.object
+    if rig is None or rig.pose is None:
+        return []
+    targets = [c.target for b in rig.pose.bones for c in b.constraints if c.type == RIG_CONSTRAINT]
+    return [targets[0]] if targets and targets[0] is not None else []
 
 
 def follows_exactly(obj, reshaped=()):
     """Whether ``obj`` moves exactly as its drivers do: not when a rig it is baked to
-    follows a cage whose topology a step changed since (``reshaped``, names). Such a rig
-    still follows that cage (its bones' vertex groups travel with a subdivision, and an
-    emptied group leaves the bone on the cage's origin), but no longer as the binding did."""
-    return not any(cage.name in reshaped for cage in rig_cages(obj))
+    follows a cage whose topology a step changed since (``reshaped``, names), or when
+    its own topology changed since. Such a rig still follows that cage (its bones' vertex
+    groups travel with a subdivision, and an emptied group leaves the bone on the cage's
+    origin), but no longer as the binding did; a vertex added to the mesh has no weight
+    and stays (as in any Blender skin)."""
+    cages = rig_cages(obj)
+    return not any(cage.name in reshaped for cage in cages) and not (cages and obj.name in reshaped)
 
 
 def single_followers(cage, reshaped=()):
@@ -141,7 +146,11 @@ def translates(obj):
     with translations and its transform is not flat (a zero scale, set after Bind, keeps
     the mesh on a plane whatever the cage does)."""
     columns = np.linalg.norm(np.array(obj.matrix_world, dtype=np.float64)[:3, :3], axis=0)
-    return {m.type for m in obj.modifiers} <= TRANSLATION_SAFE and columns.min() > 1e-6 * columns.max()
+    # An armature commutes with translations only when its bones just translate: Bake to
+    # Bones' rigs that follow the cage; a Fitted rig's keyframed bones turn.
+    armatures_translate = all(rig_cages_of(m) for m in obj.modifiers if m.type == 'ARMATURE')
+    return ({m.type for m in obj.modifiers} <= TRANSLATION_SAFE and armatures_translate
+            and columns.min() > 1e-6 * columns.max())
 
 
 def _data_shared_with(obj):
@@ -294,6 +303,7 @@ def _change_topology(obj, change):
 
 def mesh_topology(state, step):
     target = state.get(step["target"])
+    state.reshaped.add(target.name)
     _forget_pristine(state, target)
     _change_topology(target, step["change"])
     return "done"

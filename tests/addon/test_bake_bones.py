@@ -559,24 +559,28 @@ def test_the_exported_glb_animates_and_skins_like_blender(gc, tmp_path, influenc
     np.testing.assert_allclose(skinned, expected[match], atol=tolerance)
 
 
-def test_binding_again_to_the_cage_of_a_baked_rig_warns_that_the_mesh_moves_twice(gc, capfd):
-    """Fuzz seed 2180: Bake to Bones, then Bind to the same cage again: the rig and the
-    binding both move the mesh with the cage. Bind says so, naming the modifier."""
+@pytest.mark.parametrize("mode", ["FOLLOW", "FITTED"])
+def test_binding_again_to_the_cage_of_a_baked_rig_warns_that_the_mesh_moves_twice(gc, capfd, mode):
+    """Fuzz seeds 2180 and 5090: Bake to Bones, then Bind to the same cage again: the rig
+    (following the cage, or replaying its baked motion) and the binding both move the
+    mesh. Bind says so, naming the modifier."""
     cage = add_icosphere_cage()
     obj = add_sphere()
     bind(obj, cage)
     make_active(obj)
-    assert bpy.ops.object.gencoords_bake_bones() == {'FINISHED'}
+    options = {} if mode == "FOLLOW" else {"mode": 'FITTED', "bones": 4, "frame_start": 1, "frame_end": 2}
+    assert bpy.ops.object.gencoords_bake_bones(**options) == {'FINISHED'}
     capfd.readouterr()
     rest_cage = read_positions(cage.data).copy()
     assert bind(obj, cage) == {'FINISHED'}
     out = capfd.readouterr().out
     assert "Warning: Bound 'Mesh'" in out
-    assert "also follows 'Cage' through the armature 'Mesh cage rig' (modifier 'Armature')" in out
-    # What the warning is about: a translated cage moves the mesh twice as far.
-    rest = world_positions(obj)
-    write_positions(cage.data, rest_cage + np.float32(0.1))
-    np.testing.assert_allclose(world_positions(obj) - rest, 0.2, atol=1e-4)
+    rig = "Mesh cage rig" if mode == "FOLLOW" else "Mesh fitted rig"
+    assert f"also follows 'Cage' through the armature '{rig}' baked from it (modifier 'Armature')" in out
+    if mode == "FOLLOW":  # what the warning is about: a translated cage moves the mesh twice as far
+        rest = world_positions(obj)
+        write_positions(cage.data, rest_cage + np.float32(0.1))
+        np.testing.assert_allclose(world_positions(obj) - rest, 0.2, atol=1e-4)
     # A mesh with no such rig binds without it.
     other, other_cage = add_sphere(), add_icosphere_cage()
     capfd.readouterr()
