@@ -189,8 +189,7 @@ class HarmonicField:
         """
         nodes, weights, cut, columns, values = self.sparse_rows(points, outside)
         result = np.zeros((len(nodes), len(self.vertices)), dtype=dtype)
-        for corner in range(8):
-            result[~cut] += weights[~cut, corner, None] * self.node_coordinates[nodes[~cut, corner]]
+        result[~cut] = self._mixed(nodes[~cut], weights[~cut])
         rows = np.zeros((len(columns), len(self.vertices)), dtype=dtype)
         np.put_along_axis(rows, columns, values, axis=1)
         result[cut] = rows
@@ -253,17 +252,17 @@ class HarmonicField:
         """
         local = self._prepared.local(points)
         rows = self._mixed(nodes, weights)
-        columns, values, residual = self._placing(rows, local, count)
+        columns, values, residual = placing_largest(rows, count, self._prepared.vertices, local)
         short = np.flatnonzero(residual > self._exact)
         if len(short):
             rows = self._along_the_normal(local[short], rows[short])
-            columns[short], values[short], residual[short] = self._placing(rows, local[short], count)
+            columns[short], values[short], residual[short] = placing_largest(rows, count, self._prepared.vertices, local[short])
         shorter = residual[short] > self._exact
         if shorter.any():  # near an edge or corner of the cage: the nearest exact node widens the prior
             short, rows = short[shorter], rows[shorter]
             nearest, _ = _nearest_exact_nodes(self._grid, self._ids, self.node_exact, local[short])
             rows += _WIDENING * self.node_coordinates[nearest]
-            columns[short], values[short], _ = self._placing(rows, local[short], count)
+            columns[short], values[short], _ = placing_largest(rows, count, self._prepared.vertices, local[short])
         return columns, values
 
     def _mixed(self, nodes, weights):
@@ -272,11 +271,6 @@ class HarmonicField:
         for corner in range(8):
             rows += weights[:, corner, None] * self.node_coordinates[nodes[:, corner]]
         return rows
-
-    def _placing(self, rows, local, count):
-        """``count`` largest of ``rows`` reweighted to place ``local``: (columns, values,
-        residual in frame units)."""
-        return placing_largest(rows, count, self._prepared.vertices, local)
 
     def _along_the_normal(self, local, rows):
         """Priors that span points near the cage ((c, 3), frame units): ``(1 - t) hat(p)
