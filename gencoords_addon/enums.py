@@ -40,7 +40,7 @@ STORAGE_ITEMS = (
     ("SPARSE", "Sparse",
      "Each vertex's largest coordinates as (cage vertex, weight) pairs summing to 1: "
      "translations exact, fast for local coordinates (Harmonic: pairs per grid node, each "
-     "vertex its grid cell's 8 nodes); the panel shows the deviation"),
+     "vertex interpolated from 4 grid nodes); the panel shows the deviation"),
 )
 
 

@@ -2,8 +2,9 @@
 
 Modules, bottom up: ``grid`` (cubic cells fitted to the cage's box, inside nodes),
 ``boundary_values`` (the cage's hat values at nodes outside it, and where grid edges
-cross it), ``multigrid`` (the Laplace solver), ``solve`` (every cage vertex's
-Shortley-Weller problem), ``interpolation`` (trilinear lookup), ``reproduction``
+cross it), ``elimination`` and ``multigrid`` (the Laplace solvers: direct by slabs,
+iterative), ``solve`` (every cage vertex's Shortley-Weller problem), ``interpolation``
+(piecewise-linear lookup, 4 nodes a point), ``reproduction``
 (weights reweighted to place their points exactly), ``field`` (the public
 :class:`HarmonicField`).
 """

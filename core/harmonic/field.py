@@ -1,5 +1,5 @@
 """Harmonic coordinates of a closed triangle cage, solved once on a grid, evaluated at any
-points by trilinear interpolation (docs/MATH.md, "Harmonic coordinates")."""
+points by piecewise-linear interpolation (docs/MATH.md, "Harmonic coordinates")."""
 
 import numpy as np
 
@@ -9,7 +9,7 @@ from ..construction.boundary import winding_numbers
 from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 from .boundary_values import nearest_boundary_points
 from .grid import fit_grid, inside_nodes, node_positions, surface_cells
-from .interpolation import CORNERS, cell_of, trilinear
+from .interpolation import CORNERS, cell_of, tetrahedron
 from .reproduction import placing_largest, reproduce_points
 from .solve import NEAREST_CROSSING, SOLVER_TOLERANCE, boundary_rhs, solve_nodes
 
@@ -49,7 +49,8 @@ def _cells_with_a_corner(nodes):
 
 class HarmonicField:
     """Harmonic coordinates solved on a grid: the grid nodes' coordinates, and any
-    point's as the trilinear interpolation of its cell's 8 nodes'.
+    point's interpolated from 4 of its cell's nodes' (the tetrahedron of the cell's
+    Freudenthal triangulation that holds it: :mod:`.interpolation`).
 
     Made by :func:`gencoords.harmonic_field`. The nodes kept are the corners of the
     cells that hold some of the cage's inside (every point inside or on the cage lies
@@ -83,9 +84,9 @@ class HarmonicField:
         Whether each node's coordinates place it exactly (``sum_j w_j R_j`` is the node):
         the solved nodes (the solve is exact for linear functions; a reweighting after it
         removes the solver's and the nearest crossings' rounding: :mod:`.reproduction`),
-        and the outside nodes the reweighting reaches. A point whose
-        cell's 8 corners are all exact is placed exactly by their interpolation; the
-        others are reweighted themselves (:meth:`cut_pairs`).
+        and the outside nodes the reweighting reaches. A point whose 4 interpolating
+        nodes are all exact is placed exactly by their interpolation; the others are
+        reweighted themselves (:meth:`cut_pairs`).
     convergence : list of float
         The solver's largest relative residual after each iteration (docs/MATH.md).
 
@@ -97,7 +98,7 @@ class HarmonicField:
     >>> field = gencoords.harmonic_field(corners, triangles, resolution=16)
     >>> nodes, weights = field.interpolation([[0.2, 0.2, 0.2]])
     >>> nodes.shape, bool(np.isclose(weights.sum(), 1.0))
-    ((1, 8), True)
+    ((1, 4), True)
     >>> print(field.coordinates([[0.2, 0.2, 0.2]]).round(1))
     [[0.4 0.2 0.2 0.2]]
     """
@@ -124,7 +125,8 @@ class HarmonicField:
 
     @checked
     def interpolation(self, points, outside="raise"):
-        """Each point's cell's 8 nodes and their trilinear weights.
+        """Each point's 4 interpolating nodes (:func:`.interpolation.tetrahedron`) and
+        their weights.
 
         Parameters
         ----------
@@ -136,10 +138,10 @@ class HarmonicField:
 
         Returns
         -------
-        nodes : (k, 8) int
+        nodes : (k, 4) int
             Rows of :attr:`node_coordinates` / :attr:`node_positions`.
-        weights : (k, 8) float
-            Non-negative, each row summing to 1: ``coordinates = sum over the 8 of
+        weights : (k, 4) float
+            Non-negative, each row summing to 1: ``coordinates = sum over the 4 of
             weights * node_coordinates[nodes]``.
 
         Examples
@@ -165,7 +167,7 @@ class HarmonicField:
         return local
 
     def _interpolation(self, local):
-        corners, weights = trilinear(self._grid, local)
+        corners, weights = tetrahedron(self._grid, local)
         nodes = self._ids[tuple(corners.transpose(2, 0, 1))]
         if (nodes < 0).any():  # every cell holding a point inside or on the cage is kept
             raise RuntimeError("a point inside the cage fell in a cell without nodes")
@@ -197,7 +199,7 @@ class HarmonicField:
 
     @checked
     def sparse_rows(self, points, outside="raise"):
-        """Points' coordinates in two parts: interpolated from their cell's 8 nodes where
+        """Points' coordinates in two parts: interpolated from their 4 nodes where
         those place themselves exactly, else their own sparse pairs (:meth:`cut_pairs`).
 
         Parameters
@@ -208,7 +210,7 @@ class HarmonicField:
 
         Returns
         -------
-        nodes, weights : (k, 8) int and float
+        nodes, weights : (k, 4) int and float
             :meth:`interpolation`.
         cut : (k,) bool
             The points whose coordinates are their own pairs, not the interpolation.
@@ -222,8 +224,8 @@ class HarmonicField:
         return (nodes, weights, cut) + self.cut_pairs(placed, nodes[cut], weights[cut])
 
     def cut(self, nodes):
-        """Whether each point's cell has a corner that does not place itself exactly (a
-        cell at the cage): (k,) bool, from :meth:`interpolation`'s ``nodes`` (k, 8)."""
+        """Whether one of each point's interpolating nodes does not place itself exactly
+        (a cell at the cage): (k,) bool, from :meth:`interpolation`'s ``nodes`` (k, 4)."""
         return ~self.node_exact[nodes].all(axis=1)
 
     def cut_pairs(self, points, nodes, weights, count=CUT_SUPPORT):
@@ -239,7 +241,7 @@ class HarmonicField:
         ----------
         points : (c, 3) float
             Inside or on the cage (world units).
-        nodes, weights : (c, 8) int and float
+        nodes, weights : (c, 4) int and float
             Their :meth:`interpolation`.
         count : int
 
@@ -266,9 +268,9 @@ class HarmonicField:
         return columns, values
 
     def _mixed(self, nodes, weights):
-        """The trilinear mix of the nodes' coordinates: (c, n) float64."""
+        """The interpolation of the nodes' coordinates: (c, n) float64."""
         rows = np.zeros((len(nodes), len(self.vertices)))
-        for corner in range(8):
+        for corner in range(nodes.shape[1]):
             rows += weights[:, corner, None] * self.node_coordinates[nodes[:, corner]]
         return rows
 
@@ -451,7 +453,7 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     Returns
     -------
     field : HarmonicField
-        The grid nodes' coordinates, and any point's by trilinear interpolation.
+        The grid nodes' coordinates, and any point's by piecewise-linear interpolation.
 
     Raises
     ------

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["STEPS", "Level", "build_levels", "apply_matrix", "v_cycle", "solve"]
+__all__ = ["STEPS", "Level", "level_of", "build_levels", "apply_matrix", "v_cycle", "solve"]
 
 _COARSEST = 700  # unknowns solved with a dense inverse
 _JACOBI_WEIGHT = 6.0 / 7.0  # the best smoothing factor (5/7) for the 3D 7-point stencil
@@ -100,15 +100,21 @@ def _transfer(fine_mask, coarse_ids, coarse_count):
     return groups
 
 
+def level_of(mask, scale=1.0, diagonal=None):
+    """The matrix of the unknowns ``mask`` (x, y, z bool), ``scale`` times the 7-point
+    stencil with ``diagonal`` (u,) where it is not 6, as a Level (for :func:`apply_matrix`)."""
+    level = Level(int(np.count_nonzero(mask)), _neighbours(mask, _indices(mask)), scale)
+    if diagonal is not None:
+        level.diagonal = np.append(np.asarray(diagonal, dtype=np.float64), 1.0)[:, None]
+    return level
+
+
 def build_levels(mask, diagonal=None):
     """The multigrid hierarchy of the unknowns ``mask`` (x, y, z bool), the finest
     level's ``diagonal`` (u,) where it is not 6: list of Level, finest first."""
     levels, scale = [], 1.0
     while True:
-        ids = _indices(mask)
-        level = Level(int(np.count_nonzero(mask)), _neighbours(mask, ids), scale)
-        if diagonal is not None and not levels:
-            level.diagonal = np.append(np.asarray(diagonal, dtype=np.float64), 1.0)[:, None]
+        level = level_of(mask, scale, None if levels else diagonal)
         levels.append(level)
         if level.count <= _COARSEST or min(mask.shape) < 3:
             break

@@ -18,7 +18,7 @@ __all__ = ["reproduce_points", "placing_largest"]
 
 _ITERATIONS = 40
 _CONVERGED = 1e-14  # of each point's span: the mean offset Newton stops at
-_CHUNK_ENTRIES = 1 << 21  # (point, weight) entries per batch: bounded memory
+_CHUNK_ENTRIES = 1 << 16  # (point, weight) entries per batch: bounded memory (a few MB)
 
 
 def _newton(prior, offsets, iterations):

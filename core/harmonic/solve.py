@@ -18,8 +18,9 @@ from ..base.errors import WorkerError
 from ..evaluation.parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead,
                                    dispatch_units, python_executable)
 from .boundary_values import segment_crossings
+from .elimination import elimination_plan, factorise, slab_axis
 from .grid import node_positions
-from .multigrid import STEPS, build_levels, solve
+from .multigrid import STEPS, apply_matrix, build_levels, level_of, solve
 
 __all__ = ["SOLVER_TOLERANCE", "NEAREST_CROSSING", "boundary_rhs", "solve_nodes", "solve_columns_task", "worker_count"]
 
@@ -34,6 +35,7 @@ _BLOCK_ENTRIES = 1 << 21
 # pairs: about a second of work in one process, against about 0.2 s to start each.
 _PAIRS_PER_WORKER = 1 << 21
 _MAX_ITERATIONS = 200
+_CHECKED_COLUMNS = 16  # an elimination's residual is measured on about this many columns
 _levels_cache = {}  # a worker's hierarchy, built once per solve
 _STEPS = np.array(STEPS)
 # Inside nodes nearer the cage than this fraction of a cell are Dirichlet nodes (their
@@ -162,7 +164,7 @@ def _solve_in_workers(vertices, faces, inside, rhs, column_count, count, block, 
     return shared.arrays["result"], max(histories, key=len)
 
 
-def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, workers=None):
+def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, workers=None, method=None):
     """Harmonic coordinates of the inside nodes.
 
     Parameters
@@ -174,13 +176,19 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
     cage : (vertices (n, 3), faces (m, 3))
         The cage (its n columns; the workers are started with it).
     tolerance : float
-        Relative residual per column.
+        Relative residual per column (the iterative solver's; elimination is exact).
     progress : callable, optional
-        ``progress(fraction)`` as columns are solved; an exception from it stops the
+        ``progress(fraction)`` as the solve advances; an exception from it stops the
         solve (and the workers).
     workers : int or None
-        Processes (:func:`worker_count`); the columns are solved in the same blocks
-        whatever the number, so the result is the same.
+        Processes for the iterative solver (:func:`worker_count`); the columns are solved
+        in the same blocks whatever the number, so the result is the same. Elimination
+        runs here (its matrix products use the cores already).
+    method : str or None
+        ``"elimination"`` (:mod:`.elimination`: direct, by slabs), ``"multigrid"``
+        (:mod:`.multigrid`: conjugate gradients), or None: elimination wherever it is the
+        cheaper (:func:`.elimination.elimination_plan`: a body and limbs; not a fine grid
+        in a volumetric cage).
 
     Returns
     -------
@@ -188,10 +196,16 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
         Non-negative, rows summing to 1.
     history : list of float
         The largest relative residual after each conjugate-gradient iteration, of the
-        block that needed most.
+        block that needed most (elimination: 1 and the residual it leaves).
     """
     rhs, diagonal = rhs
     column_count = len(cage[0])
+    if method is None:
+        axis = elimination_plan(inside, column_count)
+    else:
+        axis = slab_axis(inside, column_count)[0] if method == "elimination" else None
+    if axis is not None:
+        return _eliminated(inside, rhs, diagonal, column_count, axis, progress)
     count = int(np.count_nonzero(inside))
     block = _block_size(count, column_count)
     chosen = worker_count(workers, count, column_count)
@@ -213,6 +227,24 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
         result[:, start:stop] = solution.T
         history = max(history, reductions, key=len)
     return _normalised(result), history
+
+
+def _eliminated(inside, rhs, diagonal, column_count, axis, progress):
+    """:func:`solve_nodes` by slab elimination: ((u, n) coordinates, [1, relative residual])."""
+    rows, columns, values = rhs
+    count = int(np.count_nonzero(inside))
+    right = np.zeros((count + 1, column_count))
+    np.add.at(right, (rows, columns), values)
+    half = None if progress is None else (lambda fraction: progress(0.5 * fraction))
+    factors = factorise(inside, diagonal, axis, half)
+    solution = np.zeros_like(right)
+    solution[:-1] = factors.solve(right[:-1], None if progress is None else (lambda f: progress(0.5 + 0.5 * f)))
+    # The residual it leaves, checked on a few columns (rounding: about 1e-15).
+    checked = slice(None, None, max(1, column_count // _CHECKED_COLUMNS))
+    residual = apply_matrix(level_of(inside, diagonal=diagonal), solution[:, checked]) - right[:, checked]
+    norms = np.linalg.norm(right[:, checked], axis=0)
+    relative = np.linalg.norm(residual, axis=0) / np.where(norms > 0, norms, 1.0)
+    return _normalised(solution[:-1]), [1.0, float(relative.max(initial=0.0))]
 
 
 def _normalised(result):

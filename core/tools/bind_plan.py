@@ -12,7 +12,7 @@ deviations were measured on every vertex), each a :class:`StorageChoice`.
 
 Harmonic coordinates are solved once on a grid (``gencoords.harmonic_field``) and looked
 up (:func:`_solve`); in sparse storage, their default, they are written in two levels
-(:func:`_plan_two_level`: each vertex its grid cell's 8 nodes, each node its own pairs over
+(:func:`_plan_two_level`: each vertex its 4 interpolating grid nodes, each node its own pairs over
 the cage, ``tools.sparse.two_level_layout``). Sparse storage of any other kind keeps each
 vertex's K largest coordinates (``tools.sparse``): Automatic chooses it, with the fewest K
 whose deviations stay under ``AUTO_DEVIATION``, before compact storage (:func:`encode` and
@@ -667,38 +667,40 @@ def _report(request, cage, field=None):
 
 
 def _plan_two_level(points, cage, request, field):
-    """Harmonic coordinates in sparse storage, two levels: each point its grid cell's 8
-    nodes and trilinear weights, each node its fewest pairs over the cage that keep the
+    """Harmonic coordinates in sparse storage, two levels: each point its 4 interpolating
+    grid nodes and their weights, each node its fewest pairs over the cage that keep the
     deviations under AUTO_DEVIATION (Automatic; Sparse: ``request.sparse_size``). A point
     in a cell at the cage (``field.cut``) is a node of its own: its pairs place it
     exactly, which the cell's nodes cannot. None where there would be more nodes than
     points (per point pairs do better)."""
-    corners, trilinear, cut, columns, values = field.sparse_rows(points, outside=request.outside)
+    corners, corner_weights, cut, columns, values = field.sparse_rows(points, outside=request.outside)
     used, local = sparse.used_nodes(corners[~cut])
     if len(used) + len(columns) > len(points):
         return None
     node_rows = np.vstack([field.node_coordinates[used], sparse.dense_weights(columns, values, len(cage.vertices))])
     corners = np.empty(corners.shape, dtype=np.int32)
     corners[~cut], corners[cut] = local, len(used) + np.arange(len(columns), dtype=np.int32)[:, None]
-    trilinear[cut] = np.eye(1, 8)
+    corner_weights[cut] = np.eye(1, corners.shape[1])
     automatic = request.storage == 'AUTO'
-    counts = sparse.NODE_SLOT_COUNTS if automatic else (request.sparse_size,)
-    layout = sparse.two_level_layout(node_rows, corners, trilinear, cage.vertices, AUTO_DEVIATION, counts)
+    # Automatic fills the stored columns (free accuracy); Sparse keeps the count asked for.
+    counts = (sparse.filled_node_slot_counts(sparse.NODE_SLOT_COUNTS, len(points), len(node_rows), len(cage.vertices))
+              if automatic else (request.sparse_size,))
+    layout = sparse.two_level_layout(node_rows, corners, corner_weights, cage.vertices, AUTO_DEVIATION, counts)
     deviation = max(layout.deviation_smooth, layout.deviation_drag)
-    reason = (f"{'Automatic: s' if automatic else 'S'}parse in two levels, each vertex its grid cell's 8 nodes "
+    reason = (f"{'Automatic: s' if automatic else 'S'}parse in two levels, each vertex its {corners.shape[1]} interpolating grid nodes "
               f"(its own node at the cage), each node its {layout.node_slot_count} largest coordinates (deviation "
               f"{short_number(deviation)} {'<' if deviation < AUTO_DEVIATION else '>'} "
               f"{short_number(AUTO_DEVIATION, 1)})")
     node_sums = layout.node_weights.astype(np.float64).sum(axis=1)
-    point_sums = (layout.trilinear.astype(np.float64) * node_sums[layout.corners]).sum(axis=1)
+    point_sums = (layout.corner_weights.astype(np.float64) * node_sums[layout.corners]).sum(axis=1)
     every_column = layout.node_slot_count >= len(cage.vertices)
     locations = _locations(request, cage, points)
     # Where the stored weights place each point: the nodes' places, interpolated.
     node_places = np.einsum("nk,nkc->nc", layout.node_weights.astype(np.float64), cage.vertices[layout.node_indices])
-    miss = np.linalg.norm(sparse.interpolated(node_places, layout.corners, layout.trilinear) - points, axis=1)
+    miss = np.linalg.norm(sparse.interpolated(node_places, layout.corners, layout.corner_weights) - points, axis=1)
     placed = miss if request.outside != 'project' else miss[locations != OUTSIDE]
     return BindPlan(
-        'SPARSE', layout.trilinear, None, locations, reason, _report(request, cage, field),
+        'SPARSE', layout.corner_weights, None, locations, reason, _report(request, cage, field),
         min_coordinate=float(layout.node_weights.min()) if every_column else 0.0, negative_points=0,
         max_affine_error=float(np.abs(point_sums - 1.0).max(initial=0.0)),
         linear_precision=float(placed.max(initial=0.0) / np.linalg.norm(np.ptp(cage.vertices, axis=0))),

@@ -8,9 +8,9 @@ sparse storage keeps the K largest (by magnitude) and divides them by their sum,
 stored weights still sum to 1 and translations of the cage stay exact. Evaluating costs K
 gathers per point whatever the cage (``gencoords_addon/sparse_graph.py``).
 
-Two levels (harmonic coordinates: trilinear interpolations of grid-node values): the
-grid nodes a point's cell touches carry their own sparse pairs over the cage, and each
-point keeps its cell's 8 nodes with their trilinear weights. The truncation then happens
+Two levels (harmonic coordinates: interpolations of grid-node values): the grid nodes
+that interpolate the points carry their own sparse pairs over the cage, and each point
+keeps its corner nodes (4: ``gencoords.harmonic.interpolation``) with their weights. The truncation then happens
 at the nodes only, and a node can keep many pairs cheaply: the N nodes are few beside the
 k points. Their pairs are stored stacked (:func:`stacked_columns`) in columns as long as
 the points, so they take about N x K' numbers each, not k x K'.
@@ -31,7 +31,8 @@ from ..harmonic.reproduction import reproduce_points
 from . import compact
 
 __all__ = ["largest_pairs", "placed_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
-           "stacked_columns", "unstacked", "layout_coordinates", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS"]
+           "stacked_columns", "unstacked", "layout_coordinates", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS",
+           "filled_node_slot_counts"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
@@ -41,7 +42,8 @@ SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
 SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
 # The worst drag's columns are computed this many at a time (reweighted pairs leave bounds
 # alike, so many are), over this many points at a time (bounded memory).
-_DRAG_COLUMNS, _DRAG_POINTS = 32, 1 << 15
+_DRAG_COLUMNS, _DRAG_POINTS = 32, 1 << 13
+_PAIR_ROWS = 4096  # rows ranked at a time (memory: a few (rows, n) temporaries)
 
 
 def largest_pairs(coordinates, count):
@@ -70,10 +72,12 @@ def largest_pairs(coordinates, count):
     """
     coordinates = np.asarray(coordinates, dtype=np.float64)
     count = min(int(count), coordinates.shape[1])
-    magnitude = np.abs(coordinates)
-    kept = np.argpartition(-magnitude, count - 1, axis=1)[:, :count]
-    order = np.argsort(-np.take_along_axis(magnitude, kept, axis=1), axis=1, kind="stable")
-    indices = np.take_along_axis(kept, order, axis=1)
+    indices = np.empty((len(coordinates), count), dtype=np.int64)
+    for start in range(0, len(coordinates), _PAIR_ROWS):  # bounded temporaries
+        magnitude = -np.abs(coordinates[start:start + _PAIR_ROWS])
+        kept = np.argpartition(magnitude, count - 1, axis=1)[:, :count]
+        order = np.argsort(np.take_along_axis(magnitude, kept, axis=1), axis=1, kind="stable")
+        indices[start:start + _PAIR_ROWS] = np.take_along_axis(kept, order, axis=1)
     values = np.take_along_axis(coordinates, indices, axis=1)
     total = values.sum(axis=1, keepdims=True)
     # A row whose kept values cancel (never for non-negative coordinates) keeps them as
@@ -120,7 +124,7 @@ def placed_pairs(coordinates, count, rest):
     positive = np.flatnonzero((weights >= 0.0).all(axis=1))
     if count < coordinates.shape[1] and len(positive):
         weights[positive] = reproduce_points(indices[positive], weights[positive], rest,
-                                             coordinates[positive] @ rest)[0]
+                                             (coordinates @ rest)[positive])[0]
     return indices, weights
 
 
@@ -139,17 +143,17 @@ def dense_weights(indices, weights, column_count):
     return dense
 
 
-def interpolated(values, corners, trilinear):
-    """Rows interpolated from node rows: ``sum_c trilinear[:, c] * values[corners[:, c]]``.
+def interpolated(values, corners, corner_weights):
+    """Rows interpolated from node rows: ``sum_c corner_weights[:, c] * values[corners[:, c]]``.
 
     Parameters
     ----------
     values : (N, n) float
         Per grid node.
-    corners : (k, 8) int
-        Each point's cell corners (rows of ``values``).
-    trilinear : (k, 8) float
-        Their trilinear weights.
+    corners : (k, c) int
+        Each point's corner nodes (rows of ``values``).
+    corner_weights : (k, c) float
+        Their interpolation weights.
 
     Returns
     -------
@@ -164,9 +168,12 @@ def interpolated(values, corners, trilinear):
     1.0
     """
     values = np.asarray(values, dtype=np.float64)
+    corners, corner_weights = np.asarray(corners), np.asarray(corner_weights, dtype=np.float64)
     result = np.zeros((len(corners), values.shape[1]))
-    for c in range(np.shape(corners)[1]):
-        result += np.asarray(trilinear, dtype=np.float64)[:, c, None] * values[np.asarray(corners)[:, c]]
+    term = np.empty_like(result)
+    for c in range(corners.shape[1]):
+        np.multiply(np.take(values, corners[:, c], axis=0), corner_weights[:, c, None], out=term)
+        result += term
     return result
 
 
@@ -182,7 +189,7 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
     rest : (n, 3) float
         The cage at rest.
     interpolation : ((p, 8) int, (p, 8) float), optional
-        The points' cell corners (rows of ``coordinates``) and trilinear weights: the
+        The points' corner nodes (rows of ``coordinates``) and their weights: the
         deviations are then those of the p points.
 
     Returns
@@ -206,8 +213,9 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
     >>> float(drag) < 1e-15
     True
     """
-    coordinates = np.asarray(coordinates, dtype=np.float64)
-    residual = coordinates - dense_weights(indices, weights, coordinates.shape[1])
+    residual = np.array(coordinates, dtype=np.float64)  # minus the pairs, in place (no dense copy)
+    rows = np.arange(len(residual))[:, None]
+    residual[rows, indices] -= np.asarray(weights, dtype=np.float64)
     if interpolation is None:
         smooth, drag = compact.residual_deviations(residual, rest)
         if len(drag) == 0:
@@ -216,21 +224,23 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
     return _interpolated_deviations(residual, *interpolation, rest)
 
 
-def _interpolated_deviations(residual, corners, trilinear, rest):
+def _interpolated_deviations(residual, corners, corner_weights, rest):
     """``deviations`` of the points interpolated from node ``residual`` ((N, n)) without
     the (k, n) point residual: the smooth motion is linear (interpolate the nodes' moves),
     and a dragged vertex j deviates ``DRAG_FRACTION * max_i |point residual_ij|``, bounded
-    by the nodes' largest ``|residual_aj|`` (the trilinear weights are a convex
+    by the nodes' largest ``|residual_aj|`` (the corner weights are a convex
     combination): exact columns are computed, a batch at a time, in decreasing bound order
     until no bound can beat the worst found, so the largest and where it is are exact."""
     rest = np.asarray(rest, dtype=np.float64)
     diagonal = np.linalg.norm(np.ptp(rest, axis=0))
     if len(corners) == 0 or residual.shape[1] == 0:
         return 0.0, 0.0, 0
-    moves = interpolated(residual @ (compact.smooth_test_motion(rest) - rest), corners, trilinear)
+    moves = interpolated(residual @ (compact.smooth_test_motion(rest) - rest), corners, corner_weights)
     smooth = float(np.linalg.norm(moves, axis=1).max() / diagonal)
     used = np.unique(np.asarray(corners))
-    bounds = np.abs(residual[used]).max(axis=0)
+    bounds = np.zeros(residual.shape[1])
+    for start in range(0, len(used), _PAIR_ROWS):  # no (N, n) temporary
+        np.maximum(bounds, np.abs(residual[used[start:start + _PAIR_ROWS]]).max(axis=0), out=bounds)
     worst, worst_column = -1.0, 0
     order = np.argsort(-bounds)
     for start in range(0, len(order), _DRAG_COLUMNS):
@@ -240,7 +250,7 @@ def _interpolated_deviations(residual, corners, trilinear, rest):
         largest = np.zeros(len(batch))
         for first in range(0, len(corners), _DRAG_POINTS):
             rows = slice(first, first + _DRAG_POINTS)
-            part = interpolated(residual[:, batch], corners[rows], trilinear[rows])
+            part = interpolated(residual[:, batch], corners[rows], corner_weights[rows])
             np.maximum(largest, np.abs(part).max(axis=0), out=largest)
         best = int(np.argmax(largest))
         if largest[best] > worst:
@@ -256,7 +266,7 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     ----------
     coordinates : (k, n) float
         Exact coordinates of sample points; with ``interpolation``, of the grid nodes
-        ((N, n)), the points' coordinates being their trilinear interpolation.
+        ((N, n)), the points' coordinates being their interpolation.
     rest : (n, 3) float
         The cage at rest.
     target : float
@@ -264,7 +274,7 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     counts : increasing sequence of int
         Candidate K.
     interpolation : ((k, 8) int, (k, 8) float), optional
-        The points' cell corners and trilinear weights (two-level layout).
+        The points' corner nodes and weights (two-level layout).
 
     Returns
     -------
@@ -296,18 +306,18 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
 
 
 def used_nodes(corners):
-    """The grid nodes the points' cells use, and the corners renumbered into them.
+    """The grid nodes that interpolate the points, and the corners renumbered into them.
 
     Parameters
     ----------
-    corners : (k, 8) int
-        Each point's cell corners (rows of a grid's nodes).
+    corners : (k, c) int
+        Each point's corner nodes (rows of a grid's nodes).
 
     Returns
     -------
     used : (N,) int
         Sorted node rows.
-    local : (k, 8) int32
+    local : (k, c) int32
         ``corners`` as rows of ``used``.
 
     Examples
@@ -320,6 +330,35 @@ def used_nodes(corners):
     """
     used, local = np.unique(np.asarray(corners), return_inverse=True)
     return used, local.reshape(np.shape(corners)).astype(np.int32)
+
+
+def filled_node_slot_counts(counts, point_count, node_count, column_count, per_vector=3):
+    """Candidate K' rounded up to fill whole stacked columns (:func:`stacked_columns` of
+    ``per_vector`` slots to a stored vector): the deformer's cost grows with the columns,
+    not the slots, so a column's spare slots are free accuracy.
+
+    Parameters
+    ----------
+    counts : increasing sequence of int
+        Candidate K'.
+    point_count, node_count : int
+        The column length (the mesh's vertex count) and N.
+    column_count : int
+        The cage's vertex count n (no node keeps more pairs).
+
+    Returns
+    -------
+    tuple of int
+        Increasing, distinct, each a whole number of columns or n.
+
+    Examples
+    --------
+    >>> from gencoords.tools.sparse import filled_node_slot_counts
+    >>> filled_node_slot_counts((8, 16, 24, 48), 1000, 140, 200)  # 7 vectors, 21 slots a column
+    (21, 42, 63)
+    """
+    per_column = per_vector * max(1, point_count // max(1, node_count))
+    return tuple(sorted({min(-(-count // per_column) * per_column, column_count) for count in counts}))
 
 
 def stacked_columns(values, row_count):
@@ -413,10 +452,11 @@ class TwoLevelLayout:
 
     Attributes
     ----------
-    corners : (k, 8) int32
-        Each point's cell corners, as rows of the N nodes kept.
-    trilinear : (k, 8) float32
-        Their trilinear weights.
+    corners : (k, c) int32
+        Each point's corner nodes (c = 4: ``gencoords.harmonic.interpolation``), as
+        rows of the N nodes kept.
+    corner_weights : (k, c) float32
+        Their interpolation weights.
     node_indices : (N, K') int32
         Each node's cage vertices, largest weight first.
     node_weights : (N, K') float32
@@ -432,7 +472,7 @@ class TwoLevelLayout:
     --------
     >>> import numpy as np
     >>> from gencoords.tools.sparse import TwoLevelLayout
-    >>> one_node = TwoLevelLayout(np.zeros((1, 8), np.int32), np.full((1, 8), 0.125, np.float32),
+    >>> one_node = TwoLevelLayout(np.zeros((1, 4), np.int32), np.full((1, 4), 0.25, np.float32),
     ...                           np.zeros((1, 4), np.int32), np.full((1, 4), 0.25, np.float32),
     ...                           0.0, 0.0, 0)
     >>> one_node.node_count, one_node.node_slot_count
@@ -440,7 +480,7 @@ class TwoLevelLayout:
     """
 
     corners: np.ndarray
-    trilinear: np.ndarray
+    corner_weights: np.ndarray
     node_indices: np.ndarray
     node_weights: np.ndarray
     deviation_smooth: float
@@ -457,7 +497,7 @@ class TwoLevelLayout:
         return self.node_indices.shape[1]
 
 
-def two_level_layout(node_coordinates, corners, trilinear, rest, target, counts=NODE_SLOT_COUNTS):
+def two_level_layout(node_coordinates, corners, corner_weights, rest, target, counts=NODE_SLOT_COUNTS):
     """The two-level sparse layout of points interpolated from nodes: the nodes with the
     fewest pairs each (of ``counts``: :func:`placed_pairs`) whose deviations stay under
     ``target`` (chosen on a sample of the points, measured on all).
@@ -465,13 +505,13 @@ def two_level_layout(node_coordinates, corners, trilinear, rest, target, counts=
     Parameters
     ----------
     node_coordinates : (N, n) float
-        The nodes' coordinates (rows summing to 1): the grid nodes the points' cells use
-        (:func:`used_nodes`), and any point's own row where it is not interpolated (its
-        corners all that row, its first trilinear weight 1).
-    corners : (k, 8) int
-        Each point's cell corners (rows of ``node_coordinates``).
-    trilinear : (k, 8) float
-        Their trilinear weights.
+        The nodes' coordinates (rows summing to 1): the grid nodes that interpolate the
+        points (:func:`used_nodes`), and any point's own row where it is not
+        interpolated (its corners all that row, its first corner weight 1).
+    corners : (k, c) int
+        Each point's corner nodes (rows of ``node_coordinates``).
+    corner_weights : (k, c) float
+        Their interpolation weights.
     rest : (n, 3) float
         The cage at rest.
     target : float
@@ -490,25 +530,25 @@ def two_level_layout(node_coordinates, corners, trilinear, rest, target, counts=
     >>> from gencoords.tools.shapes import octahedron
     >>> vertices, _ = octahedron()
     >>> nodes = np.random.default_rng(0).dirichlet(np.ones(6), 16)
-    >>> corners = np.arange(16).reshape(2, 8)
-    >>> layout = two_level_layout(nodes, corners, np.full((2, 8), 0.125), vertices, 1e-3, counts=(2, 6))
+    >>> corners = np.arange(8).reshape(2, 4)
+    >>> layout = two_level_layout(nodes[:8], corners, np.full((2, 4), 0.25), vertices, 1e-3, counts=(2, 6))
     >>> layout.node_count, layout.node_slot_count, layout.deviation_drag < 1e-6
-    (16, 6, True)
+    (8, 6, True)
     """
     nodes = np.asarray(node_coordinates, dtype=np.float64)
     corners = np.asarray(corners, dtype=np.int32)
-    trilinear = np.asarray(trilinear, dtype=np.float32)
+    corner_weights = np.asarray(corner_weights, dtype=np.float32)
     sample = slice(None, None, max(1, len(corners) // SAMPLE_POINTS))
     sampled, sample_corners = used_nodes(corners[sample])  # only the sample's nodes are paired
     count, _, _ = fewest_slots(nodes[sampled], rest, target * SAMPLE_MARGIN, counts,
-                               interpolation=(sample_corners, trilinear[sample]))
+                               interpolation=(sample_corners, corner_weights[sample]))
     reason = None
     if count is None:
         count = counts[-1]
     indices, weights = placed_pairs(nodes, count, rest)
     weights = weights.astype(np.float32)
-    smooth, drag, vertex = deviations(nodes, indices, weights, rest, (corners, trilinear))
+    smooth, drag, vertex = deviations(nodes, indices, weights, rest, (corners, corner_weights))
     if max(smooth, drag) >= target:
         reason = (f"{count} pairs per grid node deviate {max(smooth, drag):.1e} of the cage's "
                   f"diagonal (more than {target:.0e})")
-    return TwoLevelLayout(corners, trilinear, indices, weights, smooth, drag, vertex, reason)
+    return TwoLevelLayout(corners, corner_weights, indices, weights, smooth, drag, vertex, reason)

@@ -17,14 +17,14 @@ Geometry Nodes routes play back within 10 % of each other, about 0.8x Mesh Defor
 CPU time at K = 16 on the 43k-vertex character; the Armature modifier 1.4x, and never
 bitwise at rest).
 
-Two-level layout (harmonic coordinates, which are trilinear interpolations of grid-node
-values): the N grid nodes the mesh's cells touch carry their own pairs over the cage (K'
-of them, three to a vector attribute, stacked in columns as long as the mesh:
+Two-level layout (harmonic coordinates, which are interpolations of grid-node values):
+the N grid nodes the mesh's vertices are interpolated from carry their own pairs over the
+cage (K' of them, three to a vector attribute, stacked in columns as long as the mesh:
 ``write_node_pairs``; three to a vector cut the node stage's time by a fifth, where the
 mesh vertices' own pairs are faster one to an attribute); the group makes a
 point cloud of the N nodes, stores each one's displacement ``sum_j w'_aj (C - R)`` on it,
-then each mesh vertex gathers its cell's 8 nodes with its trilinear weights (8 slots,
-whatever the cage; indices into the cloud).
+then each mesh vertex gathers its 4 nodes with its interpolation weights (4 slots,
+whatever the cage; indices into the cloud: ``gencoords.harmonic.interpolation``).
 
 At rest ``C == R`` bitwise (the rest cage is read back through the group's own Object
 Info node), every gathered displacement is exactly 0 and the mesh is unchanged bitwise.
@@ -213,7 +213,7 @@ def build_sparse_group(name, key, rest_cage, mesh_vertex_count, slot_count,
     mesh_vertex_count : int
         k (another count passes the mesh through).
     slot_count : int
-        K: the pairs per mesh vertex (8 in the two-level layout: its cell's corners).
+        K: the pairs per mesh vertex (4 in the two-level layout: its interpolating nodes).
     node_count : int
         Two-level layout: N <= k, the grid nodes the mesh's cells touch (the mesh
         vertices' indices are nodes); 0 for the direct layout (they are cage vertices).

@@ -34,7 +34,7 @@ def _storage_words(data):
         return f"{storage}, {data.slot_count} per vertex"
     if not data.node_count:
         return f"{storage}, {data.slot_count} pairs per vertex"
-    return (f"{storage} in two levels, each vertex its grid cell's {data.slot_count} nodes, "
+    return (f"{storage} in two levels, each vertex interpolated from {data.slot_count} grid nodes, "
             f"{data.node_count} nodes of {data.node_slot_count} pairs")
 
 

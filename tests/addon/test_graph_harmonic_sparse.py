@@ -220,10 +220,10 @@ def test_a_hidden_cage_drives_and_auto_rebind_binds_harmonic_again(gc):
     cage = add_icosphere_cage(subdivisions=2)
     obj = add_sphere()
     obj.gencoords.auto_rebind = True
-    assert bind(obj, cage, resolution=16) == {'FINISHED'}
+    assert bind(obj, cage, resolution=32) == {'FINISHED'}
     subdivide_in_edit_mode(obj)  # Auto Rebind binds again, with the same settings
     data = gc.binding.binding(obj).data
-    assert (data.kind, data.resolution) == ("harmonic", 16)
+    assert (data.kind, data.resolution) == ("harmonic", 32)
     assert data.mesh_vertex_count == len(obj.data.vertices)
     # A few hundred vertices use more grid nodes than they are: exact storage, and why.
     assert data.storage == 'EXACT' and "fewer than the grid nodes" in data.storage_choice

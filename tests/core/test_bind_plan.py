@@ -217,7 +217,7 @@ def test_harmonic_plans_two_levels_by_default_positive_and_local():
     points, _, labels = character.body_mesh(0.2)
     request = BindRequest("harmonic", resolution=24, workers=1)
     fractions, plan = run(plan_bind(points, cage_vertices, triangles, request))
-    assert plan.storage == 'SPARSE' and plan.slot_count == 8 and 0 < plan.node_count <= len(points)
+    assert plan.storage == 'SPARSE' and plan.slot_count == 4 and 0 < plan.node_count <= len(points)
     assert plan.storage_choice.startswith("Automatic: sparse in two levels")
     assert max(plan.deviation_smooth, plan.deviation_drag) < bind_plan.AUTO_DEVIATION
     assert (plan.node_weights >= 0).all() and (plan.slots >= 0).all() and plan.negative_points == 0

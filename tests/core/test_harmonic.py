@@ -5,8 +5,9 @@ import pytest
 
 import gencoords
 from gencoords.harmonic.boundary_values import nearest_boundary_points
+from gencoords.harmonic import elimination
 from gencoords.harmonic.multigrid import build_levels, solve
-from gencoords.harmonic.solve import NEAREST_CROSSING
+from gencoords.harmonic.solve import NEAREST_CROSSING, solve_nodes
 from gencoords.tools.shapes import block_cage, t_pose_blocks
 from gencoords.tools.skinning import reproduce_points, top_k, truncate
 
@@ -56,7 +57,7 @@ def test_points_are_their_cells_trilinear_mix_of_node_coordinates_or_their_own_p
     occupied, vertices, _, field = t_pose
     points = points_in(occupied, 500, seed=1)
     nodes, weights = field.interpolation(points)
-    assert nodes.shape == weights.shape == (len(points), 8) and weights.min() >= 0.0
+    assert nodes.shape == weights.shape == (len(points), 4) and weights.min() >= 0.0
     # The nodes are the corners of the points' cells: trilinear weights reproduce the points.
     np.testing.assert_allclose(np.einsum("kc,kcN->kN", weights, field.node_positions[nodes]), points,
                                rtol=0, atol=1e-12)
@@ -137,10 +138,14 @@ def scipy_solution(field):
     return linalg.spsolve(matrix, rhs), unknown
 
 
+@pytest.mark.parametrize("solver", ["elimination", "multigrid"])
 @pytest.mark.parametrize("occupied", [np.ones((2, 1, 1), dtype=bool), t_pose_blocks()], ids=["bar", "t_pose"])
-def test_the_multigrid_solution_is_the_discrete_systems_as_scipy_solves_it(occupied):
+def test_the_solution_is_the_discrete_systems_as_scipy_solves_it(occupied, solver, monkeypatch):
+    if solver == "multigrid":  # the iterative solver wherever it is offered
+        monkeypatch.setattr(elimination, "MULTIGRID_FLOPS_PER_PAIR", 0)
     vertices, triangles = cage_of(occupied)
     field = gencoords.harmonic_field(vertices, triangles, resolution=20)
+    assert (len(field.convergence) == 2) == (solver == "elimination")  # no iterations
     reference, unknown = scipy_solution(field)
     assert reference.min() > -1e-14  # the discrete maximum principle, independently
     # The field keeps the solution reweighted to place each node (docs/MATH.md).
@@ -153,8 +158,48 @@ def test_the_multigrid_solution_is_the_discrete_systems_as_scipy_solves_it(occup
     np.testing.assert_allclose(field.node_coordinates[unknown], placed, rtol=0, atol=1e-8)
 
 
-def test_each_conjugate_gradient_iteration_reduces_the_residual_tenfold(t_pose):
-    history = t_pose[3].convergence
+def t_pose_system(resolution):
+    """The Shortley-Weller system of the T-pose cage, as ``harmonic_field`` builds it."""
+    vertices, triangles = cage_of(t_pose_blocks())
+    captured = {}
+
+    def spy(inside, rhs, cage, *args, **kwargs):
+        captured.update(inside=inside, rhs=rhs, cage=cage)
+        return solve_nodes(inside, rhs, cage, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(gencoords.harmonic.field, "solve_nodes", spy)
+        gencoords.harmonic_field(vertices, triangles, resolution=resolution)
+    return captured["inside"], captured["rhs"], captured["cage"]
+
+
+def test_slab_elimination_and_multigrid_agree_along_every_axis():
+    inside, rhs, cage = t_pose_system(24)
+    iterative, history = solve_nodes(inside, rhs, cage, 1e-12, method="multigrid", workers=1)
+    reduction = (history[-1] / history[0]) ** (1.0 / (len(history) - 1))
+    assert history[-1] < 1e-12 and len(history) <= 16 and reduction < 0.2, history
+    right = np.zeros((int(inside.sum()), len(cage[0])))
+    np.add.at(right, rhs[0][:2], rhs[0][2])
+    for axis in range(3):
+        direct = elimination.factorise(inside, rhs[1], axis).solve(right)
+        assert direct.min() > -1e-15  # the discrete maximum principle, to rounding
+        np.testing.assert_allclose(direct, iterative, rtol=0, atol=1e-10)
+
+
+def test_elimination_is_chosen_for_limbs_and_multigrid_for_a_fine_solid_block():
+    inside, _, _ = t_pose_system(48)
+    assert elimination.elimination_plan(inside, 50) is not None
+    solid = np.zeros((82, 82, 82), dtype=bool)
+    solid[1:-1, 1:-1, 1:-1] = True  # 80 x 80 slabs: 6,400 cubed per slab
+    assert elimination.elimination_plan(solid, 8) is None
+    axis, _, _ = elimination.slab_axis(np.pad(np.ones((30, 3, 10), dtype=bool), 1), 8)
+    assert axis == 0  # the most slabs, each the smallest
+
+
+def test_each_conjugate_gradient_iteration_reduces_the_residual_tenfold(t_pose, monkeypatch):
+    monkeypatch.setattr(elimination, "MULTIGRID_FLOPS_PER_PAIR", 0)
+    _, vertices, triangles, _ = t_pose
+    history = gencoords.harmonic_field(vertices, triangles, resolution=32).convergence
     assert history[-1] < 1e-10 and len(history) <= 16
     reduction = (history[-1] / history[0]) ** (1.0 / (len(history) - 1))
     assert reduction < 0.2, history
