@@ -7,13 +7,18 @@ of an outside point (``outside="project"``).
 
 import numpy as np
 
+from ..base.grid import fit_grid, inside_nodes, surface_cells
 from ..base.simplex import closest_points_on_simplices
 
-__all__ = ["INSIDE", "BOUNDARY", "OUTSIDE", "plane_distances", "locate",
-           "winding_numbers", "plane_limit_coordinates", "nearest_boundary_coordinates"]
+__all__ = ["INSIDE", "BOUNDARY", "OUTSIDE", "plane_distances", "locate", "winding_numbers", "inside_lookup",
+           "inside_by_grid", "inside_points", "plane_limit_coordinates", "nearest_boundary_coordinates"]
 
 INSIDE, BOUNDARY, OUTSIDE = 1, 0, -1
 _PAIR_CHUNK = 1 << 16  # (point, facet) pairs per closest-point batch: bounded memory
+_WINDING_PAIRS = 1 << 16  # (point, facet) pairs per winding-number batch: about 20 temporaries of 0.5 MB
+# Cells along the longest side of the grid points are looked up in before winding numbers
+# (:func:`inside_lookup`): points in cells the surface does not cross need none.
+LOOKUP_RESOLUTION = 128
 
 
 def plane_distances(cage, facet_det):
@@ -66,6 +71,72 @@ def winding_numbers(cage, points):
     denominator = (la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (ax * cx + ay * cy + az * cz) * lb
                    + (bx * cx + by * cy + bz * cz) * la)
     return (2.0 * np.arctan2(triple, denominator)).sum(axis=1) / (4.0 * np.pi)
+
+
+def inside_lookup(cage, resolution=LOOKUP_RESOLUTION):
+    """A grid over a 3D cage's box for :func:`inside_by_grid`: (grid, cell_inside, surface).
+
+    Parameters
+    ----------
+    cage : PreparedCage
+    resolution : int
+        Cells along the box's longest side.
+
+    Returns
+    -------
+    grid : gencoords.base.grid.Grid
+        In the cage's frame.
+    cell_inside : (x, y, z) bool over cells
+        Whether each cell's lowest node is inside (winding number 1, one ray per grid
+        column): the whole cell's status where the surface does not cross it.
+    surface : (x, y, z) bool over cells
+        Cells the surface may cross (conservative).
+    """
+    grid = fit_grid(cage.vertices, resolution)
+    corners = cage.facet_corners()
+    nodes = inside_nodes(grid, corners)
+    return grid, nodes[:-1, :-1, :-1], surface_cells(grid, corners, 1e-6 * grid.spacing)
+
+
+def inside_by_grid(cage, local, grid, cell_inside, surface):
+    """Whether points are inside a 3D cage (winding number >= 1/2), looked up on a grid.
+
+    A cell the surface does not cross is inside or outside whole, as its nodes are; the
+    points in the others get their winding numbers (:func:`winding_numbers`), a batch at
+    a time. The cost is thus that of the points near the surface, not of all.
+
+    Parameters
+    ----------
+    cage : PreparedCage
+    local : (k, 3) float
+        Points in the cage's frame (``cage.local``).
+    grid, cell_inside, surface
+        As :func:`inside_lookup` gives them (any grid in the frame covering the cage).
+
+    Returns
+    -------
+    inside : (k,) bool
+    crossed : (c,) int
+        The points that were in cells the surface may cross.
+    """
+    lowest = np.floor((local - grid.origin) / grid.spacing).astype(np.int64)
+    in_grid = ((lowest >= 0) & (lowest < np.array(grid.cells))).all(axis=1)
+    cell = tuple(lowest.clip(0, np.array(grid.cells) - 1).T)
+    inside = in_grid & cell_inside[cell]
+    crossed = np.flatnonzero(in_grid & surface[cell])
+    chunk = max(1, _WINDING_PAIRS // len(cage.topology.faces))
+    for start in range(0, len(crossed), chunk):
+        rows = crossed[start:start + chunk]
+        inside[rows] = winding_numbers(cage, local[rows] * cage.scale + cage.origin) >= 0.5
+    return inside, crossed
+
+
+def inside_points(cage, points):
+    """Whether each point is inside the cage (winding number >= 1/2): (k,) bool. 3D cages
+    look points up in their cached grid first (:func:`inside_by_grid`)."""
+    if cage.dimension != 3:
+        return winding_numbers(cage, points) >= 0.5
+    return inside_by_grid(cage, cage.local(points), *cage.inside_lookup)[0]
 
 
 def _nearest_of_pairs(cage, points, point_index, facet_index):
@@ -128,7 +199,7 @@ def locate(cage, points, plane_distance, tolerance, convex):
         location[depth < 0.0] = OUTSIDE
         candidates = np.flatnonzero(np.abs(depth) <= tolerance)
     else:
-        location[winding_numbers(cage, points) < 0.5] = OUTSIDE
+        location[~inside_points(cage, points)] = OUTSIDE
         candidates = np.arange(len(points))
     # Only facets whose hyperplane passes within tolerance can be touched.
     near_point, facet_index = np.nonzero(np.abs(plane_distance[candidates]) <= tolerance)

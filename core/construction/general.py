@@ -83,6 +83,13 @@ class PreparedCage:
         """Vertex positions of each facet (in the frame): (m, N, N) float."""
         return self.vertices[self.topology.faces]
 
+    @cached_property
+    def inside_lookup(self):
+        """The grid 3D points are located in before winding numbers
+        (:func:`gencoords.construction.boundary.inside_lookup`), built once per cage."""
+        from .boundary import inside_lookup  # boundary builds on this module
+        return inside_lookup(self)
+
     def local(self, points):
         """World points in the cage's frame: ``(points - origin) / scale``, (k, N) float.
 

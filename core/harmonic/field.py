@@ -5,18 +5,17 @@ import numpy as np
 
 from ..base.errors import CageError, OutsideCageError
 from ..base.inputs import checked
-from ..construction.boundary import winding_numbers
+from ..construction.boundary import inside_by_grid
 from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 from .boundary_values import nearest_boundary_points
-from .grid import fit_grid, inside_nodes, node_positions, surface_cells
-from .interpolation import CORNERS, cell_of, tetrahedron
+from ..base.grid import fit_grid, inside_nodes, node_positions, surface_cells
+from .interpolation import CORNERS, tetrahedron
 from .reproduction import placing_largest, reproduce_points
 from .solve import NEAREST_CROSSING, SOLVER_TOLERANCE, boundary_rhs, solve_nodes
 
 __all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]
 
 DEFAULT_RESOLUTION = 64
-_WINDING_PAIRS = 1 << 18  # (point, facet) pairs per winding-number batch
 # A point in a cell with a corner that does not place itself exactly keeps this many of
 # its largest interpolated coordinates, reweighted to place it (docs/MATH.md): the rest
 # weigh little (per-point sparse storage of 32 deviates 5e-5 of the diagonal on the
@@ -110,13 +109,13 @@ class HarmonicField:
         self.spacing = grid.spacing * prepared.scale
         self.shape = grid.shape
         self._ids, self._surface, self._tolerance = parts["ids"], parts["surface"], parts["tolerance"]
+        self._cell_inside = parts["cell_inside"]
         self.node_indices = parts["indices"]
         self.node_positions = node_positions(grid, self.node_indices) * prepared.scale + prepared.origin
         self.node_coordinates = parts["coordinates"]
         self.node_inside = parts["inside"]
         self.node_exact = parts["exact"]
         self._exact = parts["exact_within"]  # frame units
-        self._node_geometric = parts["geometric"]  # inside the cage
         self.convergence = parts["convergence"]
 
     def __repr__(self):
@@ -304,26 +303,13 @@ class HarmonicField:
 
     def _inside_or_on(self, local):
         """Whether each point (frame units) is inside the cage or within the tolerance of it."""
-        grid, cage = self._grid, self._prepared
-        lowest = np.floor((local - grid.origin) / grid.spacing)
-        in_grid = ((lowest >= 0) & (lowest < np.array(grid.cells))).all(axis=1)
-        cell = cell_of(grid, local)
-        # A cell the surface does not cross is inside or outside whole, as its nodes are.
-        result = in_grid & (self._ids[tuple(cell.T)] >= 0) & self._inside_nodes(cell)
-        crossed = np.flatnonzero(in_grid & self._surface[tuple(cell.T)])
-        chunk = max(1, _WINDING_PAIRS // len(cage.topology.faces))
-        for start in range(0, len(crossed), chunk):
-            rows = crossed[start:start + chunk]
-            result[rows] = winding_numbers(cage, local[rows] * cage.scale + cage.origin) >= 0.5
+        result, crossed = inside_by_grid(self._prepared, local, self._grid, self._cell_inside, self._surface)
         near = crossed[~result[crossed]]
         if len(near):
-            _, _, distance = nearest_boundary_points(local[near], cage.vertices, self.faces, self._tolerance)
+            _, _, distance = nearest_boundary_points(local[near], self._prepared.vertices, self.faces,
+                                                     self._tolerance)
             result[near] = distance <= self._tolerance
         return result
-
-    def _inside_nodes(self, cell):
-        ids = self._ids[tuple(cell.T)]
-        return np.where(ids >= 0, self._node_geometric[ids.clip(0)], False)
 
 
 def _grid_nodes(grid, corners, tolerance):
@@ -336,7 +322,7 @@ def _grid_nodes(grid, corners, tolerance):
     ids[kept] = np.arange(len(indices))
     near_surface = _cell_corners_any(surface)[kept]
     return dict(ids=ids, surface=surface, indices=indices, inside=inside[kept], near_surface=near_surface,
-                tolerance=tolerance)
+                tolerance=tolerance, cell_inside=inside[:-1, :-1, :-1])
 
 
 def _boundary_nodes(grid, parts, vertices, faces):
@@ -487,7 +473,7 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
     fixed = np.flatnonzero(~solved[measured])
     coordinates[measured[fixed, None], columns[fixed]] = values[fixed]
-    parts["coordinates"], parts["geometric"], parts["inside"] = coordinates, parts["inside"], solved
+    parts["coordinates"], parts["inside"] = coordinates, solved
     parts["exact_within"] = _EXACT * np.linalg.norm(np.ptp(local, axis=0))
     parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, grid,
                                       parts["ids"], parts["exact_within"])

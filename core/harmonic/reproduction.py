@@ -128,13 +128,14 @@ def reproduce_points(indices, weights, vertices, points, iterations=_ITERATIONS)
     """
     prior = np.asarray(weights, dtype=np.float64)
     vertices, points = np.asarray(vertices, dtype=np.float64), np.asarray(points, dtype=np.float64)
-    if indices is None:
-        return _newton_dense(prior, vertices, points, iterations)
-    indices = np.asarray(indices)
+    indices = None if indices is None else np.asarray(indices)
     result, residual = np.empty_like(prior), np.empty(len(prior))
     step = max(1, _CHUNK_ENTRIES // max(1, prior.shape[1]))
     for start in range(0, len(prior), step):
         batch = slice(start, start + step)
+        if indices is None:
+            result[batch], residual[batch] = _newton_dense(prior[batch], vertices, points[batch], iterations)
+            continue
         offsets = np.stack([vertices[indices[batch], axis] - points[batch, axis, None] for axis in range(3)])
         span = np.abs(offsets).max(axis=(0, 2))
         span = np.where(span > 0.0, span, 1.0)

@@ -624,9 +624,11 @@ def _plan(points, cage, request):
             progress=progress, workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers), 0.5)
         yield 0.5
         if request.storage in ('AUTO', 'SPARSE'):
-            plan = _plan_two_level(points, cage, request, field)
-            if plan is not None:
-                return plan
+            rows = _two_level_rows(points, request, field)
+            if rows is not None:
+                report = _report(request, cage, field)
+                del field  # its grid's coordinates are copied into the rows: memory for the layout
+                return _plan_two_level(points, cage, request, rows, report)
     choice = first_choice(request, count, cage.vertices, cage.faces)
     if field is not None and request.storage == 'AUTO' and choice.storage == 'EXACT':
         choice = replace(choice, reason=f"Automatic: exact ({count} vertices, fewer than the grid nodes their "
@@ -666,21 +668,38 @@ def _report(request, cage, field=None):
                              samples=REPORT_SAMPLES, tolerance=request.tolerance).headline
 
 
-def _plan_two_level(points, cage, request, field):
-    """Harmonic coordinates in sparse storage, two levels: each point its 4 interpolating
-    grid nodes and their weights, each node its fewest pairs over the cage that keep the
-    deviations under AUTO_DEVIATION (Automatic; Sparse: ``request.sparse_size``). A point
-    in a cell at the cage (``field.cut``) is a node of its own: its pairs place it
-    exactly, which the cell's nodes cannot. None where there would be more nodes than
-    points (per point pairs do better)."""
+def _two_level_rows(points, request, field):
+    """The two levels' rows: each point's 4 interpolating grid nodes and their weights,
+    and those nodes' coordinates; a point in a cell at the cage (``field.cut``) is a
+    node of its own, its corners all that node (its pairs place it exactly, which the
+    grid's nodes cannot). None where there would be more nodes than points (per point
+    pairs do better).
+
+    Returns
+    -------
+    corners : (k, 4) int32
+    corner_weights : (k, 4) float
+    node_rows : (N, n) float
+    """
     corners, corner_weights, cut, columns, values = field.sparse_rows(points, outside=request.outside)
     used, local = sparse.used_nodes(corners[~cut])
     if len(used) + len(columns) > len(points):
         return None
-    node_rows = np.vstack([field.node_coordinates[used], sparse.dense_weights(columns, values, len(cage.vertices))])
+    node_rows = np.empty((len(used) + len(columns), len(field.vertices)))
+    node_rows[:len(used)] = field.node_coordinates[used]
+    node_rows[len(used):] = 0.0
+    np.put_along_axis(node_rows[len(used):], columns, values, axis=1)
     corners = np.empty(corners.shape, dtype=np.int32)
     corners[~cut], corners[cut] = local, len(used) + np.arange(len(columns), dtype=np.int32)[:, None]
     corner_weights[cut] = np.eye(1, corners.shape[1])
+    return corners, corner_weights, node_rows
+
+
+def _plan_two_level(points, cage, request, rows, report):
+    """Harmonic coordinates in sparse storage, two levels (:func:`_two_level_rows`): each
+    node its fewest pairs over the cage that keep the deviations under AUTO_DEVIATION
+    (Automatic; Sparse: ``request.sparse_size``)."""
+    corners, corner_weights, node_rows = rows
     automatic = request.storage == 'AUTO'
     # Automatic fills the stored columns (free accuracy); Sparse keeps the count asked for.
     counts = (sparse.filled_node_slot_counts(sparse.NODE_SLOT_COUNTS, len(points), len(node_rows), len(cage.vertices))
@@ -700,7 +719,7 @@ def _plan_two_level(points, cage, request, field):
     miss = np.linalg.norm(sparse.interpolated(node_places, layout.corners, layout.corner_weights) - points, axis=1)
     placed = miss if request.outside != 'project' else miss[locations != OUTSIDE]
     return BindPlan(
-        'SPARSE', layout.corner_weights, None, locations, reason, _report(request, cage, field),
+        'SPARSE', layout.corner_weights, None, locations, reason, report,
         min_coordinate=float(layout.node_weights.min()) if every_column else 0.0, negative_points=0,
         max_affine_error=float(np.abs(point_sums - 1.0).max(initial=0.0)),
         linear_precision=float(placed.max(initial=0.0) / np.linalg.norm(np.ptp(cage.vertices, axis=0))),

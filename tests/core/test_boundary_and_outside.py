@@ -220,3 +220,22 @@ def test_beyond_a_sharp_vertex_within_tolerance_of_its_planes_is_still_outside(k
     assert gencoords.point_locations(beyond[None], vertices, faces, tolerance=tolerance)[0] == gencoords.OUTSIDE
     with pytest.raises(gencoords.OutsideCageError):
         gencoords.coordinates(beyond, vertices, faces, kind=kind, tolerance=tolerance)
+
+
+@pytest.mark.parametrize("resolution", [4, 16, 128])
+def test_points_looked_up_on_the_grid_are_inside_where_their_winding_number_says(resolution):
+    from gencoords.construction import boundary
+    from gencoords.construction.validation import validate_cage
+    from gencoords.tools.shapes import block_cage, t_pose_blocks
+
+    vertices, quads = block_cage(t_pose_blocks())  # non-convex: arms, legs, gaps between them
+    cage = validate_cage(vertices, gencoords.tools.triangulate_quads(vertices, quads), convex=False)
+    rng = np.random.default_rng(7)
+    low, high = vertices.min(axis=0) - 0.5, vertices.max(axis=0) + 0.5
+    points = np.vstack([rng.uniform(low, high, (4000, 3)),  # and points on the faces' planes:
+                        np.round(rng.uniform(low, high, (1000, 3)) * 2.0) / 2.0 + [0.0, 0.0, 1e-9]])
+    expected = boundary.winding_numbers(cage, points) >= 0.5
+    inside, crossed = boundary.inside_by_grid(cage, cage.local(points), *boundary.inside_lookup(cage, resolution))
+    np.testing.assert_array_equal(inside, expected)
+    assert 0 < len(crossed) < len(points)  # the others were decided by their cell alone
+    np.testing.assert_array_equal(boundary.inside_points(cage, points), expected)

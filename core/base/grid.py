@@ -1,4 +1,4 @@
-"""The grid harmonic coordinates are solved on: cubic cells fitted to the cage's box.
+"""A uniform grid of cubic cells fitted to a cage's box (harmonic coordinates are solved on it; point location looks points up in it).
 
 ``resolution`` cells span the box's longest side; the other sides get as many cells of
 the same size as they need (a thin limb is as finely sampled as a long one), plus one
