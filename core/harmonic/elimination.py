@@ -92,27 +92,31 @@ class SlabElimination:
     def solve(self, rhs, progress=None):
         """``A^-1 rhs`` for (u, c) ``rhs``: (u, c) float64, rows in the unknowns' order.
         ``progress(fraction)`` after each slab, both ways."""
-        bounds, inverses, links = self.bounds, self.inverses, self.links
-        forward = np.asarray(rhs, dtype=np.float64)[self.order]  # then S_i^-1 of the eliminated
-        slabs = len(inverses)
-        for i in range(slabs):
-            start, stop = bounds[i], bounds[i + 1]
-            here, before = links[i]
-            if len(here):  # -B_i w_(i-1): B_i selects with -1
-                forward[start + here] += forward[bounds[i - 1] + before]
-            forward[start:stop] = inverses[i] @ forward[start:stop]
-            if progress is not None:
-                progress(0.5 * (i + 1) / slabs)
-        solution = forward
-        for i in range(slabs - 2, -1, -1):
-            here, before = links[i + 1]
-            if len(here):  # x_i = w_i - S_i^-1 B_(i+1)^T x_(i+1)
-                solution[bounds[i]:bounds[i + 1]] += inverses[i][:, before] @ solution[bounds[i + 1] + here]
-            if progress is not None:
-                progress(0.5 + 0.5 * (slabs - i) / slabs)
+        solution = self.solve_in_slab_order(np.asarray(rhs, dtype=np.float64)[self.order], progress)
         result = np.empty_like(solution)
         result[self.order] = solution
         return result
+
+    def solve_in_slab_order(self, values, progress=None):
+        """:meth:`solve` for a (u, c) float64 right-hand side whose rows are in slab
+        order (``rhs[order]``), overwritten with the solution (slab order): no copy."""
+        bounds, inverses, links = self.bounds, self.inverses, self.links
+        slabs = len(inverses)
+        for i in range(slabs):  # forward: values become S_i^-1 of the eliminated right-hand side
+            start, stop = bounds[i], bounds[i + 1]
+            here, before = links[i]
+            if len(here):  # -B_i w_(i-1): B_i selects with -1
+                values[start + here] += values[bounds[i - 1] + before]
+            values[start:stop] = inverses[i] @ values[start:stop]
+            if progress is not None:
+                progress(0.5 * (i + 1) / slabs)
+        for i in range(slabs - 2, -1, -1):
+            here, before = links[i + 1]
+            if len(here):  # x_i = w_i - S_i^-1 B_(i+1)^T x_(i+1)
+                values[bounds[i]:bounds[i + 1]] += inverses[i][:, before] @ values[bounds[i + 1] + here]
+            if progress is not None:
+                progress(0.5 + 0.5 * (slabs - i) / slabs)
+        return values
 
 
 def factorise(inside, diagonal, axis, progress=None):

@@ -388,8 +388,11 @@ def _placing_exactly(coordinates, solved, positions, vertices, grid, ids, within
     others = np.flatnonzero(~solved)
     nearest, found = _nearest_exact_nodes(grid, ids, exact, positions[others])
     others, nearest = others[found], nearest[found]
-    columns, values, residual = placing_largest(coordinates[others] + _WIDENING * coordinates[nearest], CUT_SUPPORT,
-                                                vertices, positions[others], _WIDENED_ITERATIONS)
+    prior = coordinates[nearest]
+    prior *= _WIDENING
+    prior += coordinates[others]
+    columns, values, residual = placing_largest(prior, CUT_SUPPORT, vertices, positions[others], _WIDENED_ITERATIONS)
+    del prior
     reached = residual <= within
     rows = np.zeros((int(reached.sum()), len(vertices)))
     np.put_along_axis(rows, columns[reached], values[reached], axis=1)
@@ -471,6 +474,7 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
                                                progress=progress, workers=workers)
     coordinates = np.zeros((len(parts["indices"]), len(local)))
     coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
+    del result
     fixed = np.flatnonzero(~solved[measured])
     coordinates[measured[fixed, None], columns[fixed]] = values[fixed]
     parts["coordinates"], parts["inside"] = coordinates, solved

@@ -14,7 +14,7 @@ convex hull of the cage vertices the prior weighs.
 
 import numpy as np
 
-__all__ = ["reproduce_points", "placing_largest"]
+__all__ = ["reproduce_points", "placing_largest", "largest_columns"]
 
 _ITERATIONS = 40
 _CONVERGED = 1e-14  # of each point's span: the mean offset Newton stops at
@@ -160,7 +160,7 @@ def placing_largest(rows, count, vertices, points, iterations=_ITERATIONS):
     Returns
     -------
     columns : (p, K) int
-        K = min(count, n), in no particular order.
+        K = min(count, n), largest first.
     values : (p, K) float64
         Non-negative, rows summing to 1.
     residual : (p,) float
@@ -176,8 +176,41 @@ def placing_largest(rows, count, vertices, points, iterations=_ITERATIONS):
     ([0, 1, 2], True)
     """
     rows = np.asarray(rows, dtype=np.float64)
-    kept = min(int(count), rows.shape[1])
-    columns = np.argpartition(-rows, kept - 1, axis=1)[:, :kept]
+    columns = largest_columns(rows, count)
     values = np.take_along_axis(rows, columns, axis=1)
     values /= values.sum(axis=1, keepdims=True)
     return (columns,) + reproduce_points(columns, values, vertices, points, iterations)
+
+
+def largest_columns(rows, count, magnitude=False):
+    """Each row's ``count`` largest entries' columns, largest first (by absolute value
+    with ``magnitude``), ranked a batch of rows at a time (bounded temporaries).
+
+    Parameters
+    ----------
+    rows : (p, n) float
+    count : int
+        K; more than n keeps n.
+    magnitude : bool
+
+    Returns
+    -------
+    columns : (p, K) int64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.harmonic.reproduction import largest_columns
+    >>> largest_columns(np.array([[0.1, -0.6, 0.05, 0.25]]), 2, magnitude=True).tolist()
+    [[1, 3]]
+    """
+    rows = np.asarray(rows)
+    kept = min(int(count), rows.shape[1])
+    columns = np.empty((len(rows), kept), dtype=np.int64)
+    step = max(1, _CHUNK_ENTRIES // max(1, rows.shape[1]))
+    for start in range(0, len(rows), step):
+        key = -np.abs(rows[start:start + step]) if magnitude else -rows[start:start + step]
+        part = np.argpartition(key, kept - 1, axis=1)[:, :kept]
+        order = np.argsort(np.take_along_axis(key, part, axis=1), axis=1, kind="stable")
+        columns[start:start + step] = np.take_along_axis(part, order, axis=1)
+    return columns

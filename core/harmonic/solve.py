@@ -213,7 +213,7 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
         try:
             result, history = _solve_in_workers(*cage, inside, (rhs, diagonal), column_count, count, block,
                                                 tolerance, chosen, progress)
-            return _normalised(result.T), history
+            return _normalised(np.array(result.T)), history  # out of the shared memory
         except WorkerError as error:
             if workers is not None:
                 raise
@@ -230,24 +230,35 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
 
 
 def _eliminated(inside, rhs, diagonal, column_count, axis, progress):
-    """:func:`solve_nodes` by slab elimination: ((u, n) coordinates, [1, relative residual])."""
+    """:func:`solve_nodes` by slab elimination: ((u, n) coordinates, [1, relative residual]).
+    The right-hand side is assembled in slab order and solved in place (memory: two
+    (u, n) arrays in all)."""
     rows, columns, values = rhs
     count = int(np.count_nonzero(inside))
-    right = np.zeros((count + 1, column_count))
-    np.add.at(right, (rows, columns), values)
     half = None if progress is None else (lambda fraction: progress(0.5 * fraction))
     factors = factorise(inside, diagonal, axis, half)
-    solution = np.zeros_like(right)
-    solution[:-1] = factors.solve(right[:-1], None if progress is None else (lambda f: progress(0.5 + 0.5 * f)))
+    position = np.empty(count, dtype=np.int64)
+    position[factors.order] = np.arange(count)
+    solution = np.zeros((count, column_count))
+    np.add.at(solution, (position[rows], columns), values)
     # The residual it leaves, checked on a few columns (rounding: about 1e-15).
-    checked = slice(None, None, max(1, column_count // _CHECKED_COLUMNS))
-    residual = apply_matrix(level_of(inside, diagonal=diagonal), solution[:, checked]) - right[:, checked]
-    norms = np.linalg.norm(right[:, checked], axis=0)
+    checked = np.arange(0, column_count, max(1, column_count // _CHECKED_COLUMNS))
+    right = np.zeros((count + 1, len(checked)))
+    right[factors.order] = solution[:, checked]
+    factors.solve_in_slab_order(solution, None if progress is None else (lambda f: progress(0.5 + 0.5 * f)))
+    result = np.empty_like(solution)
+    result[factors.order] = solution
+    del solution
+    found = np.zeros_like(right)
+    found[:-1] = result[:, checked]
+    residual = apply_matrix(level_of(inside, diagonal=diagonal), found) - right
+    norms = np.linalg.norm(right, axis=0)
     relative = np.linalg.norm(residual, axis=0) / np.where(norms > 0, norms, 1.0)
-    return _normalised(solution[:-1]), [1.0, float(relative.max(initial=0.0))]
+    return _normalised(result), [1.0, float(relative.max(initial=0.0))]
 
 
 def _normalised(result):
-    """Clipped at 0 (solver rounding) and rows renormalised to sum 1."""
-    result = np.maximum(result, 0.0)
-    return result / result.sum(axis=1, keepdims=True)
+    """Clipped at 0 (solver rounding) and rows renormalised to sum 1, in place."""
+    np.maximum(result, 0.0, out=result)
+    result /= result.sum(axis=1, keepdims=True)
+    return result

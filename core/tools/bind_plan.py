@@ -25,6 +25,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from ..base.grid import fit_grid
 from ..base.tolerances import LINEAR_PRECISION
 from ..construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from ..construction.green import GREEN
@@ -75,6 +76,11 @@ BIND_RESOLUTION = 48
 BIND_SOLVER_TOLERANCE = 1e-6
 # While a long computation runs beside the caller, how often it hears of its progress.
 POLL_SECONDS = 0.05
+# A harmonic grid of fewer (grid node, cage vertex) pairs than this is solved in the
+# caller's thread (a few tenths of a second: the character at 48 and 64 cells). A thread
+# of its own would leave its arrays in an allocator arena of its own: 10 MB more resident
+# at the character's Bind, measured in Blender.
+INLINE_FIELD_PAIRS = 1 << 24
 SPARSE_SIZE = 16  # sparse storage's pairs per vertex when asked for
 
 
@@ -619,9 +625,13 @@ def _plan(points, cage, request):
     workers = cage.suggested_workers(count) if request.workers is None else request.workers
     field = None
     if request.harmonic:  # solved once, on the grid; the points look it up
-        field = yield from _beside(lambda progress: request.run(lambda count: harmonic_field(
-            cage.vertices, cage.faces, resolution=request.resolution, tolerance=request.tolerance,
-            progress=progress, workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers), 0.5)
+        def solve(progress):
+            return request.run(lambda count: harmonic_field(
+                cage.vertices, cage.faces, resolution=request.resolution, tolerance=request.tolerance,
+                progress=progress, workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers)
+
+        pairs = np.prod(fit_grid(cage.vertices, request.resolution).shape) * len(cage.vertices)
+        field = solve(None) if pairs < INLINE_FIELD_PAIRS else (yield from _beside(solve, 0.5))
         yield 0.5
         if request.storage in ('AUTO', 'SPARSE'):
             rows = _two_level_rows(points, request, field)

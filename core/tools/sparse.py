@@ -27,7 +27,7 @@ from typing import Optional
 import numpy as np
 
 from ..base import tolerances
-from ..harmonic.reproduction import reproduce_points
+from ..harmonic.reproduction import largest_columns, reproduce_points
 from . import compact
 
 __all__ = ["largest_pairs", "placed_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
@@ -43,7 +43,7 @@ SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
 # The worst drag's columns are computed this many at a time (reweighted pairs leave bounds
 # alike, so many are), over this many points at a time (bounded memory).
 _DRAG_COLUMNS, _DRAG_POINTS = 32, 1 << 13
-_PAIR_ROWS = 4096  # rows ranked at a time (memory: a few (rows, n) temporaries)
+_BOUND_ROWS = 4096  # node rows whose residual is taken at a time (bounded temporaries)
 
 
 def largest_pairs(coordinates, count):
@@ -71,13 +71,7 @@ def largest_pairs(coordinates, count):
     ([[1, 3]], [[0.7059, 0.2941]])
     """
     coordinates = np.asarray(coordinates, dtype=np.float64)
-    count = min(int(count), coordinates.shape[1])
-    indices = np.empty((len(coordinates), count), dtype=np.int64)
-    for start in range(0, len(coordinates), _PAIR_ROWS):  # bounded temporaries
-        magnitude = -np.abs(coordinates[start:start + _PAIR_ROWS])
-        kept = np.argpartition(magnitude, count - 1, axis=1)[:, :count]
-        order = np.argsort(np.take_along_axis(magnitude, kept, axis=1), axis=1, kind="stable")
-        indices[start:start + _PAIR_ROWS] = np.take_along_axis(kept, order, axis=1)
+    indices = largest_columns(coordinates, count, magnitude=True)
     values = np.take_along_axis(coordinates, indices, axis=1)
     total = values.sum(axis=1, keepdims=True)
     # A row whose kept values cancel (never for non-negative coordinates) keeps them as
@@ -213,34 +207,55 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
     >>> float(drag) < 1e-15
     True
     """
-    residual = np.array(coordinates, dtype=np.float64)  # minus the pairs, in place (no dense copy)
-    rows = np.arange(len(residual))[:, None]
-    residual[rows, indices] -= np.asarray(weights, dtype=np.float64)
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    indices, weights = np.asarray(indices), np.asarray(weights, dtype=np.float64)
     if interpolation is None:
-        smooth, drag = compact.residual_deviations(residual, rest)
+        smooth, drag = compact.residual_deviations(_residual(coordinates, indices, weights), rest)
         if len(drag) == 0:
             return float(smooth), 0.0, 0
         return float(smooth), float(drag.max()), int(np.argmax(drag))
-    return _interpolated_deviations(residual, *interpolation, rest)
+    return _interpolated_deviations(coordinates, indices, weights, *interpolation, rest)
 
 
-def _interpolated_deviations(residual, corners, corner_weights, rest):
-    """``deviations`` of the points interpolated from node ``residual`` ((N, n)) without
-    the (k, n) point residual: the smooth motion is linear (interpolate the nodes' moves),
+def _residual(coordinates, indices, weights, rows=slice(None), columns=None):
+    """Rows ``rows`` of ``coordinates - dense(pairs)`` ((r, n) float64), or only their
+    ``columns`` ((r, c): the pairs in other columns skipped)."""
+    if columns is None:
+        residual = np.array(coordinates[rows], dtype=np.float64)
+        residual[np.arange(len(residual))[:, None], indices[rows]] -= weights[rows]
+        return residual
+    position = np.full(coordinates.shape[1], -1)
+    position[columns] = np.arange(len(columns))
+    residual = np.array(coordinates[rows][:, columns], dtype=np.float64)
+    row, slot = np.nonzero(position[indices[rows]] >= 0)
+    residual[row, position[indices[rows][row, slot]]] -= weights[rows][row, slot]
+    return residual
+
+
+def _interpolated_deviations(coordinates, indices, weights, corners, corner_weights, rest):
+    """``deviations`` of the points interpolated from the nodes' ``coordinates`` ((N, n))
+    and pairs, without the (k, n) point residual or even the (N, n) node residual (both
+    taken a batch at a time): the smooth motion is linear (interpolate the nodes' moves),
     and a dragged vertex j deviates ``DRAG_FRACTION * max_i |point residual_ij|``, bounded
     by the nodes' largest ``|residual_aj|`` (the corner weights are a convex
     combination): exact columns are computed, a batch at a time, in decreasing bound order
     until no bound can beat the worst found, so the largest and where it is are exact."""
     rest = np.asarray(rest, dtype=np.float64)
     diagonal = np.linalg.norm(np.ptp(rest, axis=0))
-    if len(corners) == 0 or residual.shape[1] == 0:
+    if len(corners) == 0 or coordinates.shape[1] == 0:
         return 0.0, 0.0, 0
-    moves = interpolated(residual @ (compact.smooth_test_motion(rest) - rest), corners, corner_weights)
+    motion = compact.smooth_test_motion(rest) - rest
+    node_moves = np.empty((len(coordinates), 3))
+    used = np.zeros(len(coordinates), dtype=bool)
+    used[np.asarray(corners).reshape(-1)] = True
+    bounds = np.zeros(coordinates.shape[1])
+    for start in range(0, len(coordinates), _BOUND_ROWS):
+        rows = slice(start, start + _BOUND_ROWS)
+        residual = _residual(coordinates, indices, weights, rows)
+        node_moves[rows] = residual @ motion
+        np.maximum(bounds, np.abs(residual[used[rows]]).max(axis=0, initial=0.0), out=bounds)
+    moves = interpolated(node_moves, corners, corner_weights)
     smooth = float(np.linalg.norm(moves, axis=1).max() / diagonal)
-    used = np.unique(np.asarray(corners))
-    bounds = np.zeros(residual.shape[1])
-    for start in range(0, len(used), _PAIR_ROWS):  # no (N, n) temporary
-        np.maximum(bounds, np.abs(residual[used[start:start + _PAIR_ROWS]]).max(axis=0), out=bounds)
     worst, worst_column = -1.0, 0
     order = np.argsort(-bounds)
     for start in range(0, len(order), _DRAG_COLUMNS):
@@ -248,9 +263,10 @@ def _interpolated_deviations(residual, corners, corner_weights, rest):
         if bounds[batch[0]] <= worst:
             break
         largest = np.zeros(len(batch))
+        residual = _residual(coordinates, indices, weights, columns=batch)
         for first in range(0, len(corners), _DRAG_POINTS):
             rows = slice(first, first + _DRAG_POINTS)
-            part = interpolated(residual[:, batch], corners[rows], corner_weights[rows])
+            part = interpolated(residual, corners[rows], corner_weights[rows])
             np.maximum(largest, np.abs(part).max(axis=0), out=largest)
         best = int(np.argmax(largest))
         if largest[best] > worst:

@@ -8,7 +8,11 @@ scene: Mesh Deform at precision 5 and 6, GenCoords mean value and GenCoords harm
 Metrics:
   bind       wall time of the bind operator (``meshdeform_bind`` / ``gencoords_bind``).
   peak MB    peak resident memory growth during the bind (the process and its workers,
-             ``scripts/common/memory.py``).
+             ``scripts/common/memory.py``). Each method binds in a Blender process of its
+             own (this script again, ``--measure``): in one process, a bind after Mesh
+             Deform's found the allocator's arenas as Mesh Deform's threads left them and
+             grew by up to 35 MB more than in a fresh process (none with
+             MALLOC_ARENA_MAX=1), which measured the order, not the method.
   .blend MB  uncompressed .blend size the binding adds to the unbound scene.
   update     live update (move one cage vertex, ``view_layer.update()``, read the
              evaluated mesh), every method bound side by side in one scene and timed in
@@ -33,6 +37,8 @@ Usage: bench_local.py [--precisions 5 6] [--kinds mean_value harmonic] [--rounds
 """
 
 import argparse
+import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -129,6 +135,31 @@ def bend(mesh, cage, rest_cage, labels, triangles):
     return float(change.mean()), float(np.percentile(change, 99)), int(flipped.sum())
 
 
+def measure_apart(method, kinds):
+    """:func:`measure` in a Blender process of its own (one-time costs of the GenCoords
+    kinds paid before, by a throw-away bind on a small body): the row."""
+    command = [sys.executable, str(Path(__file__).resolve()), "--measure", json.dumps(method), "--kinds", *kinds]
+    done = subprocess.run(command, check=True, stdout=subprocess.PIPE, text=True)
+    lines = done.stdout.splitlines()
+    print("\n".join(line for line in lines if line.startswith("  ")), flush=True)
+    return json.loads(lines[-1])
+
+
+def measure_here(method, kinds):
+    """The ``--measure`` side of :func:`measure_apart`: prints the row as JSON, last."""
+    session.install_extension()
+    scenes.reset_scene()
+    scenes.add_character()
+    empty_blend = blend_size("unbound")  # the scene before its binding
+    if method[0] == "gencoords":
+        for kind in {kind.partition(":")[0] for kind in kinds}:
+            scenes.reset_scene()
+            bind(*scenes.add_character(detail=0.2), ("gencoords", kind))
+    rows = {}
+    measure(method, empty_blend, rows)
+    print(json.dumps(rows[method]), flush=True)
+
+
 def measure(method, empty_blend, rows):
     """Bind ``method`` in a fresh scene and measure everything but the update."""
     scenes.reset_scene()
@@ -217,7 +248,11 @@ def main():
                         help="GenCoords kinds; harmonic:<resolution> for another grid")
     parser.add_argument("--rounds", type=int, default=15)
     parser.add_argument("--output", type=Path, default=session.OUT / "bench_local.md")
+    parser.add_argument("--measure", help=argparse.SUPPRESS)  # one method, in this process
     args = parser.parse_args()
+    if args.measure:
+        measure_here(tuple(json.loads(args.measure)), args.kinds)
+        return
     header = session.report_header("Local coordinates on the character, against Mesh Deform")
     print("\n".join(header), flush=True)
     session.install_extension()
@@ -225,16 +260,8 @@ def main():
     mesh, cage = scenes.add_character()
     print(f"character: {len(mesh.data.vertices)} vertices, cage {len(cage.data.vertices)} vertices",
           flush=True)
-    empty_blend = blend_size("unbound")
-    # One throw-away bind of each kind on a small body, so one-time costs (first imports,
-    # worker processes) are not charged to the first measured row.
-    for kind in {kind.partition(":")[0] for kind in args.kinds}:
-        scenes.reset_scene()
-        bind(*scenes.add_character(detail=0.2), ("gencoords", kind))
     methods = [("md", p) for p in args.precisions] + [("gencoords", kind) for kind in args.kinds]
-    rows = {}
-    for method in methods:
-        measure(method, empty_blend, rows)
+    rows = {method: measure_apart(method, args.kinds) for method in methods}
     time_side_by_side(methods, rows, args.rounds)
     body = table(rows)
     print("\n" + body, flush=True)

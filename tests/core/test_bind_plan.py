@@ -244,6 +244,14 @@ def test_the_harmonic_solve_reports_progress_and_closing_the_plan_stops_it(monke
     vertices, faces = icosphere(1)
     points = 0.5 * vertices[:20]
     request = BindRequest("harmonic", resolution=32, workers=1)
+    # A grid this small is solved inline: no thread (its memory stays in the caller's arena).
+    def no_thread(*args, **kwargs):
+        raise AssertionError("a thread for a short solve")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(bind_plan.threading, "Thread", no_thread)
+        assert run(plan_bind(points, vertices, faces, request))[1].linear_precision < 1e-6
+    monkeypatch.setattr(bind_plan, "INLINE_FIELD_PAIRS", 0)  # from here it counts as long
     fractions, plan = run(plan_bind(points, vertices, faces, request))
     during = [f for f in fractions if 0.0 < f < 0.5]
     assert len(during) >= 2 and during == sorted(during) and plan.linear_precision < 1e-6

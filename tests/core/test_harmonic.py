@@ -338,3 +338,37 @@ def test_on_the_artists_character_a_hand_moves_nothing_elsewhere_and_sparse_weig
     indices, weights = top_k(coordinates, 32)
     corrected, residual = reproduce_points(indices, weights, vertices, points)
     assert residual.max() < 1e-12 and corrected.min() >= 0.0
+
+
+def test_the_four_node_interpolation_places_points_and_is_continuous_across_cells():
+    from types import SimpleNamespace
+    from gencoords.harmonic.interpolation import tetrahedron
+
+    grid = SimpleNamespace(origin=np.array([0.5, -1.0, 2.0]), spacing=0.25, cells=(6, 5, 7))
+    rng = np.random.default_rng(11)
+    points = grid.origin + rng.uniform(0.0, 1.0, (3000, 3)) * np.array(grid.cells) * grid.spacing
+    corners, weights = tetrahedron(grid, points)
+    assert corners.shape == (3000, 4, 3) and weights.min() >= 0.0
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0, rtol=0, atol=1e-15)
+    # Linear precision: the weights reproduce the point from the corners' positions.
+    np.testing.assert_allclose(np.einsum("kc,kcN->kN", weights, grid.origin + grid.spacing * corners), points,
+                               rtol=0, atol=1e-12)
+    # Conforming: a function given at the nodes, interpolated just either side of the cells'
+    # faces (and of the tetrahedra's faces inside a cell), agrees to the step.
+    values = rng.uniform(size=tuple(c + 1 for c in grid.cells))
+
+    def interpolated(at):
+        corners, weights = tetrahedron(grid, at)
+        return (weights * values[tuple(corners.transpose(2, 0, 1))]).sum(axis=1)
+
+    for axis in range(3):  # on a cell face: that coordinate a whole number of cells
+        across = points.copy()
+        across[:, axis] = grid.origin[axis] + grid.spacing * rng.integers(1, grid.cells[axis], len(points))
+        step = np.eye(3)[axis] * 1e-9
+        np.testing.assert_allclose(interpolated(across - step), interpolated(across + step), rtol=0, atol=1e-7)
+    diagonal = points.copy()  # on an inner face: two fractions equal
+    cell = np.floor((diagonal - grid.origin) / grid.spacing)
+    diagonal[:, 1] = grid.origin[1] + grid.spacing * (cell[:, 1] + (diagonal[:, 0] - grid.origin[0]) / grid.spacing
+                                                       - cell[:, 0])
+    step = np.array([1e-9, -1e-9, 0.0])
+    np.testing.assert_allclose(interpolated(diagonal - step), interpolated(diagonal + step), rtol=0, atol=1e-7)
