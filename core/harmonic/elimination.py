@@ -21,11 +21,13 @@ import numpy as np
 
 __all__ = ["SlabElimination", "slab_axis", "elimination_plan", "factorise"]
 
-# Floating-point operations an iterative solve spends per (unknown, column) pair on this
-# grid, measured (8 preconditioned conjugate-gradient iterations to 1e-6, numpy gathers:
-# about 1.1 us a pair where matrix products run at 45 GFLOP/s): elimination is chosen where
-# its own count is lower.
-MULTIGRID_FLOPS_PER_PAIR = 50_000
+# What the iterative solve costs per (unknown, column) pair, in the floating-point
+# operations elimination's matrix products do in the same time (they run at about 40
+# GFLOP/s here): 0.76 us a pair on a sphere's grid, 1.1 us on the character's thin limbs,
+# so 30,000 to 45,000. Elimination is chosen where its own count is lower than this
+# many a pair: its large slabs also cost gathers beyond their operations (a 162-vertex
+# sphere cage at 48 cells: 6.7 s by elimination against 6.9 s by multigrid).
+MULTIGRID_FLOPS_PER_PAIR = 20_000
 # The Schur complements' inverses are kept for the solve: no more than this many bytes.
 MAX_INVERSE_BYTES = 1 << 30
 # The 4 in-slab neighbours (axes 1 and 2 of the slab-major grid).

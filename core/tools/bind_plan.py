@@ -77,10 +77,10 @@ BIND_SOLVER_TOLERANCE = 1e-6
 # While a long computation runs beside the caller, how often it hears of its progress.
 POLL_SECONDS = 0.05
 # A harmonic grid of fewer (grid node, cage vertex) pairs than this is solved in the
-# caller's thread (a few tenths of a second: the character at 48 and 64 cells). A thread
-# of its own would leave its arrays in an allocator arena of its own: 10 MB more resident
-# at the character's Bind, measured in Blender.
-INLINE_FIELD_PAIRS = 1 << 24
+# caller's thread, without progress (0.2 s for the character at 48 cells, 4.8M pairs; at
+# most about 1.5 s, a sphere's volumetric grid). A thread of its own would leave its
+# arrays in an allocator arena of its own: 10 MB more resident at the character's Bind.
+INLINE_FIELD_PAIRS = 1 << 23
 SPARSE_SIZE = 16  # sparse storage's pairs per vertex when asked for
 
 
