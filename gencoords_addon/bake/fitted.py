@@ -102,6 +102,11 @@ class FittedBakeJob:
     def __init__(self, obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENCES,
                  frames=None, iterations=12, seed=0):
         self.obj, self.found = obj, bindings_module.binding(obj)
+        # A binding that does not deform (its cage deleted, its mesh edited since Bind)
+        # would be fitted as a still mesh: refused, as Follow is.
+        problem = bindings_module.deformation_problem(obj, self.found)
+        if problem is not None:
+            raise BakeError(f"Cannot bake '{obj.name}' to fitted bones: {problem}")
         self.frames = frame_range(context.scene) if frames is None else np.asarray(frames)
         world = np.array(obj.matrix_world, dtype=np.float64)
         self.rest = mesh_io.read_positions(obj.data).astype(np.float64) @ world[:3, :3].T + world[:3, 3]

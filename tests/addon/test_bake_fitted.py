@@ -278,3 +278,19 @@ def test_a_deformation_that_is_not_finite_is_refused_and_changes_nothing(gc, mon
         bake_fitted(obj, bones=8)
     assert set(bpy.data.objects.keys()) == objects and gc.binding.binding(obj) is not None
     assert not obj.vertex_groups and obj.parent is None
+
+
+def test_a_binding_whose_cage_was_deleted_is_refused_and_nothing_changes(gc):
+    """Fuzz seed 6121: the cage deleted (X), then Bake to Bones, Fitted: an internal error
+    (the rig's record names its cage). A binding that does not deform would be fitted as a
+    still mesh: refused with the panel's words, as Follow refuses it."""
+    from test_ui_artist import delete_as_the_artist
+
+    obj, _ = bound_animated_scene(gc)
+    delete_as_the_artist(obj.gencoords.cage)
+    make_active(obj)
+    objects, modifiers = set(bpy.data.objects.keys()), [m.name for m in obj.modifiers]
+    with pytest.raises(RuntimeError, match=f"Cannot bake '{obj.name}' to fitted bones: The cage 'Cage' was deleted"):
+        bake_fitted(obj, bones=8)
+    assert set(bpy.data.objects.keys()) == objects and [m.name for m in obj.modifiers] == modifiers
+    assert not obj.vertex_groups and obj.parent is None
