@@ -12,11 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Grid", "fit_grid", "inside_nodes", "surface_cells", "node_positions"]
+__all__ = ["Grid", "fit_grid", "inside_nodes", "column_pairs", "surface_cells", "node_positions"]
 
 # The rays leave the nodes' exact x and y by this fraction of a cell, in directions no
 # cage edge of a box-modelled cage shares, so a ray never grazes an edge or a vertex.
 _RAY_OFFSET = (2.0 ** -20 * np.sqrt(2.0), 2.0 ** -20 * np.sqrt(3.0) / 2.0)
+_BATCH_PAIRS = 1 << 20  # (facet, column) pairs tested at a time: bounded memory
 
 
 @dataclass(frozen=True)
@@ -58,17 +59,30 @@ def node_positions(grid, indices):
     return grid.origin + grid.spacing * np.asarray(indices, dtype=np.float64)
 
 
+def _column_boxes(grid, corners):
+    """Each facet's projection in cells (m, 3, 2) and the grid columns its box spans:
+    lowest (m, 2) int and counts (m, 2) int."""
+    offset = np.array(_RAY_OFFSET) * grid.spacing
+    xy = (corners[:, :, :2] - grid.origin[:2] - offset) / grid.spacing  # in cells
+    low = np.ceil(xy.min(axis=1)).astype(np.int64).clip(0, np.array(grid.shape[:2]) - 1)
+    high = np.floor(xy.max(axis=1)).astype(np.int64).clip(0, np.array(grid.shape[:2]) - 1)
+    return xy, low, np.maximum(high - low + 1, 0)
+
+
+def column_pairs(grid, corners):
+    """How many (facet, grid column) pairs :func:`inside_nodes` tests: int (a facet's
+    share is the area of its box seen from above, in columns)."""
+    _, _, counts = _column_boxes(grid, corners)
+    return int((counts[:, 0] * counts[:, 1]).sum())
+
+
 def _column_crossings(grid, corners):
     """Where each grid column's ray meets the facets: (column x, column y, height, sign).
 
     ``corners`` (m, 3, 3): the facets' corner positions. The sign is that of the facet's
     normal's z component (+1 where the ray leaves the cage going up).
     """
-    offset = np.array(_RAY_OFFSET) * grid.spacing
-    xy = (corners[:, :, :2] - grid.origin[:2] - offset) / grid.spacing  # in cells
-    low = np.ceil(xy.min(axis=1)).astype(np.int64).clip(0, np.array(grid.shape[:2]) - 1)
-    high = np.floor(xy.max(axis=1)).astype(np.int64).clip(0, np.array(grid.shape[:2]) - 1)
-    counts = np.maximum(high - low + 1, 0)
+    xy, low, counts = _column_boxes(grid, corners)
     sizes = counts[:, 0] * counts[:, 1]
     facet = np.repeat(np.arange(len(corners)), sizes)
     within = np.arange(len(facet)) - np.repeat(np.cumsum(sizes) - sizes, sizes)
@@ -93,14 +107,20 @@ def inside_nodes(grid, corners):
     corners : (m, 3, 3) float
         The cage's triangles' corners, outward oriented.
     """
-    x, y, height, sign = _column_crossings(grid, corners)
-    # A crossing above node z counts for it: add the sign at the last node below it and
-    # sum from the top down.
-    level = np.floor((height - grid.origin[2]) / grid.spacing).astype(np.int64)
-    keep = level >= 0
-    level = np.minimum(level, grid.shape[2] - 1)
     winding = np.zeros(grid.shape)
-    np.add.at(winding, (x[keep], y[keep], level[keep]), sign[keep])
+    _, _, counts = _column_boxes(grid, corners)
+    ends = np.cumsum(counts[:, 0] * counts[:, 1])  # pairs up to each facet
+    start = 0
+    while start < len(corners):  # facets a batch at a time: about _BATCH_PAIRS pairs
+        done = ends[start - 1] if start else 0
+        stop = max(start + 1, int(np.searchsorted(ends, done + _BATCH_PAIRS, side="right")))
+        x, y, height, sign = _column_crossings(grid, corners[start:stop])
+        # A crossing above node z counts for it: add the sign at the last node below it
+        # (then sum from the top down).
+        level = np.floor((height - grid.origin[2]) / grid.spacing).astype(np.int64)
+        keep = level >= 0
+        np.add.at(winding, (x[keep], y[keep], np.minimum(level[keep], grid.shape[2] - 1)), sign[keep])
+        start = stop
     winding = np.cumsum(winding[:, :, ::-1], axis=2)[:, :, ::-1]
     return winding > 0.5
 

@@ -7,7 +7,7 @@ of an outside point (``outside="project"``).
 
 import numpy as np
 
-from ..base.grid import fit_grid, inside_nodes, surface_cells
+from ..base.grid import column_pairs, fit_grid, inside_nodes, surface_cells
 from ..base.simplex import closest_points_on_simplices
 
 __all__ = ["INSIDE", "BOUNDARY", "OUTSIDE", "plane_distances", "locate", "winding_numbers", "inside_lookup",
@@ -19,6 +19,10 @@ _WINDING_PAIRS = 1 << 16  # (point, facet) pairs per winding-number batch: about
 # Cells along the longest side of the grid points are looked up in before winding numbers
 # (:func:`inside_lookup`): points in cells the surface does not cross need none.
 LOOKUP_RESOLUTION = 128
+# A cage whose facets would test more (facet, grid column) pairs than this to build the
+# grid (long facets slanted across it: their boxes cover most columns, and the surface
+# most cells, so the grid would save little) has none: winding numbers for every point.
+LOOKUP_PAIRS = 1 << 22
 
 
 def plane_distances(cage, facet_det):
@@ -91,9 +95,13 @@ def inside_lookup(cage, resolution=LOOKUP_RESOLUTION):
         column): the whole cell's status where the surface does not cross it.
     surface : (x, y, z) bool over cells
         Cells the surface may cross (conservative).
+
+    None where building it would test more than ``LOOKUP_PAIRS`` (facet, column) pairs.
     """
     grid = fit_grid(cage.vertices, resolution)
     corners = cage.facet_corners()
+    if column_pairs(grid, corners) > LOOKUP_PAIRS:
+        return None
     nodes = inside_nodes(grid, corners)
     return grid, nodes[:-1, :-1, :-1], surface_cells(grid, corners, 1e-6 * grid.spacing)
 
@@ -134,7 +142,7 @@ def inside_by_grid(cage, local, grid, cell_inside, surface):
 def inside_points(cage, points):
     """Whether each point is inside the cage (winding number >= 1/2): (k,) bool. 3D cages
     look points up in their cached grid first (:func:`inside_by_grid`)."""
-    if cage.dimension != 3:
+    if cage.dimension != 3 or cage.inside_lookup is None:
         return winding_numbers(cage, points) >= 0.5
     return inside_by_grid(cage, cage.local(points), *cage.inside_lookup)[0]
 

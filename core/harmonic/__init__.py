@@ -1,12 +1,11 @@
 """Harmonic coordinates on a grid: local and non-negative in any closed cage.
 
-Modules, bottom up: ``grid`` (cubic cells fitted to the cage's box, inside nodes),
-``boundary_values`` (the cage's hat values at nodes outside it, and where grid edges
-cross it), ``elimination`` and ``multigrid`` (the Laplace solvers: direct by slabs,
-iterative), ``solve`` (every cage vertex's Shortley-Weller problem), ``interpolation``
-(piecewise-linear lookup, 4 nodes a point), ``reproduction``
-(weights reweighted to place their points exactly), ``field`` (the public
-:class:`HarmonicField`).
+Modules, bottom up (on ``gencoords.base.grid``: cubic cells fitted to the cage's box,
+inside nodes): ``boundary_values`` (the cage's hat values at nodes outside it, and where
+grid edges cross it), ``elimination`` and ``multigrid`` (the Laplace solvers: direct by
+slabs, iterative), ``solve`` (every cage vertex's Shortley-Weller problem),
+``interpolation`` (piecewise-linear lookup, 4 nodes a point), ``reproduction`` (weights
+reweighted to place their points exactly), ``field`` (the public :class:`HarmonicField`).
 """
 
 from .field import DEFAULT_RESOLUTION, HarmonicField, harmonic_coordinates, harmonic_field

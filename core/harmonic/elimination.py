@@ -26,7 +26,7 @@ __all__ = ["SlabElimination", "slab_axis", "elimination_plan", "factorise"]
 # GFLOP/s here): 0.76 us a pair on a sphere's grid, 1.1 us on the character's thin limbs,
 # so 30,000 to 45,000. Elimination is chosen where its own count is lower than this
 # many a pair: its large slabs also cost gathers beyond their operations (a 162-vertex
-# sphere cage at 48 cells: 6.7 s by elimination against 6.9 s by multigrid).
+# sphere cage at 48 cells: its whole field took 10 s by elimination against 6.4 s).
 MULTIGRID_FLOPS_PER_PAIR = 20_000
 # The Schur complements' inverses are kept for the solve: no more than this many bytes.
 MAX_INVERSE_BYTES = 1 << 30

@@ -429,12 +429,13 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
         ``progress(fraction)`` as the solve advances; an exception it raises (a cancel)
         stops the computation (and the workers) and propagates.
     workers : int or None
-        Processes to solve in (the cage vertices' columns are independent): ``1`` this
-        process; ``None`` as many as the cores allow when the solve is long enough to
-        repay starting them (about a second of work each), falling back to this process
-        with a :class:`gencoords.WorkerWarning` where they cannot start (an explicit
-        count raises :class:`gencoords.WorkerError`). The result is the same whatever
-        the number.
+        Processes for the iterative solver (the cage vertices' columns are independent):
+        ``1`` this process; ``None`` as many as the cores allow when the solve is long
+        enough to repay starting them (about a second of work each), falling back to this
+        process with a :class:`gencoords.WorkerWarning` where they cannot start (an
+        explicit count raises :class:`gencoords.WorkerError`). The result is the same
+        whatever the number. The direct solver, chosen where it is cheaper (a body with
+        limbs), runs in this process and starts none.
     solver_tolerance : float
         Relative residual each cage vertex's column is solved to (the Bind takes 1e-6:
         its weights are float32 and those below 1e-5 are dropped).

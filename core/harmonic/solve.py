@@ -200,6 +200,8 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
     """
     rhs, diagonal = rhs
     column_count = len(cage[0])
+    if method not in (None, "elimination", "multigrid"):
+        raise ValueError(f"method must be 'elimination', 'multigrid' or None, not {method!r}")
     if method is None:
         axis = elimination_plan(inside, column_count)
     else:

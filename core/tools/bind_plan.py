@@ -76,11 +76,13 @@ BIND_RESOLUTION = 48
 BIND_SOLVER_TOLERANCE = 1e-6
 # While a long computation runs beside the caller, how often it hears of its progress.
 POLL_SECONDS = 0.05
-# A harmonic grid of fewer (grid node, cage vertex) pairs than this is solved in the
-# caller's thread, without progress (0.2 s for the character at 48 cells, 4.8M pairs; at
-# most about 1.5 s, a sphere's volumetric grid). A thread of its own would leave its
+# A harmonic grid of fewer (grid node, cage vertex) pairs than this, and fewer nodes than
+# INLINE_FIELD_NODES, is solved in the caller's thread, without progress (0.2 s for the
+# character at 48 cells: 24,480 nodes, 4.8M pairs). A thread of its own would leave its
 # arrays in an allocator arena of its own: 10 MB more resident at the character's Bind.
-INLINE_FIELD_PAIRS = 1 << 23
+# Some of the field's work grows with the nodes alone (an 8-vertex box at 96 cells,
+# 970,299 nodes: many seconds), hence both bounds.
+INLINE_FIELD_PAIRS, INLINE_FIELD_NODES = 1 << 23, 1 << 16
 SPARSE_SIZE = 16  # sparse storage's pairs per vertex when asked for
 
 
@@ -630,8 +632,9 @@ def _plan(points, cage, request):
                 cage.vertices, cage.faces, resolution=request.resolution, tolerance=request.tolerance,
                 progress=progress, workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers)
 
-        pairs = np.prod(fit_grid(cage.vertices, request.resolution).shape) * len(cage.vertices)
-        field = solve(None) if pairs < INLINE_FIELD_PAIRS else (yield from _beside(solve, 0.5))
+        nodes = int(np.prod(fit_grid(cage.vertices, request.resolution).shape))
+        short = nodes < INLINE_FIELD_NODES and nodes * len(cage.vertices) < INLINE_FIELD_PAIRS
+        field = solve(None) if short else (yield from _beside(solve, 0.5))
         yield 0.5
         if request.storage in ('AUTO', 'SPARSE'):
             rows = _two_level_rows(points, request, field)

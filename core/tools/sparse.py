@@ -182,7 +182,7 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
         The pairs, weights as stored (float32 is measured as float32).
     rest : (n, 3) float
         The cage at rest.
-    interpolation : ((p, 8) int, (p, 8) float), optional
+    interpolation : ((p, c) int, (p, c) float), optional
         The points' corner nodes (rows of ``coordinates``) and their weights: the
         deviations are then those of the p points.
 
@@ -289,7 +289,7 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
         Largest deviation allowed, of the cage's diagonal.
     counts : increasing sequence of int
         Candidate K.
-    interpolation : ((k, 8) int, (k, 8) float), optional
+    interpolation : ((k, c) int, (k, c) float), optional
         The points' corner nodes and weights (two-level layout).
 
     Returns

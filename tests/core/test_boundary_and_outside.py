@@ -239,3 +239,26 @@ def test_points_looked_up_on_the_grid_are_inside_where_their_winding_number_says
     np.testing.assert_array_equal(inside, expected)
     assert 0 < len(crossed) < len(points)  # the others were decided by their cell alone
     np.testing.assert_array_equal(boundary.inside_points(cage, points), expected)
+
+
+def test_a_cage_of_long_slanted_facets_builds_no_lookup_grid_and_still_locates_points():
+    """A cylinder along (1, 1, 1): each long side facet's box covers most grid columns, so
+    the grid would test about a billion bytes' worth of (facet, column) pairs: winding
+    numbers for every point instead, the same answers."""
+    from gencoords.construction import boundary
+    from gencoords.construction.validation import validate_cage
+
+    segments, turn = 256, np.linalg.qr(np.array([[1.0, 1.0, 1.0], [1.0, -1.0, 0.0], [1.0, 1.0, -2.0]]).T)[0]
+    angles = 2.0 * np.pi * np.arange(segments) / segments
+    ring = np.column_stack([np.zeros(segments), 0.1 * np.cos(angles), 0.1 * np.sin(angles)])
+    vertices = np.vstack([ring, ring + [1.0, 0.0, 0.0], [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]])
+    i, j = np.arange(segments), (np.arange(segments) + 1) % segments
+    faces = np.vstack([np.column_stack([i, j, segments + j]), np.column_stack([i, segments + j, segments + i]),
+                       np.column_stack([2 * segments + np.zeros_like(i), j, i]),
+                       np.column_stack([2 * segments + 1 + np.zeros_like(i), segments + i, segments + j])])
+    cage = validate_cage(vertices @ turn.T, faces, convex=False)
+    assert boundary.inside_lookup(cage) is None
+    points = (np.random.default_rng(3).uniform(-0.15, 1.15, (500, 3)) * [1.0, 0.2, 0.2]) @ turn.T
+    expected = boundary.winding_numbers(cage, points) >= 0.5
+    assert 0 < expected.sum() < len(points)
+    np.testing.assert_array_equal(boundary.inside_points(cage, points), expected)
