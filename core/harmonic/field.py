@@ -1,6 +1,8 @@
 """Harmonic coordinates of a closed triangle cage, solved once on a grid, evaluated at any
 points by piecewise-linear interpolation (docs/MATH.md, "Harmonic coordinates")."""
 
+import itertools
+
 import numpy as np
 
 from ..base.errors import CageError, OutsideCageError
@@ -351,23 +353,31 @@ def _boundary_nodes(grid, parts, vertices, faces):
 def _nearest_exact_nodes(grid, ids, exact, local):
     """The nearest node that places itself exactly to each point ((c, 3), frame units),
     searched in growing blocks of nodes around it, up to 7 across: (rows (c,) int,
-    found (c,) bool)."""
+    found (c,) bool). A point still searching at reach r found nothing nearer, so only
+    the block's shell is looked at, one offset at a time (memory: a few (c,) arrays)."""
     nearest, found = np.zeros(len(local), dtype=np.int64), np.zeros(len(local), dtype=bool)
     centre = np.rint((local - grid.origin) / grid.spacing).astype(np.int64)
+    top = np.array(grid.shape) - 1
     for reach in (1, 2, 3):
         pending = np.flatnonzero(~found)
         if not len(pending):
             break
-        steps = np.arange(-reach, reach + 1)
-        offsets = np.stack(np.meshgrid(steps, steps, steps, indexing="ij"), axis=-1).reshape(-1, 3)
-        nodes = (centre[pending, None, :] + offsets[None]).clip(0, np.array(grid.shape) - 1)
-        rows = ids[tuple(nodes.transpose(2, 0, 1))]
-        usable = np.where(rows >= 0, exact[rows.clip(0)], False)
-        offset = nodes * grid.spacing + grid.origin - local[pending, None]
-        gap = np.einsum("cbN,cbN->cb", offset, offset)
-        best = np.argmin(np.where(usable, gap, np.inf), axis=1)
-        nearest[pending] = rows[np.arange(len(pending)), best]
-        found[pending] = usable.any(axis=1)
+        here, there = centre[pending], local[pending]
+        best = np.full(len(pending), np.inf)
+        steps = range(-reach, reach + 1)
+        for offset in itertools.product(steps, steps, steps):  # first best in this order
+            if reach > 1 and max(map(abs, offset)) < reach:  # searched at the reach before
+                continue
+            nodes = (here + offset).clip(0, top)
+            rows = ids[nodes[:, 0], nodes[:, 1], nodes[:, 2]]
+            if offset == (-reach,) * 3:  # where none is found: as a search of the whole block
+                nearest[pending] = rows
+            gap = np.einsum("cN,cN->c", nodes * grid.spacing + grid.origin - there,
+                            nodes * grid.spacing + grid.origin - there)
+            better = np.where(rows >= 0, exact[rows.clip(0)], False) & (gap < best)
+            best[better] = gap[better]
+            nearest[pending[better]] = rows[better]
+        found[pending] = np.isfinite(best)
     return nearest, found
 
 

@@ -372,3 +372,27 @@ def test_the_four_node_interpolation_places_points_and_is_continuous_across_cell
                                                        - cell[:, 0])
     step = np.array([1e-9, -1e-9, 0.0])
     np.testing.assert_allclose(interpolated(diagonal - step), interpolated(diagonal + step), rtol=0, atol=1e-7)
+
+
+def test_the_nearest_exact_node_search_finds_what_a_search_of_every_node_finds():
+    """The nearest exact node in the smallest block around the point (up to 7 nodes
+    across) that holds one, as a search of every exact node finds it."""
+    from gencoords.base.grid import node_positions
+    from gencoords.harmonic.field import _nearest_exact_nodes
+
+    vertices, faces = gencoords.tools.shapes.octahedron()  # convex: many nodes outside, not exact
+    field = gencoords.harmonic_field(vertices, faces, resolution=16)
+    grid, frame = field._grid, field._prepared
+    exact_indices = field.node_indices[field.node_exact]
+    points = frame.local(np.random.default_rng(12).uniform(-1.2, 1.2, (400, 3)))
+    nearest, found = _nearest_exact_nodes(grid, field._ids, field.node_exact, points)
+    centre = np.rint((points - grid.origin) / grid.spacing)
+    reach = np.abs(exact_indices[None] - centre[:, None]).max(axis=2)  # (points, exact nodes), in nodes
+    gaps = np.linalg.norm(points[:, None] - node_positions(grid, exact_indices)[None], axis=2)
+    assert found.any() and (~found).any()
+    np.testing.assert_array_equal(found, reach.min(axis=1) <= 3)
+    assert field.node_exact[nearest[found]].all()
+    block = np.maximum(reach.min(axis=1, keepdims=True), 1)  # blocks 3, 5 and 7 nodes across
+    expected = np.where(reach <= block, gaps, np.inf).min(axis=1)[found]
+    got = np.linalg.norm(node_positions(grid, field.node_indices[nearest[found]]) - points[found], axis=1)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
