@@ -320,9 +320,15 @@ def apply(state, step):
     if not obj.modifiers:
         raise Skipped("no modifier")
     modifier = obj.modifiers[0 if step["which"] == "first" else -1]
+    # Blender applies a modifier to the mesh data as it is, without those above it ("Applied
+    # modifier was not first, result may not be as expected"): only the first keeps the
+    # evaluated mesh (seed 7209: a Smooth modifier above a baked rig with partial weights).
+    first = all(not other.show_viewport for other in obj.modifiers[:list(obj.modifiers).index(modifier)])
     before = checks.world_positions()
     operate(obj, bpy.ops.object.modifier_apply, modifier=modifier.name)
     _forget_pristine(state, obj)
+    if not first:
+        return "done (not first)"
     checks.check_moved([obj.name], before, checks.world_positions(), np.zeros(3),
                        checks.size_of(before[obj.name]), "Apply keeps the evaluated mesh")
     return "done"
