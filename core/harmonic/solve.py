@@ -15,11 +15,11 @@ import secrets
 import numpy as np
 
 from ..base.errors import WorkerError
+from ..base.grid import node_positions
 from ..evaluation.parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead,
                                    dispatch_units, python_executable)
 from .boundary_values import segment_crossings
 from .elimination import elimination_plan, factorise, slab_axis
-from ..base.grid import node_positions
 from .multigrid import STEPS, apply_matrix, build_levels, level_of, solve
 
 __all__ = ["SOLVER_TOLERANCE", "NEAREST_CROSSING", "boundary_rhs", "solve_nodes", "solve_columns_task", "worker_count"]
