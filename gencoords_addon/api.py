@@ -42,7 +42,7 @@ class BindingResult:
     mesh_vertex_count: int
     min_coordinate: float  # smallest coordinate of any mesh vertex
     negative_points: int  # mesh vertices with a negative coordinate
-    max_affine_error: float  # largest |sum of a vertex's coordinates - 1|
+    max_affine_error: float  # largest |sum of a vertex's coordinates - 1|, as stored (float32)
     # Compact and sparse storage's deviation from exact, of the cage size, for a standard
     # smooth cage motion and for one dragged cage vertex (float32 rounding for exact).
     deviation_smooth: float

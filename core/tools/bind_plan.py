@@ -91,13 +91,16 @@ class UndefinedCoordinatesError(ValueError):
 
 
 class ImpreciseCoordinatesError(ValueError):
-    """The coordinates as stored place the points only to ``error`` of the cage's size
-    (over ``LINEAR_PRECISION``: huge coordinates, down to ``min_coordinate``, lose it to
-    float32 rounding), so the mesh would stray as the cage moves."""
+    """The coordinates as stored place the points only to ``error`` of the cage's size,
+    or with ``translation``, sum to 1 only to ``error`` (a translated cage leaves the points
+    behind by that share of the move): over ``LINEAR_PRECISION``, as huge coordinates,
+    down to ``min_coordinate``, lose it to float32 rounding, so the mesh would stray as
+    the cage moves."""
 
-    def __init__(self, error, min_coordinate):
-        super().__init__(f"the coordinates as stored place the points only to {error:.2g} of the cage's size")
-        self.error, self.min_coordinate = error, min_coordinate
+    def __init__(self, error, min_coordinate, translation=False):
+        super().__init__(f"the coordinates as stored sum to 1 only to {error:.2g}" if translation else
+                         f"the coordinates as stored place the points only to {error:.2g} of the cage's size")
+        self.error, self.min_coordinate, self.translation = error, min_coordinate, translation
 
 
 def _in_this_process(compute, workers):
@@ -553,13 +556,15 @@ def _slots(request, cage, points, choice, workers, field=None):
         coordinates = _solve(request, cage, points[part], workers, locations[part], field)
         # Green's phi (the first n) sum to 1 and weigh the vertices as the others do.
         summary = coordinate_summary(coordinates[:, :len(cage.vertices)])
-        for name, combine in (("min", min), ("negative_points", int.__add__), ("negative_entries", int.__add__),
-                              ("max_affine_error", max)):
+        for name, combine in (("min", min), ("negative_points", int.__add__), ("negative_entries", int.__add__)):
             totals[name] = combine(totals[name], summary[name])
         slots[part], pairs = encode(choice, coordinates, cage.vertices)
         if indices is not None:
             indices[part] = pairs
         reproduced = reproduce(choice, slots[part], pairs, rows)
+        # The sums as written: float32 rounding of huge coordinates breaks translations.
+        sums = reproduced[:, :len(cage.vertices)].sum(axis=1)
+        totals["max_affine_error"] = max(totals["max_affine_error"], float(np.abs(sums - 1.0).max(initial=0.0)))
         precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
         residual = np.subtract(coordinates, reproduced, out=reproduced)
         chunk_smooth, chunk_drag = compact.residual_deviations(residual, cage.vertices, faces=faces)
@@ -665,6 +670,8 @@ def _plan(points, cage, request):
     # losing their point to float32 rounding are refused.
     if figures["linear_precision"] > LINEAR_PRECISION and choice.storage != 'SPARSE' and field is None:
         raise ImpreciseCoordinatesError(figures["linear_precision"], figures["min_coordinate"])
+    if figures["max_affine_error"] > LINEAR_PRECISION:  # sparse storage's placing is not checked above
+        raise ImpreciseCoordinatesError(figures["max_affine_error"], figures["min_coordinate"], translation=True)
     return BindPlan(choice.storage, slots, choice.basis, locations, choice.reason, _report(request, cage, field),
                     indices=indices, **figures)
 

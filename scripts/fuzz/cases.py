@@ -22,7 +22,7 @@ KINDS = tuple(kind.name.upper() for kind in gencoords.KIND_TABLE) + (GREEN.upper
 # Harmonic coordinates' grid: coarse, so a case binds in a second (the setting's minimum is 4).
 HARMONIC_RESOLUTIONS = (4, 8, 16)
 OUTSIDE = ("RAISE", "PROJECT", "EXTRAPOLATE")
-STORAGE = ("AUTO", "EXACT", "COMPACT")
+STORAGE = ("AUTO", "EXACT", "COMPACT", "SPARSE")
 BAKE_MODES = ("CAGE_VERTICES", "CAGE_VERTICES", "FITTED")
 
 CAGE_SHAPES = ("cube", "icosphere", "cylinder", "uv_sphere", "dented", "character")
@@ -78,6 +78,8 @@ def bind_step(rng, available, op="bind"):
             "cage": role(rng, available, ("cage",) * 4 + ("made", "made", "mesh")), "kind": kind,
             "outside": rng.choice(OUTSIDE), "storage": rng.choice(STORAGE),
             "compact_size": rng.choice((4, 6, 12, 36))}
+    if step["storage"] == "SPARSE":  # pairs per vertex, or per grid node in two levels
+        step["sparse_size"] = rng.choice((1, 3, 8, 32))
     if kind == POWER.upper():
         step["gamma"] = rng.choice((-16.0, -8.0, -2.0, -1.0, -0.5, 0.0, 1.0, 2.0, 16.0))
     if kind == HARMONIC.upper():

@@ -79,7 +79,7 @@ def _object_state(obj):
     settings = getattr(obj, "gencoords", None)
     if settings is not None:
         state["settings"] = {name: (value.name if isinstance(value, bpy.types.ID) else value)
-                             for name in ("cage", "kind", "outside", "storage", "field_vertex")
+                             for name in ("cage", "kind", "outside", "storage", "sparse_size", "field_vertex")
                              for value in [getattr(settings, name)]}
     return state
 

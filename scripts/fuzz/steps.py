@@ -167,6 +167,8 @@ def bind(state, step):
         raise Refused(f"Cage setting: {error}") from None
     settings.kind, settings.outside = step["kind"], step["outside"]
     settings.storage, settings.compact_size = step["storage"], step["compact_size"]
+    if "sparse_size" in step:
+        settings.sparse_size = step["sparse_size"]
     if "gamma" in step:
         settings.gamma = step["gamma"]
     if "resolution" in step:

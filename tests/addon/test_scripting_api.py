@@ -27,7 +27,7 @@ def test_results_say_what_bind_chose_and_measured(pipeline):
         assert (result["cage_vertex_count"], result["mesh_vertex_count"]) == (42, 24 * 11 + 2)
         assert 0.0 < result["min_coordinate"] < 1.0 / 42  # inside: all positive, not all equal
         assert result["negative_points"] == result["points_outside"] == 0
-        assert result["max_affine_error"] < 1e-9
+        assert 0.0 < result["max_affine_error"] < 1e-6  # of the float32 weights as stored
         assert result["report"] and result["bind_seconds"] > 0
         assert {"kind", "storage", "min_coordinate", "key"} <= set(result["metadata_keys"])
     # Automatic chose exact for this small mesh; the setting 'AUTO' is never reported.
