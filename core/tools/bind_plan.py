@@ -94,13 +94,13 @@ class ImpreciseCoordinatesError(ValueError):
     """The coordinates as stored place the points only to ``error`` of the cage's size,
     or with ``translation``, sum to 1 only to ``error`` (a translated cage leaves the points
     behind by that share of the move): over ``LINEAR_PRECISION``, as huge coordinates,
-    down to ``min_coordinate``, lose it to float32 rounding, so the mesh would stray as
-    the cage moves."""
+    down to ``min_coordinate`` (and with ``translation``, up to ``largest`` in size, as
+    stored), lose it to float32 rounding, so the mesh would stray as the cage moves."""
 
-    def __init__(self, error, min_coordinate, translation=False):
+    def __init__(self, error, min_coordinate, translation=False, largest=None):
         super().__init__(f"the coordinates as stored sum to 1 only to {error:.2g}" if translation else
                          f"the coordinates as stored place the points only to {error:.2g} of the cage's size")
-        self.error, self.min_coordinate, self.translation = error, min_coordinate, translation
+        self.error, self.min_coordinate, self.translation, self.largest = error, min_coordinate, translation, largest
 
 
 def _in_this_process(compute, workers):
@@ -671,7 +671,8 @@ def _plan(points, cage, request):
     if figures["linear_precision"] > LINEAR_PRECISION and choice.storage != 'SPARSE' and field is None:
         raise ImpreciseCoordinatesError(figures["linear_precision"], figures["min_coordinate"])
     if figures["max_affine_error"] > LINEAR_PRECISION:  # sparse storage's placing is not checked above
-        raise ImpreciseCoordinatesError(figures["max_affine_error"], figures["min_coordinate"], translation=True)
+        raise ImpreciseCoordinatesError(figures["max_affine_error"], figures["min_coordinate"], translation=True,
+                                        largest=float(np.abs(slots).max()))
     return BindPlan(choice.storage, slots, choice.basis, locations, choice.reason, _report(request, cage, field),
                     indices=indices, **figures)
 

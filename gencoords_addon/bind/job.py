@@ -128,13 +128,17 @@ class BindJob:
 
     def _imprecise_message(self, error):
         settings, error_size = self.settings, bind_plan.short_number(error.error)
-        stray = (f"they sum to 1 only to {error_size}, and '{self.obj.name}' would fall behind a moving cage by "
-                 "that share of its move" if error.translation else
-                 f"they place the vertices of '{self.obj.name}' only to {error_size} of the cage's size, and the "
-                 "mesh would stray as the cage moves")
+        if error.translation:
+            size = f"up to {error.largest:.3g} in size"
+            stray = (f"they sum to 1 only to {error_size}, and '{self.obj.name}' would fall behind a moving cage "
+                     "by that share of its move")
+        else:
+            size = f"smallest {error.min_coordinate:.3g}"
+            stray = (f"they place the vertices of '{self.obj.name}' only to {error_size} of the cage's size, and "
+                     "the mesh would stray as the cage moves")
         return (f"{self.kind_label} coordinates{messages.gamma_words(settings.gamma)} in the cage "
-                f"'{self.cage.name}' are too large to store (smallest {error.min_coordinate:.3g}): as "
-                f"stored {stray}. Choose a Gamma between -1 and -0.5, or another Type")
+                f"'{self.cage.name}' are too large to store ({size}): as stored {stray}. Choose a Gamma "
+                "between -1 and -0.5, or another Type")
 
     def _outside_message(self):
         scene = self.input

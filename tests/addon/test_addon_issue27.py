@@ -235,8 +235,8 @@ def test_power_bindings_that_lose_linear_precision_in_storage_are_refused(gc):
     # Sparse storage does not check its placing (dropped pairs move points by design);
     # all 8 pairs kept, the float32 sums miss 1 and a moving cage would leave the mesh behind.
     obj.gencoords.storage, obj.gencoords.sparse_size = 'SPARSE', 8
-    assert_refused(bpy.ops.object.gencoords_bind, obj, r"too large to store \(smallest -\d+\): as stored they "
-                                                       r"sum to 1 only to \d.\de-5, and 'Mesh' would fall behind a "
+    assert_refused(bpy.ops.object.gencoords_bind, obj, r"too large to store \(up to \d+ in size\): as stored "
+                                                       r"they sum to 1 only to \d.\de-5, and 'Mesh' would fall behind a "
                                                        r"moving cage by that share of its move")
     obj.gencoords.gamma = -8.0
     make_active(obj)

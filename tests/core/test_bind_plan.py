@@ -146,6 +146,7 @@ def test_sums_are_measured_as_stored_and_sparse_pairs_that_miss_1_are_refused():
     exact = gencoords.coordinates(point, vertices, faces, kind="power", gamma=-16.0, workers=1)
     rounding = 0.5 * np.finfo(np.float32).eps * np.abs(exact).sum()  # the float32 sum's bound
     assert refused.value.translation and bind_plan.LINEAR_PRECISION < refused.value.error <= rounding
+    assert refused.value.largest == pytest.approx(np.abs(exact).max(), rel=1e-6)  # all 8 kept
     _, plan = run(plan_bind(point, vertices, faces, BindRequest("power", gamma=-8.0, workers=1)))
     assert plan.max_affine_error == abs(plan.slots.astype(np.float64).sum() - 1.0) < 1e-6
 
