@@ -43,7 +43,7 @@ SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
 # The worst drag's columns are computed this many at a time (reweighted pairs leave bounds
 # alike, so many are), over this many points at a time (bounded memory).
 _DRAG_COLUMNS, _DRAG_POINTS = 32, 1 << 13
-_BOUND_ROWS = 4096  # node rows whose residual is taken at a time (bounded temporaries)
+_BOUND_ROWS = 1024  # node rows whose residual is taken at a time (bounded temporaries: 1.6 MB at 196 columns)
 
 
 def largest_pairs(coordinates, count):
@@ -253,7 +253,8 @@ def _interpolated_deviations(coordinates, indices, weights, corners, corner_weig
         rows = slice(start, start + _BOUND_ROWS)
         residual = _residual(coordinates, indices, weights, rows)
         node_moves[rows] = residual @ motion
-        np.maximum(bounds, np.abs(residual[used[rows]]).max(axis=0, initial=0.0), out=bounds)
+        np.abs(residual, out=residual)
+        np.maximum(bounds, residual.max(axis=0, initial=0.0, where=used[rows, None]), out=bounds)
     moves = interpolated(node_moves, corners, corner_weights)
     smooth = float(np.linalg.norm(moves, axis=1).max() / diagonal)
     worst, worst_column = -1.0, 0

@@ -72,9 +72,10 @@ def _mode_set(rig, mode):
 
 
 # Blender deletes bones of (near) zero length on leaving Edit Mode (4.2 did so for the bones
-# of a 1e-6 cage): each bone is at least 1e-5 long (a
-# bone's length changes nothing here: the bones translate).
-MIN_BONE_LENGTH = 1e-5
+# of a 1e-6 cage): each bone is at least 1e-5 long, and 16 float32 steps of where it is (a
+# 3e-3 cage 3e4 from the origin, where a step is 2e-3, lost every bone and its mesh went to
+# the origin). A bone's length changes nothing here: the bones translate.
+MIN_BONE_LENGTH, MIN_BONE_STEPS = 1e-5, 16
 
 
 def add_bones(rig, names, heads, size):
@@ -83,7 +84,8 @@ def add_bones(rig, names, heads, size):
     try:
         for name, head in zip(names, heads):
             bone = rig.data.edit_bones.new(name)
-            bone.head, bone.tail = head, head + (0.0, 0.0, max(0.05 * size, MIN_BONE_LENGTH))
+            step = float(np.spacing(np.float32(np.abs(np.asarray(head, dtype=np.float64)).max())))
+            bone.head, bone.tail = head, head + (0.0, 0.0, max(0.05 * size, MIN_BONE_LENGTH, MIN_BONE_STEPS * step))
     finally:
         _mode_set(rig, 'OBJECT')
 

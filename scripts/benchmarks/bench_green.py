@@ -26,6 +26,7 @@ from gencoords import green_coordinates, green_deform  # noqa: E402
 from gencoords.tools.shapes import icosphere  # noqa: E402
 from gencoords.construction.green import GREEN  # noqa: E402
 from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
+from scripts.common.measures import triangle_angles  # noqa: E402
 
 
 def best_time(run, repeats=3):
@@ -35,14 +36,6 @@ def best_time(run, repeats=3):
         run()
         times.append(time.perf_counter() - start)
     return min(times)
-
-
-def triangle_angles(vertices, faces):
-    """(f, 3) angles in degrees."""
-    corners = vertices[faces]
-    a, b = corners[:, [1, 2, 0]] - corners, corners[:, [2, 0, 1]] - corners
-    cosine = np.einsum("fij,fij->fi", a, b) / np.linalg.norm(a, axis=2) / np.linalg.norm(b, axis=2)
-    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
 
 
 def main():

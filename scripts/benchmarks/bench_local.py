@@ -49,7 +49,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: 
 from scripts.common import session  # noqa: E402
 
 session.prepare()  # before bpy is imported
-from scripts.common import character, scenes  # noqa: E402
+from scripts.common import character, measures, scenes  # noqa: E402
 import bpy  # noqa: E402
 from scripts.common import playback  # noqa: E402
 from scripts.common.memory import PeakMemory, blend_size  # noqa: E402
@@ -101,18 +101,6 @@ def locality(mesh, cage, rest_cage, labels, size):
     return moves
 
 
-def triangle_angles(points, triangles):
-    """(t, 3) angles in degrees."""
-    corners = points[triangles]
-    angles = []
-    for c in range(3):
-        a = corners[:, (c + 1) % 3] - corners[:, c]
-        b = corners[:, (c + 2) % 3] - corners[:, c]
-        cosine = (a * b).sum(1) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-30)
-        angles.append(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
-    return np.stack(angles, axis=1)
-
-
 def normals(points, triangles):
     corners = points[triangles]
     return np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
@@ -129,7 +117,7 @@ def bend(mesh, cage, rest_cage, labels, triangles):
     arrays.write_positions(cage.data, rest_cage)
     settle(mesh)
     arm = triangles[(labels[triangles] == "left_arm").all(axis=1)]
-    change = np.abs(triangle_angles(now, arm) - triangle_angles(rest, arm)).ravel()
+    change = measures.angle_changes(rest, now, arm)
     before, after = normals(rest, arm), normals(now, arm)
     flipped = ((after * before).sum(1) < 0) & ((after * (before @ rotation.T)).sum(1) < 0)
     return float(change.mean()), float(np.percentile(change, 99)), int(flipped.sum())

@@ -233,3 +233,4 @@ def bent_forearm(vertices, degrees=60.0):
     forearm = cage_limb_vertices(bent, "left_arm")
     bent[forearm] = (bent[forearm] - ELBOW) @ rotation.T + ELBOW
     return bent, rotation
+

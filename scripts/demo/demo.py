@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: 
 from scripts.common import session  # noqa: E402
 
 session.prepare()  # before bpy is imported: Blender reads its user folder then
-from scripts.common import pictures  # noqa: E402
+from scripts.common import measures, pictures  # noqa: E402
 from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
@@ -273,13 +273,7 @@ def artist_pictures():
 
 def triangle_angles(mesh):
     """The evaluated mesh's triangles' corner angles, (t, 3) in degrees."""
-    corners = arrays.evaluated_positions(mesh)[arrays.read_loop_triangles(mesh.data)]
-    angles = []
-    for i in range(3):
-        a, b = corners[:, (i + 1) % 3] - corners[:, i], corners[:, (i + 2) % 3] - corners[:, i]
-        cosine = np.einsum("tc,tc->t", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
-        angles.append(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
-    return np.stack(angles, axis=1)
+    return measures.triangle_angles(arrays.evaluated_positions(mesh), arrays.read_loop_triangles(mesh.data))
 
 
 def green_pictures(stretch=1.6):

@@ -151,11 +151,27 @@ def check_output(text):
             raise Violation("no internal error", text[max(0, start - 200):start + 1500])
 
 
+def carries_a_cage_nan(obj):
+    """Whether ``obj`` is deformed by a rig holding a bone on a non-finite cage vertex (a
+    NaN the case put in the cage): Bake to Bones' rig is Blender's own, and its Copy
+    Location constraints carry the NaN to the bone and its vertices as any rig's would
+    (the binding's deformer is what keeps a NaN cage vertex out of the mesh)."""
+    for modifier in obj.modifiers:
+        rig = getattr(modifier, "object", None) if modifier.type == 'ARMATURE' else None
+        for bone in (rig.pose.bones if rig is not None and rig.pose else ()):
+            for constraint in bone.constraints:
+                cage = getattr(constraint, "target", None)
+                if constraint.type == 'COPY_LOCATION' and cage is not None and cage.type == 'MESH' \
+                        and not np.isfinite(arrays.read_positions(cage.data)).all():
+                    return True
+    return False
+
+
 def check_finite():
     """No NaN or infinity in an evaluated mesh whose own data is finite."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
     for obj in bpy.context.view_layer.objects:
-        if obj.type != 'MESH' or not own_data_finite(obj):
+        if obj.type != 'MESH' or not own_data_finite(obj) or carries_a_cage_nan(obj):
             continue
         positions = arrays.read_positions(obj.evaluated_get(depsgraph).data)
         bad = np.flatnonzero(~np.isfinite(positions).all(axis=1))

@@ -16,7 +16,7 @@ import pytest
 from mathutils import Matrix
 
 from fresh_process import PACKAGE, REPO, report_of, run_blender_script
-from scene_helpers import (make_active, add_icosphere_cage, add_sphere, bind, evaluated_positions,
+from scene_helpers import (make_active, add_cube_cage, add_icosphere_cage, add_sphere, bind, evaluated_positions,
                            mesh_state, read_positions, write_positions, write_shape_key)
 
 VALIDATOR = REPO / "tests" / "tools" / "node_modules" / "gltf-validator"
@@ -181,6 +181,27 @@ def test_bake_to_bones_from_a_script_in_a_temp_override(gc):
     exact = read_positions(obj.data) + coordinates @ (moved - rest_cage)
     gap = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max()
     assert gap < 1e-5 * np.linalg.norm(np.ptp(rest_cage, axis=0))
+
+
+def test_bake_to_bones_keeps_every_bone_of_a_small_cage_far_from_the_origin(gc):
+    """Fuzz seed 629: a 6 mm cage whose vertices lie 30 km out (in its data), where
+    float32 steps are 2 mm, had bones of 0.5 mm, their tails rounded onto their heads (4.2
+    deletes such bones), and the mesh went to the origin. Baked from a script, every cage
+    vertex keeps a bone, and the mesh stays and follows."""
+    cage, obj = add_cube_cage(size=0.006), add_sphere(radius=0.0015)
+    for each in (cage, obj):
+        write_positions(each.data, read_positions(each.data) + np.float32(3.0e4))
+    bind(obj, cage)
+    before = world_positions(obj)
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bake_bones(max_influences=0) == {'FINISHED'}
+    bones = obj.parent.data.bones
+    assert len(bones) == len(cage.data.vertices) and min(bone.length for bone in bones) > 0.0
+    step = np.spacing(np.float32(3.0e4))  # each vertex is rounded where it is, 2e-3
+    assert np.abs(world_positions(obj) - before).max() <= 2 * step
+    cage.location.z += 0.5
+    bpy.context.view_layer.update()
+    assert np.abs(world_positions(obj) - before - (0.0, 0.0, 0.5)).max() <= 2 * step
 
 
 def test_bake_to_bones_refuses_negative_coordinates_and_changes_nothing(gc):
