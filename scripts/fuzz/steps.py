@@ -128,13 +128,21 @@ def follows_exactly(obj, reshaped=()):
     return not any(cage.name in reshaped for cage in cages) and not (cages and obj.name in reshaped)
 
 
+def followers(cage):
+    """Names of the mesh objects that follow ``cage``, directly or through other cages."""
+    meshes = [o for o in bpy.context.view_layer.objects if o.type == 'MESH']
+    drivers = {o.name: {d.name for d in drivers_of(o)} for o in meshes}
+    follows = {cage.name}
+    for _ in meshes:  # to a fixed point: chains of cages
+        follows |= {name for name, found in drivers.items() if found & follows}
+    return sorted(follows - {cage.name})
+
+
 def single_followers(cage, reshaped=()):
     """Mesh objects that follow ``cage`` along exactly one path, exactly (they move as it moves)."""
     meshes = [o for o in bpy.context.view_layer.objects if o.type == 'MESH']
     drivers = {o.name: [d.name for d in drivers_of(o)] for o in meshes}
-    follows = {cage.name}
-    for _ in meshes:  # to a fixed point: chains of cages
-        follows |= {name for name, found in drivers.items() if set(found) & follows}
+    follows = {cage.name, *followers(cage)}
     return [name for name, found in drivers.items() if name != cage.name
             and sum(d in follows for d in found) == 1 and translates(bpy.data.objects[name])
             and all(follows_exactly(bpy.data.objects[d], reshaped) for d in [name, *found]
@@ -212,7 +220,9 @@ def _bind_checked(state, target):
     if unbound:
         state.pristine[target.data.name] = digest
     after = checks.world_positions()
-    still = [name for name in before if not (replaced and name == target.name)]
+    # Meshes whose cage is the target (or follows it) follow it as it drops that deformation.
+    moving = {target.name} | set(followers(target)) if replaced else set()
+    still = [name for name in before if name not in moving]
     checks.check_moved(still, before, after, np.zeros(3), 0.0, "rest is unchanged (Bind)")
     return "done"
 
