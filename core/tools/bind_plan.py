@@ -723,7 +723,7 @@ def _plan_two_level(points, cage, request, rows, report):
     corners, corner_weights, node_rows = rows
     automatic = request.storage == 'AUTO'
     # Automatic fills the stored columns (free accuracy); Sparse keeps the count asked for.
-    counts = (sparse.filled_node_slot_counts(sparse.NODE_SLOT_COUNTS, len(points), len(node_rows), len(cage.vertices))
+    counts = (sparse.automatic_node_slot_counts(len(points), len(node_rows), len(cage.vertices))
               if automatic else (request.sparse_size,))
     layout = sparse.two_level_layout(node_rows, corners, corner_weights, cage.vertices, AUTO_DEVIATION, counts)
     deviation = max(layout.deviation_smooth, layout.deviation_drag)

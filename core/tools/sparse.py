@@ -32,12 +32,18 @@ from . import compact
 
 __all__ = ["largest_pairs", "placed_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
            "stacked_columns", "unstacked", "layout_coordinates", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS",
-           "filled_node_slot_counts"]
+           "filled_node_slot_counts", "automatic_node_slot_counts"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
 # cheap (bench_sparse_routes.py: 48 pairs on 1,286 nodes play back in 0.8x Mesh Deform's time).
 NODE_SLOT_COUNTS = (8, 16, 24, 32, 48, 64, 96, 128)
+# Beyond those, Automatic tries more K', up to every cage vertex, while the nodes' pairs
+# fill at most this many stored columns (each a gather over the mesh's vertex count, as one
+# of the 4 corners is): the node stage then costs at most twice the vertex stage. Harmonic
+# coordinates deep inside a convex cage are not local (a million points in a 642-vertex
+# icosphere: 128 pairs deviate 2e-2), and there the nodes are few beside the points.
+MORE_NODE_SLOT_COUNTS, NODE_COLUMN_BUDGET = (192, 256, 384, 512), 8
 SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
 SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
 # The worst drag's columns are computed this many at a time (reweighted pairs leave bounds
@@ -347,6 +353,25 @@ def used_nodes(corners):
     """
     used, local = np.unique(np.asarray(corners), return_inverse=True)
     return used, local.reshape(np.shape(corners)).astype(np.int32)
+
+
+def automatic_node_slot_counts(point_count, node_count, column_count, per_vector=3):
+    """Automatic's candidate K' for N grid nodes beside k points: NODE_SLOT_COUNTS, then
+    MORE_NODE_SLOT_COUNTS and every column (n) as far as NODE_COLUMN_BUDGET stored columns,
+    filled (:func:`filled_node_slot_counts`).
+
+    Examples
+    --------
+    >>> from gencoords.tools.sparse import automatic_node_slot_counts
+    >>> automatic_node_slot_counts(1_000_000, 7960, 642)  # 375 slots a column: all 642 in 2
+    (375, 642)
+    >>> automatic_node_slot_counts(43236, 5524, 196)  # all 196 would take 10 columns
+    (21, 42, 63, 84, 105, 147)
+    """
+    per_column = per_vector * max(1, point_count // max(1, node_count))
+    more = [count for count in MORE_NODE_SLOT_COUNTS + (column_count,)
+            if -(-min(count, column_count) // per_column) <= NODE_COLUMN_BUDGET]
+    return filled_node_slot_counts(NODE_SLOT_COUNTS + tuple(more), point_count, node_count, column_count, per_vector)
 
 
 def filled_node_slot_counts(counts, point_count, node_count, column_count, per_vector=3):

@@ -106,6 +106,30 @@ def test_harmonic_binding_is_sparse_positive_bitwise_at_rest_and_translates_exac
     assert "Harmonic" in " ".join(text for text, _ in gc.status.status_lines(obj))
 
 
+def test_automatic_keeps_every_pair_of_few_nodes_deep_in_a_convex_cage(gc):
+    """A 39,600-vertex sphere deep inside a 162-vertex icosphere: harmonic coordinates are
+    not local there (128 pairs per node would deviate 3e-3), its 896 grid nodes are few, so
+    Automatic keeps all 162 pairs per node (2 stored columns); a dragged cage vertex then
+    moves the mesh as the exact coordinates do."""
+    cage = add_icosphere_cage(subdivisions=3)  # Blender's third: 162 vertices
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.4, segments=200, ring_count=199)
+    obj = bpy.context.active_object
+    rest, cage_rest = read_positions(obj.data).copy(), read_positions(cage.data).copy()
+    assert bind(obj, cage, resolution=16) == {'FINISHED'}
+    result = result_of(gc, obj)
+    assert (result.storage, result.node_slot_count, len(cage_rest)) == ("SPARSE", 162, 162)
+    assert max(result.deviation_smooth, result.deviation_drag) < 1e-6
+    assert "162 largest coordinates" in result.metadata["storage_choice"]
+    moved = cage_rest.copy()
+    moved[7] += np.float32(0.2 * diagonal(cage))
+    write_positions(cage.data, moved)
+    cage_world = cage_rest.astype(np.float64)
+    triangles = np.array([tuple(polygon.vertices) for polygon in cage.data.polygons])  # an icosphere's
+    field = gc.core.harmonic_field(cage_world, triangles, resolution=16, workers=1)
+    expected = rest + field.coordinates(rest.astype(np.float64)) @ (moved - cage_rest).astype(np.float64)
+    assert np.abs(evaluated_positions(obj) - expected).max() < 2e-5 * diagonal(cage)
+
+
 @pytest.mark.parametrize("limb", ["left_arm", "right_arm", "right_leg"])
 def test_moving_one_limb_leaves_the_other_limbs_still(gc, bound_character, limb):
     obj, cage, labels, rest = bound_character

@@ -256,6 +256,24 @@ def test_harmonic_plans_two_levels_by_default_positive_and_local():
     assert fractions[-1] in (0.5, 1.0) and fractions == sorted(fractions)  # the solve's progress, then the layout
 
 
+def test_automatic_keeps_every_pair_at_few_nodes_where_harmonic_coordinates_are_not_local():
+    """A sphere of 39,600 points deep in a 162-vertex icosphere: its 896 grid nodes weigh
+    most of the cage, 128 pairs each deviate 3e-3 (over the target); all 162 fit in 2
+    stored columns (132 slots a column), and Automatic keeps them, deviating by float32
+    rounding alone."""
+    vertices, faces = icosphere(2, radius=2.0)
+    theta, phi = np.meshgrid(np.linspace(0, np.pi, 200)[1:-1], np.linspace(0, 2 * np.pi, 200, endpoint=False))
+    points = 1.4 * np.column_stack([(np.sin(theta) * np.cos(phi)).ravel(), (np.sin(theta) * np.sin(phi)).ravel(),
+                                    np.cos(theta).ravel()])
+    _, plan = run(plan_bind(points, vertices, faces, BindRequest("harmonic", resolution=16, workers=1)))
+    assert plan.storage == 'SPARSE' and plan.node_weights.shape[1] == len(vertices) == 162
+    assert max(plan.deviation_smooth, plan.deviation_drag) < 1e-6
+    vectors, per_column = -(-len(vertices) // 3), len(points) // plan.node_count  # three pairs a vector
+    assert plan.node_count < len(points) // 40 and -(-vectors // per_column) == 2 <= sparse.NODE_COLUMN_BUDGET
+    counts = sparse.automatic_node_slot_counts(len(points), plan.node_count, len(vertices))
+    assert counts[-2] < 162 == counts[-1]  # tried first, the fewer pairs missed the target
+
+
 def test_the_harmonic_solve_reports_progress_and_closing_the_plan_stops_it(monkeypatch):
     """The solve runs beside the plan's generator, which yields its progress meanwhile (a
     modal Bind's progress bar and Esc); closing the generator (Esc) ends it."""
