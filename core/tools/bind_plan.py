@@ -26,7 +26,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..base.grid import fit_grid
-from ..base.tolerances import LINEAR_PRECISION
+from ..base.tolerances import LINEAR_PRECISION, TRANSLATION_PRECISION
 from ..construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from ..construction.green import GREEN
 from ..construction.validation import DEFAULT_TOLERANCE
@@ -91,11 +91,12 @@ class UndefinedCoordinatesError(ValueError):
 
 
 class ImpreciseCoordinatesError(ValueError):
-    """The coordinates as stored place the points only to ``error`` of the cage's size,
-    or with ``translation``, sum to 1 only to ``error`` (a translated cage leaves the points
-    behind by that share of the move): over ``LINEAR_PRECISION``, as huge coordinates,
-    down to ``min_coordinate`` (and with ``translation``, up to ``largest`` in size, as
-    stored), lose it to float32 rounding, so the mesh would stray as the cage moves."""
+    """The coordinates as stored place the points only to ``error`` of the cage's size
+    (over ``LINEAR_PRECISION``), or with ``translation``, sum to 1 only to ``error`` (over
+    ``TRANSLATION_PRECISION``: a translated cage leaves the points behind by that share of
+    the move): huge coordinates, down to ``min_coordinate`` (with ``translation``, up to
+    ``largest`` in size, as stored), lose it to float32 rounding, so the mesh would stray as
+    the cage moves."""
 
     def __init__(self, error, min_coordinate, translation=False, largest=None):
         super().__init__(f"the coordinates as stored sum to 1 only to {error:.2g}" if translation else
@@ -670,7 +671,7 @@ def _plan(points, cage, request):
     # losing their point to float32 rounding are refused.
     if figures["linear_precision"] > LINEAR_PRECISION and choice.storage != 'SPARSE' and field is None:
         raise ImpreciseCoordinatesError(figures["linear_precision"], figures["min_coordinate"])
-    if figures["max_affine_error"] > LINEAR_PRECISION:  # sparse storage's placing is not checked above
+    if figures["max_affine_error"] > TRANSLATION_PRECISION:  # sparse storage's placing is not checked above
         raise ImpreciseCoordinatesError(figures["max_affine_error"], figures["min_coordinate"], translation=True,
                                         largest=float(np.abs(slots).max()))
     return BindPlan(choice.storage, slots, choice.basis, locations, choice.reason, _report(request, cage, field),
