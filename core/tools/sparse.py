@@ -368,10 +368,16 @@ def automatic_node_slot_counts(point_count, node_count, column_count, per_vector
     >>> automatic_node_slot_counts(43236, 5524, 196)  # all 196 would take 10 columns
     (21, 42, 63, 84, 105, 147)
     """
-    per_column = per_vector * max(1, point_count // max(1, node_count))
+    per_column = _slots_per_column(point_count, node_count, per_vector)
     more = [count for count in MORE_NODE_SLOT_COUNTS + (column_count,)
             if -(-min(count, column_count) // per_column) <= NODE_COLUMN_BUDGET]
     return filled_node_slot_counts(NODE_SLOT_COUNTS + tuple(more), point_count, node_count, column_count, per_vector)
+
+
+def _slots_per_column(point_count, node_count, per_vector):
+    """Node slots one stored column holds (:func:`stacked_columns`): ``per_vector`` times
+    the nodes' copies that fit its ``point_count`` rows."""
+    return per_vector * max(1, point_count // max(1, node_count))
 
 
 def filled_node_slot_counts(counts, point_count, node_count, column_count, per_vector=3):
@@ -399,7 +405,7 @@ def filled_node_slot_counts(counts, point_count, node_count, column_count, per_v
     >>> filled_node_slot_counts((8, 16, 24, 48), 1000, 140, 200)  # 7 vectors, 21 slots a column
     (21, 42, 63)
     """
-    per_column = per_vector * max(1, point_count // max(1, node_count))
+    per_column = _slots_per_column(point_count, node_count, per_vector)
     return tuple(sorted({min(-(-count // per_column) * per_column, column_count) for count in counts}))
 
 

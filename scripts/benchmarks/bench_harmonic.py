@@ -36,7 +36,7 @@ from scripts.common.measures import angle_changes  # noqa: E402
 from gencoords.tools.skinning import reproduce_points, top_k  # noqa: E402
 
 
-def measure(vertices, triangles, points, resolution, workers=1):
+def measure(vertices, triangles, points, resolution, workers, body):
     diagonal = np.linalg.norm(np.ptp(vertices, axis=0))
     tracemalloc.start()
     start = time.perf_counter()
@@ -66,13 +66,14 @@ def measure(vertices, triangles, points, resolution, workers=1):
                 corrected_negative=int((corrected < 0.0).sum()),
                 locality=float(coordinates[np.ix_(elsewhere, hand)].max()),
                 above=float((coordinates > 1e-5).sum(axis=1).mean()), spacing=field.spacing, spread=spread,
-                bend=bend(field, vertices))
+                bend=bend(field, vertices, body))
 
 
-def bend(field, vertices):
+def bend(field, vertices, body):
     """Mean and 99th percentile of the left arm's triangle angle changes (degrees) when
-    the forearm's cage turns 60 degrees, the body mesh deformed by ``field``'s coordinates."""
-    mesh, triangles, labels = body_mesh()
+    the forearm's cage turns 60 degrees, ``body`` (``body_mesh()``) deformed by
+    ``field``'s coordinates."""
+    mesh, triangles, labels = body
     arm = triangles[(labels[triangles] == "left_arm").all(axis=1)]
     moved = mesh + field.coordinates(mesh) @ (bent_forearm(vertices)[0] - vertices)
     change = angle_changes(mesh, moved, arm)
@@ -88,6 +89,7 @@ def main():
     vertices, quads = character_cage()
     triangles = gencoords.tools.triangulate_quads(vertices, quads)
     points = body_points(arguments.points)
+    body = body_mesh()  # the bend's mesh, once for every resolution
     workers = arguments.workers or gencoords.evaluation.parallel.available_cores()
     print(f"character cage: {len(vertices)} vertices, {len(triangles)} triangles; {len(points)} points inside; "
           f"box {np.ptp(vertices, axis=0).tolist()}, diagonal {np.linalg.norm(np.ptp(vertices, axis=0)):.2f}")
@@ -95,7 +97,7 @@ def main():
     print(f"res  cell   bind s  w={workers} s  peak MB  unknowns  nodes   its  red/it   lookup s  neg  lin.prec/diag  "
           "after reproduce(32)  other-limb max  >1e-5/pt  bend mean/p99")
     for resolution in (int(text) for text in arguments.resolutions.split(",")):
-        row = measure(vertices, triangles, points, resolution, workers)
+        row = measure(vertices, triangles, points, resolution, workers, body)
         spread = f"{row['spread']:6.2f}" if row["spread"] is not None else "     -"
         print(f"{row['resolution']:3d}  {row['spacing']:.3f}  {row['bind']:7.2f}  {spread}  {row['peak']:7.0f}  "
               f"{row['unknowns']:8d}  {row['nodes']:6d}  {row['iterations']:3d}  {row['reduction']:.3f}   "

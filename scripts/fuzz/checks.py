@@ -151,20 +151,30 @@ def check_output(text):
             raise Violation("no internal error", text[max(0, start - 200):start + 1500])
 
 
+RIG_CONSTRAINT = 'COPY_LOCATION'  # how a baked rig's bones follow the cage
+
+
+def rig_cages(obj):
+    """The cages the rigs of ``obj``'s Armature modifiers follow (Bake to Bones' rigs)."""
+    return [cage for modifier in obj.modifiers if modifier.type == 'ARMATURE' for cage in rig_cages_of(modifier)]
+
+
+def rig_cages_of(modifier):
+    """The cage an Armature modifier's rig follows ([cage] or [])."""
+    rig = modifier.object
+    if rig is None or rig.pose is None:
+        return []
+    targets = [c.target for b in rig.pose.bones for c in b.constraints if c.type == RIG_CONSTRAINT]
+    return [targets[0]] if targets and targets[0] is not None else []
+
+
 def carries_a_cage_nan(obj):
-    """Whether ``obj`` is deformed by a rig holding a bone on a non-finite cage vertex (a
+    """Whether ``obj`` is deformed by a rig following a cage with a non-finite vertex (a
     NaN the case put in the cage): Bake to Bones' rig is Blender's own, and its Copy
     Location constraints carry the NaN to the bone and its vertices as any rig's would
     (the binding's deformer is what keeps a NaN cage vertex out of the mesh)."""
-    for modifier in obj.modifiers:
-        rig = getattr(modifier, "object", None) if modifier.type == 'ARMATURE' else None
-        for bone in (rig.pose.bones if rig is not None and rig.pose else ()):
-            for constraint in bone.constraints:
-                cage = getattr(constraint, "target", None)
-                if constraint.type == 'COPY_LOCATION' and cage is not None and cage.type == 'MESH' \
-                        and not np.isfinite(arrays.read_positions(cage.data)).all():
-                    return True
-    return False
+    return any(cage.type == 'MESH' and not np.isfinite(arrays.read_positions(cage.data)).all()
+               for cage in rig_cages(obj))
 
 
 def check_finite():

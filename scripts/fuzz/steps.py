@@ -14,7 +14,6 @@ from scripts.common import session
 from scripts.common.blender_objects import arrays, make_active
 from . import checks, scene
 
-RIG_CONSTRAINT = 'COPY_LOCATION'  # how a baked rig's bones follow the cage
 # Modifiers that commute with a translation on every mesh. Blender's Smooth and Displace
 # do not on loose vertices (Smooth halves their motion, Displace follows their
 # position's direction): meshes with others are left out of the translation check.
@@ -100,21 +99,7 @@ def _live(obj, modifier, group):
 
 def drivers_of(obj):
     """The objects ``obj`` follows directly: its live bindings' cages, its baked rigs' cages."""
-    return [cage for cage in [_live(obj, m, g) for m, g in bindings_of(obj)] + rig_cages(obj) if cage is not None]
-
-
-def rig_cages(obj):
-    """The cages the rigs of ``obj``'s Armature modifiers follow (Bake to Bones' rigs)."""
-    return [cage for modifier in obj.modifiers if modifier.type == 'ARMATURE' for cage in rig_cages_of(modifier)]
-
-
-def rig_cages_of(modifier):
-    """The cage an Armature modifier's rig follows ([cage] or [])."""
-    rig = modifier.object
-    if rig is None or rig.pose is None:
-        return []
-    targets = [c.target for b in rig.pose.bones for c in b.constraints if c.type == RIG_CONSTRAINT]
-    return [targets[0]] if targets and targets[0] is not None else []
+    return [cage for cage in [_live(obj, m, g) for m, g in bindings_of(obj)] + checks.rig_cages(obj) if cage is not None]
 
 
 def follows_exactly(obj, reshaped=()):
@@ -124,7 +109,7 @@ def follows_exactly(obj, reshaped=()):
     groups travel with a subdivision, and an emptied group leaves the bone on the cage's
     origin), but no longer as the binding did; a vertex added to the mesh has no weight
     and stays (as in any Blender skin)."""
-    cages = rig_cages(obj)
+    cages = checks.rig_cages(obj)
     return not any(cage.name in reshaped for cage in cages) and not (cages and obj.name in reshaped)
 
 
@@ -156,7 +141,7 @@ def translates(obj):
     columns = np.linalg.norm(np.array(obj.matrix_world, dtype=np.float64)[:3, :3], axis=0)
     # An armature commutes with translations only when its bones just translate: Bake to
     # Bones' rigs that follow the cage; a Fitted rig's keyframed bones turn.
-    armatures_translate = all(rig_cages_of(m) for m in obj.modifiers if m.type == 'ARMATURE')
+    armatures_translate = all(checks.rig_cages_of(m) for m in obj.modifiers if m.type == 'ARMATURE')
     return ({m.type for m in obj.modifiers} <= TRANSLATION_SAFE and armatures_translate
             and columns.min() > 1e-6 * columns.max())
 
