@@ -26,7 +26,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from ..base.grid import fit_grid
-from ..base.tolerances import LINEAR_PRECISION, TRANSLATION_PRECISION
+from ..base.tolerances import LINEAR_PRECISION, ROUNDING_AMPLIFICATION, TRANSLATION_PRECISION
 from ..construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from ..construction.green import GREEN
 from ..construction.validation import DEFAULT_TOLERANCE
@@ -91,17 +91,28 @@ class UndefinedCoordinatesError(ValueError):
 
 
 class ImpreciseCoordinatesError(ValueError):
-    """The coordinates as stored place the points only to ``error`` of the cage's size
-    (over ``LINEAR_PRECISION``), or with ``translation``, sum to 1 only to ``error`` (over
-    ``TRANSLATION_PRECISION``: a translated cage leaves the points behind by that share of
-    the move): huge coordinates, down to ``min_coordinate`` (with ``translation``, up to
-    ``largest`` in size, as stored), lose it to float32 rounding, so the mesh would stray as
-    the cage moves."""
+    """Huge coordinates lose their point to float32 rounding, so the mesh would stray as
+    the cage moves. ``problem`` says how, with ``error`` its measure:
 
-    def __init__(self, error, min_coordinate, translation=False, largest=None):
-        super().__init__(f"the coordinates as stored sum to 1 only to {error:.2g}" if translation else
-                         f"the coordinates as stored place the points only to {error:.2g} of the cage's size")
-        self.error, self.min_coordinate, self.translation, self.largest = error, min_coordinate, translation, largest
+    - ``"placing"``: as stored they place the points only to ``error`` of the cage's size
+      (over ``LINEAR_PRECISION``); ``min_coordinate`` is the smallest.
+    - ``"sums"``: as stored they sum to 1 only to ``error`` (over ``TRANSLATION_PRECISION``:
+      a translated cage leaves the points behind by that share of the move); ``largest``
+      is the largest in size.
+    - ``"rounding"``: their magnitudes sum to ``largest`` at a point, so the float32
+      rounding of the cage's positions makes the points jitter by up to ``error`` of the
+      cage's size as it moves (over ``TRANSLATION_PRECISION``, see
+      ``ROUNDING_AMPLIFICATION``).
+    """
+
+    MESSAGES = {"placing": "the coordinates as stored place the points only to {:.2g} of the cage's size",
+                "sums": "the coordinates as stored sum to 1 only to {:.2g}",
+                "rounding": "the coordinates' magnitudes make the points jitter by up to {:.2g} of the cage's "
+                            "size with the float32 rounding of its positions"}
+
+    def __init__(self, problem, error, min_coordinate, largest=None):
+        super().__init__(self.MESSAGES[problem].format(error))
+        self.problem, self.error, self.min_coordinate, self.largest = problem, error, min_coordinate, largest
 
 
 def _in_this_process(compute, workers):
@@ -171,6 +182,10 @@ class BindRequest:
     resolution: int = BIND_RESOLUTION  # harmonic coordinates: cells along the cage's longest side
     workers: Optional[int] = None  # worker processes (None: the core's choice; 1: none)
     tolerance: float = DEFAULT_TOLERANCE  # relative to the cage's size
+    # (o, 3) float: where the deformer's float32 positions are measured from (the objects'
+    # origins), in the points' space; None: the points' own origin. Their rounding grows
+    # with the cage's distance from these.
+    origins: Optional[np.ndarray] = None
     # ``run(compute, workers)`` calls ``compute(workers)``: a front end's hook to fall
     # back to its own process where workers fail (it then passes 1 on later calls).
     run: Callable = _in_this_process
@@ -547,7 +562,8 @@ def _slots(request, cage, points, choice, workers, field=None):
     slots = np.empty((count, slot_count), dtype=np.float32)
     indices = np.empty((count, slot_count), dtype=np.int32) if choice.storage == 'SPARSE' else None
     locations = np.empty(count, dtype=np.int8)
-    totals = {"min": np.inf, "negative_points": 0, "negative_entries": 0, "max_affine_error": 0.0}
+    totals = {"min": np.inf, "negative_points": 0, "negative_entries": 0, "max_affine_error": 0.0,
+              "weight_magnitude": 0.0}
     precision = 0.0
     smooth, drag = 0.0, np.zeros(len(cage.vertices))
     faces = cage.faces if request.green else None
@@ -566,6 +582,8 @@ def _slots(request, cage, points, choice, workers, field=None):
         # The sums as written: float32 rounding of huge coordinates breaks translations.
         sums = reproduced[:, :len(cage.vertices)].sum(axis=1)
         totals["max_affine_error"] = max(totals["max_affine_error"], float(np.abs(sums - 1.0).max(initial=0.0)))
+        magnitudes = np.abs(reproduced[:, :len(cage.vertices)]).sum(axis=1)
+        totals["weight_magnitude"] = max(totals["weight_magnitude"], float(magnitudes.max(initial=0.0)))
         precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
         residual = np.subtract(coordinates, reproduced, out=reproduced)
         chunk_smooth, chunk_drag = compact.residual_deviations(residual, cage.vertices, faces=faces)
@@ -577,7 +595,8 @@ def _slots(request, cage, points, choice, workers, field=None):
         "min_coordinate": float(totals["min"]), "negative_points": totals["negative_points"],
         "negative_entries": totals["negative_entries"], "max_affine_error": float(totals["max_affine_error"]),
         "linear_precision": float(precision), "deviation_smooth": float(smooth),
-        "deviation_drag": float(drag.max(initial=0.0)), "deviation_drag_vertex": int(np.argmax(drag))}
+        "deviation_drag": float(drag.max(initial=0.0)), "deviation_drag_vertex": int(np.argmax(drag)),
+        "weight_magnitude": totals["weight_magnitude"]}
 
 
 def _placed(request, stored, cage_vertices, points, locations):
@@ -605,7 +624,8 @@ def plan_bind(points, cage_vertices, triangles, request):
 
     Raises the core's errors (ValueError: ``CageError``, ``OutsideCageError``,
     ``UndefinedCoordinatesError``; ``ImpreciseCoordinatesError`` once the coordinates as
-    stored fail ``LINEAR_PRECISION``) on the first step or where they arise. Closing the
+    stored fail ``LINEAR_PRECISION`` or ``TRANSLATION_PRECISION``) on the first step or
+    where they arise. Closing the
     generator early (a cancel) stops the worker processes.
 
     Examples
@@ -670,12 +690,35 @@ def _plan(points, cage, request):
     # approximately by design (their deviations say how far), so only huge coordinates
     # losing their point to float32 rounding are refused.
     if figures["linear_precision"] > LINEAR_PRECISION and choice.storage != 'SPARSE' and field is None:
-        raise ImpreciseCoordinatesError(figures["linear_precision"], figures["min_coordinate"])
+        raise ImpreciseCoordinatesError("placing", figures["linear_precision"], figures["min_coordinate"])
     if figures["max_affine_error"] > TRANSLATION_PRECISION:  # sparse storage's placing is not checked above
-        raise ImpreciseCoordinatesError(figures["max_affine_error"], figures["min_coordinate"], translation=True,
+        raise ImpreciseCoordinatesError("sums", figures["max_affine_error"], figures["min_coordinate"],
                                         largest=float(np.abs(slots).max()))
+    magnitude = figures.pop("weight_magnitude")
+    jitter = rounding_jitter(magnitude, cage.vertices, request.origins)
+    if magnitude > ROUNDING_AMPLIFICATION and jitter > TRANSLATION_PRECISION:
+        raise ImpreciseCoordinatesError("rounding", jitter, figures["min_coordinate"], largest=magnitude)
     return BindPlan(choice.storage, slots, choice.basis, locations, choice.reason, _report(request, cage, field),
                     indices=indices, **figures)
+
+
+def rounding_jitter(weight_magnitude, cage_vertices, origins=None):
+    """How far, of the cage's size, points whose weights' magnitudes sum to
+    ``weight_magnitude`` may jitter as the cage moves, from the float32 rounding of the
+    cage's positions (half an epsilon of their largest distance from ``origins``, (o, 3),
+    the frame's origin if None).
+
+    >>> import numpy as np
+    >>> from gencoords.tools.bind_plan import rounding_jitter
+    >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    >>> bool(rounding_jitter(1.0, cube) < 1e-7), bool(rounding_jitter(1.0, cube, origins=[[-1e6, 0, 0]]) > 1e-2)
+    (True, True)
+    """
+    cage_vertices = np.asarray(cage_vertices, dtype=np.float64)
+    origins = np.zeros((1, cage_vertices.shape[1])) if origins is None else np.asarray(origins, dtype=np.float64)
+    distance = max(float(np.abs(cage_vertices - origin).max(initial=0.0)) for origin in origins)
+    size = float(np.linalg.norm(np.ptp(cage_vertices, axis=0)))
+    return weight_magnitude * 0.5 * float(np.finfo(np.float32).eps) * distance / size
 
 
 def _report(request, cage, field=None):

@@ -88,7 +88,7 @@ class BindJob:
             kind=settings.kind, outside=settings.outside, gamma=settings.gamma, storage=settings.storage,
             compact_size=settings.compact_size, sparse_size=settings.sparse_size,
             resolution=settings.resolution, workers=preferences.worker_count(context),
-            tolerance=FLOAT32_TOLERANCE, run=run)
+            tolerance=FLOAT32_TOLERANCE, origins=self.input.origins, run=run)
 
     def steps(self):
         """Compute the bind data chunk by chunk, yielding the fraction done (0 to 1).
@@ -128,10 +128,14 @@ class BindJob:
 
     def _imprecise_message(self, error):
         settings, error_size = self.settings, bind_plan.short_number(error.error)
-        if error.translation:
+        if error.problem == "sums":
             size = f"up to {error.largest:.3g} in size"
             stray = (f"they sum to 1 only to {error_size}, and '{self.obj.name}' would fall behind a moving cage "
                      "by that share of its move")
+        elif error.problem == "rounding":
+            size = f"their sizes add up to {error.largest:.3g} at a vertex"
+            stray = (f"they multiply the float32 rounding of the cage's positions, and '{self.obj.name}' would "
+                     f"jitter by up to {error_size} of the cage's size as the cage moves")
         else:
             size = f"smallest {error.min_coordinate:.3g}"
             stray = (f"they place the vertices of '{self.obj.name}' only to {error_size} of the cage's size, and "

@@ -61,6 +61,7 @@ class BindInput:
     triangles: np.ndarray  # (m, 3) int, outward in that space
     triangle_faces: np.ndarray  # (m,) int: the cage face each triangle comes from
     rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
+    origins: np.ndarray  # (2, 3) float64: the mesh's and the cage's origins, in that space
     faces_hash: str  # mesh_io.faces_hash of the cage
     non_triangles: int  # the cage's quads and n-gons
 
@@ -164,9 +165,12 @@ def read_bind_input(obj, settings, context):
                         "infinite) positions, or an object has zero scale: fix them, "
                         "then Bind")
     triangles = geometry.triangles
+    # Float32 positions are rounded by their distance from these (the core's rounding check).
+    origins = np.array([world[:3, 3], np.array(cage.evaluated_get(depsgraph).matrix_world)[:3, 3]])
     if is_green(settings.kind):
         points, cage_vertices, triangles = _green_frame(obj, settings, rest, rest_cage, triangles, world)
-    return BindInput(points, cage_vertices, triangles, geometry.triangle_faces, rest_cage,
+        origins = (origins - world[:3, 3]) @ np.linalg.inv(world[:3, :3]).T
+    return BindInput(points, cage_vertices, triangles, geometry.triangle_faces, rest_cage, origins,
                      geometry.faces_hash, geometry.non_triangles)
 
 

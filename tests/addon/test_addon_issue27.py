@@ -256,6 +256,33 @@ def test_power_bindings_too_large_for_float32_storage_are_refused(gc, storage):
     assert follows(obj, cage)
 
 
+
+def test_power_bindings_that_multiply_the_cages_rounding_are_refused_where_the_mesh_origin_is_far(gc):
+    """Blender rounds the mesh's float32 positions (and the cage's, read into the mesh's
+    space) by their distance from the mesh's origin; Power coordinates with gamma -16
+    whose sizes add up to 380 at a vertex multiply that rounding. Measured from 100 units
+    away the mesh would jitter by 3.4e-4 of the cage's size: refused, nothing changed. The
+    same vertices about their own origin bind, and follow the cage."""
+    cage = add_cube_cage()
+    spot = np.array([0.8763953216799689, 0.5176191592443049, 0.5082488492236183])
+    points = spot + 0.001 * np.vstack([np.eye(3), np.zeros(3)])
+    obj = add_points_object(points + np.array([100.0, 0.0, 0.0]))
+    obj.location = (-100.0, 0.0, 0.0)  # the same world positions, measured from far away
+    obj.gencoords.cage, obj.gencoords.kind, obj.gencoords.gamma = cage, 'POWER', -16.0
+    obj.gencoords.storage, obj.gencoords.sparse_size = 'SPARSE', 8
+    assert_refused(bpy.ops.object.gencoords_bind, obj,
+                   r"Power coordinates \(gamma -16\) in the cage 'Cage' are too large to store \(their sizes add "
+                   r"up to 3\d\d at a vertex\): as stored they multiply the float32 rounding of the cage's "
+                   r"positions, and 'Mesh' would jitter by up to 3.\de-4 of the cage's size as the cage moves")
+    write_positions(obj.data, points.astype(np.float32))
+    obj.location = (0.0, 0.0, 0.0)
+    make_active(obj)
+    with bpy.context.temp_override(active_object=obj, object=obj):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+    data = gc.binding.binding(obj).data
+    assert data.storage == 'SPARSE' and data.max_affine_error < 1e-4
+    assert follows(obj, cage)
+
 def test_a_mesh_object_scaled_to_zero_is_told_so_by_bind_and_make_cage(gc):
     cage = add_icosphere_cage()
     obj = add_sphere()

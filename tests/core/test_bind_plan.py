@@ -1,6 +1,8 @@
 """Bind planning without Blender (gencoords.tools.bind_plan): the storage chosen and why,
 the deviations measured on what will be written, progress and cancel."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -127,6 +129,7 @@ def test_linear_precision_is_measured_on_the_stored_coordinates_and_refused_beyo
     monkeypatch.setattr(bind_plan, "LINEAR_PRECISION", plan.linear_precision / 2)
     with pytest.raises(bind_plan.ImpreciseCoordinatesError) as refused:
         run(plan_bind(points, vertices, faces, request))
+    assert refused.value.problem == "placing"
     assert refused.value.error == plan.linear_precision and refused.value.min_coordinate == plan.min_coordinate
 
 
@@ -145,11 +148,38 @@ def test_sums_are_measured_as_stored_and_sparse_pairs_that_miss_1_are_refused():
         run(plan_bind(point, vertices, faces, request))
     exact = gencoords.coordinates(point, vertices, faces, kind="power", gamma=-16.0, workers=1)
     rounding = 0.5 * np.finfo(np.float32).eps * np.abs(exact).sum()  # the float32 sum's bound
-    assert refused.value.translation and bind_plan.TRANSLATION_PRECISION < refused.value.error <= rounding
+    assert refused.value.problem == "sums" and bind_plan.TRANSLATION_PRECISION < refused.value.error <= rounding
     assert refused.value.largest == pytest.approx(np.abs(exact).max(), rel=1e-6)  # all 8 kept
     _, plan = run(plan_bind(point, vertices, faces, BindRequest("power", gamma=-8.0, workers=1)))
     assert plan.max_affine_error == abs(plan.slots.astype(np.float64).sum() - 1.0) < 1e-6
 
+
+
+def test_sizes_that_multiply_the_cages_rounding_into_a_jitter_are_refused_by_the_origins_distance():
+    """Power coordinates with gamma -16 weigh this point of a 4-unit cube with sizes adding
+    up to 620: float32 rounding of the cage's positions, half an epsilon of their distance
+    from where they are measured, moves the point by up to that many roundings. Near the
+    origin that is 1e-5 of the cage's size; measured from 40 units away, 2e-4, over
+    TRANSLATION_PRECISION: refused, as stored sums that pass. Gamma -8's sizes add up to
+    4.5, a few roundings as any deformer's, and mean value's to 1: bound from anywhere."""
+    vertices, quads = gencoords.tools.shapes.block_cage(np.ones((1, 1, 1), dtype=bool), size=4.0)
+    vertices = vertices - vertices.mean(axis=0)
+    faces = gencoords.tools.triangulate_quads(vertices, quads)
+    point = np.array([[0.8763953216799689, 0.5176191592443049, 0.5082488492236183]])
+    request = BindRequest("power", gamma=-16.0, storage='SPARSE', sparse_size=8, workers=1)
+    _, plan = run(plan_bind(point, vertices, faces, request))
+    sizes = np.abs(plan.slots.astype(np.float64)).sum()
+    assert 600 < sizes < 640 and plan.max_affine_error < bind_plan.TRANSLATION_PRECISION
+    far = np.array([[-40.0, 0.0, 0.0], [0.0, 0.0, 0.0]])  # the mesh's origin, the cage's
+    with pytest.raises(bind_plan.ImpreciseCoordinatesError) as refused:
+        run(plan_bind(point, vertices, faces, replace(request, origins=far)))
+    jitter = sizes * 0.5 * np.finfo(np.float32).eps * 42.0 / np.linalg.norm(np.ptp(vertices, axis=0))
+    assert refused.value.problem == "rounding" and refused.value.error == pytest.approx(jitter, rel=1e-6)
+    assert refused.value.largest == pytest.approx(sizes, rel=1e-6) and jitter > bind_plan.TRANSLATION_PRECISION
+    farther = np.array([[-1e5, 0.0, 0.0]])  # even one rounding is 4e-4 of the cage's size there
+    for kind, gamma in (("power", -8.0), ("mean_value", None)):
+        _, plan = run(plan_bind(point, vertices, faces, replace(request, kind=kind, gamma=gamma, origins=farther)))
+        assert 0.99 < np.abs(plan.slots.astype(np.float64)).sum() <= bind_plan.ROUNDING_AMPLIFICATION
 
 def solved_counts(monkeypatch):
     """The number of points of every ``_solve`` call of the plans that follow."""
