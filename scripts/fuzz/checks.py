@@ -221,7 +221,8 @@ def size_of(positions):
 
 
 # A cage vertex read in float32 is off by up to an epsilon of its coordinate; the mesh
-# moves by a combination of them whose weights' magnitudes sum to a few at most.
+# moves by a combination of them whose weights' magnitudes sum to 8 at most, or else
+# jitter within 1e-4 of the cage's size (Bind refuses more: ROUNDING_AMPLIFICATION).
 CAGE_ROUNDING = 8
 
 
