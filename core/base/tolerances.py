@@ -29,7 +29,8 @@ TRANSLATION_PRECISION = 1e-4
 # the vertex jitters by up to sum_j |w_j| such roundings. Up to this many is what any
 # deformer has (Mesh Deform's non-negative weights: 1 rounding); beyond it, the jitter is
 # held to TRANSLATION_PRECISION of the cage's size (Suzanne's power coordinates with gamma
-# -8 sum to 1,900 in magnitude, 4e-5 of its size in jitter; seed 261 of the fuzz, 1e5).
+# -8 sum to 1,900 in magnitude, 4e-5 of its size in jitter; fuzz seed 261's sparse pairs
+# reached 1e4 when their renormalisation divided by a small sum).
 ROUNDING_AMPLIFICATION = 8
 # Below this a coordinate counts as negative (rounding noise of exact zeros is not).
 NEGATIVE = 1e-9

@@ -55,6 +55,12 @@ _BOUND_ROWS = 1024  # node rows whose residual is taken at a time (bounded tempo
 def largest_pairs(coordinates, count):
     """Each row's ``count`` largest-magnitude coordinates, renormalised to sum 1.
 
+    A row of non-negative values is divided by their sum. A row of both signs can cancel
+    to a small sum, which a division would multiply the row by (fuzz seed 261: sizes
+    adding up to 52 became 6,500); it gets the missing sum added in proportion to its
+    values' sizes instead (the same as the division for a non-negative row), so its sizes
+    grow by no more than that missing sum.
+
     Parameters
     ----------
     coordinates : (k, n) float
@@ -66,7 +72,7 @@ def largest_pairs(coordinates, count):
     indices : (k, K) int32
         Column indices, largest magnitude first.
     weights : (k, K) float64
-        Rows sum to 1 (the kept values divided by their sum).
+        Rows sum to 1.
 
     Examples
     --------
@@ -75,15 +81,24 @@ def largest_pairs(coordinates, count):
     >>> indices, weights = largest_pairs(np.array([[0.1, 0.6, 0.05, 0.25]]), 2)
     >>> indices.tolist(), weights.round(4).tolist()
     ([[1, 3]], [[0.7059, 0.2941]])
+    >>> _, weights = largest_pairs(np.array([[0.52, -0.5, 0.49, -0.01, 0.5]]), 3)
+    >>> weights.round(4).tolist()  # 0.52, -0.5, 0.5 plus 0.48 by size (divided: 1, -0.96, 0.96)
+    [[0.6842, -0.3421, 0.6579]]
     """
     coordinates = np.asarray(coordinates, dtype=np.float64)
     indices = largest_columns(coordinates, count, magnitude=True)
     values = np.take_along_axis(coordinates, indices, axis=1)
     total = values.sum(axis=1, keepdims=True)
-    # A row whose kept values cancel (never for non-negative coordinates) keeps them as
-    # they are rather than dividing by ~0.
-    total[np.abs(total) < tolerances.WELL_DEFINED_WEIGHT_SUM] = 1.0
-    return indices.astype(np.int32), values / total
+    signed = (values < 0.0).any(axis=1)
+    weights = np.empty_like(values)
+    sizes = np.abs(values[signed])
+    weights[signed] = values[signed] + (1.0 - total[signed]) * sizes / sizes.sum(axis=1, keepdims=True)
+    # Non-negative rows sum to at least their largest value (1/n of 1): a guard for
+    # degenerate input only.
+    positive_total = total[~signed]
+    positive_total[positive_total < tolerances.WELL_DEFINED_WEIGHT_SUM] = 1.0
+    weights[~signed] = values[~signed] / positive_total
+    return indices.astype(np.int32), weights
 
 
 def placed_pairs(coordinates, count, rest):

@@ -117,6 +117,31 @@ def test_two_level_layout_meets_the_target_with_the_fewest_node_pairs(cage_and_c
     np.testing.assert_allclose(places, kept @ vertices, atol=1e-6 * np.ptp(vertices))
 
 
+
+def test_kept_pairs_of_both_signs_are_completed_to_1_without_growing_beyond_the_missing_sum():
+    """Rows of both signs whose kept values nearly cancel (power coordinates with gamma 16,
+    extrapolated, as fuzz seed 261 bound them): divided by their sum they would grow
+    hundreds of times; completed by size they grow by at most the missing sum, still sum
+    to 1, and keep each value's sign. Non-negative rows are divided, exactly as before."""
+    rng = np.random.default_rng(5)
+    large = rng.uniform(1.0, 50.0, size=(200, 4))
+    cancel = rng.uniform(-0.01, 0.01, size=200)  # what the 8 largest sum to
+    small = rng.uniform(0.0, 2.0, size=(200, 22))
+    small *= ((1.0 - cancel) / small.sum(axis=1))[:, None]  # coordinates: rows sum to 1
+    signed = np.hstack([large, -large[:, ::-1], small])
+    signed[:, 4] += cancel
+    indices, weights = sparse.largest_pairs(signed, 8)
+    kept = np.take_along_axis(signed, indices.astype(np.int64), axis=1)
+    missing = np.abs(1.0 - kept.sum(axis=1))
+    assert (np.abs(1.0 / kept.sum(axis=1)) > 100).any()  # a division would multiply some rows 100 times
+    np.testing.assert_allclose(weights.sum(axis=1), 1.0, atol=1e-12)
+    assert (np.abs(weights).sum(axis=1) <= np.abs(kept).sum(axis=1) + missing + 1e-9).all()
+    assert (np.sign(weights) == np.sign(kept)).all()
+    positive = np.abs(signed[:20]) / np.abs(signed[:20]).sum(axis=1, keepdims=True)
+    indices, weights = sparse.largest_pairs(positive, 8)
+    kept = np.take_along_axis(positive, indices.astype(np.int64), axis=1)
+    np.testing.assert_array_equal(weights, kept / kept.sum(axis=1, keepdims=True))
+
 def test_placed_pairs_place_their_points_with_the_same_non_negative_support(cage_and_coordinates):
     vertices, points, coordinates = cage_and_coordinates
     for count in (6, 16):
