@@ -69,10 +69,16 @@ _UNITS_PER_WORKER = 8
 _UNIT_SHARE = 0.5
 _STOP_SECONDS = 5.0
 PRELUDE_VARIABLE = "GENCOORDS_WORKER_PRELUDE"
-_BOOT = ("import sys, os; sys.path.insert(0, sys.argv[1]); "
+_BOOT = ("import sys, os, types; sys.path.insert(0, sys.argv[1]); "
          f"prelude = os.environ.get({PRELUDE_VARIABLE!r}); "
          "prelude and __import__('runpy').run_path(prelude); "
-         "import importlib; importlib.import_module(sys.argv[2] + '.evaluation.parallel').serve()")
+         # The package without its __init__, which imports every module (40 ms of each
+         # start): a worker imports the evaluation, and the modules its tasks name.
+         "package = types.ModuleType(sys.argv[2]); package.__path__ = [os.path.join(*sys.argv[1:3])]; "
+         "sys.modules.setdefault(sys.argv[2], package); "
+         "import importlib; importlib.import_module(sys.argv[2] + '.evaluation.parallel').serve(); "
+         # Done: exit without the interpreter's teardown (60 ms of every Bind's waiting).
+         "sys.stderr.flush(); os._exit(0)")
 _PREFIX = "gencoords-"
 _SUFFIX = ".shared"
 _RAM_FOLDER = "/dev/shm"

@@ -118,18 +118,22 @@ def evaluate_rows(cage, terms, points, kind, convex, absolute, outside, normalis
     if outside == "raise" and outside_rows.any():
         return where  # the caller raises; weights would be thrown away
     frame = point_frame(cage, points, det.T)
-    # Mean value terms of facets whose hyperplane passes through x (off the facet) tend
-    # to zero and their formula is 0/0: only the reciprocal-basis form can drop single
-    # facets. Otherwise Floater's form, the same weights grouped by ridge (Prop. 9), is
-    # cheaper, and Wachspress's closed form (2D, 3D) cheaper still.
-    skip = (np.abs(distance.T) <= absolute) if kind == MEAN_VALUE else None
-    if skip is not None and skip.any():
-        values = construct_weights(cage, frame, named_ridge_scalars(kind, frame, gamma), skip).T
-    elif kind == WACHSPRESS and terms.polar_dual is not None:
+    # Floater's form, the weights grouped by ridge (Prop. 9), is the cheap one, and
+    # Wachspress's closed form (2D, 3D) cheaper still.
+    if kind == WACHSPRESS and terms.polar_dual is not None:
         values = wachspress_polar_weights(cage, terms.polar_dual, frame).T
     else:
         values = floater_form_weights(cage, terms.floater, points, frame.facet_det,
                                       named_scaled_ridge_scalars(kind, frame, gamma)).T
+    # Mean value terms of facets whose hyperplane passes through x (off the facet) tend
+    # to zero and their formula is 0/0: only the reciprocal-basis form (3x the cost) can
+    # drop single facets, so the rows of such points, and only they, take it (a row does
+    # not depend on the others in its chunk).
+    near = np.flatnonzero((np.abs(distance) <= absolute).any(axis=1)) if kind == MEAN_VALUE else ()
+    if len(near):
+        near_frame = point_frame(cage, points[near], det[near].T)
+        values[near] = construct_weights(cage, near_frame, named_ridge_scalars(kind, near_frame, gamma),
+                                         np.abs(distance[near].T) <= absolute).T
     total = values.sum(axis=1, keepdims=True)
     if normalise:
         values /= total

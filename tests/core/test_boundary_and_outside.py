@@ -154,6 +154,25 @@ def test_chunking_and_threads_do_not_change_results(monkeypatch):
     np.testing.assert_allclose(chunked, reference, rtol=0, atol=1e-15)  # BLAS rounding only
 
 
+
+def test_a_point_on_a_facets_plane_leaves_the_other_rows_of_its_chunk_as_they_are():
+    """Mean value's formula is 0/0 for a facet whose plane passes through the point (off
+    the facet, inside a non-convex cage): that point's row takes the form that drops the
+    facet, and is the limit; the other points of its chunk keep Floater's form, bitwise
+    as computed without it (a row depends only on its point)."""
+    occupied = np.zeros((2, 2, 1), dtype=bool)
+    occupied[0, 0] = occupied[1, 0] = occupied[0, 1] = True  # an L of three cubes
+    vertices, quads = gencoords.tools.shapes.block_cage(occupied)
+    faces = gencoords.tools.triangulate_quads(vertices, quads)
+    on_plane = np.array([[0.5, 1.0, 0.5]])  # on y = 1, the plane of the inner corner's facet
+    others = np.array([[0.3, 0.4, 0.6], [1.5, 0.5, 0.5], [0.5, 1.5, 0.2]])
+    alone = gencoords.coordinates(others, vertices, faces, kind="mean_value", workers=1)
+    together = gencoords.coordinates(np.vstack([others, on_plane]), vertices, faces, kind="mean_value", workers=1)
+    np.testing.assert_array_equal(together[:3], alone)
+    beside = gencoords.coordinates(on_plane + [0.0, 1e-7, 0.0], vertices, faces, kind="mean_value", workers=1)
+    np.testing.assert_allclose(together[3], beside[0], atol=1e-6)
+    np.testing.assert_allclose(together[3] @ vertices, on_plane[0], atol=1e-12)
+
 def test_progress_is_reported_in_order_up_to_one(monkeypatch):
     vertices, faces = icosphere(1)
     points = 0.5 * random_interior_points(np.random.default_rng(0), vertices, 500)
