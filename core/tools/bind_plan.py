@@ -102,7 +102,8 @@ class ImpreciseCoordinatesError(ValueError):
     - ``"rounding"``: their magnitudes sum to ``largest`` at a point, so the float32
       rounding of the cage's positions makes the points jitter by up to ``error`` of the
       cage's size as it moves (over ``TRANSLATION_PRECISION``, see
-      ``ROUNDING_AMPLIFICATION``).
+      ``ROUNDING_AMPLIFICATION``); ``distance`` is the cage's largest coordinate measured
+      from the origins, of its size (far origins round more).
     """
 
     MESSAGES = {"placing": "the coordinates as stored place the points only to {:.2g} of the cage's size",
@@ -110,9 +111,10 @@ class ImpreciseCoordinatesError(ValueError):
                 "rounding": "the coordinates' magnitudes make the points jitter by up to {:.2g} of the cage's "
                             "size with the float32 rounding of its positions"}
 
-    def __init__(self, problem, error, min_coordinate, largest=None):
+    def __init__(self, problem, error, min_coordinate, largest=None, distance=None):
         super().__init__(self.MESSAGES[problem].format(error))
         self.problem, self.error, self.min_coordinate, self.largest = problem, error, min_coordinate, largest
+        self.distance = distance
 
 
 def _in_this_process(compute, workers):
@@ -697,7 +699,8 @@ def _plan(points, cage, request):
     magnitude = figures.pop("weight_magnitude")
     jitter = rounding_jitter(magnitude, cage.vertices, request.origins)
     if magnitude > ROUNDING_AMPLIFICATION and jitter > TRANSLATION_PRECISION:
-        raise ImpreciseCoordinatesError("rounding", jitter, figures["min_coordinate"], largest=magnitude)
+        raise ImpreciseCoordinatesError("rounding", jitter, figures["min_coordinate"], largest=magnitude,
+                                        distance=origin_distance(cage.vertices, request.origins))
     return BindPlan(choice.storage, slots, choice.basis, locations, choice.reason, _report(request, cage, field),
                     indices=indices, **figures)
 
@@ -715,10 +718,16 @@ def rounding_jitter(weight_magnitude, cage_vertices, origins=None):
     (True, True)
     """
     cage_vertices = np.asarray(cage_vertices, dtype=np.float64)
-    origins = np.zeros((1, cage_vertices.shape[1])) if origins is None else np.asarray(origins, dtype=np.float64)
+    return weight_magnitude * 0.5 * float(np.finfo(np.float32).eps) * origin_distance(cage_vertices, origins)
+
+
+def origin_distance(cage_vertices, origins=None):
+    """The cage's largest coordinate measured from ``origins`` ((o, 3), or (3,) for one;
+    the frame's origin if None), of the cage's size (its bounding-box diagonal)."""
+    cage_vertices = np.asarray(cage_vertices, dtype=np.float64)
+    origins = np.zeros((1, cage_vertices.shape[1])) if origins is None else np.atleast_2d(origins).astype(np.float64)
     distance = max(float(np.abs(cage_vertices - origin).max(initial=0.0)) for origin in origins)
-    size = float(np.linalg.norm(np.ptp(cage_vertices, axis=0)))
-    return weight_magnitude * 0.5 * float(np.finfo(np.float32).eps) * distance / size
+    return distance / float(np.linalg.norm(np.ptp(cage_vertices, axis=0)))
 
 
 def _report(request, cage, field=None):

@@ -81,9 +81,9 @@ def largest_pairs(coordinates, count):
     >>> indices, weights = largest_pairs(np.array([[0.1, 0.6, 0.05, 0.25]]), 2)
     >>> indices.tolist(), weights.round(4).tolist()
     ([[1, 3]], [[0.7059, 0.2941]])
-    >>> _, weights = largest_pairs(np.array([[0.52, -0.5, 0.49, -0.01, 0.5]]), 3)
-    >>> weights.round(4).tolist()  # 0.52, -0.5, 0.5 plus 0.48 by size (divided: 1, -0.96, 0.96)
-    [[0.6842, -0.3421, 0.6579]]
+    >>> _, weights = largest_pairs(np.array([[0.55, -0.5, 0.47, -0.01, 0.49]]), 3)
+    >>> weights.round(4).tolist()  # 0.55, -0.5, 0.49 plus 0.46 by size (divided: 1.02, -0.93, 0.91)
+    [[0.7143, -0.3506, 0.6364]]
     """
     coordinates = np.asarray(coordinates, dtype=np.float64)
     indices = largest_columns(coordinates, count, magnitude=True)

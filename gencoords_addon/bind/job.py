@@ -140,9 +140,16 @@ class BindJob:
             size = f"smallest {error.min_coordinate:.3g}"
             stray = (f"they place the vertices of '{self.obj.name}' only to {error_size} of the cage's size, and "
                      "the mesh would stray as the cage moves")
+        choice = "a Gamma between -1 and -0.5, or another Type" if settings.gamma is not None else "another Type"
+        # Origins far from the cage (more than its size) round its positions more: moving
+        # them to the geometry is the cure that keeps the coordinates.
+        if error.problem == "rounding" and error.distance > 1.0:
+            advice = (f"Set the origins of '{self.obj.name}' and '{self.cage.name}' near the cage (Object > Set "
+                      f"Origin > Origin to Geometry), or choose {choice}")
+        else:
+            advice = f"Choose {choice}"
         return (f"{self.kind_label} coordinates{messages.gamma_words(settings.gamma)} in the cage "
-                f"'{self.cage.name}' are too large to store ({size}): as stored {stray}. Choose a Gamma "
-                "between -1 and -0.5, or another Type")
+                f"'{self.cage.name}' are too large to store ({size}): as stored {stray}. {advice}")
 
     def _outside_message(self):
         scene = self.input

@@ -273,7 +273,9 @@ def test_power_bindings_that_multiply_the_cages_rounding_are_refused_where_the_m
     assert_refused(bpy.ops.object.gencoords_bind, obj,
                    r"Power coordinates \(gamma -16\) in the cage 'Cage' are too large to store \(their sizes add "
                    r"up to 3\d\d at a vertex\): as stored they multiply the float32 rounding of the cage's "
-                   r"positions, and 'Mesh' would jitter by up to 3.\de-4 of the cage's size as the cage moves")
+                   r"positions, and 'Mesh' would jitter by up to 3.\de-4 of the cage's size as the cage moves\. Set the "
+                   r"origins of 'Mesh' and 'Cage' near the cage \(Object > Set Origin > Origin to Geometry\), or "
+                   r"choose a Gamma between -1 and -0.5, or another Type")
     write_positions(obj.data, points.astype(np.float32))
     obj.location = (0.0, 0.0, 0.0)
     make_active(obj)

@@ -176,6 +176,7 @@ def test_sizes_that_multiply_the_cages_rounding_into_a_jitter_are_refused_by_the
     jitter = sizes * 0.5 * np.finfo(np.float32).eps * 42.0 / np.linalg.norm(np.ptp(vertices, axis=0))
     assert refused.value.problem == "rounding" and refused.value.error == pytest.approx(jitter, rel=1e-6)
     assert refused.value.largest == pytest.approx(sizes, rel=1e-6) and jitter > bind_plan.TRANSLATION_PRECISION
+    assert refused.value.distance == pytest.approx(42.0 / np.linalg.norm(np.ptp(vertices, axis=0)))
     farther = np.array([[-1e5, 0.0, 0.0]])  # even one rounding is 4e-4 of the cage's size there
     for kind, gamma in (("power", -8.0), ("mean_value", None)):
         _, plan = run(plan_bind(point, vertices, faces, replace(request, kind=kind, gamma=gamma, origins=farther)))
