@@ -582,9 +582,10 @@ def _slots(request, cage, points, choice, workers, field=None):
             indices[part] = pairs
         reproduced = reproduce(choice, slots[part], pairs, rows)
         # The sums as written: float32 rounding of huge coordinates breaks translations.
-        sums = reproduced[:, :len(cage.vertices)].sum(axis=1)
+        weights = reproduced[:, :len(cage.vertices)]
+        sums = weights.sum(axis=1)
         totals["max_affine_error"] = max(totals["max_affine_error"], float(np.abs(sums - 1.0).max(initial=0.0)))
-        magnitudes = np.abs(reproduced[:, :len(cage.vertices)]).sum(axis=1)
+        magnitudes = np.abs(weights).sum(axis=1)  # what multiplies the cage's rounding
         totals["weight_magnitude"] = max(totals["weight_magnitude"], float(magnitudes.max(initial=0.0)))
         precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
         residual = np.subtract(coordinates, reproduced, out=reproduced)
@@ -696,34 +697,29 @@ def _plan(points, cage, request):
     if figures["max_affine_error"] > TRANSLATION_PRECISION:  # sparse storage's placing is not checked above
         raise ImpreciseCoordinatesError("sums", figures["max_affine_error"], figures["min_coordinate"],
                                         largest=float(np.abs(slots).max()))
+    # Each vertex moves by its weights times the float32 rounding of the cage's positions
+    # (half an epsilon of their distance from the origins): the jitter, of the cage's size.
     magnitude = figures.pop("weight_magnitude")
-    jitter = rounding_jitter(magnitude, cage.vertices, request.origins)
+    distance = origin_distance(cage.vertices, request.origins)
+    jitter = magnitude * 0.5 * float(np.finfo(np.float32).eps) * distance
     if magnitude > ROUNDING_AMPLIFICATION and jitter > TRANSLATION_PRECISION:
         raise ImpreciseCoordinatesError("rounding", jitter, figures["min_coordinate"], largest=magnitude,
-                                        distance=origin_distance(cage.vertices, request.origins))
+                                        distance=distance)
     return BindPlan(choice.storage, slots, choice.basis, locations, choice.reason, _report(request, cage, field),
                     indices=indices, **figures)
 
 
-def rounding_jitter(weight_magnitude, cage_vertices, origins=None):
-    """How far, of the cage's size, points whose weights' magnitudes sum to
-    ``weight_magnitude`` may jitter as the cage moves, from the float32 rounding of the
-    cage's positions (half an epsilon of their largest distance from ``origins``, (o, 3),
-    the frame's origin if None).
-
-    >>> import numpy as np
-    >>> from gencoords.tools.bind_plan import rounding_jitter
-    >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
-    >>> bool(rounding_jitter(1.0, cube) < 1e-7), bool(rounding_jitter(1.0, cube, origins=[[-1e6, 0, 0]]) > 1e-2)
-    (True, True)
-    """
-    cage_vertices = np.asarray(cage_vertices, dtype=np.float64)
-    return weight_magnitude * 0.5 * float(np.finfo(np.float32).eps) * origin_distance(cage_vertices, origins)
-
-
 def origin_distance(cage_vertices, origins=None):
     """The cage's largest coordinate measured from ``origins`` ((o, 3), or (3,) for one;
-    the frame's origin if None), of the cage's size (its bounding-box diagonal)."""
+    the frame's origin if None), of the cage's size (its bounding-box diagonal): how far
+    float32 rounds its positions, in epsilons of its size.
+
+    >>> import numpy as np
+    >>> from gencoords.tools.bind_plan import origin_distance
+    >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    >>> round(origin_distance(cube), 4), round(origin_distance(cube, [-99.0, 0.0, 0.0]), 4)
+    (0.5774, 57.735)
+    """
     cage_vertices = np.asarray(cage_vertices, dtype=np.float64)
     origins = np.zeros((1, cage_vertices.shape[1])) if origins is None else np.atleast_2d(origins).astype(np.float64)
     distance = max(float(np.abs(cage_vertices - origin).max(initial=0.0)) for origin in origins)
