@@ -1,0 +1,6 @@
+"""How a Bind's coordinates are stored on the mesh: the storage ids (:class:`Storage`) and,
+one module each, the storages' encodings, decodings and byte counts."""
+
+from .kinds import Storage
+
+__all__ = ["Storage"]
