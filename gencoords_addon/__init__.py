@@ -32,6 +32,11 @@ Operators, acting on the active mesh object (all undoable):
                                            cage vertex) and vertex groups, keyframed over
                                            the scene's frame range (also Object > Animation;
                                            docs/SCRIPTING.md)
+    bpy.ops.object.gencoords_make_cage(shape='CONVEX', target_vertices=100)
+                                           make a closed cage around the mesh ('CONVEX':
+                                           a hull, any type binds it; 'TIGHT': hugging the
+                                           mesh at ``offset``, non-convex: bind it with
+                                           Harmonic) and pick it as the mesh's cage
     bpy.ops.mesh.gencoords_select_dented_faces()
                                            select the active cage's faces that dent inward
                                            (Edit Mode > Select), what keeps it from being convex
