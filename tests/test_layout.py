@@ -169,7 +169,7 @@ def test_no_function_over_60_code_lines(package):
 def test_the_public_api_is_small_and_every_sub_api_lists_its_names():
     import gencoords
     assert len(gencoords.__all__) <= MAX_TOP_LEVEL_NAMES
-    for api in (gencoords, gencoords.advanced, gencoords.tools):
+    for api in (gencoords, *gencoords.SUB_APIS):
         assert len(set(api.__all__)) == len(api.__all__), api.__name__
         for name in api.__all__:
             assert hasattr(api, name), f"{api.__name__}.{name}"
@@ -200,7 +200,7 @@ def test_pip_installs_the_core_as_gencoords_and_it_imports_from_another_folder(i
         import numpy as np
         import gencoords
         assert gencoords.__file__.startswith({str(installed)!r}), gencoords.__file__
-        from gencoords.tools.shapes import icosphere
+        from gencoords.cages.shapes import icosphere
         vertices, faces = icosphere(1)
         points = np.random.default_rng(0).uniform(-0.3, 0.3, size=(400, 3))
         alone = gencoords.coordinates(points, vertices, faces, workers=1)
@@ -233,14 +233,13 @@ def test_the_core_package_and_the_extension_have_one_version():
 
 def public_objects():
     """(qualified name, object) of every function and class the public APIs list in
-    ``__all__``: the top level, ``gencoords.advanced``, ``gencoords.tools`` and the tool
-    modules it names (the layers below are internal)."""
+    ``__all__``: the top level, its named sub-APIs (``gencoords.SUB_APIS``) and the modules
+    they name (the layers below are internal)."""
     import inspect
 
     import gencoords
-    tools = gencoords.tools
-    apis = [gencoords, gencoords.advanced, tools] + [getattr(tools, name) for name in tools.__all__
-                                                    if inspect.ismodule(getattr(tools, name))]
+    apis = [gencoords, *gencoords.SUB_APIS] + [getattr(api, name) for api in gencoords.SUB_APIS
+                                               for name in api.__all__ if inspect.ismodule(getattr(api, name))]
     found = {}
     for api in apis:
         for name in getattr(api, "__all__", ()):

@@ -339,7 +339,7 @@ def stretch_factors(vertices, cage_positions, faces):
     --------
     >>> import numpy as np
     >>> from gencoords.advanced import stretch_factors
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> bool(np.allclose(stretch_factors(vertices, 2.5 * vertices + 1.0, faces), 2.5))
     True
@@ -391,7 +391,7 @@ def green_displacements(vertices, cage_positions, faces):
     --------
     >>> import numpy as np, gencoords
     >>> from gencoords.construction.green import green_displacements
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> point = np.array([[0.1, 0.2, -0.3]])
     >>> phi, psi = gencoords.green_coordinates(point, vertices, faces)
@@ -429,7 +429,7 @@ def green_deform(phi, psi, vertices, cage_positions, faces):
     Examples
     --------
     >>> import numpy as np, gencoords
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> points = np.array([[0.1, 0.2, -0.3], [0.0, -0.4, 0.2]])
     >>> phi, psi = gencoords.green_coordinates(points, vertices, faces)

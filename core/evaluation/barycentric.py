@@ -145,7 +145,7 @@ def green_coordinates(points, vertices, faces, outside="raise", tolerance=DEFAUL
     Examples
     --------
     >>> import numpy as np, gencoords
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> phi, psi = gencoords.green_coordinates([[0.1, 0.2, -0.3]], vertices, faces)
     >>> phi.shape, psi.shape

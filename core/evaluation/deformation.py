@@ -71,7 +71,7 @@ def field_range(values):
     Examples
     --------
     >>> import numpy as np, gencoords
-    >>> lower, upper = gencoords.tools.field_range(np.array([0.0, 0.5, 1.0]))
+    >>> lower, upper = gencoords.reports.field_range(np.array([0.0, 0.5, 1.0]))
     >>> print(lower, upper)
     0.0 1.0
     """
@@ -104,7 +104,7 @@ def field_colors(values):
     >>> import numpy as np, gencoords
     >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
-    >>> colors = gencoords.tools.field_colors(np.array([0.0, 0.5, 1.0]))
+    >>> colors = gencoords.reports.field_colors(np.array([0.0, 0.5, 1.0]))
     >>> colors.shape  # RGBA per value
     (3, 4)
     """
@@ -157,7 +157,7 @@ def linear_precision(coordinates, vertices, points):
     >>> import numpy as np, gencoords
     >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     >>> b = np.array([[0.25, 0.25, 0.25, 0.25]])
-    >>> gencoords.tools.linear_precision(b, square, [[0.5, 0.5]]), gencoords.tools.linear_precision(b, square, [[0.5, 0.6]]) > 0.07
+    >>> gencoords.reports.linear_precision(b, square, [[0.5, 0.5]]), gencoords.reports.linear_precision(b, square, [[0.5, 0.6]]) > 0.07
     (0.0, True)
     """
     if coordinates.shape != (len(points), len(vertices)):
@@ -195,7 +195,7 @@ def coordinate_summary(coordinates):
     >>> square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     >>> edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])  # counter-clockwise
     >>> b = gencoords.coordinates([[0.5, 0.5], [0.25, 0.5]], square, edges)
-    >>> summary = gencoords.tools.coordinate_summary(b)
+    >>> summary = gencoords.reports.coordinate_summary(b)
     >>> summary["min"], summary["negative_points"]
     (0.125, 0)
     """

@@ -428,7 +428,7 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     vertices : (n, 3) float
     faces : (m, 3) int
         Triangles, counter-clockwise seen from outside (quads:
-        :func:`gencoords.tools.triangulate_quads`). Any closed cage, convex or not.
+        :func:`gencoords.cages.triangulate_quads`). Any closed cage, convex or not.
     resolution : int
         Cells along the longest side of the cage's box (2 to 1024; the cost grows as
         its cube). Like Mesh Deform's Precision, but the cells are cubes, so a thin limb
@@ -463,7 +463,7 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     Examples
     --------
     >>> import numpy as np, gencoords
-    >>> vertices, triangles = gencoords.tools.shapes.icosphere(1)
+    >>> vertices, triangles = gencoords.cages.shapes.icosphere(1)
     >>> field = gencoords.harmonic_field(vertices, triangles, resolution=12)
     >>> field.node_coordinates.shape[1], bool(field.node_coordinates.min() >= 0.0)
     (42, True)

@@ -15,6 +15,9 @@ class Storage(str, enum.Enum):
     (each vertex's largest (cage vertex, weight) pairs; for harmonic coordinates in two
     levels, each vertex its grid nodes and each node its pairs).
 
+    Examples
+    --------
+    >>> from gencoords.storage import Storage
     >>> Storage("SPARSE") is Storage.SPARSE, Storage.EXACT == "EXACT"
     (True, True)
     """

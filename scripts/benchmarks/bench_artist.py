@@ -26,7 +26,8 @@ from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 from gencoords import Cage  # noqa: E402
-from gencoords.tools import compact, skinning  # noqa: E402
+from gencoords.skinning import skinning  # noqa: E402
+from gencoords.storage import compact  # noqa: E402
 
 REPEATS = 7
 

@@ -1,4 +1,4 @@
-"""Bind planning without Blender (gencoords.tools.bind_plan): the storage chosen and why,
+"""Bind planning without Blender (gencoords.planning.bind_plan): the storage chosen and why,
 the deviations measured on what will be written, progress and cancel."""
 
 from dataclasses import replace
@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import bind_plan, compact, sparse
-from gencoords.tools.bind_plan import BindRequest, choose_storage, plan_bind
-from gencoords.tools.shapes import icosphere
+from gencoords.planning import bind_plan
+from gencoords.storage import compact, sparse
+from gencoords.planning.bind_plan import BindRequest, choose_storage, plan_bind
+from gencoords.cages.shapes import icosphere
 from polytopes import random_convex_polytope, random_interior_points
 
 
@@ -124,7 +125,7 @@ def test_linear_precision_is_measured_on_the_stored_coordinates_and_refused_beyo
     request = BindRequest("power", gamma=-4.0, workers=1)
     _, plan = run(plan_bind(points, vertices, faces, request))
     assert plan.linear_precision == pytest.approx(
-        gencoords.tools.linear_precision(plan.slots, vertices, points), rel=1e-12)
+        gencoords.reports.linear_precision(plan.slots, vertices, points), rel=1e-12)
     assert 0.0 < plan.linear_precision < 1e-5  # float32 rounding alone
     monkeypatch.setattr(bind_plan, "LINEAR_PRECISION", plan.linear_precision / 2)
     with pytest.raises(bind_plan.ImpreciseCoordinatesError) as refused:
@@ -139,9 +140,9 @@ def test_sums_are_measured_as_stored_and_sparse_pairs_that_miss_1_are_refused():
     TRANSLATION_PRECISION. Exact storage refuses them for their placing; sparse storage
     keeping all 8 pairs checks no placing, but a translated cage would leave the point
     behind: refused too. Gamma -8 stores fine, its figure the float32 sums' own."""
-    vertices, quads = gencoords.tools.shapes.block_cage(np.ones((1, 1, 1), dtype=bool), size=4.0)
+    vertices, quads = gencoords.cages.shapes.block_cage(np.ones((1, 1, 1), dtype=bool), size=4.0)
     vertices = vertices - vertices.mean(axis=0)
-    faces = gencoords.tools.triangulate_quads(vertices, quads)
+    faces = gencoords.cages.triangulate_quads(vertices, quads)
     point = np.array([[0.8663953216799689, 0.5176191592443049, 0.5082488492236183]])
     request = BindRequest("power", gamma=-16.0, storage='SPARSE', sparse_size=8, workers=1)
     with pytest.raises(bind_plan.ImpreciseCoordinatesError) as refused:
@@ -162,9 +163,9 @@ def test_sizes_that_multiply_the_cages_rounding_into_a_jitter_are_refused_by_the
     origin that is 1e-5 of the cage's size; measured from 40 units away, 2e-4, over
     TRANSLATION_PRECISION: refused, as stored sums that pass. Gamma -8's sizes add up to
     4.5, a few roundings as any deformer's, and mean value's to 1: bound from anywhere."""
-    vertices, quads = gencoords.tools.shapes.block_cage(np.ones((1, 1, 1), dtype=bool), size=4.0)
+    vertices, quads = gencoords.cages.shapes.block_cage(np.ones((1, 1, 1), dtype=bool), size=4.0)
     vertices = vertices - vertices.mean(axis=0)
-    faces = gencoords.tools.triangulate_quads(vertices, quads)
+    faces = gencoords.cages.triangulate_quads(vertices, quads)
     point = np.array([[0.8763953216799689, 0.5176191592443049, 0.5082488492236183]])
     request = BindRequest("power", gamma=-16.0, storage='SPARSE', sparse_size=8, workers=1)
     _, plan = run(plan_bind(point, vertices, faces, request))
@@ -236,7 +237,7 @@ def test_automatic_measures_where_the_estimate_allows_compact_and_bisects_to_the
 
 def test_automatic_picks_sparse_with_the_fewest_pairs_under_the_target(monkeypatch):
     monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
-    vertices, faces = gencoords.tools.shapes.octahedron((1.0, 1.2, 1.5))  # 6 vertices
+    vertices, faces = gencoords.cages.shapes.octahedron((1.0, 1.2, 1.5))  # 6 vertices
     points = random_interior_points(np.random.default_rng(6), vertices, 400)
     request = BindRequest("mean_value", compact_size=4, workers=1)
     _, plan = run(plan_bind(points, vertices, faces, request))
@@ -265,7 +266,7 @@ def test_sparse_plan_keeps_the_largest_pairs_and_measures_them(irregular):
 def test_harmonic_plans_two_levels_by_default_positive_and_local():
     from scripts.common import character
     cage_vertices, quads = character.character_cage()
-    triangles = gencoords.tools.triangulate_quads(cage_vertices, quads)
+    triangles = gencoords.cages.triangulate_quads(cage_vertices, quads)
     points, _, labels = character.body_mesh(0.2)
     request = BindRequest("harmonic", resolution=24, workers=1)
     fractions, plan = run(plan_bind(points, cage_vertices, triangles, request))

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import compact
-from gencoords.tools.shapes import icosphere
+from gencoords.storage import compact
+from gencoords.cages.shapes import icosphere
 from polytopes import random_convex_polytope, random_interior_points
 
 

@@ -1,10 +1,11 @@
-"""Skinning weights from coordinates (gencoords.tools.skinning): what Bake to Bones writes."""
+"""Skinning weights from coordinates (gencoords.skinning.skinning): what Bake to Bones writes."""
 
 import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import compact, skinning
+from gencoords.skinning import skinning
+from gencoords.storage import compact
 from polytopes import random_convex_polytope, random_interior_points
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import compact, sparse
+from gencoords.storage import compact, sparse
 from polytopes import random_convex_polytope, random_interior_points
 
 

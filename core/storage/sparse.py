@@ -77,7 +77,7 @@ def largest_pairs(coordinates, count):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import largest_pairs
+    >>> from gencoords.storage.sparse import largest_pairs
     >>> indices, weights = largest_pairs(np.array([[0.1, 0.6, 0.05, 0.25]]), 2)
     >>> indices.tolist(), weights.round(4).tolist()
     ([[1, 3]], [[0.7059, 0.2941]])
@@ -125,8 +125,8 @@ def placed_pairs(coordinates, count, rest):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import placed_pairs
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.storage.sparse import placed_pairs
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, _ = octahedron()
     >>> row = np.array([[0.3, 0.1, 0.25, 0.15, 0.12, 0.08]])
     >>> indices, weights = placed_pairs(row, 4, vertices)
@@ -149,7 +149,7 @@ def dense_weights(indices, weights, column_count):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import dense_weights
+    >>> from gencoords.storage.sparse import dense_weights
     >>> dense_weights(np.array([[2, 0]]), np.array([[0.75, 0.25]]), 3).tolist()
     [[0.25, 0.0, 0.75]]
     """
@@ -177,7 +177,7 @@ def interpolated(values, corners, corner_weights):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import interpolated
+    >>> from gencoords.storage.sparse import interpolated
     >>> nodes = np.eye(8)
     >>> float(interpolated(nodes, np.arange(8)[None], np.full((1, 8), 0.125)).sum())
     1.0
@@ -220,8 +220,8 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import deviations, largest_pairs
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.storage.sparse import deviations, largest_pairs
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, _ = octahedron()
     >>> exact = np.array([[0.5, 0.3, 0.2, 0.0, 0.0, 0.0]])
     >>> smooth, drag, vertex = deviations(exact, *largest_pairs(exact, 3), vertices)
@@ -325,8 +325,8 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     Examples
     --------
     >>> import gencoords
-    >>> from gencoords.tools.sparse import fewest_slots
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.storage.sparse import fewest_slots
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> w = gencoords.coordinates([[0.1, 0.2, 0.3]], vertices, faces, workers=1)
     >>> count, smooth, drag = fewest_slots(w, vertices, 1e-3, counts=(4, 42))
@@ -361,7 +361,7 @@ def used_nodes(corners):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import used_nodes
+    >>> from gencoords.storage.sparse import used_nodes
     >>> used, local = used_nodes(np.array([[7, 3, 7, 9, 3, 3, 9, 7]]))
     >>> used.tolist(), local.tolist()
     ([3, 7, 9], [[1, 0, 1, 2, 0, 0, 2, 1]])
@@ -377,7 +377,7 @@ def automatic_node_slot_counts(point_count, node_count, column_count, per_vector
 
     Examples
     --------
-    >>> from gencoords.tools.sparse import automatic_node_slot_counts
+    >>> from gencoords.storage.sparse import automatic_node_slot_counts
     >>> automatic_node_slot_counts(1_000_000, 7960, 642)  # 375 slots a column: all 642 in 2
     (375, 642)
     >>> automatic_node_slot_counts(43236, 5524, 196)  # all 196 would take 10 columns
@@ -416,7 +416,7 @@ def filled_node_slot_counts(counts, point_count, node_count, column_count, per_v
 
     Examples
     --------
-    >>> from gencoords.tools.sparse import filled_node_slot_counts
+    >>> from gencoords.storage.sparse import filled_node_slot_counts
     >>> filled_node_slot_counts((8, 16, 24, 48), 1000, 140, 200)  # 7 vectors, 21 slots a column
     (21, 42, 63)
     """
@@ -445,7 +445,7 @@ def stacked_columns(values, row_count):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import stacked_columns
+    >>> from gencoords.storage.sparse import stacked_columns
     >>> columns, per_column = stacked_columns(np.array([[1, 2, 3], [4, 5, 6]]), 5)
     >>> per_column, columns.T.tolist()
     (2, [[1, 4, 2, 5, 0], [3, 6, 0, 0, 0]])
@@ -468,7 +468,7 @@ def unstacked(columns, node_count, slot_count):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import stacked_columns, unstacked
+    >>> from gencoords.storage.sparse import stacked_columns, unstacked
     >>> values = np.arange(1, 7).reshape(2, 3)
     >>> unstacked(stacked_columns(values, 5)[0], 2, 3).tolist()
     [[1, 2, 3], [4, 5, 6]]
@@ -497,7 +497,7 @@ def layout_coordinates(indices, weights, column_count, nodes=None):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import layout_coordinates
+    >>> from gencoords.storage.sparse import layout_coordinates
     >>> nodes = (np.array([[0, 1], [2, 1]]), np.array([[0.5, 0.5], [1.0, 0.0]]))
     >>> layout_coordinates(np.array([[0, 1]]), np.array([[0.5, 0.5]]), 3, nodes).tolist()
     [[0.25, 0.25, 0.5]]
@@ -534,7 +534,7 @@ class TwoLevelLayout:
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import TwoLevelLayout
+    >>> from gencoords.storage.sparse import TwoLevelLayout
     >>> one_node = TwoLevelLayout(np.zeros((1, 4), np.int32), np.full((1, 4), 0.25, np.float32),
     ...                           np.zeros((1, 4), np.int32), np.full((1, 4), 0.25, np.float32),
     ...                           0.0, 0.0, 0)
@@ -589,8 +589,8 @@ def two_level_layout(node_coordinates, corners, corner_weights, rest, target, co
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.sparse import two_level_layout
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.storage.sparse import two_level_layout
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, _ = octahedron()
     >>> nodes = np.random.default_rng(0).dirichlet(np.ones(6), 16)
     >>> corners = np.arange(8).reshape(2, 4)

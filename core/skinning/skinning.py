@@ -18,7 +18,7 @@ import numpy as np
 
 from ..base import tolerances
 from ..harmonic.reproduction import reproduce_points  # noqa: F401  (part of this module's API)
-from . import sparse
+from ..storage import sparse
 
 NEGATIVE_TOLERANCE = tolerances.SKINNING_NEGATIVE  # see there
 
@@ -45,7 +45,7 @@ def top_k(coordinates, k):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.skinning import top_k
+    >>> from gencoords.skinning.skinning import top_k
     >>> indices, weights = top_k(np.array([[0.1, 0.6, 0.3]]), 2)
     >>> indices.tolist(), weights.round(3).tolist()
     ([[1, 2]], [[0.667, 0.333]])
@@ -66,7 +66,7 @@ def top_k(coordinates, k):
 def truncate(coordinates, max_influences, rest=None):
     """The ``max_influences`` largest weights of each row, renormalised (0: all kept);
     with the cage ``rest``, reweighted to place each point where the full row does
-    (``tools.sparse.placed_pairs``): a rig keeps linear precision wherever the point lies
+    (``storage.sparse.placed_pairs``): a rig keeps linear precision wherever the point lies
     among its kept bones (on the character, 16 influences follow a turned and scaled
     cage exactly, and deviate 8e-4 of the diagonal under the smooth motion against 7e-3
     truncated alone).

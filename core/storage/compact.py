@@ -66,8 +66,8 @@ def motion_basis(vertices, faces, size):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.compact import motion_basis
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.storage.compact import motion_basis
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> basis = motion_basis(vertices, faces, 10)
     >>> basis.shape, bool(np.allclose(basis.T @ basis, np.eye(10)))
@@ -131,8 +131,8 @@ def green_motion_basis(vertices, faces, size):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.compact import green_motion_basis
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.storage.compact import green_motion_basis
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> basis = green_motion_basis(vertices, faces, 24)
     >>> basis.shape, bool(np.allclose(basis.T @ basis, np.eye(24)))
@@ -177,8 +177,8 @@ def smooth_test_motion(vertices):
 
     Examples
     --------
-    >>> from gencoords.tools.compact import smooth_test_motion
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.storage.compact import smooth_test_motion
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, _ = octahedron((1.0, 1.0, 2.0))
     >>> smooth_test_motion(vertices).shape
     (6, 3)
@@ -213,8 +213,8 @@ def vertex_drag_motion(vertices, index=0, fraction=DRAG_FRACTION):
 
     Examples
     --------
-    >>> from gencoords.tools.compact import vertex_drag_motion
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.storage.compact import vertex_drag_motion
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, _ = octahedron()
     >>> moved = vertex_drag_motion(vertices, index=0, fraction=0.5)
     >>> moved[0].round(6).tolist(), bool((moved[1:] == vertices[1:]).all())
@@ -249,8 +249,8 @@ def deviation(coordinates, slots, basis, rest, moved):
     Examples
     --------
     >>> import gencoords
-    >>> from gencoords.tools.compact import deviation, motion_basis, vertex_drag_motion
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.storage.compact import deviation, motion_basis, vertex_drag_motion
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> w = gencoords.coordinates([[0.1, 0.2, 0.3]], vertices, faces, workers=1)
     >>> basis = motion_basis(vertices, faces, 42)  # every motion: exact
@@ -296,8 +296,8 @@ def residual_deviations(residual, rest, fraction=DRAG_FRACTION, faces=None):
     Examples
     --------
     >>> import gencoords
-    >>> from gencoords.tools.compact import motion_basis, residual_deviations
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.storage.compact import motion_basis, residual_deviations
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> w = gencoords.coordinates([[0.1, 0.2, 0.3]], vertices, faces, workers=1)
     >>> basis = motion_basis(vertices, faces, 10)
@@ -385,8 +385,8 @@ def smallest_size(coordinates, basis, rest, target, sizes, faces=None):
     Examples
     --------
     >>> import gencoords
-    >>> from gencoords.tools.compact import motion_basis, smallest_size
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.storage.compact import motion_basis, smallest_size
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> w = gencoords.coordinates([[0.1, 0.2, 0.3], [0.0, -0.4, 0.1]], vertices, faces, workers=1)
     >>> basis = motion_basis(vertices, faces, 42)

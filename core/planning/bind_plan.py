@@ -13,8 +13,8 @@ deviations were measured on every vertex), each a :class:`StorageChoice`.
 Harmonic coordinates are solved once on a grid (``gencoords.harmonic_field``) and looked
 up (:func:`_solve`); in sparse storage, their default, they are written in two levels
 (:func:`_plan_two_level`: each vertex its 4 interpolating grid nodes, each node its own pairs over
-the cage, ``tools.sparse.two_level_layout``). Sparse storage of any other kind keeps each
-vertex's K largest coordinates (``tools.sparse``): Automatic chooses it, with the fewest K
+the cage, ``storage.sparse.two_level_layout``). Sparse storage of any other kind keeps each
+vertex's K largest coordinates (``storage.sparse``): Automatic chooses it, with the fewest K
 whose deviations stay under ``AUTO_DEVIATION``, before compact storage (:func:`encode` and
 :func:`reproduce` know each storage).
 """
@@ -33,8 +33,8 @@ from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
 from ..evaluation.deformation import coordinate_summary, linear_precision
 from ..harmonic import harmonic_field
-from . import compact, sparse
-from .report import coordinate_report
+from ..reports.report import coordinate_report
+from ..storage import compact, sparse
 
 __all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "plan_bind",
            "choose_storage", "plan_bytes"]
@@ -45,7 +45,7 @@ __all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "ImpreciseCoo
 EXACT_MAX_PRODUCT = 8_000_000
 EXACT_MAX_CAGE_VERTICES = 400
 # Beyond, it measures: compact with the fewest slots that keep both standard deviations
-# (core.tools.compact: smooth motion, worst single-vertex drag) under AUTO_DEVIATION of the
+# (core.storage.compact: smooth motion, worst single-vertex drag) under AUTO_DEVIATION of the
 # cage's diagonal, else exact. Slots are chosen on a sample of the mesh with
 # AUTO_SAMPLE_MARGIN to spare for the vertices it skipped; after Bind the deviations are
 # measured on every vertex, and compact that still misses goes exact.
@@ -169,7 +169,7 @@ class BindRequest:
 
     Examples
     --------
-    >>> from gencoords.tools.bind_plan import BindRequest
+    >>> from gencoords.planning.bind_plan import BindRequest
     >>> request = BindRequest("green", outside="project", storage='EXACT')
     >>> request.green, request.compact_size, request.workers
     (True, 36, None)
@@ -232,8 +232,8 @@ class BindPlan:
 
     Examples
     --------
-    >>> from gencoords.tools.bind_plan import BindRequest, plan_bind
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.planning.bind_plan import BindRequest, plan_bind
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> fractions = []  # the plan is the generator's return value
     >>> steps = plan_bind(0.5 * vertices[:30], vertices, faces, BindRequest("mean_value", workers=1))
@@ -308,12 +308,12 @@ def stored_bytes(mesh_vertices, slot_count, compact_storage):
 def plan_bytes(plan):
     """Bytes of the attributes ``plan`` writes: :func:`stored_bytes`, or for sparse storage
     an int32 and a float32 per pair, and in two levels the nodes' pairs three to a vector
-    in columns as long as the mesh (``tools.sparse.stacked_columns``).
+    in columns as long as the mesh (``storage.sparse.stacked_columns``).
 
     Examples
     --------
-    >>> from gencoords.tools.bind_plan import BindRequest, plan_bind, plan_bytes
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.planning.bind_plan import BindRequest, plan_bind, plan_bytes
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> steps = plan_bind(0.5 * vertices, vertices, faces, BindRequest("mean_value", storage='SPARSE',
     ...                                                                sparse_size=4, workers=1))
@@ -348,7 +348,7 @@ def choose_storage(setting, mesh_vertices, cage_vertices, compact_size):
 
     Examples
     --------
-    >>> from gencoords.tools.bind_plan import choose_storage
+    >>> from gencoords.planning.bind_plan import choose_storage
     >>> choose_storage('AUTO', 31_658, 162, 36), choose_storage('AUTO', 1_000_000, 642, 36)
     ('EXACT', 'AUTO')
     >>> choose_storage('COMPACT', 5000, 12, 36)  # nothing to save
@@ -634,8 +634,8 @@ def plan_bind(points, cage_vertices, triangles, request):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.bind_plan import BindRequest, plan_bind
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.planning.bind_plan import BindRequest, plan_bind
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(2)
     >>> points = 0.5 * vertices
     >>> steps = plan_bind(points, vertices, faces, BindRequest("mean_value", storage='COMPACT',
@@ -715,7 +715,7 @@ def origin_distance(cage_vertices, origins=None):
     float32 rounds its positions, in epsilons of its size.
 
     >>> import numpy as np
-    >>> from gencoords.tools.bind_plan import origin_distance
+    >>> from gencoords.planning.bind_plan import origin_distance
     >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
     >>> round(origin_distance(cube), 4), round(origin_distance(cube, [-99.0, 0.0, 0.0]), 4)
     (0.5774, 57.735)
