@@ -26,8 +26,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..base import tolerances
-from ..harmonic.reproduction import largest_columns, reproduce_points
+from ..harmonic.reproduction import largest_entries, reproduce_points
 from . import compact
 
 __all__ = ["largest_pairs", "placed_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
@@ -53,13 +52,9 @@ _BOUND_ROWS = 1024  # node rows whose residual is taken at a time (bounded tempo
 
 
 def largest_pairs(coordinates, count):
-    """Each row's ``count`` largest-magnitude coordinates, renormalised to sum 1.
-
-    A row of non-negative values is divided by their sum. A row of both signs can cancel
-    to a small sum, which a division would multiply the row by (fuzz seed 261: sizes
-    adding up to 52 became 6,500); it gets the missing sum added in proportion to its
-    values' sizes instead (the same as the division for a non-negative row), so its sizes
-    grow by no more than that missing sum.
+    """Each row's ``count`` largest-magnitude coordinates, renormalised to sum 1
+    (``gencoords.harmonic.reproduction.largest_entries``: a row of both signs gets the
+    missing sum added in proportion to its values' sizes, so it never grows by a division).
 
     Parameters
     ----------
@@ -85,19 +80,7 @@ def largest_pairs(coordinates, count):
     >>> weights.round(4).tolist()  # 0.55, -0.5, 0.49 plus 0.46 by size (divided: 1.02, -0.93, 0.91)
     [[0.7143, -0.3506, 0.6364]]
     """
-    coordinates = np.asarray(coordinates, dtype=np.float64)
-    indices = largest_columns(coordinates, count, magnitude=True)
-    values = np.take_along_axis(coordinates, indices, axis=1)
-    total = values.sum(axis=1, keepdims=True)
-    signed = (values < 0.0).any(axis=1)
-    weights = np.empty_like(values)
-    sizes = np.abs(values[signed])
-    weights[signed] = values[signed] + (1.0 - total[signed]) * sizes / sizes.sum(axis=1, keepdims=True)
-    # Non-negative rows sum to at least their largest value (1/n of 1): a guard for
-    # degenerate input only.
-    positive_total = total[~signed]
-    positive_total[positive_total < tolerances.WELL_DEFINED_WEIGHT_SUM] = 1.0
-    weights[~signed] = values[~signed] / positive_total
+    indices, weights = largest_entries(coordinates, count, magnitude=True)
     return indices.astype(np.int32), weights
 
 
