@@ -21,7 +21,7 @@ import numpy as np
 from . import tolerances
 from .errors import CageError
 from .topology import cage_topology
-from ..surfaces.named import KINDS
+from ..surfaces.named import EVERY_KIND
 
 __all__ = ["checked", "CHECKS", "OUTSIDE_MODES", "check_tolerance", "real_array",
            "bounding_frame"]
@@ -214,8 +214,8 @@ def _point(value, context):
 
 
 def _kind(value, context):
-    if not isinstance(value, str) or value not in KINDS:
-        raise ValueError(f"unknown kind {value!r}; expected one of {', '.join(KINDS)}")
+    if not isinstance(value, str) or value not in EVERY_KIND:
+        raise ValueError(f"unknown kind {value!r}; expected one of {', '.join(EVERY_KIND)}")
     return value
 
 
@@ -374,6 +374,8 @@ RESOLUTION_LIMIT = 1024
 
 
 def _resolution(value, context):
+    if value is None:  # the default grid
+        return None
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) \
             or not 2 <= value <= RESOLUTION_LIMIT:
         raise ValueError(f"resolution must be an integer from 2 to {RESOLUTION_LIMIT} (cells along the "

@@ -430,7 +430,7 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
         Triangles, counter-clockwise seen from outside (quads:
         :func:`gencoords.cages.triangulate_quads`). Any closed cage, convex or not.
     resolution : int
-        Cells along the longest side of the cage's box (2 to 1024; the cost grows as
+        Cells along the longest side of the cage's box (2 to 1024, None: 64; the cost grows as
         its cube). Like Mesh Deform's Precision, but the cells are cubes, so a thin limb
         gets as many cells across as its thickness allows.
     tolerance : float
@@ -468,6 +468,7 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     >>> field.node_coordinates.shape[1], bool(field.node_coordinates.min() >= 0.0)
     (42, True)
     """
+    resolution = DEFAULT_RESOLUTION if resolution is None else resolution
     prepared = validate_cage(vertices, faces, convex=False, tolerance=tolerance)
     if prepared.dimension != 3:
         raise CageError("bad_faces", f"harmonic coordinates need a 3D triangle cage, got a "

@@ -33,6 +33,7 @@ from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
 from ..evaluation.deformation import coordinate_summary, linear_precision
 from ..harmonic import harmonic_field
+from ..surfaces.named import HARMONIC
 from ..reports.report import coordinate_report
 from ..storage import compact, sparse
 
@@ -63,7 +64,6 @@ DEVIATION_SAMPLES = 2000  # mesh vertices Automatic chooses compact storage's sl
 # one deviation), so it does not measure slots it would throw away.
 ESTIMATE_SAMPLES = 128
 REPORT_SAMPLES = 1000  # points inside the cage coordinate_report examines
-HARMONIC = "harmonic"  # the core's name of harmonic coordinates (gencoords.harmonic_field)
 # A Bind's grid for harmonic coordinates unless asked otherwise: on the character
 # (bench_local.py, 43k vertices, 196-vertex cage) 48 cells bind in 2.9x Mesh Deform p5's
 # time, play back in 1.1x its CPU time and bend a limb 1.7 / 16.2 degrees (mean / 99th
