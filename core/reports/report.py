@@ -13,7 +13,7 @@ import numpy as np
 from ..base import tolerances
 from ..construction.boundary import INSIDE
 from ..evaluation.cage import Cage
-from ..evaluation.deformation import linear_precision
+from .fields import linear_precision
 from ..surfaces.named import KIND_TABLE, MEAN_VALUE, kind_parameter
 from ..base.inputs import checked
 from ..construction.validation import DEFAULT_TOLERANCE

@@ -29,3 +29,6 @@ class Storage(str, enum.Enum):
 
     def __str__(self):
         return self.value
+
+    def __repr__(self):  # as the string it equals: messages and printed tuples read the same
+        return repr(self.value)

@@ -6,49 +6,25 @@ cage's vertices move by ``D`` (n, 3). Local coordinates (harmonic, and any kind 
 where each point sees few vertices) keep nearly all of ``w``'s mass in a few entries;
 sparse storage keeps the K largest (by magnitude) and divides them by their sum, so the
 stored weights still sum to 1 and translations of the cage stay exact. Evaluating costs K
-gathers per point whatever the cage (``gencoords_addon/sparse_graph.py``).
-
-Two levels (harmonic coordinates: interpolations of grid-node values): the grid nodes
-that interpolate the points carry their own sparse pairs over the cage, and each point
-keeps its corner nodes (4: ``gencoords.harmonic.interpolation``) with their weights. The truncation then happens
-at the nodes only, and a node can keep many pairs cheaply: the N nodes are few beside the
-k points. Their pairs are stored stacked (:func:`stacked_columns`) in columns as long as
-the points, so they take about N x K' numbers each, not k x K'.
+gathers per point whatever the cage (the add-on's sparse deformer group).
 
 How far the sparse form is from the exact one is measured like compact storage's
-(``compact.residual_deviations``: the standard smooth motion and the worst single-vertex
-drag, of the cage's diagonal) on the residual ``W - sparse(W)``; :func:`fewest_slots`
-finds the smallest K that keeps both under a target.
+(:mod:`.pair_deviations`: the standard smooth motion and the worst single-vertex drag,
+of the cage's diagonal) on the residual ``W - sparse(W)``; :func:`fewest_slots` finds
+the smallest K that keeps both under a target. :func:`encode`, :func:`reproduce` and
+:func:`plan_bytes` are the storage's; in two levels (harmonic coordinates) the grid
+nodes carry the pairs (:mod:`.two_level`), stored stacked (:func:`stacked_columns`).
 """
 
-from dataclasses import dataclass
-from typing import Optional
 
 import numpy as np
 
 from ..harmonic.reproduction import largest_entries, reproduce_points
-from . import compact
+from .pair_deviations import deviations, interpolated
 
-__all__ = ["largest_pairs", "placed_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
-           "stacked_columns", "unstacked", "layout_coordinates", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS",
-           "filled_node_slot_counts", "automatic_node_slot_counts"]
+__all__ = ["largest_pairs", "placed_pairs", "dense_weights", "fewest_slots", "stacked_columns", "unstacked", "layout_coordinates", "SLOT_COUNTS"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
-# Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
-# cheap (bench_sparse_routes.py: 48 pairs on 1,286 nodes play back in 0.8x Mesh Deform's time).
-NODE_SLOT_COUNTS = (8, 16, 24, 32, 48, 64, 96, 128)
-# Beyond those, Automatic tries more K', up to every cage vertex, while the nodes' pairs
-# fill at most this many stored columns (each a gather over the mesh's vertex count, as one
-# of the 4 corners is): the node stage then costs at most twice the vertex stage. Harmonic
-# coordinates deep inside a convex cage are not local (a million points in a 642-vertex
-# icosphere: 128 pairs deviate 2e-2), and there the nodes are few beside the points.
-MORE_NODE_SLOT_COUNTS, NODE_COLUMN_BUDGET = (192, 256, 384, 512), 8
-SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
-SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
-# The worst drag's columns are computed this many at a time (reweighted pairs leave bounds
-# alike, so many are), over this many points at a time (bounded memory).
-_DRAG_COLUMNS, _DRAG_POINTS = 32, 1 << 13
-_BOUND_ROWS = 1024  # node rows whose residual is taken at a time (bounded temporaries: 1.6 MB at 196 columns)
 
 
 def largest_pairs(coordinates, count):
@@ -141,144 +117,6 @@ def dense_weights(indices, weights, column_count):
     return dense
 
 
-def interpolated(values, corners, corner_weights):
-    """Rows interpolated from node rows: ``sum_c corner_weights[:, c] * values[corners[:, c]]``.
-
-    Parameters
-    ----------
-    values : (N, n) float
-        Per grid node.
-    corners : (k, c) int
-        Each point's corner nodes (rows of ``values``).
-    corner_weights : (k, c) float
-        Their interpolation weights.
-
-    Returns
-    -------
-    (k, n) float64
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.storage.sparse import interpolated
-    >>> nodes = np.eye(8)
-    >>> float(interpolated(nodes, np.arange(8)[None], np.full((1, 8), 0.125)).sum())
-    1.0
-    """
-    values = np.asarray(values, dtype=np.float64)
-    corners, corner_weights = np.asarray(corners), np.asarray(corner_weights, dtype=np.float64)
-    result = np.zeros((len(corners), values.shape[1]))
-    term = np.empty_like(result)
-    for c in range(corners.shape[1]):
-        np.multiply(np.take(values, corners[:, c], axis=0), corner_weights[:, c, None], out=term)
-        result += term
-    return result
-
-
-def deviations(coordinates, indices, weights, rest, interpolation=None):
-    """How far the pairs as stored are from the exact coordinates, of the cage's diagonal.
-
-    Parameters
-    ----------
-    coordinates : (k, n) float
-        Exact coordinates; with ``interpolation``, of the grid nodes ((N, n)).
-    indices, weights : (k, K) (or (N, K')) int and float
-        The pairs, weights as stored (float32 is measured as float32).
-    rest : (n, 3) float
-        The cage at rest.
-    interpolation : ((p, c) int, (p, c) float), optional
-        The points' corner nodes (rows of ``coordinates``) and their weights: the
-        deviations are then those of the p points.
-
-    Returns
-    -------
-    smooth : float
-        Under the standard smooth motion (``compact.smooth_test_motion``).
-    drag : float
-        Under the worst single cage vertex dragged by ``compact.DRAG_FRACTION`` of the
-        diagonal.
-    drag_vertex : int
-        That vertex.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.storage.sparse import deviations, largest_pairs
-    >>> from gencoords.cages.shapes import octahedron
-    >>> vertices, _ = octahedron()
-    >>> exact = np.array([[0.5, 0.3, 0.2, 0.0, 0.0, 0.0]])
-    >>> smooth, drag, vertex = deviations(exact, *largest_pairs(exact, 3), vertices)
-    >>> float(drag) < 1e-15
-    True
-    """
-    coordinates = np.asarray(coordinates, dtype=np.float64)
-    indices, weights = np.asarray(indices), np.asarray(weights, dtype=np.float64)
-    if interpolation is None:
-        smooth, drag = compact.residual_deviations(_residual(coordinates, indices, weights), rest)
-        if len(drag) == 0:
-            return float(smooth), 0.0, 0
-        return float(smooth), float(drag.max()), int(np.argmax(drag))
-    return _interpolated_deviations(coordinates, indices, weights, *interpolation, rest)
-
-
-def _residual(coordinates, indices, weights, rows=slice(None), columns=None):
-    """Rows ``rows`` of ``coordinates - dense(pairs)`` ((r, n) float64), or only their
-    ``columns`` ((r, c): the pairs in other columns skipped)."""
-    if columns is None:
-        residual = np.array(coordinates[rows], dtype=np.float64)
-        residual[np.arange(len(residual))[:, None], indices[rows]] -= weights[rows]
-        return residual
-    position = np.full(coordinates.shape[1], -1)
-    position[columns] = np.arange(len(columns))
-    residual = np.array(coordinates[rows][:, columns], dtype=np.float64)
-    row, slot = np.nonzero(position[indices[rows]] >= 0)
-    residual[row, position[indices[rows][row, slot]]] -= weights[rows][row, slot]
-    return residual
-
-
-def _interpolated_deviations(coordinates, indices, weights, corners, corner_weights, rest):
-    """``deviations`` of the points interpolated from the nodes' ``coordinates`` ((N, n))
-    and pairs, without the (k, n) point residual or even the (N, n) node residual (both
-    taken a batch at a time): the smooth motion is linear (interpolate the nodes' moves),
-    and a dragged vertex j deviates ``DRAG_FRACTION * max_i |point residual_ij|``, bounded
-    by the nodes' largest ``|residual_aj|`` (the corner weights are a convex
-    combination): exact columns are computed, a batch at a time, in decreasing bound order
-    until no bound can beat the worst found, so the largest and where it is are exact."""
-    rest = np.asarray(rest, dtype=np.float64)
-    diagonal = np.linalg.norm(np.ptp(rest, axis=0))
-    if len(corners) == 0 or coordinates.shape[1] == 0:
-        return 0.0, 0.0, 0
-    motion = compact.smooth_test_motion(rest) - rest
-    node_moves = np.empty((len(coordinates), 3))
-    used = np.zeros(len(coordinates), dtype=bool)
-    used[np.asarray(corners).reshape(-1)] = True
-    bounds = np.zeros(coordinates.shape[1])
-    for start in range(0, len(coordinates), _BOUND_ROWS):
-        rows = slice(start, start + _BOUND_ROWS)
-        residual = _residual(coordinates, indices, weights, rows)
-        node_moves[rows] = residual @ motion
-        np.abs(residual, out=residual)
-        np.maximum(bounds, residual.max(axis=0, initial=0.0, where=used[rows, None]), out=bounds)
-    moves = interpolated(node_moves, corners, corner_weights)
-    smooth = float(np.linalg.norm(moves, axis=1).max() / diagonal)
-    worst, worst_column = -1.0, 0
-    order = np.argsort(-bounds)
-    for start in range(0, len(order), _DRAG_COLUMNS):
-        batch = order[start:start + _DRAG_COLUMNS]
-        if bounds[batch[0]] <= worst:
-            break
-        largest = np.zeros(len(batch))
-        residual = _residual(coordinates, indices, weights, columns=batch)
-        for first in range(0, len(corners), _DRAG_POINTS):
-            rows = slice(first, first + _DRAG_POINTS)
-            part = interpolated(residual, corners[rows], corner_weights[rows])
-            np.maximum(largest, np.abs(part).max(axis=0), out=largest)
-        best = int(np.argmax(largest))
-        if largest[best] > worst:
-            worst, worst_column = float(largest[best]), int(batch[best])
-    return smooth, compact.DRAG_FRACTION * worst, worst_column
-
-
 def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=None):
     """The fewest pairs per row (:func:`placed_pairs`) whose deviations both stay under
     ``target``.
@@ -324,87 +162,6 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
         if smooth < target and drag < target:
             return count, smooth, drag
     return None, smooth, drag
-
-
-def used_nodes(corners):
-    """The grid nodes that interpolate the points, and the corners renumbered into them.
-
-    Parameters
-    ----------
-    corners : (k, c) int
-        Each point's corner nodes (rows of a grid's nodes).
-
-    Returns
-    -------
-    used : (N,) int
-        Sorted node rows.
-    local : (k, c) int32
-        ``corners`` as rows of ``used``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.storage.sparse import used_nodes
-    >>> used, local = used_nodes(np.array([[7, 3, 7, 9, 3, 3, 9, 7]]))
-    >>> used.tolist(), local.tolist()
-    ([3, 7, 9], [[1, 0, 1, 2, 0, 0, 2, 1]])
-    """
-    used, local = np.unique(np.asarray(corners), return_inverse=True)
-    return used, local.reshape(np.shape(corners)).astype(np.int32)
-
-
-def automatic_node_slot_counts(point_count, node_count, column_count, per_vector=3):
-    """Automatic's candidate K' for N grid nodes beside k points: NODE_SLOT_COUNTS, then
-    MORE_NODE_SLOT_COUNTS and every column (n) as far as NODE_COLUMN_BUDGET stored columns,
-    filled (:func:`filled_node_slot_counts`).
-
-    Examples
-    --------
-    >>> from gencoords.storage.sparse import automatic_node_slot_counts
-    >>> automatic_node_slot_counts(1_000_000, 7960, 642)  # 375 slots a column: all 642 in 2
-    (375, 642)
-    >>> automatic_node_slot_counts(43236, 5524, 196)  # all 196 would take 10 columns
-    (21, 42, 63, 84, 105, 147)
-    """
-    per_column = _slots_per_column(point_count, node_count, per_vector)
-    more = [count for count in MORE_NODE_SLOT_COUNTS + (column_count,)
-            if -(-min(count, column_count) // per_column) <= NODE_COLUMN_BUDGET]
-    return filled_node_slot_counts(NODE_SLOT_COUNTS + tuple(more), point_count, node_count, column_count, per_vector)
-
-
-def _slots_per_column(point_count, node_count, per_vector):
-    """Node slots one stored column holds (:func:`stacked_columns`): ``per_vector`` times
-    the nodes' copies that fit its ``point_count`` rows."""
-    return per_vector * max(1, point_count // max(1, node_count))
-
-
-def filled_node_slot_counts(counts, point_count, node_count, column_count, per_vector=3):
-    """Candidate K' rounded up to fill whole stacked columns (:func:`stacked_columns` of
-    ``per_vector`` slots to a stored vector): the deformer's cost grows with the columns,
-    not the slots, so a column's spare slots are free accuracy.
-
-    Parameters
-    ----------
-    counts : increasing sequence of int
-        Candidate K'.
-    point_count, node_count : int
-        The column length (the mesh's vertex count) and N.
-    column_count : int
-        The cage's vertex count n (no node keeps more pairs).
-
-    Returns
-    -------
-    tuple of int
-        Increasing, distinct, each a whole number of columns or n.
-
-    Examples
-    --------
-    >>> from gencoords.storage.sparse import filled_node_slot_counts
-    >>> filled_node_slot_counts((8, 16, 24, 48), 1000, 140, 200)  # 7 vectors, 21 slots a column
-    (21, 42, 63)
-    """
-    per_column = _slots_per_column(point_count, node_count, per_vector)
-    return tuple(sorted({min(-(-count // per_column) * per_column, column_count) for count in counts}))
 
 
 def stacked_columns(values, row_count):
@@ -491,110 +248,19 @@ def layout_coordinates(indices, weights, column_count, nodes=None):
     return interpolated(node_rows, indices, weights)
 
 
-@dataclass(frozen=True, eq=False)
-class TwoLevelLayout:
-    """Sparse bind data in two levels (:func:`two_level_layout`), as written: float32
-    weights, int32 indices.
-
-    Attributes
-    ----------
-    corners : (k, c) int32
-        Each point's corner nodes (c = 4: ``gencoords.harmonic.interpolation``), as
-        rows of the N nodes kept.
-    corner_weights : (k, c) float32
-        Their interpolation weights.
-    node_indices : (N, K') int32
-        Each node's cage vertices, largest weight first.
-    node_weights : (N, K') float32
-        Their weights, summing to 1 per node.
-    deviation_smooth, deviation_drag : float
-        Of the cage's diagonal, measured on every point against the points' exact
-        (interpolated) coordinates.
-    deviation_drag_vertex : int
-    reason : str or None
-        Why K' is what it is, where the target was missed.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.storage.sparse import TwoLevelLayout
-    >>> one_node = TwoLevelLayout(np.zeros((1, 4), np.int32), np.full((1, 4), 0.25, np.float32),
-    ...                           np.zeros((1, 4), np.int32), np.full((1, 4), 0.25, np.float32),
-    ...                           0.0, 0.0, 0)
-    >>> one_node.node_count, one_node.node_slot_count
-    (1, 4)
-    """
-
-    corners: np.ndarray
-    corner_weights: np.ndarray
-    node_indices: np.ndarray
-    node_weights: np.ndarray
-    deviation_smooth: float
-    deviation_drag: float
-    deviation_drag_vertex: int
-    reason: Optional[str] = None
-
-    @property
-    def node_count(self):
-        return len(self.node_indices)
-
-    @property
-    def node_slot_count(self):
-        return self.node_indices.shape[1]
+def encode(choice, coordinates, rest):
+    """Each point's ``choice.pairs`` largest coordinates ((j, rows) float64), placing it
+    where its coordinates do in the cage ``rest`` ((n, 3): :func:`placed_pairs`): weights
+    (j, K) float32 and cage vertices (j, K) int32."""
+    indices, weights = placed_pairs(coordinates, choice.pairs, rest)
+    return weights.astype(np.float32), indices
 
 
-def two_level_layout(node_coordinates, corners, corner_weights, rest, target, counts=NODE_SLOT_COUNTS):
-    """The two-level sparse layout of points interpolated from nodes: the nodes with the
-    fewest pairs each (of ``counts``: :func:`placed_pairs`) whose deviations stay under
-    ``target`` (chosen on a sample of the points, measured on all).
+def reproduce(choice, slots, indices, rows):
+    """The coordinates the deformer reproduces from the pairs: (j, rows) float64."""
+    return dense_weights(indices, slots, rows)
 
-    Parameters
-    ----------
-    node_coordinates : (N, n) float
-        The nodes' coordinates (rows summing to 1): the grid nodes that interpolate the
-        points (:func:`used_nodes`), and any point's own row where it is not
-        interpolated (its corners all that row, its first corner weight 1).
-    corners : (k, c) int
-        Each point's corner nodes (rows of ``node_coordinates``).
-    corner_weights : (k, c) float
-        Their interpolation weights.
-    rest : (n, 3) float
-        The cage at rest.
-    target : float
-        Of the cage's diagonal.
-    counts : increasing sequence of int
-        Candidate K'; the last is used when none meets the target.
 
-    Returns
-    -------
-    TwoLevelLayout
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.storage.sparse import two_level_layout
-    >>> from gencoords.cages.shapes import octahedron
-    >>> vertices, _ = octahedron()
-    >>> nodes = np.random.default_rng(0).dirichlet(np.ones(6), 16)
-    >>> corners = np.arange(8).reshape(2, 4)
-    >>> layout = two_level_layout(nodes[:8], corners, np.full((2, 4), 0.25), vertices, 1e-3, counts=(2, 6))
-    >>> layout.node_count, layout.node_slot_count, layout.deviation_drag < 1e-6
-    (8, 6, True)
-    """
-    nodes = np.asarray(node_coordinates, dtype=np.float64)
-    corners = np.asarray(corners, dtype=np.int32)
-    corner_weights = np.asarray(corner_weights, dtype=np.float32)
-    sample = slice(None, None, max(1, len(corners) // SAMPLE_POINTS))
-    sampled, sample_corners = used_nodes(corners[sample])  # only the sample's nodes are paired
-    count, _, _ = fewest_slots(nodes[sampled], rest, target * SAMPLE_MARGIN, counts,
-                               interpolation=(sample_corners, corner_weights[sample]))
-    reason = None
-    if count is None:
-        count = counts[-1]
-    indices, weights = placed_pairs(nodes, count, rest)
-    weights = weights.astype(np.float32)
-    smooth, drag, vertex = deviations(nodes, indices, weights, rest, (corners, corner_weights))
-    if max(smooth, drag) >= target:
-        reason = (f"{count} pairs per grid node deviate {max(smooth, drag):.1e} of the cage's "
-                  f"diagonal (more than {target:.0e})")
-    return TwoLevelLayout(corners, corner_weights, indices, weights, smooth, drag, vertex, reason)
+def plan_bytes(plan):
+    """Bytes of a sparse plan's attributes: an int32 and a float32 per pair."""
+    return len(plan.slots) * plan.slot_count * 8
