@@ -26,7 +26,7 @@ __version__ = "0.1.0"  # the one source: pyproject.toml reads it, the manifest r
 from .base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError, WorkerWarning
 from .construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction.validation import DEFAULT_TOLERANCE
-from .construction.green import green_deform
+from .construction.green_deform import green_deform
 from .evaluation.barycentric import coordinates, green_coordinates, needs_convex, point_locations, weights
 from .evaluation.cage import Cage
 from .evaluation.deformation import deform

@@ -8,7 +8,8 @@ with its worker processes); callers with several batches of points keep one inst
 import numpy as np
 
 from .cage import Cage, needs_convex
-from ..base.inputs import OUTSIDE_MODES, checked
+from ..base.inputs import checked
+from ..base.parameters import OUTSIDE_MODES
 from ..surfaces.numerical import DEFAULT_LEVELS, geodesic_pieces, simplex_rule, surface_ridge_scalars
 from ..base.topology import cage_topology
 from ..surfaces.named import MEAN_VALUE

@@ -16,9 +16,11 @@ from ..construction.general import point_frame
 from ..base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
 from .rows import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
 from ..surfaces.named import CONVEX_ONLY_KINDS, HARMONIC, MEAN_VALUE, kind_parameter, named_ridge_scalars
-from ..base.inputs import OUTSIDE_MODES, checked
-from .parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead, dispatch_units,
-                       python_executable)
+from ..base.inputs import checked
+from ..base.parameters import OUTSIDE_MODES
+from .interpreters import available_cores, python_executable
+from .parallel import WorkerPool, computed_here_instead, dispatch_units
+from .shared_memory import SharedArrays
 from ..construction.green import GREEN, GreenOutsideError, green_chunk_size
 from ..construction.units import length_degree, to_world
 from ..construction.validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
@@ -252,7 +254,8 @@ class Cage:
     def _harmonic(self, points, kind, outside, progress, dtype, locations, workers, gamma, resolution):
         """Harmonic coordinates of ``points`` ((k, n) dtype), looked up in this cage's
         grid at ``resolution`` (solved on first use: ``gencoords.harmonic_field``)."""
-        from ..harmonic.field import DEFAULT_RESOLUTION, harmonic_field
+        from ..harmonic.field import DEFAULT_RESOLUTION
+        from ..harmonic.grid_field import harmonic_field
         if kind != HARMONIC:
             raise ValueError(f"resolution applies to kind={HARMONIC!r} only, not {kind!r}")
         kind_parameter(kind, gamma)  # refuses a gamma

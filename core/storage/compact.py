@@ -21,7 +21,7 @@ single-vertex drag exactly from the coordinates' residual ``W - slots @ basis.T`
 :func:`smallest_size` finds the fewest basis vectors that keep both under a target.
 
 Green coordinates (``[phi, psi]``, n + m per point) compress the same way over the
-n + m rows of :func:`gencoords.construction.green.green_displacements`, with
+n + m rows of :func:`gencoords.construction.green_deform.green_displacements`, with
 :func:`green_motion_basis`; the functions below take ``faces`` for them.
 """
 

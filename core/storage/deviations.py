@@ -9,7 +9,7 @@ these; Green coordinates (``[phi, psi]``) take ``faces``.
 import numpy as np
 
 from ..base import tolerances
-from ..construction.green import green_displacements
+from ..construction.green_deform import green_displacements
 
 __all__ = ["smooth_test_motion", "vertex_drag_motion", "deviation", "residual_deviations", "DRAG_FRACTION"]
 

@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
-from gencoords.evaluation.parallel import available_cores  # noqa: E402
+from gencoords.evaluation.interpreters import available_cores  # noqa: E402
 from gencoords.cages.shapes import icosphere  # noqa: E402
 from gencoords.surfaces.named import DISCRETE_HARMONIC, MEAN_VALUE, WACHSPRESS  # noqa: E402
 

@@ -90,7 +90,7 @@ def main():
     triangles = gencoords.cages.triangulate_quads(vertices, quads)
     points = body_points(arguments.points)
     body = body_mesh()  # the bend's mesh, once for every resolution
-    workers = arguments.workers or gencoords.evaluation.parallel.available_cores()
+    workers = arguments.workers or gencoords.evaluation.interpreters.available_cores()
     print(f"character cage: {len(vertices)} vertices, {len(triangles)} triangles; {len(points)} points inside; "
           f"box {np.ptp(vertices, axis=0).tolist()}, diagonal {np.linalg.norm(np.ptp(vertices, axis=0)):.2f}")
     print(f"bind s: one process; w={workers}: {workers} worker processes (started per bind)")

@@ -127,12 +127,12 @@ def test_bind_under_windows_semantics_leaves_nothing_behind(gc, monkeypatch, tmp
     monkeypatch.setattr(gc.core.evaluation.cage, "_PAIRS_PER_WORKER", 1)  # workers even for this small Bind
     monkeypatch.setattr(gc.core.evaluation.cage, "available_cores", lambda: 2)
     simulated_os.simulate(monkeypatch, "windows", tmp_path)
-    assert gc.core.evaluation.parallel._WINDOWS  # the extension's core takes its Windows branches
+    assert gc.core.evaluation.shared_memory._WINDOWS  # the extension's core takes its Windows branches
     assert bind(obj, cage) == {'FINISHED'}
     assert len(worker_processes.started) == 2
     np.testing.assert_allclose(coordinates_of(gc, obj), alone, rtol=0, atol=1e-6)
     garbage.collect()
-    assert not gc.core.evaluation.parallel.shared_files(os.getpid())
+    assert not gc.core.evaluation.shared_memory.shared_files(os.getpid())
     assert not simulated_os.tagged_memory(tmp_path)  # the Bind keeps no view of the shared memory
 
 
@@ -161,7 +161,7 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
     assert "No module named 'numpy'" in said  # the cause, in the console
     assert said.count("No module named 'numpy'") == 1  # one try: the rest of the Bind in Blender
     assert "Bound 'Mesh'" in said and "1: Compute in Blender" in said
-    assert not gc.core.evaluation.parallel.shared_files(os.getpid())
+    assert not gc.core.evaluation.shared_memory.shared_files(os.getpid())
 
 
 @pytest.mark.parametrize("shape", ["CONVEX", "TIGHT"])

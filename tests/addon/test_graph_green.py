@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.construction.green import green_displacements
+from gencoords.construction.green_deform import green_displacements
 from gencoords.storage.compact import smooth_test_motion
 from scene_helpers import (add_icosphere_cage, add_subdivided_sphere, evaluated_positions, read_positions,
                            write_positions)

@@ -65,7 +65,7 @@ def test_an_affine_basis_reproduces_affine_motions_exactly(irregular):
 
 
 def test_green_compact_follows_similarities_and_measures_the_worst_drag_exactly():
-    from gencoords.construction.green import green_displacements
+    from gencoords.construction.green_deform import green_displacements
     vertices, faces = icosphere(2)
     points = np.random.default_rng(0).uniform(-0.45, 0.45, (1500, 3))
     phi, psi = gencoords.green_coordinates(points, vertices, faces)

@@ -168,7 +168,7 @@ def t_pose_system(resolution):
         return solve_nodes(inside, rhs, cage, *args, **kwargs)
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(gencoords.harmonic.field, "solve_nodes", spy)
+        patch.setattr(gencoords.harmonic.grid_field, "solve_nodes", spy)
         gencoords.harmonic_field(vertices, triangles, resolution=resolution)
     return captured["inside"], captured["rhs"], captured["cage"]
 
