@@ -107,8 +107,8 @@ def test_non_finite_vertex_and_points():
 
 def test_unknown_kind_and_outside_mode():
     vertices, faces = octahedron()
-    with pytest.raises(ValueError, match="kind"):
-        gencoords.coordinates([[0, 0, 0]], vertices, faces, kind="harmonic")
+    with pytest.raises(ValueError, match="kind"):  # "harmonic" is a kind now (test_harmonic_kind.py)
+        gencoords.coordinates([[0, 0, 0]], vertices, faces, kind="harmonics")
     with pytest.raises(ValueError, match="outside"):
         gencoords.coordinates([[0, 0, 0]], vertices, faces, outside="clamp")
 
