@@ -9,13 +9,16 @@ oriented cage, convex or not; the other kinds need a convex cage and say so
 shapes are in every docstring (k points, n vertices, m facets, r ridges, dimension N).
 
 Installed as ``gencoords`` (``pip install .``); the folder is ``core/``. The top level is
-the everyday API; the paper's advanced API is :mod:`gencoords.advanced`, the tools
-(storage compression, skinning, example shapes, reports, colours) :mod:`gencoords.tools`.
+the everyday API; the paper's advanced API is :mod:`gencoords.advanced`; beside them, by
+purpose: :mod:`gencoords.cages` (preparing cages, example shapes, enclosing and tight
+cages), :mod:`gencoords.reports` (colours, summaries, reports of coordinate fields),
+:mod:`gencoords.storage` (how a Bind stores coordinates), :mod:`gencoords.skinning` (skins
+from coordinates) and :mod:`gencoords.planning` (a Bind without Blender).
 Layers, bottom up: ``base`` (frames, topology, input checks, tolerances, errors),
 ``surfaces`` (named, power and numerical generating surfaces), ``construction`` (the
 general construction, boundary limits, Floater, completeness, Green), ``evaluation``
 (the cage object, row evaluation, workers), ``harmonic`` (harmonic coordinates on a
-grid: local and non-negative in any closed 3D cage), ``tools``.
+grid: local and non-negative in any closed 3D cage); above them the folders by purpose.
 """
 
 __version__ = "0.1.0"  # the one source: pyproject.toml reads it, the manifest repeats it
@@ -23,13 +26,15 @@ __version__ = "0.1.0"  # the one source: pyproject.toml reads it, the manifest r
 from .base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError, WorkerWarning
 from .construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction.validation import DEFAULT_TOLERANCE
-from .construction.green import green_deform
+from .construction.green_deform import green_deform
 from .evaluation.barycentric import coordinates, green_coordinates, needs_convex, point_locations, weights
 from .evaluation.cage import Cage
 from .evaluation.deformation import deform
 from .surfaces.named import KIND_TABLE
 from .harmonic import HarmonicField, harmonic_coordinates, harmonic_field
-from . import advanced, tools  # noqa: E402  (the named sub-APIs, after the names they use)
+from . import advanced, cages, planning, reports, skinning, storage  # noqa: E402  (the named sub-APIs)
+
+SUB_APIS = (advanced, cages, reports, storage, skinning, planning)  # each lists its names in __all__
 
 __all__ = [
     "Cage", "coordinates", "weights", "point_locations", "deform", "green_coordinates", "green_deform",

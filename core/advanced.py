@@ -7,7 +7,7 @@ of Ju, Liepa and Warren's construction for users who supply their own surface or
 
 from .construction.completeness import floater_matrix, floater_scalars
 from .construction.floater import floater_from_ridge_scalars, floater_weights, ridge_scalars_from_floater
-from .construction.green import stretch_factors
+from .construction.green_deform import stretch_factors
 from .construction.validation import concave_facets, validate_cage
 from .evaluation.barycentric import (OUTSIDE_MODES, ridge_scalars, ridge_scalars_from_surface, ridges,
                                      weights_from_ridge_scalars)

@@ -49,7 +49,7 @@ class BindingResult:
     deviation_drag: float
     points_outside: int  # mesh vertices outside the cage (projected or extrapolated)
     points_on_boundary: int
-    report: str | None  # core.tools.coordinate_report's headline for this kind in this cage
+    report: str | None  # core.reports.coordinate_report's headline for this kind in this cage
     nbytes: int  # bytes of bind data stored on the mesh
     bind_seconds: float
     negative_entries: int | None = None  # coordinates below 0 (of mesh x cage vertices)

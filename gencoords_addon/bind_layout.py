@@ -54,10 +54,10 @@ class BindData:
     cage_non_triangles: Optional[int] = None  # quads and n-gons Bind triangulated
     cage_name: Optional[str] = None  # the cage's name, kept up to date while it exists
     deleted_cage: Optional[str] = None  # the name of the cage, once it is gone
-    # Figures measured at Bind, on what was written (core.tools.coordinate_summary,
-    # core.tools.compact's deviations, the core's point locations).
+    # Figures measured at Bind, on what was written (core.reports.coordinate_summary,
+    # core.storage.compact's deviations, the core's point locations).
     storage_choice: Optional[str] = None  # why this storage, in the panel's words
-    report: Optional[str] = None  # core.tools.coordinate_report's headline
+    report: Optional[str] = None  # core.reports.coordinate_report's headline
     min_coordinate: Optional[float] = None
     negative_points: Optional[int] = None
     max_affine_error: Optional[float] = None
@@ -188,7 +188,7 @@ def node_displacement_name(key):
 
 def node_column_count(mesh_vertex_count, node_count, node_slot_count):
     """Stacked vector columns the grid nodes' pairs take, three to a vector
-    (``core.tools.sparse.stacked_columns``)."""
+    (``core.storage.sparse.stacked_columns``)."""
     if not node_count:
         return 0
     triples, per_column = -(-node_slot_count // 3), mesh_vertex_count // node_count

@@ -7,7 +7,7 @@ kinds (``core.KIND_TABLE``) is the one list of them, with Green coordinates afte
 
 from .. import core
 from ..core.construction.green import GREEN, GREEN_DESCRIPTION, GREEN_LABEL
-from ..core.tools.bind_plan import HARMONIC
+from ..core.surfaces.named import HARMONIC
 
 HARMONIC_LABEL = "Harmonic"  # short: the Properties editor's default width shows it whole
 HARMONIC_DESCRIPTION = ("Local, positive: never negative in any closed cage, and, as Mesh Deform, moving one "

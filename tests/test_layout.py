@@ -1,6 +1,7 @@
 """The code's layout: no import cycles (imports inside functions included), folders of at
-most 12 modules, functions of at most 60 code lines, a small public API, and a core that
-installs as ``gencoords`` and imports from any folder without Blender."""
+most 12 modules, modules of at most 400 lines, functions of at most 60 code lines, no
+storage id spelled outside ``core/storage/``, a small public API, and a core that installs
+as ``gencoords`` and imports from any folder without Blender."""
 
 import ast
 import os
@@ -16,6 +17,12 @@ REPO = Path(__file__).resolve().parents[1]
 MAX_MODULES_PER_FOLDER = 12
 MAX_FUNCTION_LINES = 60
 MAX_TOP_LEVEL_NAMES = 25
+MAX_MODULE_LINES = 400  # as the add-on's (tests/addon/test_addon_package.py)
+# TEMPORARY: modules other developers are editing while the core was regrouped (issue 38):
+# moved into their folders unchanged, to be split by the lead after those branches merge.
+# Remove each entry once its module is under MAX_MODULE_LINES.
+OVER_400_LINES_FOR_NOW = {"core/skinning/skin_fit.py", "core/cages/tight_cage.py"}
+STORAGE_IDS = {"AUTO", "EXACT", "COMPACT", "SPARSE"}
 
 
 def module_name(path):
@@ -128,6 +135,34 @@ def test_no_folder_of_the_core_holds_more_than_12_modules():
         assert count <= MAX_MODULES_PER_FOLDER, f"{folder.relative_to(REPO)} holds {count} modules"
 
 
+def test_no_module_of_the_core_is_over_400_lines():
+    found = {str(path.relative_to(REPO)): len(path.read_text(encoding="utf-8").splitlines())
+             for path in sorted((REPO / "core").rglob("*.py"))}
+    assert {name: count for name, count in found.items()
+            if count > MAX_MODULE_LINES and name not in OVER_400_LINES_FOR_NOW} == {}
+    assert OVER_400_LINES_FOR_NOW <= set(found), "a temporary exception names a module that is gone"
+
+
+def storage_id_literals(path):
+    """(line, value) of every string literal in ``path``'s code that is a storage id
+    (docstrings and comments may name them; code uses ``gencoords.storage.Storage``)."""
+    return [(node.lineno, node.value) for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+            if isinstance(node, ast.Constant) and node.value in STORAGE_IDS]
+
+
+def test_the_storage_ids_are_spelled_only_in_the_storage_folder():
+    found = [f"{path.relative_to(REPO)}:{line} {value!r}" for path in sorted((REPO / "core").rglob("*.py"))
+             if "storage" not in path.relative_to(REPO / "core").parts[:1]
+             for line, value in storage_id_literals(path)]
+    assert found == []
+
+
+def test_the_storage_id_scan_sees_a_literal_and_not_a_docstring(tmp_path):
+    source = tmp_path / "probe.py"
+    source.write_text('"""Stored \'SPARSE\'."""\nchoice = "EXACT"\n', encoding="utf-8")
+    assert storage_id_literals(source) == [(2, "EXACT")]
+
+
 def code_lines(function, source_lines):
     """Lines of ``function`` holding code: no blank lines, comments or docstrings."""
     docstrings = set()
@@ -169,7 +204,7 @@ def test_no_function_over_60_code_lines(package):
 def test_the_public_api_is_small_and_every_sub_api_lists_its_names():
     import gencoords
     assert len(gencoords.__all__) <= MAX_TOP_LEVEL_NAMES
-    for api in (gencoords, gencoords.advanced, gencoords.tools):
+    for api in (gencoords, *gencoords.SUB_APIS):
         assert len(set(api.__all__)) == len(api.__all__), api.__name__
         for name in api.__all__:
             assert hasattr(api, name), f"{api.__name__}.{name}"
@@ -200,7 +235,7 @@ def test_pip_installs_the_core_as_gencoords_and_it_imports_from_another_folder(i
         import numpy as np
         import gencoords
         assert gencoords.__file__.startswith({str(installed)!r}), gencoords.__file__
-        from gencoords.tools.shapes import icosphere
+        from gencoords.cages.shapes import icosphere
         vertices, faces = icosphere(1)
         points = np.random.default_rng(0).uniform(-0.3, 0.3, size=(400, 3))
         alone = gencoords.coordinates(points, vertices, faces, workers=1)
@@ -233,14 +268,13 @@ def test_the_core_package_and_the_extension_have_one_version():
 
 def public_objects():
     """(qualified name, object) of every function and class the public APIs list in
-    ``__all__``: the top level, ``gencoords.advanced``, ``gencoords.tools`` and the tool
-    modules it names (the layers below are internal)."""
+    ``__all__``: the top level, its named sub-APIs (``gencoords.SUB_APIS``) and the modules
+    they name (the layers below are internal)."""
     import inspect
 
     import gencoords
-    tools = gencoords.tools
-    apis = [gencoords, gencoords.advanced, tools] + [getattr(tools, name) for name in tools.__all__
-                                                    if inspect.ismodule(getattr(tools, name))]
+    apis = [gencoords, *gencoords.SUB_APIS] + [getattr(api, name) for api in gencoords.SUB_APIS
+                                               for name in api.__all__ if inspect.ismodule(getattr(api, name))]
     found = {}
     for api in apis:
         for name in getattr(api, "__all__", ()):

@@ -83,7 +83,7 @@ def test_scripts_read_kind_ids_from_the_kind_table():
 
     import gencoords
     from gencoords.construction.green import GREEN
-    from gencoords.tools.bind_plan import HARMONIC
+    from gencoords.surfaces.named import HARMONIC
 
     spellings = {kind.name for kind in gencoords.KIND_TABLE} | {GREEN, HARMONIC}
     spellings |= {name.upper() for name in spellings}

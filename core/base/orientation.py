@@ -32,10 +32,10 @@ def orient_facets_outward(vertices, facets):
     Examples
     --------
     >>> import numpy as np, gencoords
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, faces = octahedron()
     >>> scrambled = faces[:, ::-1]  # every facet inward
-    >>> oriented = gencoords.tools.orient_facets_outward(vertices, scrambled)
+    >>> oriented = gencoords.cages.orient_facets_outward(vertices, scrambled)
     >>> cage = gencoords.advanced.validate_cage(vertices, oriented)  # outward again: no CageError
     """
     vertices = np.asarray(vertices, dtype=np.float64)

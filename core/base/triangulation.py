@@ -31,7 +31,7 @@ def triangulate_quads(vertices, quads):
     --------
     >>> import numpy as np, gencoords
     >>> corners = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
-    >>> gencoords.tools.triangulate_quads(corners, np.array([[0, 1, 2, 3]])).shape
+    >>> gencoords.cages.triangulate_quads(corners, np.array([[0, 1, 2, 3]])).shape
     (2, 3)
     """
     vertices = np.asarray(vertices, dtype=np.float64)

@@ -173,7 +173,7 @@ def floater_weights(points, vertices, faces, c, tolerance=DEFAULT_TOLERANCE):
 
     Examples
     --------
-    >>> from gencoords.tools.shapes import regular_polygon
+    >>> from gencoords.cages.shapes import regular_polygon
     >>> import numpy as np, gencoords
     >>> hexagon, edges = regular_polygon(6)
     >>> w = gencoords.advanced.floater_weights([[0.2, -0.1]], hexagon, edges, np.ones((1, 6)))

@@ -18,7 +18,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..base.inputs import bounding_frame
+from ..base.arrays import bounding_frame
 from ..base.simplex import generalized_cross
 from ..base.topology import CageTopology, cage_topology
 
@@ -107,7 +107,7 @@ def prepare_cage(vertices, faces, scale=None):
     faces : (m, N) int
         Outward-oriented facets.
     scale : float, optional
-        The frame's unit; by default the power of two of :func:`gencoords.base.inputs.bounding_frame`.
+        The frame's unit; by default the power of two of :func:`gencoords.base.arrays.bounding_frame`.
 
     Returns
     -------

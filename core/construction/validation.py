@@ -165,7 +165,7 @@ def concave_facets(vertices, faces, tolerance=DEFAULT_TOLERANCE):
     Examples
     --------
     >>> import gencoords
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, faces = octahedron()
     >>> gencoords.advanced.concave_facets(vertices, faces).tolist()
     []

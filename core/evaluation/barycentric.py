@@ -8,7 +8,8 @@ with its worker processes); callers with several batches of points keep one inst
 import numpy as np
 
 from .cage import Cage, needs_convex
-from ..base.inputs import OUTSIDE_MODES, checked
+from ..base.inputs import checked
+from ..base.parameters import OUTSIDE_MODES
 from ..surfaces.numerical import DEFAULT_LEVELS, geodesic_pieces, simplex_rule, surface_ridge_scalars
 from ..base.topology import cage_topology
 from ..surfaces.named import MEAN_VALUE
@@ -25,7 +26,7 @@ _SURFACE_CHUNK_ENTRIES = 1 << 22
 @checked
 def coordinates(points, vertices, faces, kind=MEAN_VALUE, outside="raise",
                 tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64, locations=None,
-                workers=None, gamma=None):
+                workers=None, gamma=None, resolution=None):
     """Generalized barycentric coordinates of points with respect to a cage.
 
     Parameters
@@ -39,8 +40,11 @@ def coordinates(points, vertices, faces, kind=MEAN_VALUE, outside="raise",
         3D: triangles counter-clockwise seen from outside).
     kind : str
         ``"wachspress"``, ``"mean_value"``, ``"discrete_harmonic"``, ``"voronoi"`` or
-        ``"power"`` (with ``gamma``). Mean value coordinates accept any closed,
-        consistently oriented 2D/3D cage; the others need a convex one.
+        ``"power"`` (with ``gamma``), or ``"harmonic"`` (with ``resolution``). Mean value
+        coordinates accept any closed, consistently oriented 2D/3D cage; harmonic
+        coordinates any closed 3D triangle cage (solved on a grid:
+        :func:`gencoords.harmonic_field`; non-negative, local); the others need a convex
+        one.
     outside : str
         What to do with points outside the cage: ``"raise"`` (OutsideCageError naming
         them), ``"extrapolate"`` (the formula, smooth for mean value; on a facet's
@@ -73,6 +77,11 @@ def coordinates(points, vertices, faces, kind=MEAN_VALUE, outside="raise",
         The power family's exponent (kind ``"power"`` only; default -0.5): the surface's
         face dual to v_k lies at distance ``l_k^gamma`` from x. -1 gives Wachspress, 1
         Voronoi, 0 in 2D mean value (docs/POWER.md: where they stay positive).
+    resolution : int, optional
+        Harmonic coordinates' grid (kind ``"harmonic"`` only; default 64): cells along
+        the longest side of the cage's box, as :func:`gencoords.harmonic_field`. Their
+        points are placed as the grid allows (exactly in most cells, to a fraction of a
+        cell beside the cage); ``outside`` is ``"raise"`` or ``"project"``.
 
     Returns
     -------
@@ -102,10 +111,15 @@ def coordinates(points, vertices, faces, kind=MEAN_VALUE, outside="raise",
     [0.25 0.25 0.25 0.25]
     >>> bool(np.allclose(b @ square, [[0.5, 0.5], [0.25, 0.5]]))
     True
+    >>> corners = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    >>> triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    >>> h = gencoords.coordinates([[0.1, 0.2, 0.3]], corners, triangles, kind="harmonic", resolution=24)
+    >>> print(h.round(6))  # in a tetrahedron: its barycentric coordinates
+    [[0.4 0.1 0.2 0.3]]
     """
     with Cage(vertices, faces, tolerance) as cage:
         return cage.coordinates(points, kind=kind, outside=outside, progress=progress, dtype=dtype,
-                                locations=locations, workers=workers, gamma=gamma)
+                                locations=locations, workers=workers, gamma=gamma, resolution=resolution)
 
 
 @checked
@@ -145,7 +159,7 @@ def green_coordinates(points, vertices, faces, outside="raise", tolerance=DEFAUL
     Examples
     --------
     >>> import numpy as np, gencoords
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(1)
     >>> phi, psi = gencoords.green_coordinates([[0.1, 0.2, -0.3]], vertices, faces)
     >>> phi.shape, psi.shape
@@ -162,7 +176,7 @@ def green_coordinates(points, vertices, faces, outside="raise", tolerance=DEFAUL
 
 @checked
 def weights(points, vertices, faces, kind=MEAN_VALUE, tolerance=DEFAULT_TOLERANCE, workers=None,
-            gamma=None):
+            gamma=None, resolution=None):
     """Homogeneous weights of a named kind: ``sum_i w_i (v_i - x) = 0``.
 
     Parameters (``workers`` included) and cage requirements as :func:`coordinates`.
@@ -170,6 +184,8 @@ def weights(points, vertices, faces, kind=MEAN_VALUE, tolerance=DEFAULT_TOLERANC
     are ``w / w.sum()``); at boundary points, where the formula has a pole, the limit coordinates (themselves
     homogeneous weights) are returned; outside points get the formula's value, or on a
     facet's hyperplane (a pole, for a convex-only kind) the limit coordinates there.
+    Harmonic coordinates (``kind="harmonic"``, ``resolution`` as :func:`coordinates`) have
+    no formula: their weights are their coordinates, inside and on the cage only.
 
     Returns
     -------
@@ -187,7 +203,7 @@ def weights(points, vertices, faces, kind=MEAN_VALUE, tolerance=DEFAULT_TOLERANC
     True
     """
     with Cage(vertices, faces, tolerance) as cage:
-        return cage.weights(points, kind=kind, workers=workers, gamma=gamma)
+        return cage.weights(points, kind=kind, workers=workers, gamma=gamma, resolution=resolution)
 
 
 @checked

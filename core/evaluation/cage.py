@@ -15,10 +15,12 @@ from ..construction.boundary import BOUNDARY, OUTSIDE
 from ..construction.general import point_frame
 from ..base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
 from .rows import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
-from ..surfaces.named import CONVEX_ONLY_KINDS, MEAN_VALUE, kind_parameter, named_ridge_scalars
-from ..base.inputs import OUTSIDE_MODES, checked
-from .parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead, dispatch_units,
-                       python_executable)
+from ..surfaces.named import CONVEX_ONLY_KINDS, HARMONIC, MEAN_VALUE, kind_parameter, named_ridge_scalars
+from ..base.inputs import checked
+from ..base.parameters import OUTSIDE_MODES
+from .interpreters import available_cores, python_executable
+from .parallel import WorkerPool, computed_here_instead, dispatch_units
+from .shared_memory import SharedArrays
 from ..construction.green import GREEN, GreenOutsideError, green_chunk_size
 from ..construction.units import length_degree, to_world
 from ..construction.validation import DEFAULT_TOLERANCE, convexity_violation, non_convex_error, validate_cage
@@ -94,6 +96,7 @@ class Cage:
         self._terms = None
         self._pool = None
         self._workers_failed = False  # automatic counts then stay in this process
+        self._fields = {}  # harmonic coordinates' solved grids, by resolution
 
     @property
     def dimension(self):
@@ -145,14 +148,15 @@ class Cage:
 
     @checked
     def coordinates(self, points, kind=MEAN_VALUE, outside="raise", progress=None,
-                    dtype=np.float64, locations=None, workers=None, gamma=None):
+                    dtype=np.float64, locations=None, workers=None, gamma=None, resolution=None):
         """Generalized barycentric coordinates of points (see :func:`gencoords.coordinates`).
 
         Parameters
         ----------
         points : (k, N) float
-        kind, outside, progress, dtype, locations
-            As :func:`gencoords.coordinates`.
+        kind, outside, progress, dtype, locations, gamma, resolution
+            As :func:`gencoords.coordinates` (harmonic coordinates' grid is solved on the
+            first call at a resolution and kept for the next).
         workers : int or None
             Processes to compute in. ``1``: this process only. ``None``: as many as
             the cores this process may use, for calls long enough to repay starting
@@ -165,6 +169,8 @@ class Cage:
         -------
         coordinates : (k, n) dtype
         """
+        if kind == HARMONIC or resolution is not None:
+            return self._harmonic(points, kind, outside, progress, dtype, locations, workers, gamma, resolution)
         result, where = self._evaluate(points, kind, outside, True, progress, dtype, workers, gamma)
         if kind == MEAN_VALUE and outside == "extrapolate":
             self._warn_if_flat_extrapolation(points, result, where)
@@ -201,8 +207,10 @@ class Cage:
         return result[:, :len(self.vertices)], result[:, len(self.vertices):]
 
     @checked
-    def weights(self, points, kind=MEAN_VALUE, workers=None, gamma=None):
+    def weights(self, points, kind=MEAN_VALUE, workers=None, gamma=None, resolution=None):
         """Homogeneous weights of a named kind (see :func:`gencoords.weights`): (k, n) float."""
+        if kind == HARMONIC or resolution is not None:  # their coordinates: no formula outside
+            return self._harmonic(points, kind, "raise", None, np.float64, None, workers, gamma, resolution)
         gamma = kind_parameter(kind, gamma)
         values, where = self._evaluate(points, kind, "extrapolate", False, None, np.dtype(np.float64),
                                        workers, gamma)
@@ -242,6 +250,26 @@ class Cage:
         return locations
 
     # -- shared machinery ----------------------------------------------------------------
+
+    def _harmonic(self, points, kind, outside, progress, dtype, locations, workers, gamma, resolution):
+        """Harmonic coordinates of ``points`` ((k, n) dtype), looked up in this cage's
+        grid at ``resolution`` (solved on first use: ``gencoords.harmonic_field``)."""
+        from ..harmonic.field import DEFAULT_RESOLUTION
+        from ..harmonic.grid_field import harmonic_field
+        if kind != HARMONIC:
+            raise ValueError(f"resolution applies to kind={HARMONIC!r} only, not {kind!r}")
+        kind_parameter(kind, gamma)  # refuses a gamma
+        if outside == "extrapolate":
+            raise ValueError("harmonic coordinates do not extrapolate outside the cage (they are solved "
+                             "inside it); use outside='raise' or outside='project'")
+        resolution = DEFAULT_RESOLUTION if resolution is None else resolution
+        if resolution not in self._fields:
+            self._fields[resolution] = harmonic_field(self.vertices, self.faces, resolution, self.tolerance,
+                                                      progress, workers)
+        result = self._fields[resolution].coordinates(points, outside, dtype)
+        if locations is not None:
+            locations[...] = self.point_locations(points, workers)
+        return result
 
     def _check_kind(self, kind):
         if needs_convex(kind) and not self.convex:

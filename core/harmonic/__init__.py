@@ -5,9 +5,11 @@ inside nodes): ``boundary_values`` (the cage's hat values at nodes outside it, a
 grid edges cross it), ``elimination`` and ``multigrid`` (the Laplace solvers: direct by
 slabs, iterative), ``solve`` (every cage vertex's Shortley-Weller problem),
 ``interpolation`` (piecewise-linear lookup, 4 nodes a point), ``reproduction`` (weights
-reweighted to place their points exactly), ``field`` (the public :class:`HarmonicField`).
+reweighted to place their points exactly), ``field`` (the public :class:`HarmonicField`),
+``grid_field`` (solving one: :func:`harmonic_field`).
 """
 
-from .field import DEFAULT_RESOLUTION, HarmonicField, harmonic_coordinates, harmonic_field
+from .field import DEFAULT_RESOLUTION, HarmonicField
+from .grid_field import harmonic_coordinates, harmonic_field
 
 __all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]

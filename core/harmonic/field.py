@@ -1,21 +1,21 @@
 """Harmonic coordinates of a closed triangle cage, solved once on a grid, evaluated at any
-points by piecewise-linear interpolation (docs/MATH.md, "Harmonic coordinates")."""
+points by piecewise-linear interpolation (docs/MATH.md, "Harmonic coordinates"); solved
+by :func:`gencoords.harmonic.grid_field.harmonic_field`."""
+
 
 import itertools
 
 import numpy as np
 
-from ..base.errors import CageError, OutsideCageError
+from ..base.errors import OutsideCageError
 from ..base.inputs import checked
 from ..construction.boundary import inside_by_grid
-from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 from .boundary_values import nearest_boundary_points
-from ..base.grid import fit_grid, inside_nodes, node_positions, surface_cells
-from .interpolation import CORNERS, tetrahedron
-from .reproduction import placing_largest, reproduce_points
-from .solve import NEAREST_CROSSING, SOLVER_TOLERANCE, boundary_rhs, solve_nodes
+from ..base.grid import node_positions
+from .interpolation import tetrahedron
+from .reproduction import placing_largest
 
-__all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]
+__all__ = ["DEFAULT_RESOLUTION", "HarmonicField"]
 
 DEFAULT_RESOLUTION = 64
 # A point in a cell with a corner that does not place itself exactly keeps this many of
@@ -25,27 +25,6 @@ DEFAULT_RESOLUTION = 64
 CUT_SUPPORT = 32
 # Of the nearest exact node's coordinates added to a prior that cannot reach its point.
 _WIDENING = 1e-2
-# Newton steps for widened Dirichlet nodes: those that can be reached are within a dozen;
-# the others (beyond a convex part of the cage) would spend the full count for nothing.
-_WIDENED_ITERATIONS = 12
-_EXACT = 1e-12  # of the cage's size: a node's reweighted coordinates place it exactly
-
-
-def _cell_corners_any(cells):
-    """Nodes that are a corner of at least one marked cell: (x+1, y+1, z+1) bool."""
-    nodes = np.zeros(tuple(size + 1 for size in cells.shape), dtype=bool)
-    for a, b, c in CORNERS:
-        nodes[a:a + cells.shape[0], b:b + cells.shape[1], c:c + cells.shape[2]] |= cells
-    return nodes
-
-
-def _cells_with_a_corner(nodes):
-    """Cells with at least one marked corner: (x-1, y-1, z-1) bool."""
-    x, y, z = (size - 1 for size in nodes.shape)
-    cells = np.zeros((x, y, z), dtype=bool)
-    for a, b, c in CORNERS:
-        cells |= nodes[a:a + x, b:b + y, c:c + z]
-    return cells
 
 
 class HarmonicField:
@@ -314,42 +293,6 @@ class HarmonicField:
         return result
 
 
-def _grid_nodes(grid, corners, tolerance):
-    """The kept nodes and what is known of them before the solve: dict of arrays."""
-    inside = inside_nodes(grid, corners)
-    surface = surface_cells(grid, corners, tolerance)
-    kept = _cell_corners_any(surface | _cells_with_a_corner(inside))
-    ids = np.full(grid.shape, -1, dtype=np.int64)
-    indices = np.argwhere(kept)
-    ids[kept] = np.arange(len(indices))
-    near_surface = _cell_corners_any(surface)[kept]
-    return dict(ids=ids, surface=surface, indices=indices, inside=inside[kept], near_surface=near_surface,
-                tolerance=tolerance, cell_inside=inside[:-1, :-1, :-1])
-
-
-def _boundary_nodes(grid, parts, vertices, faces):
-    """The Dirichlet nodes and their values: the kept nodes outside the cage and those
-    inside nearer to it than ``solve.NEAREST_CROSSING`` of a cell (on it, to rounding:
-    a crossing there is ambiguous and its row's weight 1 / theta unbounded) hold their
-    nearest boundary point's hat values. The other inside nodes are solved for; the
-    solve meets the cage where the grid's edges cross it (``solve.boundary_rhs``).
-
-    Returns
-    -------
-    measured : (b,) int
-        The nodes measured: those outside and those at cells the surface may cross.
-    columns, values : (b, 3) int, (b, 3) float
-        Their nearest boundary point's hat values.
-    solved : (g,) bool
-    """
-    measured = np.flatnonzero(~parts["inside"] | parts["near_surface"])
-    columns, values, distance = nearest_boundary_points(
-        node_positions(grid, parts["indices"][measured]), vertices, faces, 1.75 * grid.spacing)
-    solved = parts["inside"].copy()
-    solved[measured[distance < NEAREST_CROSSING * grid.spacing]] = False
-    return measured, columns, values, solved
-
-
 def _nearest_exact_nodes(grid, ids, exact, local):
     """The nearest node that places itself exactly to each point ((c, 3), frame units),
     searched in growing blocks of nodes around it, up to 7 across: (rows (c,) int,
@@ -379,153 +322,3 @@ def _nearest_exact_nodes(grid, ids, exact, local):
             nearest[pending[better]] = rows[better]
         found[pending] = np.isfinite(best)
     return nearest, found
-
-
-def _placing_exactly(coordinates, solved, positions, vertices, grid, ids, within):
-    """The nodes' coordinates ((g, n)) reweighted to place their ``positions`` ((g, 3))
-    exactly (:mod:`.reproduction`), and which now do: (g,) bool.
-
-    The grid places a node only to within a fraction of a cell (the Dirichlet nodes hold
-    their nearest boundary point's values). A solved node lies inside the cage, in the
-    convex hull of the cage vertices its coordinates weigh (all of them), so the
-    reweighting reaches it. A Dirichlet node's hat values weigh one triangle: widened by
-    the nearest solved node's coordinates (their CUT_SUPPORT largest: local), they reach
-    it where it is inside the cage or in a hollow of it; elsewhere (beyond a convex part
-    of the cage no non-negative weights reach) it keeps its hat values."""
-    coordinates[solved], residual = reproduce_points(None, coordinates[solved], vertices, positions[solved])
-    exact = solved.copy()
-    exact[solved] = residual <= within
-    others = np.flatnonzero(~solved)
-    nearest, found = _nearest_exact_nodes(grid, ids, exact, positions[others])
-    others, nearest = others[found], nearest[found]
-    prior = coordinates[nearest]
-    prior *= _WIDENING
-    prior += coordinates[others]
-    columns, values, residual = placing_largest(prior, CUT_SUPPORT, vertices, positions[others], _WIDENED_ITERATIONS)
-    del prior
-    reached = residual <= within
-    rows = np.zeros((int(reached.sum()), len(vertices)))
-    np.put_along_axis(rows, columns[reached], values[reached], axis=1)
-    coordinates[others[reached]] = rows
-    exact[others[reached]] = True
-    return exact
-
-
-@checked
-def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEFAULT_TOLERANCE, progress=None,
-                   workers=None, solver_tolerance=SOLVER_TOLERANCE):
-    """Solve harmonic coordinates on a grid fitted to a closed 3D triangle cage.
-
-    A 7-point Laplacian on cubic cells, ``resolution`` of them along the longest side of
-    the cage's box, meeting the cage where the grid's edges cross it (Shortley-Weller):
-    the nodes inside the cage are the unknowns, the crossings hold the cage's
-    piecewise-linear hat values. Every coordinate is non-negative and each row sums to 1
-    (the discrete maximum principle), and the coordinates place every point exactly
-    (linear precision); docs/MATH.md gives the figures measured.
-
-    Parameters
-    ----------
-    vertices : (n, 3) float
-    faces : (m, 3) int
-        Triangles, counter-clockwise seen from outside (quads:
-        :func:`gencoords.tools.triangulate_quads`). Any closed cage, convex or not.
-    resolution : int
-        Cells along the longest side of the cage's box (2 to 1024; the cost grows as
-        its cube). Like Mesh Deform's Precision, but the cells are cubes, so a thin limb
-        gets as many cells across as its thickness allows.
-    tolerance : float
-        Relative to the cage's box diagonal: points this close to the cage count as on it.
-    progress : callable, optional
-        ``progress(fraction)`` as the solve advances; an exception it raises (a cancel)
-        stops the computation (and the workers) and propagates.
-    workers : int or None
-        Processes for the iterative solver (the cage vertices' columns are independent):
-        ``1`` this process; ``None`` as many as the cores allow when the solve is long
-        enough to repay starting them (about a second of work each), falling back to this
-        process with a :class:`gencoords.WorkerWarning` where they cannot start (an
-        explicit count raises :class:`gencoords.WorkerError`). The result is the same
-        whatever the number. The direct solver, chosen where it is cheaper (a body with
-        limbs), runs in this process and starts none.
-    solver_tolerance : float
-        Relative residual each cage vertex's column is solved to (the Bind takes 1e-6:
-        its weights are float32 and those below 1e-5 are dropped).
-
-    Returns
-    -------
-    field : HarmonicField
-        The grid nodes' coordinates, and any point's by piecewise-linear interpolation.
-
-    Raises
-    ------
-    CageError
-        The cage is not a closed, outward-oriented 3D triangle cage.
-
-    Examples
-    --------
-    >>> import numpy as np, gencoords
-    >>> vertices, triangles = gencoords.tools.shapes.icosphere(1)
-    >>> field = gencoords.harmonic_field(vertices, triangles, resolution=12)
-    >>> field.node_coordinates.shape[1], bool(field.node_coordinates.min() >= 0.0)
-    (42, True)
-    """
-    prepared = validate_cage(vertices, faces, convex=False, tolerance=tolerance)
-    if prepared.dimension != 3:
-        raise CageError("bad_faces", f"harmonic coordinates need a 3D triangle cage, got a "
-                                     f"{prepared.dimension}D one")
-    grid = fit_grid(prepared.vertices, resolution)
-    local = prepared.vertices
-    parts = _grid_nodes(grid, local[faces], tolerance * prepared.size)
-    measured, columns, values, solved = _boundary_nodes(grid, parts, local, faces)
-    hat_ids = np.full(grid.shape, -1, dtype=np.int64)
-    hat_ids[tuple(parts["indices"][measured].T)] = np.arange(len(measured))
-    unknowns = np.zeros(grid.shape, dtype=bool)
-    unknowns[tuple(parts["indices"][solved].T)] = True
-    rhs = boundary_rhs(unknowns, grid, local, faces, hat_ids, columns, values)
-    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, faces), solver_tolerance,
-                                               progress=progress, workers=workers)
-    coordinates = np.zeros((len(parts["indices"]), len(local)))
-    coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
-    del result
-    fixed = np.flatnonzero(~solved[measured])
-    coordinates[measured[fixed, None], columns[fixed]] = values[fixed]
-    parts["coordinates"], parts["inside"] = coordinates, solved
-    parts["exact_within"] = _EXACT * np.linalg.norm(np.ptp(local, axis=0))
-    parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, grid,
-                                      parts["ids"], parts["exact_within"])
-    return HarmonicField(prepared, np.array(vertices), np.array(faces), resolution, grid, parts)
-
-
-@checked
-def harmonic_coordinates(points, vertices, faces, resolution=DEFAULT_RESOLUTION, outside="raise",
-                         tolerance=DEFAULT_TOLERANCE, progress=None, dtype=np.float64, workers=None):
-    """Harmonic coordinates of points in a closed 3D triangle cage (see :func:`harmonic_field`).
-
-    Parameters
-    ----------
-    points : (k, 3) float
-    vertices : (n, 3) float
-    faces : (m, 3) int
-        Outward-oriented triangles; any closed cage, convex or not.
-    resolution, tolerance, progress, workers
-        As :func:`harmonic_field`.
-    outside : str
-        ``"raise"`` or ``"project"`` (:meth:`HarmonicField.interpolation`).
-    dtype : numpy dtype
-        Of the result.
-
-    Returns
-    -------
-    coordinates : (k, n) dtype
-        Non-negative, rows summing to 1.
-
-    Examples
-    --------
-    >>> import numpy as np, gencoords
-    >>> corners = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
-    >>> triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
-    >>> b = gencoords.harmonic_coordinates([[0.1, 0.2, 0.3]], corners, triangles, resolution=24)
-    >>> print(b.round(6), bool(b.min() >= 0.0))  # in a tetrahedron: its barycentric coordinates
-    [[0.4 0.1 0.2 0.3]] True
-    """
-    field = harmonic_field(vertices, faces, resolution, tolerance, progress, workers)
-    return field.coordinates(points, outside, dtype)

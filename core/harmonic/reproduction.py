@@ -10,86 +10,111 @@ them as maximum entropy coordinates with the grid's weights as the prior,
 keeps every weight positive where the prior is and zero where it is zero (so locality and
 sparsity stay), keeps rows summing to 1, and reproduces x exactly wherever x lies in the
 convex hull of the cage vertices the prior weighs.
+
+Here too is the one "keep the K largest" of the core: :func:`largest_columns` chooses,
+:func:`largest_entries` renormalises what it keeps (sparse storage, skinning and the
+harmonic field's sparse rows all call it).
 """
 
 import numpy as np
 
-__all__ = ["reproduce_points", "placing_largest", "largest_columns"]
+__all__ = ["reproduce_points", "placing_largest", "largest_columns", "largest_entries"]
 
 _ITERATIONS = 40
 _CONVERGED = 1e-14  # of each point's span: the mean offset Newton stops at
 _CHUNK_ENTRIES = 1 << 16  # (point, weight) entries per batch: bounded memory (a few MB)
+_PAIRS = [(a, b) for a in range(3) for b in range(a, 3)]
 
 
-def _newton(prior, offsets, iterations):
-    """One batch: (weights (p, K), relative residual (p,)) for offsets (3, p, K) scaled to
-    unit span. Component planes, not (p, K, 3) stacks: every step is a few passes over
-    (p, K) arrays (numpy's stacked 3 x 3 products are far slower)."""
-    multiplier = np.zeros((3, len(prior)))
-    active = np.arange(len(prior))
-    weights = prior.copy()
-    pairs = [(a, b) for a in range(3) for b in range(a, 3)]
-    for step_count in range(iterations + 1):
-        part = offsets[:, active]
-        exponent = np.einsum("Npk,Np->pk", part, multiplier[:, active])
-        exponent -= exponent.max(axis=1, keepdims=True)
-        scaled = prior[active] * np.exp(exponent)
-        scaled /= scaled.sum(axis=1, keepdims=True)
-        weights[active] = scaled
-        mean = np.einsum("Npk,pk->Np", part, scaled)
-        moving = np.abs(mean).max(axis=0) > _CONVERGED
-        if not moving.any() or step_count == iterations:
-            break
-        active, part, scaled, mean = active[moving], part[:, moving], scaled[moving], mean[:, moving]
+class _Gathered:
+    """Rows over their own K cage vertices: offsets ``R_j - x`` (3, p, K), scaled to unit
+    span. Component planes, not (p, K, 3) stacks: every step is a few passes over (p, K)
+    arrays (numpy's stacked 3 x 3 products are far slower)."""
+
+    def __init__(self, offsets):
+        self.offsets = offsets
+
+    def exponent(self, active, multiplier):
+        return np.einsum("Npk,pN->pk", self.offsets[:, active], multiplier)
+
+    def mean(self, active, scaled):
+        """The weighted mean offset (p', 3), and what :meth:`covariance` needs (nothing)."""
+        return np.einsum("Npk,pk->pN", self.offsets[:, active], scaled), None
+
+    def covariance(self, active, scaled, mean, _):
+        part = self.offsets[:, active]
         covariance = np.empty((len(active), 3, 3))
-        for a, b in pairs:
+        for a, b in _PAIRS:
             covariance[:, a, b] = covariance[:, b, a] = np.einsum("pk,pk->p", part[a] * scaled, part[b])
-        covariance -= mean.T[:, :, None] * mean.T[:, None, :]
-        covariance += 1e-12 * np.eye(3)
-        step = np.linalg.solve(covariance, mean.T[:, :, None])[:, :, 0].T
-        # Each exponent changes by at most 1 per step: Newton's step where it is small.
-        largest = np.abs(np.einsum("Npk,Np->pk", part, step)).max(axis=1)
-        multiplier[:, active] -= step / np.maximum(largest, 1.0)
-    residual = np.linalg.norm(np.einsum("Npk,pk->pN", offsets, weights), axis=1)
-    return weights, residual
+        return covariance - mean[:, :, None] * mean[:, None, :]
+
+    def largest_change(self, active, step):
+        """Each row's largest exponent change the step makes (exact)."""
+        return np.abs(np.einsum("Npk,pN->pk", self.offsets[:, active], step)).max(axis=1)
+
+    def residual(self, weights):
+        return np.linalg.norm(np.einsum("Npk,pk->pN", self.offsets, weights), axis=1)
 
 
-def _newton_dense(prior, vertices, points, iterations):
-    """:func:`_newton` for rows over every cage vertex, in matrix products: the exponent
-    ``lambda . R_j`` (the ``lambda . x`` part cancels in the normalisation), the moments
-    ``w @ R`` and ``w @ (R_a R_b)``; in the cage's unit frame. Returns (weights (p, n),
-    residual (p,) in the frame's units)."""
-    centre = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
-    size = max(float(np.abs(vertices - centre).max()), 1e-300)
-    frame, places = (vertices - centre) / size, (points - centre) / size
-    products = np.column_stack([frame[:, a] * frame[:, b] for a in range(3) for b in range(a, 3)])
-    pairs = [(a, b) for a in range(3) for b in range(a, 3)]
-    reach = np.linalg.norm(frame, axis=1).max() + np.linalg.norm(places, axis=1)  # >= |R_j - x|
+class _Dense:
+    """Rows over every cage vertex, in matrix products: the exponent ``lambda . R_j`` (the
+    ``lambda . x`` part cancels in the normalisation), the moments ``w @ R`` and
+    ``w @ (R_a R_b)``; in the cage's unit frame."""
+
+    def __init__(self, vertices, points):
+        centre = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+        self.size = max(float(np.abs(vertices - centre).max()), 1e-300)
+        self.frame, self.places = (vertices - centre) / self.size, (points - centre) / self.size
+        self.products = np.column_stack([self.frame[:, a] * self.frame[:, b] for a, b in _PAIRS])
+        self.reach = np.linalg.norm(self.frame, axis=1).max() + np.linalg.norm(self.places, axis=1)  # >= |R_j - x|
+
+    def exponent(self, active, multiplier):
+        return multiplier @ self.frame.T
+
+    def mean(self, active, scaled):
+        placed = scaled @ self.frame
+        return placed - self.places[active], placed
+
+    def covariance(self, active, scaled, mean, placed):
+        moments = scaled @ self.products
+        covariance = np.empty((len(active), 3, 3))
+        for column, (a, b) in enumerate(_PAIRS):
+            covariance[:, a, b] = covariance[:, b, a] = moments[:, column] - placed[:, a] * placed[:, b]
+        return covariance
+
+    def largest_change(self, active, step):
+        """A bound on each row's largest exponent change, through ``|R_j - x|``."""
+        return np.linalg.norm(step, axis=1) * self.reach[active]
+
+    def residual(self, weights):
+        """In world units."""
+        return np.linalg.norm(weights @ self.frame - self.places, axis=1) * self.size
+
+
+def _newton(prior, geometry, iterations):
+    """The weights (p, K) closest to ``prior`` that place their points in ``geometry``
+    (:class:`_Gathered` or :class:`_Dense`): Newton's method on the multipliers, each
+    row until its mean offset is under ``_CONVERGED``, damped so that no exponent changes
+    by more than 1 per step."""
     multiplier = np.zeros((len(prior), 3))
-    weights = prior.copy()
     active = np.arange(len(prior))
+    weights = prior.copy()
     for step_count in range(iterations + 1):
-        exponent = multiplier[active] @ frame.T
+        exponent = geometry.exponent(active, multiplier[active])
         exponent -= exponent.max(axis=1, keepdims=True)
         scaled = prior[active] * np.exp(exponent)
         scaled /= scaled.sum(axis=1, keepdims=True)
         weights[active] = scaled
-        placed = scaled @ frame
-        mean = placed - places[active]
+        mean, kept = geometry.mean(active, scaled)
         moving = np.abs(mean).max(axis=1) > _CONVERGED
         if not moving.any() or step_count == iterations:
             break
-        active, scaled, placed, mean = active[moving], scaled[moving], placed[moving], mean[moving]
-        moments = scaled @ products
-        covariance = np.empty((len(active), 3, 3))
-        for column, (a, b) in enumerate(pairs):
-            covariance[:, a, b] = covariance[:, b, a] = moments[:, column] - placed[:, a] * placed[:, b]
+        active, scaled, mean = active[moving], scaled[moving], mean[moving]
+        covariance = geometry.covariance(active, scaled, mean, None if kept is None else kept[moving])
         covariance += 1e-12 * np.eye(3)
         step = np.linalg.solve(covariance, mean[:, :, None])[:, :, 0]
-        # As _newton: no exponent changes by more than 1 (bounded through |R_j - x|).
-        largest = np.linalg.norm(step, axis=1) * reach[active]
-        multiplier[active] -= step / np.maximum(largest, 1.0)[:, None]
-    return weights, np.linalg.norm(weights @ frame - places, axis=1) * size
+        multiplier[active] -= step / np.maximum(geometry.largest_change(active, step), 1.0)[:, None]
+    return weights
 
 
 def reproduce_points(indices, weights, vertices, points, iterations=_ITERATIONS):
@@ -134,13 +159,14 @@ def reproduce_points(indices, weights, vertices, points, iterations=_ITERATIONS)
     for start in range(0, len(prior), step):
         batch = slice(start, start + step)
         if indices is None:
-            result[batch], residual[batch] = _newton_dense(prior[batch], vertices, points[batch], iterations)
-            continue
-        offsets = np.stack([vertices[indices[batch], axis] - points[batch, axis, None] for axis in range(3)])
-        span = np.abs(offsets).max(axis=(0, 2))
-        span = np.where(span > 0.0, span, 1.0)
-        result[batch], relative = _newton(prior[batch], offsets / span[:, None], iterations)
-        residual[batch] = relative * span
+            geometry, span = _Dense(vertices, points[batch]), 1.0
+        else:
+            offsets = np.stack([vertices[indices[batch], axis] - points[batch, axis, None] for axis in range(3)])
+            span = np.abs(offsets).max(axis=(0, 2))
+            span = np.where(span > 0.0, span, 1.0)
+            geometry = _Gathered(offsets / span[:, None])
+        result[batch] = _newton(prior[batch], geometry, iterations)
+        residual[batch] = geometry.residual(result[batch]) * span
     return result, residual
 
 
@@ -175,10 +201,7 @@ def placing_largest(rows, count, vertices, points, iterations=_ITERATIONS):
     >>> sorted(columns[0].tolist()), bool(residual[0] < 1e-12)
     ([0, 1, 2], True)
     """
-    rows = np.asarray(rows, dtype=np.float64)
-    columns = largest_columns(rows, count)
-    values = np.take_along_axis(rows, columns, axis=1)
-    values /= values.sum(axis=1, keepdims=True)
+    columns, values = largest_entries(rows, count)
     return (columns,) + reproduce_points(columns, values, vertices, points, iterations)
 
 
@@ -214,3 +237,48 @@ def largest_columns(rows, count, magnitude=False):
         order = np.argsort(np.take_along_axis(key, part, axis=1), axis=1, kind="stable")
         columns[start:start + step] = np.take_along_axis(part, order, axis=1)
     return columns
+
+
+def largest_entries(rows, count, magnitude=False):
+    """Each row's ``count`` largest entries (:func:`largest_columns`), renormalised to sum 1.
+
+    A row of non-negative values is divided by their sum (a row of zeros gets 1/K each).
+    A row of both signs can cancel to a small sum, which a division would multiply the row
+    by (fuzz seed 261: sizes adding up to 52 became 6,500); it gets the missing sum added
+    in proportion to its values' sizes instead (the same as the division for a
+    non-negative row), so its sizes grow by no more than that missing sum.
+
+    Parameters
+    ----------
+    rows : (p, n) float
+    count : int
+        K; more than n keeps n.
+    magnitude : bool
+        Largest by absolute value.
+
+    Returns
+    -------
+    columns : (p, K) int64
+        Largest first.
+    values : (p, K) float64
+        Rows sum to 1.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.harmonic.reproduction import largest_entries
+    >>> columns, values = largest_entries(np.array([[0.1, 0.6, 0.05, 0.25]]), 2)
+    >>> columns.tolist(), values.round(4).tolist()
+    ([[1, 3]], [[0.7059, 0.2941]])
+    """
+    rows = np.asarray(rows, dtype=np.float64)
+    columns = largest_columns(rows, count, magnitude)
+    values = np.take_along_axis(rows, columns, axis=1)
+    total = values.sum(axis=1, keepdims=True)
+    signed = (values < 0.0).any(axis=1)
+    weights = np.empty_like(values)
+    sizes = np.abs(values[signed])
+    weights[signed] = values[signed] + (1.0 - total[signed]) * sizes / sizes.sum(axis=1, keepdims=True)
+    even = np.full_like(values[~signed], 1.0 / max(1, values.shape[1]))  # for rows of zeros
+    weights[~signed] = np.divide(values[~signed], total[~signed], out=even, where=total[~signed] > 0.0)
+    return columns, weights

@@ -16,8 +16,9 @@ import numpy as np
 
 from ..base.errors import WorkerError
 from ..base.grid import node_positions
-from ..evaluation.parallel import (SharedArrays, WorkerPool, available_cores, computed_here_instead,
-                                   dispatch_units, python_executable)
+from ..evaluation.interpreters import available_cores, python_executable
+from ..evaluation.parallel import WorkerPool, computed_here_instead, dispatch_units
+from ..evaluation.shared_memory import SharedArrays
 from .boundary_values import segment_crossings
 from .elimination import elimination_plan, factorise, slab_axis
 from .multigrid import STEPS, apply_matrix, build_levels, level_of, solve

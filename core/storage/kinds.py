@@ -15,6 +15,9 @@ class Storage(str, enum.Enum):
     (each vertex's largest (cage vertex, weight) pairs; for harmonic coordinates in two
     levels, each vertex its grid nodes and each node its pairs).
 
+    Examples
+    --------
+    >>> from gencoords.storage import Storage
     >>> Storage("SPARSE") is Storage.SPARSE, Storage.EXACT == "EXACT"
     (True, True)
     """
@@ -26,3 +29,6 @@ class Storage(str, enum.Enum):
 
     def __str__(self):
         return self.value
+
+    def __repr__(self):  # as the string it equals: messages and printed tuples read the same
+        return repr(self.value)

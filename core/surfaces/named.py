@@ -19,7 +19,7 @@ import numpy as np
 
 from .numerical import unit_sphere_ridge_scalars
 
-__all__ = ["Kind", "KIND_TABLE", "WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI", "POWER", "KINDS", "CONVEX_ONLY_KINDS",
+__all__ = ["Kind", "KIND_TABLE", "HARMONIC", "EVERY_KIND", "WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI", "POWER", "KINDS", "CONVEX_ONLY_KINDS",
            "named_ridge_scalars", "named_scaled_ridge_scalars",
            "kind_parameter", "mean_value", "discrete_harmonic_scaled", "wachspress_scaled",
            "voronoi_scaled", "power_scaled",
@@ -188,9 +188,17 @@ KIND_TABLE = (
 _NAMED = {kind.name: kind for kind in KIND_TABLE}
 KINDS = tuple(_NAMED)
 CONVEX_ONLY_KINDS = tuple(kind.name for kind in KIND_TABLE if kind.convex_only)
+# Harmonic coordinates have no generating surface: they are solved on a grid
+# (gencoords.harmonic), so they are not in KIND_TABLE, but every function computing
+# coordinates or weights takes them by this name (3D cages; ``resolution`` its grid).
+HARMONIC = "harmonic"
+EVERY_KIND = KINDS + (HARMONIC,)  # what ``kind`` may name
 
 
 def _named(kind):
+    if kind == HARMONIC:
+        raise ValueError("harmonic coordinates are solved on a grid, not from a generating surface: "
+                         "they have no ridge scalars or surface parameter")
     try:
         return _NAMED[kind]
     except KeyError:
@@ -202,8 +210,8 @@ def kind_parameter(kind, value):
 
     Raises ValueError for a value given to a kind without a parameter.
     """
-    entry = _named(kind)
-    if entry.parameter is None:
+    entry = None if kind == HARMONIC else _named(kind)
+    if entry is None or entry.parameter is None:
         if value is not None:
             with_parameter = [k.name for k in KIND_TABLE if k.parameter == "gamma"]
             raise ValueError(f"gamma applies to kind={' or '.join(map(repr, with_parameter))} only, "

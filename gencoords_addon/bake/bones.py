@@ -5,7 +5,7 @@ bind-time cage) and held on its vertex by a Copy Location constraint (so the cag
 drives the rig in Blender), the coordinates as the mesh's vertex groups, and an Armature
 modifier in place of the GenCoords one. Linear blend skinning with bones that only
 translate and weights that sum to one is the same displacement form,
-``P + sum_j w_j (C_j - R_j)`` (``core.tools.skinning``), so keeping every weight is exact;
+``P + sum_j w_j (C_j - R_j)`` (``core.skinning.skinning``), so keeping every weight is exact;
 game engines take 4 or 8 influences per vertex, and then the largest are kept and
 renormalised. Vertex groups hold weights from 0 to 1 only, so negative coordinates are
 refused. The deviation reported is measured on the weights and bone positions read back
@@ -19,7 +19,8 @@ frame range.
 import bpy
 import numpy as np
 
-from ...core.tools import compact, skinning
+from ...core.skinning import skinning
+from ...core.storage import compact
 from .. import bind_layout
 from ..bind import bindings as bindings_module
 from ..blender_io import compat, mesh_arrays, mesh_io

@@ -2,7 +2,7 @@
 fitted to what the binding shows over a frame range.
 
 Truncating coordinates to the 4 largest per vertex (what a game engine reads of a bone
-per cage vertex) cannot follow the cage; fitting can (``core.tools.skin_fit``, SSDR as in
+per cage vertex) cannot follow the cage; fitting can (``core.skinning.skin_fit``, SSDR as in
 Dem Bones). The bake samples the mesh as Blender evaluates it with the binding's
 modifier alone (its deformation, world space; other modifiers stay where they are and
 apply to the rig's result as they did to the binding's) at every frame of the range, fits a skin, and writes an
@@ -25,7 +25,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from ...core.tools import skin_fit
+from ...core.skinning import skin_fit
 from ..bind import bindings as bindings_module
 from ..blender_io import compat, mesh_arrays, mesh_io
 from ..errors import BakeError

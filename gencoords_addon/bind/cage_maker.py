@@ -1,6 +1,6 @@
 """Make Cage: a closed, convex, triangulated cage around a mesh, built for binding.
 
-The core intersects supporting half-spaces around the mesh (``core.tools.enclosing``), so the
+The core intersects supporting half-spaces around the mesh (``core.cages.enclosing``), so the
 cage is convex and encloses every vertex by construction; bmesh's convex hull orders the
 polar dual and the final faces. The result is checked with the core's own cage
 validation before it is added to the scene.
@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from ... import core
-from ...core.tools import enclosing
+from ...core.cages import enclosing
 from .. import messages, preferences
 from ..blender_io import mesh_arrays, mesh_io
 from ..errors import CageError
@@ -80,7 +80,7 @@ def make_cage_geometry(points, target_vertices, margin):
         used = np.unique(triangles)
         remap = np.full(len(vertices), -1)
         remap[used] = np.arange(len(used))
-        vertices, triangles = vertices[used], core.tools.orient_facets_outward(vertices[used],
+        vertices, triangles = vertices[used], core.cages.orient_facets_outward(vertices[used],
                                                                          remap[triangles])
         try:
             core.advanced.validate_cage(vertices, triangles, convex=True, tolerance=FLOAT32_TOLERANCE)

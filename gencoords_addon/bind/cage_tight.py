@@ -7,7 +7,7 @@ hollows become one surface again) and a collapse decimation to the vertex count;
 bmesh's Tris to Quads joins about half of the triangles into quads, which an artist
 edits more easily. The core then pushes the cage out until it encloses every mesh
 vertex and checks it (closed, manifold, outward, neither touching nor passing through
-itself): ``gencoords.tools.tight_cage.fit_tight_cage``. Nothing of the copy is left
+itself): ``gencoords.cages.tight_cage.fit_tight_cage``. Nothing of the copy is left
 behind.
 """
 
@@ -18,7 +18,7 @@ import bpy
 import numpy as np
 
 from ... import core
-from ...core.tools import tight_cage
+from ...core.cages import tight_cage
 from .. import preferences
 from ..blender_io import mesh_io
 from ..blender_io.mesh_arrays import read_loop_triangles, read_positions

@@ -1,5 +1,5 @@
 """One Bind: ``BindJob(obj, context)`` reads everything it needs from the scene and checks
-it (``bind.scene``); ``job.steps()`` runs the core's planner (``core.tools.bind_plan``: a
+it (``bind.scene``); ``job.steps()`` runs the core's planner (``core.planning.bind_plan``: a
 generator yielding the fraction done, so the UI can show progress and cancel between
 chunks); ``job.commit_steps()`` (or ``job.commit()``, to the end) then writes the plan
 (``bind.commit``), in steps too. Nothing in the file changes before the writing, and the
@@ -15,7 +15,7 @@ from typing import Optional
 import numpy as np
 
 from ... import core
-from ...core.tools import bind_plan
+from ...core.planning import bind_plan
 from .. import messages, preferences
 from ..bind_layout import FORMAT, BindData
 from ..enums import is_green

@@ -30,7 +30,7 @@ def read_triangles(mesh, positions):
     keep = sizes[blender_faces] != 4
     quads = np.flatnonzero(sizes == 4)
     quad_corners = corners[starts[quads, None] + np.arange(4)]
-    triangles = np.concatenate([blender[keep], core.tools.triangulate_quads(positions, quad_corners)])
+    triangles = np.concatenate([blender[keep], core.cages.triangulate_quads(positions, quad_corners)])
     return triangles, np.concatenate([blender_faces[keep], np.repeat(quads, 2)])
 
 

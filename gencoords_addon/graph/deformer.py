@@ -8,7 +8,7 @@ mesh's local space, the group outputs
 
 where ``P`` is the incoming position (shape keys, edits and earlier modifiers pass
 through). Exact storage has ``basis = I`` and ``u = coordinates``; compact storage a
-basis of s cage motions (``core.tools.compact``). At rest ``C == R`` bitwise (``R`` is read
+basis of s cage motions (``core.storage.compact``). At rest ``C == R`` bitwise (``R`` is read
 back from this same Object Info node, see ``bind.scene.capture_rest_cage``), so the mesh
 is unchanged bitwise.
 

@@ -35,7 +35,7 @@ The guard, strength, mask and attribute stripping are the deformer's own
 import bpy
 import numpy as np
 
-from ...core.tools import sparse
+from ...core.storage import sparse
 from ..bind_layout import (SLOT_MARK, index_attribute_names, name_template, node_column_count,
                            node_displacement_name, sparse_attribute_names, weight_attribute_names)
 from ..blender_io import mesh_arrays
@@ -59,7 +59,7 @@ def write_pairs(mesh, key, indices, weights, level="vertex"):
 def write_node_pairs(mesh, key, indices, weights):
     """Store the N grid nodes' pairs ((N, K') each), three to a vector point attribute
     (indices as floats), stacked in columns as long as the mesh
-    (``core.tools.sparse.stacked_columns``, over the triples)."""
+    (``core.storage.sparse.stacked_columns``, over the triples)."""
     rows = len(mesh.vertices)
     for values, names in ((indices, index_attribute_names), (weights, weight_attribute_names)):
         triples = np.zeros((len(values), -(-values.shape[1] // 3) * 3), dtype=np.float32)
@@ -167,7 +167,7 @@ def _node_displacements(build, mesh, cage, displacement, key, node_count, column
     """A point cloud of the N grid nodes with each one's displacement stored (two-level
     layout), and that attribute's field.
 
-    The nodes' pairs are stacked (``core.tools.sparse.stacked_columns``): row
+    The nodes' pairs are stacked (``core.storage.sparse.stacked_columns``): row
     ``s * N + a`` of each column holds triples of node a. So each mesh row p first sums
     its columns' weighted gathers (read where they are stored: no lookup of the pairs),
     stored on the mesh; node a then adds up its ``blocks`` rows ``s * N + a``."""

@@ -2,8 +2,8 @@
 
 import bpy
 
-from ...core.base.inputs import GAMMA_LIMIT
-from ...core.tools.bind_plan import BIND_RESOLUTION, SPARSE_SIZE
+from ...core.base.parameters import GAMMA_LIMIT
+from ...core.planning.request import BIND_RESOLUTION, SPARSE_SIZE
 from ..enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 from . import visualise
 

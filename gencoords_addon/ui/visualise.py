@@ -9,7 +9,7 @@ from ..blender_io.mesh_arrays import write_point_colors
 
 FIELD_ATTRIBUTE = "GenCoords Field"
 # On the mesh data, beside the colours: (lowest, highest) of the field shown, from
-# ``core.tools.field_range``, for the panel's legend. A leading underscore hides it in the UI.
+# ``core.reports.field_range``, for the panel's legend. A leading underscore hides it in the UI.
 FIELD_RANGE = "_gencoords_field_range"
 # On the mesh object: the empty that marks the chosen cage vertex.
 FIELD_MARKER = "_gencoords_field_marker"
@@ -33,14 +33,14 @@ def field_problem(obj):
 
 
 def paint_field(obj):
-    """Write the chosen field (``core.tools.field_colors``) as the mesh's active colour attribute.
+    """Write the chosen field (``core.reports.field_colors``) as the mesh's active colour attribute.
 
     Call only when ``field_problem(obj)`` is None.
     """
     values = bindings.binding(obj).coordinate_column(obj.data, obj.gencoords.field_vertex)
     if values is None:
         return False
-    colors = core.tools.field_colors(values)
+    colors = core.reports.field_colors(values)
     mesh = obj.data
     attribute = mesh.color_attributes.get(FIELD_ATTRIBUTE)
     kind = ('POINT', 'FLOAT_COLOR')
@@ -51,7 +51,7 @@ def paint_field(obj):
         attribute = mesh.color_attributes.new(FIELD_ATTRIBUTE, kind[1], kind[0])
     write_point_colors(attribute, colors)
     mesh.color_attributes.active_color = attribute
-    mesh[FIELD_RANGE] = core.tools.field_range(values)
+    mesh[FIELD_RANGE] = core.reports.field_range(values)
     mesh.update()
     mark_cage_vertex(obj, bindings.binding(obj).cage, obj.gencoords.field_vertex)
     return True

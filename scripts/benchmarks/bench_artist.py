@@ -26,7 +26,8 @@ from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 from gencoords import Cage  # noqa: E402
-from gencoords.tools import compact, skinning  # noqa: E402
+from gencoords.skinning import skinning  # noqa: E402
+from gencoords.storage import deviations  # noqa: E402
 
 REPEATS = 7
 
@@ -92,8 +93,8 @@ def bake_deviation(subdivisions, influences):
     found = bind(mesh, cage, storage="EXACT")
     coordinates = found.coordinates(mesh.data)
     rest = arrays.read_positions(cage.data)
-    moved = compact.smooth_test_motion(rest)
-    return [compact.deviation(coordinates, skinning.truncate(coordinates, count), np.eye(len(rest)),
+    moved = deviations.smooth_test_motion(rest)
+    return [deviations.deviation(coordinates, skinning.truncate(coordinates, count), np.eye(len(rest)),
                               rest, moved) for count in influences]
 
 
@@ -103,8 +104,8 @@ def deviations_in_blender(mesh, cage, dragged):
     cage motion and after dragging cage vertex ``dragged`` by a tenth of the diagonal."""
     rest_cage = arrays.read_positions(cage.data).astype(np.float64)
     rest = arrays.read_positions(mesh.data).astype(np.float64)
-    motions = [compact.smooth_test_motion(rest_cage),
-               compact.vertex_drag_motion(rest_cage, dragged)]
+    motions = [deviations.smooth_test_motion(rest_cage),
+               deviations.vertex_drag_motion(rest_cage, dragged)]
     cage.data.calc_loop_triangles()
     triangles = np.array([t.vertices[:] for t in cage.data.loop_triangles])
     exact = [rest.copy() for _ in motions]

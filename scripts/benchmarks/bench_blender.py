@@ -54,7 +54,7 @@ from scripts.common import session  # noqa: E402
 session.prepare()  # before bpy is imported: Blender reads its user folder then
 from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
-from gencoords.tools.bind_plan import HARMONIC  # noqa: E402
+from gencoords.surfaces.named import HARMONIC  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 from scripts.common.playback import settle, time_updates  # noqa: E402
 from scripts.common.memory import PeakMemory, blend_size  # noqa: E402

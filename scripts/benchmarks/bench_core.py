@@ -31,8 +31,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
-from gencoords.evaluation.parallel import available_cores  # noqa: E402
-from gencoords.tools.shapes import icosphere  # noqa: E402
+from gencoords.evaluation.interpreters import available_cores  # noqa: E402
+from gencoords.cages.shapes import icosphere  # noqa: E402
 from gencoords.surfaces.named import DISCRETE_HARMONIC, MEAN_VALUE, WACHSPRESS  # noqa: E402
 
 # CGAL 6.2 on an earlier 2-core machine of this project (ns per point x facet), shown
@@ -139,7 +139,7 @@ def workers_table(vertices, faces, points, repeats):
 
 def numerical_surfaces_table(repeats):
     """ns per (point x ridge) of ridge scalars: closed forms beside numerical integration."""
-    from gencoords.tools.shapes import cross_polytope
+    from gencoords.cages.shapes import cross_polytope
     from scripts.common.polytopes import random_convex_polytope
 
     print("\nridge scalars, ns per point x ridge: closed form beside the numerical integral "

@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
 from gencoords import green_coordinates, green_deform  # noqa: E402
-from gencoords.tools.shapes import icosphere  # noqa: E402
+from gencoords.cages.shapes import icosphere  # noqa: E402
 from gencoords.construction.green import GREEN  # noqa: E402
 from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
 from scripts.common.measures import triangle_angles  # noqa: E402

@@ -5,7 +5,7 @@ quad cage, 196 vertices, arms 0.15 thick across 1.9) and points inside its body,
 resolution: the bind's time (one process) and peak memory, the unknowns, the solver's
 iterations and mean residual reduction per iteration, negative coordinates, linear
 precision (``|sum_j w_j R_j - x|`` per cage diagonal) as solved and after
-``tools.skinning.reproduce_points`` on the 32 largest, locality, the weights above 1e-5 per
+``skinning.skinning.reproduce_points`` on the 32 largest, locality, the weights above 1e-5 per
 point, and the bend: the body mesh's left forearm cage turned 60 degrees
 (``character.bent_forearm``), the left arm's triangle angle changes (mean and 99th
 percentile, degrees) with the coordinates as solved, every one kept (what the resolution
@@ -33,7 +33,7 @@ import gencoords  # noqa: E402
 from scripts.common.character import (bent_forearm, body_mesh, body_points, cage_limb_vertices,  # noqa: E402
                                       character_cage, limb_labels)
 from scripts.common.measures import angle_changes  # noqa: E402
-from gencoords.tools.skinning import reproduce_points, top_k  # noqa: E402
+from gencoords.skinning.skinning import reproduce_points, top_k  # noqa: E402
 
 
 def measure(vertices, triangles, points, resolution, workers, body):
@@ -87,10 +87,10 @@ def main():
     parser.add_argument("--workers", type=int, default=0, help="also bind in this many processes (0: the cores)")
     arguments = parser.parse_args()
     vertices, quads = character_cage()
-    triangles = gencoords.tools.triangulate_quads(vertices, quads)
+    triangles = gencoords.cages.triangulate_quads(vertices, quads)
     points = body_points(arguments.points)
     body = body_mesh()  # the bend's mesh, once for every resolution
-    workers = arguments.workers or gencoords.evaluation.parallel.available_cores()
+    workers = arguments.workers or gencoords.evaluation.interpreters.available_cores()
     print(f"character cage: {len(vertices)} vertices, {len(triangles)} triangles; {len(points)} points inside; "
           f"box {np.ptp(vertices, axis=0).tolist()}, diagonal {np.linalg.norm(np.ptp(vertices, axis=0)):.2f}")
     print(f"bind s: one process; w={workers}: {workers} worker processes (started per bind)")

@@ -56,7 +56,7 @@ from scripts.common.memory import PeakMemory, blend_size  # noqa: E402
 from scripts.common.playback import settle  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
-from gencoords.tools.bind_plan import HARMONIC  # noqa: E402
+from gencoords.surfaces.named import HARMONIC  # noqa: E402
 
 MOVED_LIMBS = ("left_arm", "right_arm", "left_leg", "right_leg", "head")
 LOCALITY_MOVE = 0.2  # of the cage's diagonal

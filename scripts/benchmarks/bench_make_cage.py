@@ -3,7 +3,7 @@ that overlap) and on Suzanne (2 subdivisions, 7958 vertices): the time Make Cage
 (through the operator, reading what it wrote), the cage's vertex count, its volume over
 the mesh's, and whether it encloses every vertex (as Bind splits its quads). The mesh's volume is the union of its
 shells (overlaps once): winding numbers along a grid of vertical columns
-(``gencoords.tools.volumes.union_volume``). The character's own box-modelled cage is the
+(``gencoords.cages.volumes.union_volume``). The character's own box-modelled cage is the
 reference for what an artist models.
 
 Usage: bench_make_cage.py [--vertices 200] [--sweep]   (about a minute; --sweep adds Tight
@@ -24,7 +24,7 @@ from scripts.common import session  # noqa: E402
 session.prepare()  # before bpy is imported: Blender reads its user folder then
 import bpy  # noqa: E402
 import gencoords  # noqa: E402
-from gencoords.tools import self_intersection, tight_cage  # noqa: E402
+from gencoords.cages import self_intersection, tight_cage  # noqa: E402
 from scripts.common import scenes  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 

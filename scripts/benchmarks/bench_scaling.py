@@ -37,7 +37,7 @@ def main():
     parser.add_argument("--points", type=int, default=200_000)
     args = parser.parse_args()
     vertices, quads = character_cage()
-    faces = gencoords.tools.triangulate_quads(vertices, quads)
+    faces = gencoords.cages.triangulate_quads(vertices, quads)
     print(f"{os.cpu_count()} cores, numpy {np.__version__}; character cage, {len(vertices)} vertices")
     for resolution in args.resolutions:
         alone = None

@@ -1,4 +1,4 @@
-"""A fitted linear blend skin (gencoords.tools.skin_fit) against GenCoords' deformation.
+"""A fitted linear blend skin (gencoords.skinning.skin_fit) against GenCoords' deformation.
 
 Issue 26's scene: Suzanne subdivided twice (7,958 vertices, made with bpy) in a
 162-vertex icosphere cage, mean value coordinates, the cage keyframed through a twist
@@ -92,7 +92,7 @@ def suzanne_scene():
     """Suzanne in a 162-vertex icosphere: (label, rest (n, 3), coordinates, cage, cage poses)."""
     import gencoords
     from gencoords.surfaces.named import MEAN_VALUE
-    from gencoords.tools import shapes
+    from gencoords.cages import shapes
     rest = suzanne_vertices()
     cage, faces = shapes.icosphere(2, radius=2.0)
     coordinates = gencoords.coordinates(rest, cage, faces, kind=MEAN_VALUE)
@@ -104,7 +104,7 @@ def character_scene():
     """The character's body in its cage: (label, rest, coordinates, cage, cage poses)."""
     import gencoords
     from gencoords.surfaces.named import MEAN_VALUE
-    from gencoords.tools import triangulate_quads
+    from gencoords.cages import triangulate_quads
     from scripts.common import character
     rest, _, _ = character.body_mesh(detail=0.42)
     cage, quads = character.character_cage()
@@ -121,7 +121,7 @@ def report(label, rest, frames, fit, skin_fit):
 
 
 def timed_fit(rest, frames, args, label):
-    from gencoords.tools import skin_fit
+    from gencoords.skinning import skin_fit
     start = time.perf_counter()
     fit = skin_fit.fit_skin(rest, frames, bones=args.bones, max_influences=args.influences,
                             iterations=args.iterations)
@@ -144,7 +144,7 @@ def main():
 
 
 def fit_scene(label, rest, coordinates, cage, cage_poses, args):
-    from gencoords.tools import skin_fit, skinning
+    from gencoords.skinning import skin_fit, skinning
     frames = coordinates @ cage_poses
     print(f"\n{label}: mean value ({100 * np.mean(coordinates < -1e-9):.1f} % negative), "
           f"{len(frames)} frames; {args.influences} influences, {args.bones} bones seeded, "

@@ -1,5 +1,5 @@
 """How local Green coordinates are on the character: the deviation (of the cage's size,
-``tools.compact.residual_deviations``) left by keeping only each vertex's K largest, the
+``storage.deviations.residual_deviations``) left by keeping only each vertex's K largest, the
 kept phi renormalised to sum 1 as sparse storage does, for phi and psi together and for
 psi alone (every phi kept). Why Green coordinates have no sparse storage: Automatic needs
 1e-3 (``bind_plan.AUTO_DEVIATION``).
@@ -16,7 +16,7 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 
 import gencoords  # noqa: E402
-from gencoords.tools import compact  # noqa: E402
+from gencoords.storage.deviations import residual_deviations  # noqa: E402
 from scripts.common.character import body_mesh, character_cage  # noqa: E402
 
 COUNTS = (16, 32, 64, 128, 192, 256, 320)
@@ -37,7 +37,7 @@ def deviations(coordinates, vertices, triangles, count, first):
     stored = kept(coordinates, count, first)
     n = len(vertices)
     stored[:, :n] /= stored[:, :n].sum(axis=1, keepdims=True)  # translations stay exact
-    smooth, drag = compact.residual_deviations(coordinates - stored, vertices, faces=triangles)
+    smooth, drag = residual_deviations(coordinates - stored, vertices, faces=triangles)
     return smooth, float(drag.max())
 
 
@@ -46,7 +46,7 @@ def main():
     parser.add_argument("--every", type=int, default=10, help="use every Nth body vertex")
     args = parser.parse_args()
     vertices, quads = character_cage()
-    triangles = gencoords.tools.triangulate_quads(vertices, quads)
+    triangles = gencoords.cages.triangulate_quads(vertices, quads)
     points = body_mesh()[0][::args.every]
     phi, psi = gencoords.green_coordinates(points, vertices, triangles, outside="project")
     coordinates = np.hstack([phi, psi])

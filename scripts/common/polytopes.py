@@ -2,7 +2,7 @@
 core's tests and benchmarks (tests/core/polytopes.py, scripts/benchmarks/bench_core.py).
 
 Not part of the core: a user's cage comes from their mesh, and the core's example cages
-(``gencoords.tools.shapes``) are regular ones.
+(``gencoords.cages.shapes``) are regular ones.
 """
 
 from itertools import combinations

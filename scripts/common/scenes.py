@@ -13,7 +13,7 @@ import numpy as np
 import gencoords
 from gencoords.construction.general import prepare_cage
 from gencoords.construction.green import GREEN_LABEL
-from gencoords.tools.bind_plan import HARMONIC
+from gencoords.surfaces.named import HARMONIC
 from .blender_objects import arrays, bind, make_active  # noqa: F401 (scripts use them from here)
 from mathutils import Euler
 

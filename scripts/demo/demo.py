@@ -35,7 +35,7 @@ from scripts.common import scenes  # noqa: E402
 import bpy  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 import gencoords  # noqa: E402
-import gencoords.tools.shapes  # noqa: E402  (not imported by core itself)
+import gencoords.cages.shapes  # noqa: E402  (not imported by core itself)
 
 ADDON_KINDS = {kind: kind.upper() for kind in scenes.KINDS}  # "mean_value" -> 'MEAN_VALUE'
 
@@ -125,7 +125,7 @@ def render_fields(path, segments=48):
     columns the octahedron with its cutting planes, then one panel per coordinate type.
 
     The three horizontal sections of each panel are drawn apart (exploded) so none hides
-    another; one grey scale per panel (``gencoords.tools.field_colors`` over all three sections).
+    another; one grey scale per panel (``gencoords.reports.field_colors`` over all three sections).
     Returns ``{(octahedron, kind): min coordinate of v}`` for the summary.
     """
     scene = scenes.reset_scene()
@@ -144,7 +144,7 @@ def render_fields(path, segments=48):
 
     minima = {}
     for row, regular in enumerate((True, False)):
-        vertices, faces = gencoords.tools.shapes.octahedron() if regular else gencoords.tools.shapes.irregular_octahedron()
+        vertices, faces = gencoords.cages.shapes.octahedron() if regular else gencoords.cages.shapes.irregular_octahedron()
         vertices = vertices - vertices.mean(axis=0)  # centre each panel's content
         top, bottom = vertices[:, 2].max(), vertices[:, 2].min()
         heights = (0.45 * top, 0.0, 0.45 * bottom)
@@ -175,7 +175,7 @@ def render_fields(path, segments=48):
         for col, kind in enumerate(scenes.KINDS, start=1):
             values = gencoords.coordinates(points, vertices, faces, kind=kind)[:, 0]
             minima[name, kind] = float(values.min())
-            colors = gencoords.tools.field_colors(values)
+            colors = gencoords.reports.field_colors(values)
             start = 0
             for level, (grid_points, grid_faces) in enumerate(grids):
                 drawn = grid_points.copy()

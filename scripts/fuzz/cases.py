@@ -15,7 +15,7 @@ import random
 import gencoords
 from gencoords.construction.green import GREEN
 from gencoords.surfaces.named import MEAN_VALUE, POWER
-from gencoords.tools.bind_plan import HARMONIC
+from gencoords.surfaces.named import HARMONIC
 
 # The core's kinds, Green coordinates and harmonic coordinates (the add-on's enum order).
 KINDS = tuple(kind.name.upper() for kind in gencoords.KIND_TABLE) + (GREEN.upper(), HARMONIC.upper())

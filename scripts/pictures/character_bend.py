@@ -26,7 +26,7 @@ import bpy  # noqa: E402
 from scripts.common import character, pictures, scenes  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
-from gencoords.tools.bind_plan import HARMONIC  # noqa: E402
+from gencoords.surfaces.named import HARMONIC  # noqa: E402
 
 METHODS = (("Mesh Deform p5", ("MESH_DEFORM", 5)), ("Mean value", ("GENCOORDS", MEAN_VALUE)),
            ("Harmonic", ("GENCOORDS", HARMONIC)))

@@ -80,7 +80,7 @@ def open_scene(name):
 def set_up_views():
     """Modifiers tab, sidebar shown, front view of the scene (a step after opening a file:
     the context is not valid again before the window has handled the load)."""
-    # Standard: the field's colours as gencoords.tools.field_colors means them (AgX would tone-map).
+    # Standard: the field's colours as gencoords.reports.field_colors means them (AgX would tone-map).
     bpy.context.scene.view_settings.view_transform = 'Standard'
     _, properties = window_and_area('PROPERTIES')
     properties.spaces.active.context = 'MODIFIER'

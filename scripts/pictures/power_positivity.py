@@ -1,7 +1,7 @@
 """Where the power family's coordinates stay positive: a table over gamma and polytopes.
 
 For regular and irregular convex polytopes in 2D, 3D and 4D, the smallest coordinate
-of gencoords.tools.coordinate_report's interior sample (dense near the boundary) for each gamma,
+of gencoords.reports.coordinate_report's interior sample (dense near the boundary) for each gamma,
 and the range of gamma where none is negative. Figures for docs/POWER.md:
 
     .venv/bin/python scripts/pictures/power_positivity.py [--samples 3000] [--step 0.25]
@@ -16,7 +16,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
-from gencoords.tools.shapes import (cross_polytope, icosphere, irregular_octahedron, octahedron,  # noqa: E402
+from gencoords.cages.shapes import (cross_polytope, icosphere, irregular_octahedron, octahedron,  # noqa: E402
                                     regular_polygon)
 from gencoords.surfaces.named import POWER  # noqa: E402
 from scripts.common.png import write_png  # noqa: E402
@@ -71,7 +71,7 @@ def field_picture(path, gammas=(-1.0, -0.5, 0.0, 0.5, 1.0, 2.0), pixels=220):
         for gamma in gammas:
             image = np.ones((len(points), 3))
             values = gencoords.coordinates(points[inside], vertices, faces, kind=POWER, gamma=gamma)[:, 0]
-            image[inside] = gencoords.tools.field_colors(values)[:, :3]
+            image[inside] = gencoords.reports.field_colors(values)[:, :3]
             image[marked] = 0.0
             panels.append(image.reshape(pixels, pixels, 3))
             panels.append(np.ones((pixels, 6, 3)))
@@ -98,7 +98,7 @@ def main():
     print("| polytope | positive for gamma in | " + " | ".join(f"gamma {g:g}" for g in shown) + " |")
     print("|---|---|" + "---|" * len(shown))
     for name, vertices, faces in polytopes():
-        smallest = np.array([gencoords.tools.coordinate_report(vertices, faces, POWER, gamma=float(g),
+        smallest = np.array([gencoords.reports.coordinate_report(vertices, faces, POWER, gamma=float(g),
                                                     samples=args.samples).smallest for g in gammas])
         cells = [f"{smallest[list(gammas).index(g)]:.2g}" for g in shown]
         print(f"| {name} | {positive_ranges(gammas, smallest)} | " + " | ".join(cells) + " |")

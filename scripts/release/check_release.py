@@ -158,7 +158,7 @@ def workers_inside_blender(report):
 
     gencoords = importlib.import_module(f"{PACKAGE}.core")  # the extension's bundled copy
     parallel = importlib.import_module(f"{PACKAGE}.core.evaluation.parallel")
-    shapes = importlib.import_module(f"{PACKAGE}.core.tools.shapes")
+    shapes = importlib.import_module(f"{PACKAGE}.core.cages.shapes")
     vertices, faces = shapes.icosphere(2)
     points = np.random.default_rng(0).uniform(-0.5, 0.5, (5000, 3))
     report["sys.executable"] = sys.executable

@@ -50,7 +50,7 @@ def animate_cage(gc, cage, last_frame=10):
     rest = read_positions(cage.data).astype(np.float64)
     cage.shape_key_add(name="Basis")
     bent = cage.shape_key_add(name="Bent")
-    write_shape_key(bent, gc.core.tools.compact.smooth_test_motion(rest))
+    write_shape_key(bent, gc.core.storage.deviations.smooth_test_motion(rest))
     for frame, value, turn in ((1, 0.0, 0.0), (last_frame, 1.0, 0.4)):
         bent.value = value
         bent.keyframe_insert("value", frame=frame)
@@ -104,7 +104,7 @@ def test_bake_to_bones_deforms_like_the_binding(gc, influences, capfd):
     assert bpy.ops.object.gencoords_bake_bones(max_influences=influences) == {'FINISHED'}
     assert [m.type for m in obj.modifiers] == ['ARMATURE'] and not gc.binding.bindings(obj)
     rest_cage = read_positions(cage.data).astype(np.float64)
-    moved = gc.core.tools.compact.smooth_test_motion(rest_cage)
+    moved = gc.core.storage.deviations.smooth_test_motion(rest_cage)
     write_positions(cage.data, moved)
     exact = read_positions(obj.data) + coordinates @ (moved - rest_cage)
     gap = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max()
@@ -119,11 +119,11 @@ def test_bake_to_bones_deforms_like_the_binding(gc, influences, capfd):
         assert gap < 1e-5 * diagonal and reported < 1e-6 and over > 0
     else:
         # The largest weights, reweighted to place each vertex where the binding does.
-        truncated = gc.core.tools.skinning.truncate(coordinates, influences, rest_cage)
-        expected = gc.core.tools.compact.deviation(coordinates, truncated, np.eye(12), rest_cage, moved)
+        truncated = gc.core.skinning.skinning.truncate(coordinates, influences, rest_cage)
+        expected = gc.core.storage.deviations.deviation(coordinates, truncated, np.eye(12), rest_cage, moved)
         assert gap / diagonal == pytest.approx(expected, rel=1e-3, abs=1e-6)
-        plain = gc.core.tools.skinning.truncate(coordinates, influences)
-        assert expected < gc.core.tools.compact.deviation(coordinates, plain, np.eye(12), rest_cage, moved)
+        plain = gc.core.skinning.skinning.truncate(coordinates, influences)
+        assert expected < gc.core.storage.deviations.deviation(coordinates, plain, np.eye(12), rest_cage, moved)
         assert reported == pytest.approx(gap / diagonal, rel=1e-3, abs=1e-6)
         assert (np.count_nonzero(truncated, axis=1) <= 4).all()
 
@@ -134,7 +134,7 @@ def test_bake_to_bones_uses_the_bind_time_cage_after_a_cage_edit(gc):
     obj = add_sphere()
     bind(obj, cage)
     rest_cage = read_positions(cage.data).astype(np.float64)
-    write_positions(cage.data, gc.core.tools.compact.smooth_test_motion(rest_cage))
+    write_positions(cage.data, gc.core.storage.deviations.smooth_test_motion(rest_cage))
     bound = world_positions(obj)
     assert np.linalg.norm(bound - read_positions(obj.data), axis=1).max() > 0.1  # it moved
     make_active(obj)
@@ -176,7 +176,7 @@ def test_bake_to_bones_from_a_script_in_a_temp_override(gc):
     assert obj.parent is not None and obj.parent.type == 'ARMATURE'
     assert obj.mode == 'OBJECT' and obj.parent.mode == 'OBJECT'
     rest_cage = read_positions(cage.data).astype(np.float64)
-    moved = gc.core.tools.compact.smooth_test_motion(rest_cage)
+    moved = gc.core.storage.deviations.smooth_test_motion(rest_cage)
     write_positions(cage.data, moved)
     exact = read_positions(obj.data) + coordinates @ (moved - rest_cage)
     gap = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max()
@@ -211,7 +211,7 @@ def test_bake_to_bones_refuses_negative_coordinates_and_changes_nothing(gc):
     obj = add_sphere()
     bind(obj, cage, kind="DISCRETE_HARMONIC")
     coordinates = coordinates_of(gc, obj)
-    count = int(np.count_nonzero(coordinates < -gc.core.tools.skinning.NEGATIVE_TOLERANCE))
+    count = int(np.count_nonzero(coordinates < -gc.core.skinning.skinning.NEGATIVE_TOLERANCE))
     assert count > 0
     state, objects = mesh_state(obj), set(bpy.data.objects.keys())
     make_active(obj)
@@ -231,7 +231,7 @@ def test_bake_to_bones_refuses_negative_coordinates_with_max_influences(gc, max_
     obj = add_sphere()
     bind(obj, cage, kind="DISCRETE_HARMONIC")
     coordinates = coordinates_of(gc, obj)
-    tools = gc.core.tools.skinning
+    tools = gc.core.skinning.skinning
     count = int(np.count_nonzero(coordinates < -tools.NEGATIVE_TOLERANCE))
     assert count > 0 and tools.negative_weights(tools.truncate(coordinates, max_influences))[0] == 0
     state, objects = mesh_state(obj), set(bpy.data.objects.keys())
@@ -261,7 +261,7 @@ def test_bake_to_bones_reports_the_deviation_of_the_weights_it_wrote(gc):
             written[vertex.index, int(obj.vertex_groups[element.group].name.split()[-1])] = element.weight
     assert written.min() >= 0.0 and np.abs(written - np.clip(coordinates, 0.0, None)).max() < 1e-7
     rest_cage = read_positions(cage.data).astype(np.float64)
-    moved = gc.core.tools.compact.smooth_test_motion(rest_cage)
+    moved = gc.core.storage.deviations.smooth_test_motion(rest_cage)
     write_positions(cage.data, moved)
     exact = read_positions(obj.data) + coordinates @ (moved - rest_cage)
     gap = np.linalg.norm(evaluated_positions(obj) - exact, axis=1).max() / diagonal_of(cage)
@@ -372,8 +372,8 @@ def test_a_baked_rig_round_trips_through_gltf(gc, tmp_path):
     assert bpy.ops.object.gencoords_bake_bones(max_influences=4, keyframes=False) == {'FINISHED'}
     rig = bpy.data.objects["Mesh cage rig"]
     rest_cage = read_positions(cage.data).astype(np.float64)
-    displacement = gc.core.tools.compact.smooth_test_motion(rest_cage) - rest_cage
-    truncated = gc.core.tools.skinning.truncate(coordinates, 4, rest_cage)  # as Bake to Bones writes them
+    displacement = gc.core.storage.deviations.smooth_test_motion(rest_cage) - rest_cage
+    truncated = gc.core.skinning.skinning.truncate(coordinates, 4, rest_cage)  # as Bake to Bones writes them
     rest = read_positions(obj.data).astype(np.float64)
     expected = rest + truncated @ displacement
     for other in bpy.context.view_layer.objects:

@@ -81,7 +81,7 @@ def test_compact_storage_is_close_for_smooth_motions_and_reports_its_deviation(g
     assert "Storage: Compact, 24 per vertex" in text and "Deviation:" in text
 
     rest_cage = read_positions(cage.data).astype(np.float64)
-    moved = gc.core.tools.compact.smooth_test_motion(rest_cage)
+    moved = gc.core.storage.deviations.smooth_test_motion(rest_cage)
     write_positions(cage.data, moved)
     exact = gc.core.coordinates(read_positions(obj.data), rest_cage, triangles_of(cage))
     deviation = np.linalg.norm(evaluated_positions(obj) - exact @ moved, axis=1).max()
@@ -121,8 +121,8 @@ def deviations_in_blender(gc, obj, cage, vertex):
     exact = gc.core.coordinates(rest, rest_cage, triangles_of(cage), tolerance=1e-6)
     diagonal = np.linalg.norm(np.ptp(rest_cage, axis=0))
     found = []
-    for moved in (gc.core.tools.compact.smooth_test_motion(local_cage),
-                  gc.core.tools.compact.vertex_drag_motion(local_cage, vertex)):
+    for moved in (gc.core.storage.deviations.smooth_test_motion(local_cage),
+                  gc.core.storage.deviations.vertex_drag_motion(local_cage, vertex)):
         write_positions(cage.data, moved)
         gap = evaluated_positions(obj) - (rest + exact @ (apply_matrix(to_mesh, moved) - rest_cage))
         found.append(np.linalg.norm(gap, axis=1).max() / diagonal)
@@ -137,7 +137,7 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     then deforms is within 1e-3 of the cage diagonal of exact mean value coordinates."""
     # The measuring path starts at 8 million coordinates (Suzanne with 4 subdivisions
     # in this cage): a smaller Suzanne takes it from 0 to keep the test fast.
-    monkeypatch.setattr(gc.core.tools.bind_plan, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(gc.core.planning.storage_choice, "EXACT_MAX_PRODUCT", 0)
     obj = add_subdivided_suzanne(2)  # 7958 vertices
     make_active(obj)
     with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
@@ -157,8 +157,8 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     assert smooth < 1e-3 and drag < 1e-3
     # A sample that promised too much (a wide margin here): measured on every vertex,
     # sparse storage (tried first: 4 pairs) misses, and Automatic binds exactly after all.
-    margin = gc.core.tools.bind_plan.AUTO_SAMPLE_MARGIN
-    monkeypatch.setattr(gc.core.tools.bind_plan, "AUTO_SAMPLE_MARGIN", 100.0)
+    margin = gc.core.planning.storage_choice.AUTO_SAMPLE_MARGIN
+    monkeypatch.setattr(gc.core.planning.storage_choice, "AUTO_SAMPLE_MARGIN", 100.0)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
     info = gc.binding.binding(obj).data
     assert info.storage == 'EXACT' and info.slot_count == cage_count
@@ -166,8 +166,8 @@ def test_automatic_storage_keeps_both_deviations_under_1e_3_in_a_make_cage_cage(
     assert info.storage_choice.endswith(" on the whole mesh)")
     # Exact storage over Automatic's memory cap: compact with half the cage's vertices
     # as slots, and the panel says it misses and what exact would take.
-    monkeypatch.setattr(gc.core.tools.bind_plan, "AUTO_SAMPLE_MARGIN", margin)
-    monkeypatch.setattr(gc.core.tools.bind_plan, "AUTO_EXACT_MAX_BYTES", 1_000_000)
+    monkeypatch.setattr(gc.core.planning.storage_choice, "AUTO_SAMPLE_MARGIN", margin)
+    monkeypatch.setattr(gc.core.planning.storage_choice, "AUTO_EXACT_MAX_BYTES", 1_000_000)
     assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
     info = gc.binding.binding(obj).data
     slots = 3 * (cage_count // 2 // 3)
@@ -194,7 +194,7 @@ def test_automatic_storage_chooses_compact_where_few_slots_suffice(gc, monkeypat
     """A regular cage well away from the mesh: Automatic picks compact with the slots it
     measured, the panel says so with the measured deviation, and Blender's deformation for
     the smooth motion and for the worst dragged cage vertex stays within it."""
-    monkeypatch.setattr(gc.core.tools.bind_plan, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(gc.core.planning.storage_choice, "EXACT_MAX_PRODUCT", 0)
     cage = add_icosphere_cage(radius=2.0, subdivisions=3)  # 162 vertices
     obj = add_subdivided_sphere(levels=1)
     obj.scale = (0.6, 0.6, 0.6)
@@ -465,11 +465,11 @@ def test_show_coordinate_paints_the_core_field(gc):
     colors = np.empty(len(obj.data.vertices) * 4, dtype=np.float32)
     attribute.data.foreach_get("color", colors)
     coordinates = gc.binding.binding(obj).coordinates(obj.data)
-    np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.tools.field_colors(coordinates[:, 3]))
-    assert gc.visualise.field_range(obj) == pytest.approx(gc.core.tools.field_range(coordinates[:, 3]))
+    np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.reports.field_colors(coordinates[:, 3]))
+    assert gc.visualise.field_range(obj) == pytest.approx(gc.core.reports.field_range(coordinates[:, 3]))
     obj.gencoords.field_vertex = 5  # repaints while shown
     attribute.data.foreach_get("color", colors)
-    np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.tools.field_colors(coordinates[:, 5]))
+    np.testing.assert_array_equal(colors.reshape(-1, 4), gc.core.reports.field_colors(coordinates[:, 5]))
     # The chosen cage vertex is marked, and the marker follows the cage.
     cage.location = (0.5, 0.0, 0.0)
     bpy.context.view_layer.update()
@@ -488,7 +488,7 @@ def test_status_reports_the_core_summary(gc):
     cage = add_icosphere_cage()
     obj = add_sphere()
     bind(obj, cage, kind="VORONOI")
-    summary = gc.core.tools.coordinate_summary(coordinates_of(gc, obj))
+    summary = gc.core.reports.coordinate_summary(coordinates_of(gc, obj))
     info = gc.binding.binding(obj).data
     assert info.min_coordinate == pytest.approx(summary["min"], abs=1e-6)
     text = "\n".join(line for line, _ in gc.status.status_lines(obj))
@@ -540,7 +540,7 @@ def test_a_failure_in_the_middle_of_the_compute_changes_nothing(gc, monkeypatch)
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
     before = mesh_state(obj)
-    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 3000)
+    monkeypatch.setattr(gc.core.planning.figures, "CHUNK_ENTRIES", 3000)
     calls = []
     original = gc.core.Cage.coordinates
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import self_intersection, tight_cage
+from gencoords.cages import self_intersection, tight_cage
 from fresh_process import PACKAGE
 from scene_helpers import evaluated_positions, read_positions, write_positions, write_shape_key
 from scripts.common import scenes

@@ -101,8 +101,8 @@ def test_esc_during_the_harmonic_solve_stops_it_and_changes_nothing(gc, monkeypa
 
     obj, cage = bound(gc)
     key, attributes = gc.binding.binding(obj).key, sorted(a.name for a in obj.data.attributes)
-    monkeypatch.setattr(gc.core.tools.bind_plan, "POLL_SECONDS", 0.005)
-    monkeypatch.setattr(gc.core.tools.bind_plan, "INLINE_FIELD_PAIRS", 0)  # this grid counts as long
+    monkeypatch.setattr(gc.core.planning.bind_plan, "POLL_SECONDS", 0.005)
+    monkeypatch.setattr(gc.core.planning.bind_plan, "INLINE_FIELD_PAIRS", 0)  # this grid counts as long
     obj.gencoords.kind, obj.gencoords.resolution = 'HARMONIC', 64
     running, context = modal_rebind(gc, obj, monkeypatch)
     progress = []

@@ -74,7 +74,7 @@ def test_bind_computes_in_chunks_and_a_cancel_changes_nothing(gc, monkeypatch, w
     obj = add_subdivided_sphere(levels=2)
     obj.gencoords.cage = cage
     before = mesh_state(obj)
-    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 3000)  # 250 points a chunk per worker
+    monkeypatch.setattr(gc.core.planning.figures, "CHUNK_ENTRIES", 3000)  # 250 points a chunk per worker
     workers_preference(workers)
     make_active(obj)
     job = gc.job.BindJob(obj, bpy.context)
@@ -99,7 +99,7 @@ def test_bind_in_worker_processes_stores_what_one_process_computes(gc, monkeypat
     # operators in 5.2 give no order guarantee).
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
-    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 5000)
+    monkeypatch.setattr(gc.core.planning.figures, "CHUNK_ENTRIES", 5000)
     workers_preference(1)
     bind(obj, cage)
     alone = coordinates_of(gc, obj)
@@ -119,7 +119,7 @@ def test_bind_under_windows_semantics_leaves_nothing_behind(gc, monkeypatch, tmp
     # memory (the paging file's, never a file), let go of it after every chunk of the Bind.
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
-    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 5000)
+    monkeypatch.setattr(gc.core.planning.figures, "CHUNK_ENTRIES", 5000)
     workers_preference(1)
     bind(obj, cage)
     alone = coordinates_of(gc, obj)
@@ -127,12 +127,12 @@ def test_bind_under_windows_semantics_leaves_nothing_behind(gc, monkeypatch, tmp
     monkeypatch.setattr(gc.core.evaluation.cage, "_PAIRS_PER_WORKER", 1)  # workers even for this small Bind
     monkeypatch.setattr(gc.core.evaluation.cage, "available_cores", lambda: 2)
     simulated_os.simulate(monkeypatch, "windows", tmp_path)
-    assert gc.core.evaluation.parallel._WINDOWS  # the extension's core takes its Windows branches
+    assert gc.core.evaluation.shared_memory._WINDOWS  # the extension's core takes its Windows branches
     assert bind(obj, cage) == {'FINISHED'}
     assert len(worker_processes.started) == 2
     np.testing.assert_allclose(coordinates_of(gc, obj), alone, rtol=0, atol=1e-6)
     garbage.collect()
-    assert not gc.core.evaluation.parallel.shared_files(os.getpid())
+    assert not gc.core.evaluation.shared_memory.shared_files(os.getpid())
     assert not simulated_os.tagged_memory(tmp_path)  # the Bind keeps no view of the shared memory
 
 
@@ -144,7 +144,7 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
     # console.
     cage = add_icosphere_cage()
     obj = add_subdivided_sphere(levels=2)
-    monkeypatch.setattr(gc.core.tools.bind_plan, "CHUNK_ENTRIES", 5000)
+    monkeypatch.setattr(gc.core.planning.figures, "CHUNK_ENTRIES", 5000)
     workers_preference(1)
     bind(obj, cage)
     alone = coordinates_of(gc, obj)
@@ -161,7 +161,7 @@ def test_bind_finishes_in_blender_when_workers_cannot_start(gc, monkeypatch, cap
     assert "No module named 'numpy'" in said  # the cause, in the console
     assert said.count("No module named 'numpy'") == 1  # one try: the rest of the Bind in Blender
     assert "Bound 'Mesh'" in said and "1: Compute in Blender" in said
-    assert not gc.core.evaluation.parallel.shared_files(os.getpid())
+    assert not gc.core.evaluation.shared_memory.shared_files(os.getpid())
 
 
 @pytest.mark.parametrize("shape", ["CONVEX", "TIGHT"])

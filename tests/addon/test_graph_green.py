@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.construction.green import green_displacements
-from gencoords.tools.compact import smooth_test_motion
+from gencoords.construction.green_deform import green_displacements
+from gencoords.storage.compact import smooth_test_motion
 from scene_helpers import (add_icosphere_cage, add_subdivided_sphere, evaluated_positions, read_positions,
                            write_positions)
 
@@ -139,7 +139,7 @@ def test_show_coordinate_paints_green_phi_and_a_second_cage_composes(gc):
     colors = np.empty(len(obj.data.vertices) * 4, dtype=np.float32)
     obj.data.color_attributes["GenCoords Field"].data.foreach_get("color", colors)
     phi, _ = gencoords.green_coordinates(rest, vertices, faces)
-    np.testing.assert_allclose(colors.reshape(-1, 4), gc.core.tools.field_colors(phi[:, 4]), atol=2e-3)
+    np.testing.assert_allclose(colors.reshape(-1, 4), gc.core.reports.field_colors(phi[:, 4]), atol=2e-3)
     # A second Green binding, to an outer cage, after the first: at rest both change nothing.
     second = add_icosphere_cage(subdivisions=2, radius=2.5, name="Outer")
     assert bind_green(obj, second) == {'FINISHED'}

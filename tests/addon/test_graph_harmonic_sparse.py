@@ -219,7 +219,7 @@ def test_sparse_storage_keeps_the_largest_pairs_and_translations_exact(gc, kind)
     write_positions(cage.data, cage_rest + np.float32(0.25))
     np.testing.assert_allclose(evaluated_positions(obj), rest + 0.25, atol=1e-6)
     # The deformation is the stored pairs' own, as the core computes them (placing each point).
-    sparse = gc.core.tools.sparse
+    sparse = gc.core.storage.sparse
     coordinates = gc.core.coordinates(rest.astype(np.float64), cage_rest.astype(np.float64),
                                       np.array([p.vertices[:] for p in cage.data.polygons]),
                                       kind=kind.lower(), workers=1)

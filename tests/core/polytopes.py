@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import settings
 from hypothesis import strategies as st
 
-from gencoords.tools.shapes import cross_polytope, icosphere, octahedron, regular_polygon
+from gencoords.cages.shapes import cross_polytope, icosphere, octahedron, regular_polygon
 from scripts.common.polytopes import convex_hull_facets, random_convex_polytope, random_interior_points
 
 SEEDS = st.integers(0, 2**32 - 1)

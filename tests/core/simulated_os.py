@@ -65,9 +65,9 @@ def tagged_memory(holds):
 def _take_the_windows_branches(patch):
     import subprocess
 
-    # The core's parallel module(s): imported as gencoords, or as the extension's core.
+    # The core's shared-memory module(s): imported as gencoords, or as the extension's core.
     for name, module in list(sys.modules.items()):
-        if name.endswith("evaluation.parallel") and hasattr(module, "_WINDOWS"):
+        if name.endswith("evaluation.shared_memory") and hasattr(module, "_WINDOWS"):
             patch.setattr(module, "_WINDOWS", True)
 
     class Popen(subprocess.Popen):

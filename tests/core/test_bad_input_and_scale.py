@@ -252,7 +252,7 @@ NAMED_AS = {"vertices": "vert", "faces": "face", "facets": "facet", "quads": "qu
 
 def test_every_public_function_checks_its_inputs():
     calls = good_calls()
-    apis = (gencoords, gencoords.advanced, gencoords.tools)  # the top level and the named sub-APIs
+    apis = (gencoords, *gencoords.SUB_APIS)  # the top level and the named sub-APIs
     public = [getattr(api, name) for api in apis for name in api.__all__ if callable(getattr(api, name))
               and not isinstance(getattr(api, name), type) and not inspect.ismodule(getattr(api, name))]
     by_name = {function.__name__: function for function in public}

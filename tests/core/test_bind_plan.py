@@ -1,4 +1,4 @@
-"""Bind planning without Blender (gencoords.tools.bind_plan): the storage chosen and why,
+"""Bind planning without Blender (gencoords.planning.bind_plan): the storage chosen and why,
 the deviations measured on what will be written, progress and cancel."""
 
 from dataclasses import replace
@@ -7,9 +7,12 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import bind_plan, compact, sparse
-from gencoords.tools.bind_plan import BindRequest, choose_storage, plan_bind
-from gencoords.tools.shapes import icosphere
+from gencoords.planning import bind_plan, figures, storage_choice
+from gencoords.storage import compact, deviations, pair_deviations, sparse, two_level
+from gencoords.planning.bind_plan import plan_bind
+from gencoords.planning.request import BindRequest
+from gencoords.planning.storage_choice import choose_storage
+from gencoords.cages.shapes import icosphere
 from polytopes import random_convex_polytope, random_interior_points
 
 
@@ -61,9 +64,9 @@ def test_compact_plan_measures_the_deviation_of_what_it_writes(irregular):
     exact = gencoords.coordinates(points, vertices, faces)
     basis = plan.basis.astype(np.float32).astype(np.float64)  # as the deformer reads it
     reproduced = plan.slots @ basis.T
-    smooth = compact.deviation(exact, plan.slots, basis, vertices, compact.smooth_test_motion(vertices))
+    smooth = deviations.deviation(exact, plan.slots, basis, vertices, deviations.smooth_test_motion(vertices))
     assert plan.deviation_smooth == pytest.approx(smooth, rel=1e-6)
-    drags = [compact.deviation(exact, plan.slots, basis, vertices, compact.vertex_drag_motion(vertices, j))
+    drags = [deviations.deviation(exact, plan.slots, basis, vertices, deviations.vertex_drag_motion(vertices, j))
              for j in range(len(vertices))]
     assert plan.deviation_drag == pytest.approx(max(drags), rel=1e-6)
     assert plan.deviation_drag_vertex == int(np.argmax(drags))
@@ -72,7 +75,7 @@ def test_compact_plan_measures_the_deviation_of_what_it_writes(irregular):
 
 
 def test_automatic_beyond_the_cheap_sizes_picks_the_fewest_slots_under_the_target(monkeypatch):
-    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(storage_choice, "EXACT_MAX_PRODUCT", 0)
     vertices, faces = icosphere(3)  # smooth: few slots reproduce the coordinates
     rng = np.random.default_rng(3)
     points = 0.6 * rng.uniform(-1.0, 1.0, (3000, 3)) / np.sqrt(3.0)
@@ -86,8 +89,8 @@ def test_automatic_beyond_the_cheap_sizes_picks_the_fewest_slots_under_the_targe
 
 def test_automatic_goes_exact_when_the_whole_mesh_misses_the_target(monkeypatch, irregular):
     vertices, faces, points = irregular
-    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
-    monkeypatch.setattr(bind_plan, "AUTO_SAMPLE_MARGIN", 1e4)  # the sample accepts too few slots
+    monkeypatch.setattr(storage_choice, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(storage_choice, "AUTO_SAMPLE_MARGIN", 1e4)  # the sample accepts too few slots
     _, plan = run(plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1)))
     assert plan.storage == 'EXACT' and plan.slot_count == len(vertices)
     # Sparse storage is tried first: its sample accepted 4 pairs.
@@ -97,7 +100,7 @@ def test_automatic_goes_exact_when_the_whole_mesh_misses_the_target(monkeypatch,
 
 def test_progress_rises_to_one_and_a_cancel_stops_the_plan(monkeypatch, irregular):
     vertices, faces, points = irregular
-    monkeypatch.setattr(bind_plan, "CHUNK_ENTRIES", 6000)  # 100 points a chunk
+    monkeypatch.setattr(figures, "CHUNK_ENTRIES", 6000)  # 100 points a chunk
     calls = []
     steps = plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1,
                                                            run=lambda compute, workers: calls.append(1)
@@ -124,7 +127,7 @@ def test_linear_precision_is_measured_on_the_stored_coordinates_and_refused_beyo
     request = BindRequest("power", gamma=-4.0, workers=1)
     _, plan = run(plan_bind(points, vertices, faces, request))
     assert plan.linear_precision == pytest.approx(
-        gencoords.tools.linear_precision(plan.slots, vertices, points), rel=1e-12)
+        gencoords.reports.linear_precision(plan.slots, vertices, points), rel=1e-12)
     assert 0.0 < plan.linear_precision < 1e-5  # float32 rounding alone
     monkeypatch.setattr(bind_plan, "LINEAR_PRECISION", plan.linear_precision / 2)
     with pytest.raises(bind_plan.ImpreciseCoordinatesError) as refused:
@@ -139,9 +142,9 @@ def test_sums_are_measured_as_stored_and_sparse_pairs_that_miss_1_are_refused():
     TRANSLATION_PRECISION. Exact storage refuses them for their placing; sparse storage
     keeping all 8 pairs checks no placing, but a translated cage would leave the point
     behind: refused too. Gamma -8 stores fine, its figure the float32 sums' own."""
-    vertices, quads = gencoords.tools.shapes.block_cage(np.ones((1, 1, 1), dtype=bool), size=4.0)
+    vertices, quads = gencoords.cages.shapes.block_cage(np.ones((1, 1, 1), dtype=bool), size=4.0)
     vertices = vertices - vertices.mean(axis=0)
-    faces = gencoords.tools.triangulate_quads(vertices, quads)
+    faces = gencoords.cages.triangulate_quads(vertices, quads)
     point = np.array([[0.8663953216799689, 0.5176191592443049, 0.5082488492236183]])
     request = BindRequest("power", gamma=-16.0, storage='SPARSE', sparse_size=8, workers=1)
     with pytest.raises(bind_plan.ImpreciseCoordinatesError) as refused:
@@ -162,9 +165,9 @@ def test_sizes_that_multiply_the_cages_rounding_into_a_jitter_are_refused_by_the
     origin that is 1e-5 of the cage's size; measured from 40 units away, 2e-4, over
     TRANSLATION_PRECISION: refused, as stored sums that pass. Gamma -8's sizes add up to
     4.5, a few roundings as any deformer's, and mean value's to 1: bound from anywhere."""
-    vertices, quads = gencoords.tools.shapes.block_cage(np.ones((1, 1, 1), dtype=bool), size=4.0)
+    vertices, quads = gencoords.cages.shapes.block_cage(np.ones((1, 1, 1), dtype=bool), size=4.0)
     vertices = vertices - vertices.mean(axis=0)
-    faces = gencoords.tools.triangulate_quads(vertices, quads)
+    faces = gencoords.cages.triangulate_quads(vertices, quads)
     point = np.array([[0.8763953216799689, 0.5176191592443049, 0.5082488492236183]])
     request = BindRequest("power", gamma=-16.0, storage='SPARSE', sparse_size=8, workers=1)
     _, plan = run(plan_bind(point, vertices, faces, request))
@@ -183,9 +186,9 @@ def test_sizes_that_multiply_the_cages_rounding_into_a_jitter_are_refused_by_the
         assert 0.99 < np.abs(plan.slots.astype(np.float64)).sum() <= bind_plan.ROUNDING_AMPLIFICATION
 
 def solved_counts(monkeypatch):
-    """The number of points of every ``_solve`` call of the plans that follow."""
-    counts, solve = [], bind_plan._solve
-    monkeypatch.setattr(bind_plan, "_solve", lambda request, cage, points, *args, **kwargs: counts.append(
+    """The number of points of every ``solve_points`` call of the plans that follow."""
+    counts, solve = [], figures.solve_points
+    monkeypatch.setattr(figures, "solve_points", lambda request, cage, points, *args, **kwargs: counts.append(
         len(points)) or solve(request, cage, points, *args, **kwargs))
     return counts
 
@@ -195,7 +198,7 @@ def test_automatic_estimates_on_a_few_points_and_measures_nothing_it_would_throw
     decides exact, the larger sample is never computed, and measuring it would have
     decided the same (deviations are maxima over points: the few bound the many)."""
     vertices, faces, points = irregular
-    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(storage_choice, "EXACT_MAX_PRODUCT", 0)
     monkeypatch.setattr(bind_plan, "ESTIMATE_SAMPLES", 100)
     counts = solved_counts(monkeypatch)
     _, plan = run(plan_bind(points, vertices, faces, BindRequest("mean_value", workers=1)))
@@ -209,14 +212,14 @@ def test_automatic_estimates_on_a_few_points_and_measures_nothing_it_would_throw
     # The estimate is a lower bound: compact with half the slots misses on the few points
     # by no more than on all of them.
     basis = compact.motion_basis(vertices, faces, 30)
-    few = compact.residual_deviations(exact[::9] - exact[::9] @ basis @ basis.T, vertices)
-    every = compact.residual_deviations(exact - exact @ basis @ basis.T, vertices)
+    few = deviations.residual_deviations(exact[::9] - exact[::9] @ basis @ basis.T, vertices)
+    every = deviations.residual_deviations(exact - exact @ basis @ basis.T, vertices)
     assert few[0] <= every[0] and few[1].max() <= every[1].max()
-    assert max(few[0], few[1].max()) >= bind_plan.AUTO_DEVIATION * bind_plan.AUTO_SAMPLE_MARGIN
+    assert max(few[0], few[1].max()) >= bind_plan.AUTO_DEVIATION * storage_choice.AUTO_SAMPLE_MARGIN
 
 
 def test_automatic_measures_where_the_estimate_allows_compact_and_bisects_to_the_fewest_slots(monkeypatch):
-    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
+    monkeypatch.setattr(storage_choice, "EXACT_MAX_PRODUCT", 0)
     vertices, faces = icosphere(3)  # smooth: few slots reproduce the coordinates
     rng = np.random.default_rng(3)
     points = 0.6 * rng.uniform(-1.0, 1.0, (3000, 3)) / np.sqrt(3.0)
@@ -230,13 +233,13 @@ def test_automatic_measures_where_the_estimate_allows_compact_and_bisects_to_the
     sizes = list(range(6, len(vertices) // 2 + 1, 3))
     basis = compact.motion_basis(vertices, faces, sizes[-1])
     fewest, _, _ = compact.smallest_size(exact, basis, vertices,
-                                         bind_plan.AUTO_DEVIATION * bind_plan.AUTO_SAMPLE_MARGIN, sizes)
+                                         bind_plan.AUTO_DEVIATION * storage_choice.AUTO_SAMPLE_MARGIN, sizes)
     assert plan.slot_count == fewest < len(vertices) // 2
 
 
 def test_automatic_picks_sparse_with_the_fewest_pairs_under_the_target(monkeypatch):
-    monkeypatch.setattr(bind_plan, "EXACT_MAX_PRODUCT", 0)
-    vertices, faces = gencoords.tools.shapes.octahedron((1.0, 1.2, 1.5))  # 6 vertices
+    monkeypatch.setattr(storage_choice, "EXACT_MAX_PRODUCT", 0)
+    vertices, faces = gencoords.cages.shapes.octahedron((1.0, 1.2, 1.5))  # 6 vertices
     points = random_interior_points(np.random.default_rng(6), vertices, 400)
     request = BindRequest("mean_value", compact_size=4, workers=1)
     _, plan = run(plan_bind(points, vertices, faces, request))
@@ -256,7 +259,7 @@ def test_sparse_plan_keeps_the_largest_pairs_and_measures_them(irregular):
     assert plan.storage == 'SPARSE' and plan.storage_choice == "Sparse: each vertex's 8 largest coordinates"
     np.testing.assert_array_equal(plan.indices, indices)
     np.testing.assert_array_equal(plan.slots, weights.astype(np.float32))
-    smooth, drag, vertex = sparse.deviations(exact, indices, weights.astype(np.float32), vertices)
+    smooth, drag, vertex = pair_deviations.deviations(exact, indices, weights.astype(np.float32), vertices)
     assert (plan.deviation_smooth, plan.deviation_drag) == pytest.approx((smooth, drag), rel=1e-9)
     assert plan.deviation_drag_vertex == vertex and drag > 1e-4  # 8 of 60: not exact, and said so
     assert bind_plan.plan_bytes(plan) == len(points) * 8 * 8
@@ -265,7 +268,7 @@ def test_sparse_plan_keeps_the_largest_pairs_and_measures_them(irregular):
 def test_harmonic_plans_two_levels_by_default_positive_and_local():
     from scripts.common import character
     cage_vertices, quads = character.character_cage()
-    triangles = gencoords.tools.triangulate_quads(cage_vertices, quads)
+    triangles = gencoords.cages.triangulate_quads(cage_vertices, quads)
     points, _, labels = character.body_mesh(0.2)
     request = BindRequest("harmonic", resolution=24, workers=1)
     fractions, plan = run(plan_bind(points, cage_vertices, triangles, request))
@@ -300,8 +303,8 @@ def test_automatic_keeps_every_pair_at_few_nodes_where_harmonic_coordinates_are_
     assert plan.storage == 'SPARSE' and plan.node_weights.shape[1] == len(vertices) == 162
     assert max(plan.deviation_smooth, plan.deviation_drag) < 1e-6
     vectors, per_column = -(-len(vertices) // 3), len(points) // plan.node_count  # three pairs a vector
-    assert plan.node_count < len(points) // 40 and -(-vectors // per_column) == 2 <= sparse.NODE_COLUMN_BUDGET
-    counts = sparse.automatic_node_slot_counts(len(points), plan.node_count, len(vertices))
+    assert plan.node_count < len(points) // 40 and -(-vectors // per_column) == 2 <= two_level.NODE_COLUMN_BUDGET
+    counts = two_level.automatic_node_slot_counts(len(points), plan.node_count, len(vertices))
     assert counts[-2] < 162 == counts[-1]  # tried first, the fewer pairs missed the target
 
 

@@ -162,8 +162,8 @@ def test_a_point_on_a_facets_plane_leaves_the_other_rows_of_its_chunk_as_they_ar
     as computed without it (a row depends only on its point)."""
     occupied = np.zeros((2, 2, 1), dtype=bool)
     occupied[0, 0] = occupied[1, 0] = occupied[0, 1] = True  # an L of three cubes
-    vertices, quads = gencoords.tools.shapes.block_cage(occupied)
-    faces = gencoords.tools.triangulate_quads(vertices, quads)
+    vertices, quads = gencoords.cages.shapes.block_cage(occupied)
+    faces = gencoords.cages.triangulate_quads(vertices, quads)
     on_plane = np.array([[0.5, 1.0, 0.5]])  # on y = 1, the plane of the inner corner's facet
     others = np.array([[0.3, 0.4, 0.6], [1.5, 0.5, 0.5], [0.5, 1.5, 0.2]])
     alone = gencoords.coordinates(others, vertices, faces, kind="mean_value", workers=1)
@@ -245,10 +245,10 @@ def test_beyond_a_sharp_vertex_within_tolerance_of_its_planes_is_still_outside(k
 def test_points_looked_up_on_the_grid_are_inside_where_their_winding_number_says(resolution):
     from gencoords.construction import boundary
     from gencoords.construction.validation import validate_cage
-    from gencoords.tools.shapes import block_cage, t_pose_blocks
+    from gencoords.cages.shapes import block_cage, t_pose_blocks
 
     vertices, quads = block_cage(t_pose_blocks())  # non-convex: arms, legs, gaps between them
-    cage = validate_cage(vertices, gencoords.tools.triangulate_quads(vertices, quads), convex=False)
+    cage = validate_cage(vertices, gencoords.cages.triangulate_quads(vertices, quads), convex=False)
     rng = np.random.default_rng(7)
     low, high = vertices.min(axis=0) - 0.5, vertices.max(axis=0) + 0.5
     points = np.vstack([rng.uniform(low, high, (4000, 3)),  # and points on the faces' planes:

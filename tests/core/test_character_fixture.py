@@ -11,7 +11,7 @@ from scripts.common import character
 
 def _triangles():
     vertices, quads = character.character_cage()
-    return vertices, gencoords.tools.triangulate_quads(vertices, quads)
+    return vertices, gencoords.cages.triangulate_quads(vertices, quads)
 
 
 def test_cage_is_closed_manifold_and_outward():

@@ -7,10 +7,10 @@ import pytest
 import gencoords
 from gencoords.base.errors import CageError, OutsideCageError
 from gencoords import green_coordinates, green_deform
-from gencoords.construction.green import (GreenOutsideError, green_chunk_size, green_rows,
-                        green_terms, stretch_factors)
+from gencoords.construction.green import GreenOutsideError, green_chunk_size, green_rows, green_terms
+from gencoords.construction.green_deform import stretch_factors
 from gencoords.base.orientation import orient_facets_outward
-from gencoords.tools.shapes import irregular_octahedron
+from gencoords.cages.shapes import irregular_octahedron
 from gencoords.construction.validation import validate_cage
 from polytopes import dented_icosphere, icosphere
 

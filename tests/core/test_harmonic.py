@@ -8,8 +8,8 @@ from gencoords.harmonic.boundary_values import nearest_boundary_points
 from gencoords.harmonic import elimination
 from gencoords.harmonic.multigrid import build_levels, solve
 from gencoords.harmonic.solve import NEAREST_CROSSING, solve_nodes
-from gencoords.tools.shapes import block_cage, t_pose_blocks
-from gencoords.tools.skinning import reproduce_points, top_k, truncate
+from gencoords.cages.shapes import block_cage, t_pose_blocks
+from gencoords.skinning.skinning import reproduce_points, top_k, truncate
 
 TETRAHEDRON = (np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
                np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]))
@@ -17,7 +17,7 @@ TETRAHEDRON = (np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0
 
 def cage_of(occupied):
     vertices, quads = block_cage(occupied)
-    return vertices, gencoords.tools.triangulate_quads(vertices, quads)
+    return vertices, gencoords.cages.triangulate_quads(vertices, quads)
 
 
 def points_in(occupied, count, seed=0, depth=0.0):
@@ -168,7 +168,7 @@ def t_pose_system(resolution):
         return solve_nodes(inside, rhs, cage, *args, **kwargs)
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(gencoords.harmonic.field, "solve_nodes", spy)
+        patch.setattr(gencoords.harmonic.grid_field, "solve_nodes", spy)
         gencoords.harmonic_field(vertices, triangles, resolution=resolution)
     return captured["inside"], captured["rhs"], captured["cage"]
 
@@ -326,7 +326,7 @@ def test_workers_give_what_one_process_gives():
 def test_on_the_artists_character_a_hand_moves_nothing_elsewhere_and_sparse_weights_are_exact():
     from scripts.common.character import body_points, cage_limb_vertices, character_cage, limb_labels
     vertices, quads = character_cage()
-    triangles = gencoords.tools.triangulate_quads(vertices, quads)
+    triangles = gencoords.cages.triangulate_quads(vertices, quads)
     points = body_points(3000, seed=1)
     coordinates = gencoords.harmonic_coordinates(points, vertices, triangles, resolution=48)
     assert coordinates.min() >= 0.0
@@ -380,7 +380,7 @@ def test_the_nearest_exact_node_search_finds_what_a_search_of_every_node_finds()
     from gencoords.base.grid import node_positions
     from gencoords.harmonic.field import _nearest_exact_nodes
 
-    vertices, faces = gencoords.tools.shapes.octahedron()  # convex: many nodes outside, not exact
+    vertices, faces = gencoords.cages.shapes.octahedron()  # convex: many nodes outside, not exact
     field = gencoords.harmonic_field(vertices, faces, resolution=16)
     grid, frame = field._grid, field._prepared
     exact_indices = field.node_indices[field.node_exact]

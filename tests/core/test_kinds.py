@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools.shapes import icosphere
+from gencoords.cages.shapes import icosphere
 
 
 def test_the_table_is_the_list_of_kinds():

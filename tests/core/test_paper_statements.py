@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given
 
 import gencoords
-from gencoords.tools.shapes import cross_polytope, icosphere, irregular_octahedron, octahedron
+from gencoords.cages.shapes import cross_polytope, icosphere, irregular_octahedron, octahedron
 from polytopes import (EXAMPLES, SEEDS, SHAPES, convex_hull_facets, homogeneity_residual, polytope_and_points,
                        random_convex_polytope, random_interior_points, regular_polygon)
 
@@ -129,14 +129,14 @@ def test_proposition_7_wachspress_equals_voronoi_exactly_when_the_vertices_are_c
 def test_figures_9_to_11_wachspress_and_mean_value_are_positive(dim, kind):
     for seed in range(3):
         _, vertices, faces, _ = polytope(dim, seed=seed)
-        assert gencoords.tools.coordinate_report(vertices, faces, kind, samples=600).positive
+        assert gencoords.reports.coordinate_report(vertices, faces, kind, samples=600).positive
 
 
 def test_figure_9_discrete_harmonic_is_negative_somewhere_in_a_regular_octahedron():
     vertices, faces = octahedron()
-    report = gencoords.tools.coordinate_report(vertices, faces, "discrete_harmonic", samples=600)
+    report = gencoords.reports.coordinate_report(vertices, faces, "discrete_harmonic", samples=600)
     assert not report.positive and report.smallest < -1e-3
-    assert gencoords.tools.coordinate_report(vertices, faces, "mean_value", samples=600).positive
+    assert gencoords.reports.coordinate_report(vertices, faces, "mean_value", samples=600).positive
 
 
 @pytest.mark.parametrize("shape", ["octahedron", "icosahedron", "icosphere", "16-cell"])
@@ -163,9 +163,9 @@ def test_figure_11_voronoi_goes_negative_in_this_convex_polyhedron():
                          [-2.048, 0.301, -3.077], [-1.956, 1.777, -1.014], [-0.797, 1.233, -0.319],
                          [-2.318, 0.266, -2.982]])
     faces = convex_hull_facets(vertices)
-    voronoi = gencoords.tools.coordinate_report(vertices, faces, "voronoi", samples=800)
+    voronoi = gencoords.reports.coordinate_report(vertices, faces, "voronoi", samples=800)
     assert voronoi.smallest < -0.02
-    assert gencoords.tools.coordinate_report(vertices, faces, "wachspress", samples=800).positive
+    assert gencoords.reports.coordinate_report(vertices, faces, "wachspress", samples=800).positive
 
 
 def test_regular_polygons_are_handled_like_the_paper_figures():

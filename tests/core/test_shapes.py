@@ -1,9 +1,9 @@
-"""gencoords.tools.shapes: the example cages are valid, outward-oriented convex cages."""
+"""gencoords.cages.shapes: the example cages are valid, outward-oriented convex cages."""
 
 import numpy as np
 
 import gencoords
-from gencoords.tools.shapes import irregular_octahedron, octahedron
+from gencoords.cages.shapes import irregular_octahedron, octahedron
 
 
 def test_irregular_octahedron_is_a_valid_convex_cage_with_no_circumsphere():

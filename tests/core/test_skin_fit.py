@@ -1,10 +1,11 @@
-"""Fitting a linear blend skin (gencoords.tools.skin_fit): what Bake to Bones (Fitted) writes."""
+"""Fitting a linear blend skin (gencoords.skinning.skin_fit): what Bake to Bones (Fitted) writes."""
 
 import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import shapes, skin_fit
+from gencoords.cages import shapes
+from gencoords.skinning import skin_fit
 
 
 def rotation(axis, angle):

@@ -1,10 +1,11 @@
-"""Skinning weights from coordinates (gencoords.tools.skinning): what Bake to Bones writes."""
+"""Skinning weights from coordinates (gencoords.skinning.skinning): what Bake to Bones writes."""
 
 import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import compact, skinning
+from gencoords.skinning import skinning
+from gencoords.storage import deviations
 from polytopes import random_convex_polytope, random_interior_points
 
 
@@ -19,7 +20,7 @@ def cage():
 def test_all_weights_on_the_bind_time_cage_skin_exactly(cage):
     vertices, faces, points = cage
     coordinates = gencoords.coordinates(points, vertices, faces, kind="mean_value")
-    moved = compact.smooth_test_motion(vertices)
+    moved = deviations.smooth_test_motion(vertices)
     assert skinning.deviation(coordinates, vertices, coordinates, vertices, moved) < 1e-12
     np.testing.assert_allclose(points + skinning.skin(coordinates, vertices, moved),
                                coordinates @ moved, atol=1e-12)
@@ -29,7 +30,7 @@ def test_bones_resting_elsewhere_than_the_bind_time_cage_deviate(cage):
     """Issue 19 item 1: bones on the cage as it is now, not as it was at Bind."""
     vertices, faces, points = cage
     coordinates = gencoords.coordinates(points, vertices, faces, kind="mean_value")
-    edited = compact.smooth_test_motion(vertices)
+    edited = deviations.smooth_test_motion(vertices)
     moved = edited + 0.1
     assert skinning.deviation(coordinates, vertices, coordinates, edited, moved) > 0.05
 
@@ -44,9 +45,9 @@ def test_truncation_keeps_the_largest_weights_renormalised(cage):
     kept = np.sort(np.argsort(-weights, axis=1)[:, :4], axis=1)
     np.testing.assert_array_equal(kept, largest)
     np.testing.assert_array_equal(skinning.truncate(coordinates, 0), coordinates)
-    moved = compact.smooth_test_motion(vertices)
+    moved = deviations.smooth_test_motion(vertices)
     assert skinning.deviation(coordinates, vertices, weights, vertices, moved) == pytest.approx(
-        compact.deviation(coordinates, weights, np.eye(len(vertices)), vertices, moved))
+        deviations.deviation(coordinates, weights, np.eye(len(vertices)), vertices, moved))
 
 
 def test_negative_weights_are_counted_beyond_the_tolerance():

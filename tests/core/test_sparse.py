@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import compact, sparse
+from gencoords.storage import deviations, pair_deviations, sparse, two_level
 from polytopes import random_convex_polytope, random_interior_points
 
 
@@ -46,8 +46,8 @@ def test_deviations_fall_with_count_and_match_moving_the_cage(cage_and_coordinat
         assert found is None  # nothing is under a target of 0
         indices, weights = sparse.placed_pairs(coordinates, count, vertices)
         stored = sparse.dense_weights(indices, weights.astype(np.float32), len(vertices))
-        moved = compact.smooth_test_motion(vertices)
-        direct = compact.deviation(coordinates, stored, np.eye(len(vertices)), vertices, moved)
+        moved = deviations.smooth_test_motion(vertices)
+        direct = deviations.deviation(coordinates, stored, np.eye(len(vertices)), vertices, moved)
         assert smooth == pytest.approx(direct, rel=1e-9, abs=1e-15)
         drags.append(drag)
     assert drags == sorted(drags, reverse=True)
@@ -63,15 +63,15 @@ def test_two_level_residual_is_the_interpolated_node_residual(cage_and_coordinat
     rng = np.random.default_rng(5)
     corners = rng.integers(0, len(node_coordinates), (50, 4))
     corner_weights = rng.dirichlet(np.ones(4), 50)
-    points = sparse.interpolated(node_coordinates, corners, corner_weights)
+    points = pair_deviations.interpolated(node_coordinates, corners, corner_weights)
     np.testing.assert_allclose(points.sum(axis=1), 1.0, atol=1e-12)
     for count in (4, 12):
         _, smooth, drag = sparse.fewest_slots(node_coordinates, vertices, 0.0, counts=(count,),
                                              interpolation=(corners, corner_weights))
         indices, weights = sparse.placed_pairs(node_coordinates, count, vertices)
         stored = sparse.dense_weights(indices, weights.astype(np.float32), len(vertices))
-        residual = points - sparse.interpolated(stored, corners, corner_weights)
-        expected_smooth, expected_drag = compact.residual_deviations(residual, vertices)
+        residual = points - pair_deviations.interpolated(stored, corners, corner_weights)
+        expected_smooth, expected_drag = deviations.residual_deviations(residual, vertices)
         assert smooth == pytest.approx(expected_smooth, rel=1e-9)
         assert drag == pytest.approx(expected_drag.max(), rel=1e-9)
 
@@ -91,7 +91,7 @@ def test_stacked_columns_put_every_slot_where_the_deformer_reads_it():
 
 def test_used_nodes_renumber_the_corners():
     corners = np.random.default_rng(4).integers(0, 50, (20, 4))
-    used, local = sparse.used_nodes(corners)
+    used, local = two_level.used_nodes(corners)
     np.testing.assert_array_equal(used[local], corners)
     assert len(used) == len(np.unique(corners))
 
@@ -99,17 +99,17 @@ def test_used_nodes_renumber_the_corners():
 def test_two_level_layout_meets_the_target_with_the_fewest_node_pairs(cage_and_coordinates):
     vertices, _, node_coordinates = cage_and_coordinates  # 300 "grid nodes"
     rng = np.random.default_rng(8)
-    used, corners = sparse.used_nodes(rng.integers(0, 200, (500, 4)))  # the last 100 nodes unused
+    used, corners = two_level.used_nodes(rng.integers(0, 200, (500, 4)))  # the last 100 nodes unused
     kept = node_coordinates[used]
     corner_weights = rng.dirichlet(np.ones(4), 500)
-    layout = sparse.two_level_layout(kept, corners, corner_weights, vertices, 1e-3, counts=(4, 8, 16, 32, 40))
+    layout = two_level.two_level_layout(kept, corners, corner_weights, vertices, 1e-3, counts=(4, 8, 16, 32, 40))
     assert layout.node_count == len(used) <= 200
     np.testing.assert_array_equal(layout.corners, corners)
     assert max(layout.deviation_smooth, layout.deviation_drag) < 1e-3 and layout.reason is None
     fewer = (4, 8, 16, 32, 40)[(4, 8, 16, 32, 40).index(layout.node_slot_count) - 1]
-    missed = sparse.deviations(kept, *sparse.placed_pairs(kept, fewer, vertices), vertices,
+    missed = pair_deviations.deviations(kept, *sparse.placed_pairs(kept, fewer, vertices), vertices,
                                (layout.corners, layout.corner_weights))
-    assert max(missed[:2]) >= 1e-3 * sparse.SAMPLE_MARGIN  # one count fewer misses
+    assert max(missed[:2]) >= 1e-3 * two_level.SAMPLE_MARGIN  # one count fewer misses
     assert (layout.node_weights >= 0).all()  # non-negative coordinates stay so
     np.testing.assert_allclose(layout.node_weights.sum(axis=1), 1.0, atol=1e-6)
     # Each node's pairs place it where its coordinates do (float32 weights).
@@ -169,8 +169,8 @@ def test_stacked_columns_of_triples_unstack_to_the_same_values():
 
 @pytest.mark.parametrize("point_count,node_count", [(43236, 5524), (1000, 999), (500, 20)])
 def test_filled_node_slot_counts_take_no_more_columns_than_the_counts_asked(point_count, node_count):
-    asked = sparse.NODE_SLOT_COUNTS
-    filled = sparse.filled_node_slot_counts(asked, point_count, node_count, 196)
+    asked = two_level.NODE_SLOT_COUNTS
+    filled = two_level.filled_node_slot_counts(asked, point_count, node_count, 196)
     assert list(filled) == sorted(set(filled)) and filled[-1] <= 196
 
     def columns(count):  # as the deformer stores them: three to a vector, stacked

@@ -1,4 +1,4 @@
-"""gencoords.tools.coordinate_summary's counts and gencoords.deform's output buffer."""
+"""gencoords.reports.coordinate_summary's counts and gencoords.deform's output buffer."""
 
 import numpy as np
 import pytest
@@ -11,14 +11,14 @@ def test_coordinate_summary_counts_points_with_a_coordinate_below_minus_the_thre
     threshold = gencoords.base.tolerances.NEGATIVE
     rows = np.array([[0.5, 0.5, 0.0], [1.0 + threshold / 2, -threshold / 2, 0.0],
                      [1.5, -2 * threshold, -0.5 + 2 * threshold], [1.2, -0.1, -0.1], [0.2, 0.3, 0.5]])
-    summary = gencoords.tools.coordinate_summary(rows)
+    summary = gencoords.reports.coordinate_summary(rows)
     assert summary["negative_points"] == 2  # rows 2 and 3; rounding noise of row 1 is not
     assert summary["negative_entries"] == 4  # (2, 1), (2, 2), (3, 1), (3, 2)
     assert summary["min"] == pytest.approx(-0.5 + 2 * threshold)
     assert summary["max_affine_error"] == pytest.approx(0.0, abs=1e-15)
     assert summary["nbytes"] == rows.nbytes
-    assert gencoords.tools.coordinate_summary(np.zeros((0, 3)))["negative_points"] == 0
-    assert gencoords.tools.coordinate_summary(np.zeros((0, 3)))["negative_entries"] == 0
+    assert gencoords.reports.coordinate_summary(np.zeros((0, 3)))["negative_points"] == 0
+    assert gencoords.reports.coordinate_summary(np.zeros((0, 3)))["negative_entries"] == 0
 
 
 @pytest.mark.parametrize("coordinate_dtype,out_dtype", [(np.float64, np.float64), (np.float64, np.float32),
@@ -42,23 +42,23 @@ def test_linear_precision_is_zero_for_exact_coordinates_and_finds_float32_losses
     vertices, faces = octahedron()
     points = random_interior_points(np.random.default_rng(2), vertices, 50)
     coordinates = gencoords.coordinates(points, vertices, faces)
-    assert gencoords.tools.linear_precision(coordinates, vertices, points) < 1e-14
-    assert gencoords.tools.linear_precision(coordinates, vertices, points + [0.0, 0.0, 0.1]) == \
+    assert gencoords.reports.linear_precision(coordinates, vertices, points) < 1e-14
+    assert gencoords.reports.linear_precision(coordinates, vertices, points + [0.0, 0.0, 0.1]) == \
         pytest.approx(0.1 / np.linalg.norm(np.ptp(vertices, axis=0)))
     cube = np.array([[x, y, z] for x in (-2, 2) for y in (-2, 2) for z in (-2, 2)], dtype=np.float64)
     quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
-    triangles = gencoords.tools.orient_facets_outward(cube, gencoords.tools.triangulate_quads(cube, quads))
+    triangles = gencoords.cages.orient_facets_outward(cube, gencoords.cages.triangulate_quads(cube, quads))
     spot = np.array([[-0.64592897, -0.72009573, -0.31435936]])
     limit = gencoords.base.tolerances.LINEAR_PRECISION
     for gamma, fails in ((-16.0, True), (-1.0, False)):
         stored = gencoords.coordinates(spot, cube, triangles, kind="power", gamma=gamma).astype(np.float32)
-        assert (gencoords.tools.linear_precision(stored, cube, spot) > limit) == fails
+        assert (gencoords.reports.linear_precision(stored, cube, spot) > limit) == fails
 
 
 def test_linear_precision_does_not_depend_on_where_the_cage_is():
     vertices, faces = octahedron()
     points = random_interior_points(np.random.default_rng(3), vertices, 20)
     stored = gencoords.coordinates(points, vertices, faces).astype(np.float32)
-    near = gencoords.tools.linear_precision(stored, vertices, points)
-    far = gencoords.tools.linear_precision(stored, vertices * 1e-6 + 1000.0, points * 1e-6 + 1000.0)
+    near = gencoords.reports.linear_precision(stored, vertices, points)
+    far = gencoords.reports.linear_precision(stored, vertices * 1e-6 + 1000.0, points * 1e-6 + 1000.0)
     assert near < 1e-6 and far < 1e-6  # about the origin, float32 rounding of sums ~ 1 would give 50

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import self_intersection, tight_cage, volumes
-from gencoords.tools.shapes import icosphere, octahedron
+from gencoords.cages import self_intersection, tight_cage, volumes
+from gencoords.cages.shapes import icosphere, octahedron
 from scripts.common import character
 
 FLAT = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]]
@@ -85,7 +85,7 @@ def test_closed_meshes_do_not_cross_themselves_and_two_overlapping_ones_do():
 
 def _character_cage():
     vertices, quads = character.character_cage()
-    return vertices, gencoords.tools.triangulate_quads(vertices, quads)
+    return vertices, gencoords.cages.triangulate_quads(vertices, quads)
 
 
 def _box(low, high):
@@ -93,7 +93,7 @@ def _box(low, high):
     corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
     vertices = np.asarray(low) + corners * (np.asarray(high) - np.asarray(low))
     quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
-    return vertices, gencoords.tools.triangulate_quads(vertices, quads)
+    return vertices, gencoords.cages.triangulate_quads(vertices, quads)
 
 
 def test_volumes_of_boxes_overlapping_and_apart():
@@ -178,7 +178,7 @@ def test_a_quad_cage_is_pushed_out_and_checked_as_its_quads_are_split():
                                                stored_as=np.float32, quads=quads)
     assert pushes >= 1 and np.array_equal(fitted, fitted.astype(np.float32))
     split = tight_cage.cage_triangles(fitted, no_triangles, quads)
-    np.testing.assert_array_equal(split, gencoords.tools.triangulate_quads(fitted, quads))
+    np.testing.assert_array_equal(split, gencoords.cages.triangulate_quads(fitted, quads))
     assert (gencoords.point_locations(points, fitted, split, 1e-6) == gencoords.INSIDE).all()
 
 

@@ -107,8 +107,8 @@ def test_non_finite_vertex_and_points():
 
 def test_unknown_kind_and_outside_mode():
     vertices, faces = octahedron()
-    with pytest.raises(ValueError, match="kind"):
-        gencoords.coordinates([[0, 0, 0]], vertices, faces, kind="harmonic")
+    with pytest.raises(ValueError, match="kind"):  # "harmonic" is a kind now (test_harmonic_kind.py)
+        gencoords.coordinates([[0, 0, 0]], vertices, faces, kind="harmonics")
     with pytest.raises(ValueError, match="outside"):
         gencoords.coordinates([[0, 0, 0]], vertices, faces, outside="clamp")
 
@@ -128,7 +128,7 @@ def test_quads_of_a_cube_with_a_dragged_corner_split_into_a_convex_cage(corner):
     cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
     quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
     cube[corner] += 0.3 * (cube[corner] - 0.5)  # outward: the three quads at it bend
-    triangles = gencoords.tools.triangulate_quads(cube, quads)
+    triangles = gencoords.cages.triangulate_quads(cube, quads)
     gencoords.advanced.validate_cage(cube, triangles)  # convex
     # Each quad's other diagonal folds the bent quads inward: then it is not convex.
     pairs = triangles.reshape(-1, 2, 3)
@@ -173,7 +173,7 @@ def test_facets_of_a_hull_in_any_order_are_oriented_outward(dim, count):
     scrambled = np.array([rng.permutation(face) for face in faces])
     with pytest.raises(gencoords.CageError):
         gencoords.advanced.validate_cage(vertices, scrambled)
-    oriented = gencoords.tools.orient_facets_outward(vertices, scrambled)
+    oriented = gencoords.cages.orient_facets_outward(vertices, scrambled)
     gencoords.advanced.validate_cage(vertices, oriented)
     np.testing.assert_array_equal(np.sort(oriented, axis=1), np.sort(scrambled, axis=1))
 
@@ -238,7 +238,7 @@ def test_concave_facets_are_the_triangles_around_a_dented_corner():
     triangles flagged are exactly those touching it; a convex cube has none."""
     cube = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
     quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
-    triangles = gencoords.tools.orient_facets_outward(cube, gencoords.tools.triangulate_quads(cube, quads))
+    triangles = gencoords.cages.orient_facets_outward(cube, gencoords.cages.triangulate_quads(cube, quads))
     assert gencoords.advanced.concave_facets(cube, triangles).tolist() == []
     dented = cube.copy()
     dented[0] *= 0.2

@@ -9,13 +9,15 @@ import pytest
 import gencoords
 import gencoords.evaluation.rows
 import gencoords.evaluation.parallel
+import gencoords.evaluation.interpreters
+import gencoords.evaluation.shared_memory
 import simulated_os
 from polytopes import icosphere, random_convex_polytope, random_interior_points
 
 
 def shared_files():
     """This process's shared files (other processes' runs may have theirs)."""
-    return set(gencoords.evaluation.parallel.shared_files(os.getpid()))
+    return set(gencoords.evaluation.shared_memory.shared_files(os.getpid()))
 
 
 @pytest.fixture
@@ -155,7 +157,7 @@ def test_workers_start_the_prefix_python_when_sys_executable_is_not_one(monkeypa
     vertices, faces, points = mixed_points
     expected = gencoords.coordinates(points, vertices, faces, outside="project", workers=1)
     monkeypatch.setattr(sys, "executable", executable)
-    assert os.path.basename(gencoords.evaluation.parallel.python_executable()).startswith("python")
+    assert os.path.basename(gencoords.evaluation.interpreters.python_executable()).startswith("python")
     np.testing.assert_array_equal(gencoords.coordinates(points, vertices, faces, outside="project", workers=2),
                                   expected)
 
@@ -176,7 +178,7 @@ def test_dispatch_units_cover_the_rows_in_whole_chunks_and_shrink_towards_the_en
 
 
 def test_writers_reserve_their_rows_in_shared_memory(mixed_points, small_chunks):
-    shared = gencoords.evaluation.parallel.SharedArrays({"points": ((10, 3), np.float64), "result": ((10, 4), np.float32)},
+    shared = gencoords.evaluation.shared_memory.SharedArrays({"points": ((10, 3), np.float64), "result": ((10, 4), np.float32)},
                                         reserved_by_writers=("result",))
     try:
         if not shared.path.startswith("/dev/shm"):
@@ -184,12 +186,12 @@ def test_writers_reserve_their_rows_in_shared_memory(mixed_points, small_chunks)
         assert shared.reserved_by_writers == ("result",)
         # Only the points are reserved up front: the result's blocks come with its writers.
         assert os.stat(shared.path).st_blocks * 512 < shared.layout["result"][0] + 4096
-        views, descriptor = gencoords.evaluation.parallel.attach(shared.address, shared.layout)
-        gencoords.evaluation.parallel.reserve_rows(descriptor, shared.layout, ("result",), 0, 10)
+        views, descriptor = gencoords.evaluation.shared_memory.attach(shared.address, shared.layout)
+        gencoords.evaluation.shared_memory.reserve_rows(descriptor, shared.layout, ("result",), 0, 10)
         assert os.stat(shared.path).st_blocks * 512 >= shared.layout["result"][0] + 10 * 4 * 4
         read_only = os.open(shared.path, os.O_RDONLY)
         with pytest.raises(gencoords.WorkerError, match="could not reserve shared memory"):
-            gencoords.evaluation.parallel.reserve_rows(read_only, shared.layout, ("result",), 0, 10)
+            gencoords.evaluation.shared_memory.reserve_rows(read_only, shared.layout, ("result",), 0, 10)
         os.close(read_only)
         os.close(descriptor)
     finally:
@@ -199,8 +201,8 @@ def test_writers_reserve_their_rows_in_shared_memory(mixed_points, small_chunks)
 def test_without_room_in_dev_shm_the_temporary_folder_serves(monkeypatch, mixed_points, small_chunks):
     # A container's 64 MB /dev/shm: the file goes to the temporary folder, reserved whole.
     vertices, faces, points = mixed_points
-    monkeypatch.setattr(gencoords.evaluation.parallel, "_free_bytes", lambda folder: 0 if folder == "/dev/shm" else 1 << 40)
-    shared = gencoords.evaluation.parallel.SharedArrays({"result": ((10, 4), np.float64)}, reserved_by_writers=("result",))
+    monkeypatch.setattr(gencoords.evaluation.shared_memory, "_free_bytes", lambda folder: 0 if folder == "/dev/shm" else 1 << 40)
+    shared = gencoords.evaluation.shared_memory.SharedArrays({"result": ((10, 4), np.float64)}, reserved_by_writers=("result",))
     assert shared.path.startswith(tempfile.gettempdir()) and shared.reserved_by_writers == ()
     shared.remove()
     before = shared_files()

@@ -15,14 +15,15 @@ import pytest
 import gencoords
 import gencoords.evaluation.cage
 import gencoords.evaluation.rows
-import gencoords.evaluation.parallel
+import gencoords.evaluation.interpreters
+import gencoords.evaluation.shared_memory
 import simulated_os
 from polytopes import random_convex_polytope, random_interior_points
 
 
 def shared_files():
     """This process's shared files (other processes' runs may have theirs)."""
-    return set(gencoords.evaluation.parallel.shared_files(os.getpid()))
+    return set(gencoords.evaluation.shared_memory.shared_files(os.getpid()))
 
 
 @pytest.fixture
@@ -50,7 +51,7 @@ def automatic_two(monkeypatch):
 def test_the_simulation_refuses_what_windows_refuses(monkeypatch, tmp_path):
     simulated_os.simulate(monkeypatch, "windows", tmp_path)
     assert not hasattr(os, "posix_fallocate") and not hasattr(os, "statvfs")
-    assert gencoords.evaluation.parallel.available_cores() == os.cpu_count()  # no sched_getaffinity
+    assert gencoords.evaluation.interpreters.available_cores() == os.cpu_count()  # no sched_getaffinity
     stale = os.path.join(tempfile.gettempdir(), f"gencoords-{os.getpid()}-old.shared")
     descriptor = os.open(stale, os.O_CREAT | os.O_RDWR)
     with pytest.raises(PermissionError):
@@ -58,10 +59,10 @@ def test_the_simulation_refuses_what_windows_refuses(monkeypatch, tmp_path):
     os.close(descriptor)
     os.unlink(stale)
     # Tagged memory: nothing in the temporary folder; freed when the last view goes.
-    shared = gencoords.evaluation.parallel.SharedArrays({"result": ((10, 4), np.float64)})
+    shared = gencoords.evaluation.shared_memory.SharedArrays({"result": ((10, 4), np.float64)})
     assert shared.path is None and shared.address[0] == "tagname"
     assert simulated_os.tagged_memory(tmp_path) == [shared.address[1]]
-    views = gencoords.evaluation.parallel.attach(shared.address, shared.layout)[0]  # as a worker
+    views = gencoords.evaluation.shared_memory.attach(shared.address, shared.layout)[0]  # as a worker
     views["result"][...] = 7.0
     assert (shared.arrays["result"] == 7.0).all()
     shared.remove()
@@ -134,10 +135,10 @@ def test_space_is_reserved_before_the_workers_write(system):
     # No posix_fallocate: a sparse file would kill the writers with SIGBUS on a full disk
     # (Windows commits the whole tagged memory when it is made).
     specs = {"points": ((1000, 3), np.float64), "result": ((1000, 40), np.float32)}
-    shared = gencoords.evaluation.parallel.SharedArrays(specs, reserved_by_writers=("result",))
+    shared = gencoords.evaluation.shared_memory.SharedArrays(specs, reserved_by_writers=("result",))
     assert shared.reserved_by_writers == ()  # reserved whole, here
     if system == "macos":
-        size = gencoords.evaluation.parallel.shared_layout(specs)[1]
+        size = gencoords.evaluation.shared_memory.shared_layout(specs)[1]
         assert os.stat(shared.path).st_blocks * 512 >= size
     shared.remove()
 
@@ -158,7 +159,7 @@ def no_room(system, monkeypatch):
     def full(descriptor, offset, length):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(gencoords.evaluation.parallel, "_reserve", full)
+    monkeypatch.setattr(gencoords.evaluation.shared_memory, "_reserve", full)
     return "free some disk space", "No space left"
 
 
@@ -173,7 +174,7 @@ def test_a_full_disk_is_a_worker_error_and_leaves_nothing(system, monkeypatch, c
     np.testing.assert_array_equal(result, gencoords.coordinates(points, vertices, faces, workers=1))
     if system == "windows":
         return
-    monkeypatch.setattr(gencoords.evaluation.parallel, "_free_bytes", lambda folder: 0)
+    monkeypatch.setattr(gencoords.evaluation.shared_memory, "_free_bytes", lambda folder: 0)
     with pytest.raises(gencoords.WorkerError, match="no room for"):
         gencoords.coordinates(points, vertices, faces, workers=2)
     assert not shared_files()
@@ -220,7 +221,7 @@ def test_the_windows_sweep_removes_every_stale_file_no_process_holds(monkeypatch
         open(path, "wb").close()
     held = os.open(paths["held"], os.O_RDWR)  # in use: Windows refuses to remove it
     try:
-        removed = gencoords.evaluation.parallel.sweep_stale_files()
+        removed = gencoords.evaluation.shared_memory.sweep_stale_files()
     finally:
         os.close(held)
         living.kill()
@@ -259,7 +260,7 @@ def test_an_interpreter_the_os_refuses_to_run_falls_back(monkeypatch, tmp_path, 
     blocked = tmp_path / "python.exe"
     blocked.write_text("")
     blocked.chmod(0o600)
-    monkeypatch.setattr(gencoords.evaluation.parallel, "python_executable", lambda: str(blocked))
+    monkeypatch.setattr(gencoords.evaluation.interpreters, "python_executable", lambda: str(blocked))
     with pytest.warns(gencoords.WorkerWarning, match="could not start"):
         result = gencoords.coordinates(points, vertices, faces)
     np.testing.assert_array_equal(result, gencoords.coordinates(points, vertices, faces, workers=1))
@@ -314,14 +315,14 @@ def test_the_interpreter_is_found_in_every_layout(tmp_path, windows, layout, exp
     for name in layout:
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / name).write_text("")
-    candidates = gencoords.evaluation.parallel.interpreter_candidates(str(tmp_path), (3, 11), windows)
+    candidates = gencoords.evaluation.interpreters.interpreter_candidates(str(tmp_path), (3, 11), windows)
     found = next(path for path in candidates if os.path.isfile(path))
     assert os.path.normpath(found) == os.path.normpath(tmp_path / expected)
 
 
 def test_sizes_are_64_bit_whatever_the_shapes_integer_type():
     # numpy 1.x on Windows multiplies np.int32 lengths (and np.prod) in 32 bits.
-    layout, size = gencoords.evaluation.parallel.shared_layout({"points": ((np.int32(60000), np.int32(3)), np.float64),
+    layout, size = gencoords.evaluation.shared_memory.shared_layout({"points": ((np.int32(60000), np.int32(3)), np.float64),
                                                 "result": ((np.int32(60000), np.int32(50000)), np.float64)})
     assert size >= 60000 * 50000 * 8 > 2**31
     assert layout["result"][1] == (60000, 50000) and type(layout["result"][1][0]) is int

@@ -31,7 +31,7 @@ def sphere_directions(count):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.enclosing import sphere_directions
+    >>> from gencoords.cages.enclosing import sphere_directions
     >>> directions = sphere_directions(100)
     >>> directions.shape, bool(np.allclose(np.linalg.norm(directions, axis=1), 1.0))
     ((100, 3), True)
@@ -66,7 +66,7 @@ def supporting_offsets(points, directions, margin=0.0, chunk=1 << 16):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.enclosing import supporting_offsets
+    >>> from gencoords.cages.enclosing import supporting_offsets
     >>> points = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]])
     >>> supporting_offsets(points, np.eye(3), margin=0.5).tolist()
     [1.5, 2.5, 3.5]
@@ -98,7 +98,7 @@ def dual_points(directions, offsets, centre):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.enclosing import dual_points
+    >>> from gencoords.cages.enclosing import dual_points
     >>> directions = np.concatenate([np.eye(3), -np.eye(3)])  # the cube |x| <= 2
     >>> dual_points(directions, np.full(6, 2.0), np.zeros(3))[:2].tolist()
     [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0]]
@@ -129,7 +129,7 @@ def facet_vertices(directions, offsets, dual_facets):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.enclosing import facet_vertices
+    >>> from gencoords.cages.enclosing import facet_vertices
     >>> directions = np.concatenate([np.eye(3), -np.eye(3)])  # the cube |x| <= 2
     >>> facet_vertices(directions, np.full(6, 2.0), [[0, 1, 2], [3, 4, 5]]).tolist()
     [[2.0, 2.0, 2.0], [-2.0, -2.0, -2.0]]

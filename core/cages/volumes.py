@@ -29,8 +29,8 @@ def signed_volume(vertices, triangles):
 
     Examples
     --------
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.volumes import signed_volume
+    >>> from gencoords.cages.shapes import octahedron
+    >>> from gencoords.cages.volumes import signed_volume
     >>> round(signed_volume(*octahedron()), 12)  # |x| + |y| + |z| <= 1
     1.333333333333
     """
@@ -90,8 +90,8 @@ def union_volume(vertices, triangles, columns=256):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.volumes import union_volume
+    >>> from gencoords.cages.shapes import octahedron
+    >>> from gencoords.cages.volumes import union_volume
     >>> vertices, faces = octahedron()
     >>> both = np.concatenate([vertices, vertices + [0.0, 0.0, 1.0]])  # overlapping by 1/6
     >>> round(union_volume(both, np.concatenate([faces, faces + 6]), columns=400), 2)

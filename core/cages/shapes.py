@@ -19,7 +19,7 @@ def regular_polygon(sides, radius=1.0):
 
     Examples
     --------
-    >>> from gencoords.tools.shapes import regular_polygon
+    >>> from gencoords.cages.shapes import regular_polygon
     >>> vertices, edges = regular_polygon(4)
     >>> vertices.round(6).tolist(), edges.tolist()
     ([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [-0.0, -1.0]], [[0, 1], [1, 2], [2, 3], [3, 0]])
@@ -41,7 +41,7 @@ def octahedron(radii=(1.0, 1.0, 1.0)):
 
     Examples
     --------
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, faces = octahedron((1.0, 2.0, 3.0))
     >>> vertices[::2].tolist(), faces.shape
     ([[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]], (8, 3))
@@ -67,7 +67,7 @@ def irregular_octahedron():
     Examples
     --------
     >>> import gencoords
-    >>> from gencoords.tools.shapes import irregular_octahedron
+    >>> from gencoords.cages.shapes import irregular_octahedron
     >>> vertices, faces = irregular_octahedron()
     >>> gencoords.coordinates([[0.1, 0.0, 0.1]], vertices, faces, workers=1).shape
     (1, 6)
@@ -87,7 +87,7 @@ def icosphere(subdivisions=1, radius=1.0):
 
     Examples
     --------
-    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.cages.shapes import icosphere
     >>> vertices, faces = icosphere(2, radius=0.5)
     >>> vertices.shape, faces.shape
     ((162, 3), (320, 3))
@@ -132,7 +132,7 @@ def cross_polytope(dim, radii=None):
 
     Examples
     --------
-    >>> from gencoords.tools.shapes import cross_polytope
+    >>> from gencoords.cages.shapes import cross_polytope
     >>> vertices, facets = cross_polytope(4)  # the 16-cell
     >>> vertices.shape, facets.shape
     ((8, 4), (16, 4))
@@ -175,7 +175,7 @@ def block_cage(occupied, size=1.0):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.shapes import block_cage
+    >>> from gencoords.cages.shapes import block_cage
     >>> vertices, quads = block_cage(np.ones((2, 1, 1), dtype=bool))  # two cubes in a row
     >>> vertices.shape, quads.shape
     ((12, 3), (10, 4))
@@ -204,7 +204,7 @@ def t_pose_blocks():
 
     Examples
     --------
-    >>> from gencoords.tools.shapes import block_cage, t_pose_blocks
+    >>> from gencoords.cages.shapes import block_cage, t_pose_blocks
     >>> vertices, quads = block_cage(t_pose_blocks())
     >>> len(vertices)
     234

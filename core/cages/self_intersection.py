@@ -83,7 +83,7 @@ def triangles_intersect(first, second, tolerance=1e-9):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.self_intersection import triangles_intersect
+    >>> from gencoords.cages.self_intersection import triangles_intersect
     >>> flat = np.array([[[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]]])
     >>> upright = np.array([[[0.5, 0.5, -1.0], [0.5, 0.5, 1.0], [3.0, 3.0, 0.0]]])
     >>> triangles_intersect(flat, upright).tolist(), triangles_intersect(flat, upright + 5.0).tolist()
@@ -128,8 +128,8 @@ def self_intersections(vertices, triangles, tolerance=1e-9):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.self_intersection import self_intersections
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.cages.self_intersection import self_intersections
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, faces = octahedron()
     >>> self_intersections(vertices, faces).shape
     (0, 2)

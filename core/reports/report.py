@@ -13,7 +13,7 @@ import numpy as np
 from ..base import tolerances
 from ..construction.boundary import INSIDE
 from ..evaluation.cage import Cage
-from ..evaluation.deformation import linear_precision
+from .fields import linear_precision
 from ..surfaces.named import KIND_TABLE, MEAN_VALUE, kind_parameter
 from ..base.inputs import checked
 from ..construction.validation import DEFAULT_TOLERANCE
@@ -51,8 +51,8 @@ class CoordinateReport:
     Examples
     --------
     >>> import gencoords
-    >>> from gencoords.tools.shapes import octahedron
-    >>> report = gencoords.tools.coordinate_report(*octahedron(), "mean_value", samples=200)
+    >>> from gencoords.cages.shapes import octahedron
+    >>> report = gencoords.reports.coordinate_report(*octahedron(), "mean_value", samples=200)
     >>> report.kind, report.points, report.smallest >= 0.0
     ('mean_value', 200, True)
     """
@@ -109,8 +109,8 @@ def interior_sample(cage, count, seed=0):
     --------
     >>> import gencoords
     >>> from gencoords.construction.boundary import INSIDE
-    >>> from gencoords.tools.report import interior_sample
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.reports.report import interior_sample
+    >>> from gencoords.cages.shapes import octahedron
     >>> with gencoords.Cage(*octahedron()) as cage:
     ...     points = interior_sample(cage, 100)
     ...     bool((cage.point_locations(points, workers=1) == INSIDE).all()), points.shape[1]
@@ -158,9 +158,9 @@ def coordinate_report(vertices, faces, kind=MEAN_VALUE, gamma=None, points=None,
     Examples
     --------
     >>> import numpy as np, gencoords
-    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.cages.shapes import octahedron
     >>> vertices, faces = octahedron()
-    >>> report = gencoords.tools.coordinate_report(vertices, faces, "wachspress", samples=200)
+    >>> report = gencoords.reports.coordinate_report(vertices, faces, "wachspress", samples=200)
     >>> report.positive
     True
     """

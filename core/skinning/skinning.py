@@ -17,15 +17,16 @@ deformation.
 import numpy as np
 
 from ..base import tolerances
+from ..harmonic.reproduction import largest_entries
 from ..harmonic.reproduction import reproduce_points  # noqa: F401  (part of this module's API)
-from . import sparse
+from ..storage import sparse
 
 NEGATIVE_TOLERANCE = tolerances.SKINNING_NEGATIVE  # see there
 
 
 def top_k(coordinates, k):
-    """The ``k`` largest coordinates of each row, renormalised to sum 1: the sparse form
-    that skinning and sparse bind storage keep.
+    """The ``k`` largest coordinates of each row, renormalised to sum 1
+    (``gencoords.harmonic.reproduction.largest_entries``): the sparse form skinning keeps.
 
     Parameters
     ----------
@@ -40,33 +41,26 @@ def top_k(coordinates, k):
         Columns kept, largest weight first (k' = min(k, n)).
     weights : (p, k') float64
         Their values divided by the kept sum: each row sums to 1 (a row whose kept
-        weights are all zero gets 1/k' each), so translations stay exact.
+        weights are all zero gets 1/k' each; one with a negative kept weight the missing
+        sum by size, as ``largest_entries`` says), so translations stay exact.
 
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.skinning import top_k
+    >>> from gencoords.skinning.skinning import top_k
     >>> indices, weights = top_k(np.array([[0.1, 0.6, 0.3]]), 2)
     >>> indices.tolist(), weights.round(3).tolist()
     ([[1, 2]], [[0.667, 0.333]])
     """
-    values = np.asarray(coordinates, dtype=np.float64)
-    kept = min(int(k), values.shape[1])
-    if kept < 1:
+    if int(k) < 1:
         raise ValueError(f"k must be at least 1, got {k!r}")
-    indices = np.argpartition(-values, kept - 1, axis=1)[:, :kept]
-    chosen = np.take_along_axis(values, indices, axis=1)
-    order = np.argsort(-chosen, axis=1, kind="stable")
-    indices, chosen = np.take_along_axis(indices, order, axis=1), np.take_along_axis(chosen, order, axis=1)
-    total = chosen.sum(axis=1, keepdims=True)
-    weights = np.divide(chosen, total, out=np.full_like(chosen, 1.0 / kept), where=total > 0.0)
-    return indices.astype(np.int64), weights
+    return largest_entries(coordinates, k)
 
 
 def truncate(coordinates, max_influences, rest=None):
     """The ``max_influences`` largest weights of each row, renormalised (0: all kept);
     with the cage ``rest``, reweighted to place each point where the full row does
-    (``tools.sparse.placed_pairs``): a rig keeps linear precision wherever the point lies
+    (``storage.sparse.placed_pairs``): a rig keeps linear precision wherever the point lies
     among its kept bones (on the character, 16 influences follow a turned and scaled
     cage exactly, and deviate 8e-4 of the diagonal under the smooth motion against 7e-3
     truncated alone).

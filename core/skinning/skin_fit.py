@@ -62,7 +62,7 @@ class SkinFit:
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.skin_fit import fit_skin
+    >>> from gencoords.skinning.skin_fit import fit_skin
     >>> rest = np.random.default_rng(0).normal(size=(50, 3))
     >>> fit = fit_skin(rest, (rest + [1.0, 0.0, 0.0])[None], bones=2, max_influences=2)
     >>> fit.pose_matrices().shape, fit.indices.shape, bool(np.allclose(fit.weights.sum(1), 1))
@@ -98,7 +98,7 @@ def skin(rest, indices, weights, transforms):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.skin_fit import skin
+    >>> from gencoords.skinning.skin_fit import skin
     >>> turn = np.eye(4); turn[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
     >>> transforms = np.array([[np.eye(4), turn]])
     >>> skin([[1.0, 0.0, 0.0]], [[0, 1]], [[0.5, 0.5]], transforms)
@@ -135,7 +135,7 @@ def deviations(rest, frames, fit):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.skin_fit import deviations, fit_skin
+    >>> from gencoords.skinning.skin_fit import deviations, fit_skin
     >>> rest = np.random.default_rng(0).normal(size=(40, 3))
     >>> frames = np.array([rest + 1.0])
     >>> worst, rms = deviations(rest, frames, fit_skin(rest, frames, bones=1))
@@ -177,7 +177,7 @@ def fit_skin(rest, frames, bones=32, max_influences=4, iterations=12, seed=0, pr
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.skin_fit import fit_skin
+    >>> from gencoords.skinning.skin_fit import fit_skin
     >>> rest = np.random.default_rng(0).normal(size=(60, 3))
     >>> frames = np.array([rest * [1.0, 1.0, 1.2], rest + 0.5])
     >>> fit = fit_skin(rest, frames, bones=4, max_influences=4)
@@ -233,7 +233,7 @@ def fit_transforms(rest, frames, indices, weights, sweeps=8):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.skin_fit import fit_transforms
+    >>> from gencoords.skinning.skin_fit import fit_transforms
     >>> rest = np.random.default_rng(0).normal(size=(30, 3))
     >>> moved = fit_transforms(rest, [rest + 2.0], np.zeros((30, 1), int), np.ones((30, 1)))
     >>> np.round(moved[0, 0, :3, 3], 6)

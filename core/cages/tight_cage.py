@@ -8,7 +8,7 @@ cuts chords across convex parts. :func:`enclose` finds the points the cage leave
 outward along the vertex normals by the distance they miss plus a clearance, and
 checks again, a bounded number of times. :func:`fit_tight_cage` then requires what a
 cage needs to bind: closed, manifold (at edges and at vertices: :func:`pinched_vertices`),
-outward, no self-intersection (:mod:`gencoords.tools.self_intersection`), every point
+outward, no self-intersection (:mod:`gencoords.cages.self_intersection`), every point
 strictly inside.
 """
 
@@ -57,8 +57,8 @@ def vertex_normals(vertices, triangles):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.tight_cage import vertex_normals
+    >>> from gencoords.cages.shapes import octahedron
+    >>> from gencoords.cages.tight_cage import vertex_normals
     >>> vertices, faces = octahedron()
     >>> bool(np.allclose(vertex_normals(vertices, faces), vertices))  # unit, along each vertex
     True
@@ -94,8 +94,8 @@ def pinched_vertices(triangles):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.tight_cage import pinched_vertices
+    >>> from gencoords.cages.shapes import octahedron
+    >>> from gencoords.cages.tight_cage import pinched_vertices
     >>> faces = octahedron()[1]
     >>> pinched_vertices(faces).tolist(), pinched_vertices(np.concatenate([faces, faces + 5])).tolist()
     ([], [5])
@@ -135,8 +135,8 @@ def degenerate_pieces(triangles):
 
     Examples
     --------
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.tight_cage import degenerate_pieces
+    >>> from gencoords.cages.shapes import octahedron
+    >>> from gencoords.cages.tight_cage import degenerate_pieces
     >>> degenerate_pieces(octahedron()[1]), degenerate_pieces([[0, 1, 2], [0, 2, 1]])
     (False, True)
     """
@@ -186,8 +186,8 @@ def outward_pushes(vertices, triangles, points, clearance):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.tight_cage import outward_pushes
+    >>> from gencoords.cages.shapes import octahedron
+    >>> from gencoords.cages.tight_cage import outward_pushes
     >>> vertices, faces = octahedron()
     >>> pushes = outward_pushes(vertices, faces, [[2.0, 0.0, 0.0]], 0.5)
     >>> # 1 + 0.5 along the nearest face's normal is sqrt(3) times that along (1, 0, 0)
@@ -221,7 +221,7 @@ def outward_pushes(vertices, triangles, points, clearance):
 
 def cage_triangles(vertices, triangles, quads=None):
     """The triangles a cage of triangles and quads is bound with: its triangles, then
-    each quad split as :func:`gencoords.tools.triangulate_quads` splits it (the diagonal
+    each quad split as :func:`gencoords.cages.triangulate_quads` splits it (the diagonal
     depends on the positions, so it is found again whenever they move).
 
     Parameters
@@ -237,7 +237,7 @@ def cage_triangles(vertices, triangles, quads=None):
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.tight_cage import cage_triangles
+    >>> from gencoords.cages.tight_cage import cage_triangles
     >>> square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
     >>> cage_triangles(square, np.zeros((0, 3), int), [[0, 1, 2, 3]]).tolist()
     [[0, 1, 2], [0, 2, 3]]
@@ -289,8 +289,8 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
     Examples
     --------
     >>> import numpy as np, gencoords
-    >>> from gencoords.tools.shapes import icosphere
-    >>> from gencoords.tools.tight_cage import enclose
+    >>> from gencoords.cages.shapes import icosphere
+    >>> from gencoords.cages.tight_cage import enclose
     >>> points = icosphere(3)[0]  # on the unit sphere: the coarse sphere's faces cut chords
     >>> vertices, faces = icosphere(1)
     >>> pushed, pushes = enclose(vertices, faces, points, clearance=0.02, tolerance=1e-6)
@@ -379,8 +379,8 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
     Examples
     --------
     >>> import numpy as np
-    >>> from gencoords.tools.shapes import icosphere
-    >>> from gencoords.tools.tight_cage import TightCageError, fit_tight_cage
+    >>> from gencoords.cages.shapes import icosphere
+    >>> from gencoords.cages.tight_cage import TightCageError, fit_tight_cage
     >>> vertices, faces = icosphere(1)
     >>> fitted, pushes = fit_tight_cage(vertices, faces, 0.5 * vertices, 0.01, 1e-6)
     >>> pushes, bool(np.array_equal(fitted, vertices))  # enclosing already
@@ -418,7 +418,7 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
 
 def volume_ratio(cage_vertices, cage_triangles, mesh_vertices, mesh_triangles, columns=256):
     """The cage's volume over the mesh's (the union of its shells, see
-    :func:`gencoords.tools.volumes.union_volume`).
+    :func:`gencoords.cages.volumes.union_volume`).
 
     Parameters
     ----------
@@ -436,8 +436,8 @@ def volume_ratio(cage_vertices, cage_triangles, mesh_vertices, mesh_triangles, c
 
     Examples
     --------
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.tight_cage import volume_ratio
+    >>> from gencoords.cages.shapes import octahedron
+    >>> from gencoords.cages.tight_cage import volume_ratio
     >>> vertices, faces = octahedron()
     >>> round(volume_ratio(2.0 * vertices, faces, vertices, faces, columns=400), 2)
     8.0
