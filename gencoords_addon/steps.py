@@ -26,3 +26,10 @@ def run_to_end(steps, report=None):
             return done.value
         if report is not None:
             report(fraction)
+
+
+def at_once(value):
+    """Steps that yield nothing and return ``value``, computed before: work done in one step
+    where a caller takes steps."""
+    return value
+    yield  # makes this a generator

@@ -19,6 +19,7 @@ frame range.
 import bpy
 import numpy as np
 
+from ...core.storage import Storage
 from ...core.tools import compact, skinning
 from .. import bind_layout
 from ..bind import bindings as bindings_module
@@ -40,7 +41,7 @@ def negative_message(obj, found, count, smallest):
     kind = kind_label(found.data.kind)
     compact_note = (" (this binding uses Compact storage, which reproduces coordinates "
                     "approximately: Storage Exact may help)"
-                    if found.data.storage == 'COMPACT' else "")
+                    if found.data.storage == Storage.COMPACT else "")
     return (f"Cannot bake '{obj.name}' to bones: {count} of its {kind} coordinates are "
             f"negative (down to {smallest:.3g}){compact_note}, and vertex-group weights "
             "cannot be (Blender clamps them to 0 to 1). Bind with Type Wachspress, or Mean "

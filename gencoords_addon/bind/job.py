@@ -16,7 +16,7 @@ import numpy as np
 
 from ... import core
 from ...core.tools import bind_plan
-from .. import messages, preferences
+from .. import messages, preferences, storage
 from ..bind_layout import FORMAT, BindData
 from ..enums import is_green
 from ..errors import BindError
@@ -110,8 +110,8 @@ class BindJob:
         except ValueError as error:  # every other core error is a ValueError
             raise BindError(self._core_message(error)) from None
         data = replace(self.data, storage=plan.storage, slot_count=plan.slot_count, key=secrets.token_hex(3),
-                       nbytes=int(bind_plan.plan_bytes(plan)), bind_seconds=time.perf_counter() - self.started,
-                       **plan.figures())
+                       bind_seconds=time.perf_counter() - self.started, **plan.figures())
+        data = replace(data, nbytes=storage.of(data).nbytes(data))  # of the attributes it writes
         nodes = None if plan.node_indices is None else (plan.node_indices, plan.node_weights)
         self.result = BindResult(plan.slots, plan.basis, scene.triangles if self.green else None,
                                  scene.rest_cage, data, plan.indices, nodes)
