@@ -1,0 +1,1 @@
+"""Planning a Bind: what it computes and stores, and its steps, without Blender."""
