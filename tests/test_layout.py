@@ -157,6 +157,18 @@ def test_storage_ids_are_spelled_only_in_the_storage_modules():
     assert not found
 
 
+def test_the_graph_builds_nodes_and_the_storages_write_the_mesh():
+    """``graph/`` neither reads nor writes mesh data (``blender_io.mesh_arrays``) nor knows the
+    storages' modules: each storage's module writes its attributes and calls the graph."""
+    graph = import_graph()
+    for name, targets in graph.items():
+        if name.startswith("gencoords_addon.graph"):
+            assert not {target for target in targets
+                        if target == "gencoords_addon.blender_io.mesh_arrays"
+                        or target.startswith("gencoords_addon.storage")}, name
+    assert "gencoords_addon.graph.deformer" in graph["gencoords_addon.storage.exact"]
+
+
 def code_lines(function, source_lines):
     """Lines of ``function`` holding code: no blank lines, comments or docstrings."""
     docstrings = set()

@@ -12,11 +12,13 @@ closing one early (Esc) cancels it and what it runs.
 import warnings
 from typing import Protocol
 
+import numpy as np
+
 from ..base.errors import WorkerError, WorkerWarning
 from ..tools import bind_plan
 
 __all__ = ["BindTool", "COMPUTING", "PlanTool", "WorkerFallback", "bind", "bind_report", "bind_steps",
-           "in_workers_or_here", "plan_steps", "run_to_end", "scaled"]
+           "computing_frame", "in_workers_or_here", "plan_steps", "run_to_end", "scaled", "zero_scale_axes"]
 
 COMPUTING = 0.9  # of a Bind's progress, the computing's share; the writing takes the rest
 
@@ -85,6 +87,59 @@ def run_to_end(steps, report=None):
             return done.value
         if report is not None:
             report(fraction)
+
+
+def zero_scale_axes(matrix, tolerance):
+    """The local axes ('X', 'Y', 'Z') an object matrix ((4, 4)) scales to (nearly) nothing,
+    at most ``tolerance`` of its longest axis, which flattens the object: a list, empty for
+    a usable matrix.
+
+    >>> zero_scale_axes(np.diag([2.0, 1e-9, 1.0, 1.0]), 1e-6)
+    ['Y']
+    """
+    lengths = np.linalg.norm(np.array(matrix, dtype=np.float64)[:3, :3], axis=0)
+    return [axis for axis, length in zip("XYZ", lengths) if not length > tolerance * lengths.max()]
+
+
+def computing_frame(rest, rest_cage, triangles, world, cage_origin, local=False):
+    """Where a Bind computes: in world space (coordinates are affine combinations, so they
+    hold in the mesh's local space too), or with ``local`` (Green coordinates: similarity
+    invariant, not affine) in the mesh's local space, where the deformer evaluates them; a
+    mirroring object transform then turns the cage's triangles inside out: they are flipped.
+
+    Parameters
+    ----------
+    rest, rest_cage : (k, 3), (n, 3) float64
+        The mesh's and the cage's vertices in the mesh's local space.
+    triangles : (m, 3) int
+        The cage's triangles, outward in world space.
+    world : (4, 4) float
+        The mesh object's matrix.
+    cage_origin : (3,) float
+        The cage object's origin in world space.
+
+    Returns
+    -------
+    points, cage_vertices : (k, 3), (n, 3) float64
+    triangles : (m, 3) int
+        Outward in that space.
+    origins : (2, 3) float64
+        The mesh's and the cage's origins there (float32 positions are rounded by their
+        distance from these: the core's rounding check).
+
+    >>> frame = computing_frame(np.zeros((1, 3)), np.eye(3), np.array([[0, 1, 2]]), np.diag([-1.0, 1, 1, 1]),
+    ...                         np.zeros(3), local=True)
+    >>> frame[2].tolist()
+    [[2, 1, 0]]
+    """
+    world = np.asarray(world, dtype=np.float64)
+    linear, origin = world[:3, :3], world[:3, 3]
+    origins = np.array([origin, np.asarray(cage_origin, dtype=np.float64)[:3]])
+    if not local:
+        return rest @ linear.T + origin, rest_cage @ linear.T + origin, triangles, origins
+    if np.linalg.det(linear) < 0.0:
+        triangles = triangles[:, ::-1].copy()
+    return rest, rest_cage, triangles, (origins - origin) @ np.linalg.inv(linear).T
 
 
 def plan_steps(tool, run):

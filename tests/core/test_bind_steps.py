@@ -147,3 +147,41 @@ def test_an_automatic_count_that_fell_back_by_itself_is_a_failure_and_other_warn
 def test_a_report_warns_only_with_notes():
     assert bind_steps.bind_report("Bound 'Mesh'") == ('INFO', "Bound 'Mesh'")
     assert bind_steps.bind_report("Bound", ["a", "b"]) == ('WARNING', "Bound; a; b")
+
+
+def rotation_scale(angle, scale, mirror=False):
+    """An object matrix (4, 4): a rotation about z, a uniform scale, a translation, and
+    with ``mirror`` a flip of x."""
+    c, s = np.cos(angle), np.sin(angle)
+    world = np.eye(4)
+    world[:3, :3] = scale * np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.diag(
+        [-1.0 if mirror else 1.0, 1.0, 1.0])
+    world[:3, 3] = [3.0, -1.0, 0.5]
+    return world
+
+
+def signed_volume(vertices, faces):
+    return np.einsum("ij,ij->i", vertices[faces[:, 0]], np.cross(vertices[faces[:, 1]], vertices[faces[:, 2]])).sum()
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_the_computing_frame_is_world_space_or_the_mesh_local_one_with_the_cage_outward(cage, mirror):
+    vertices, faces, points = cage  # local space; the faces outward in world space
+    world = rotation_scale(0.7, 2.0, mirror)
+    faces_world = faces[:, ::-1] if mirror else faces
+    cage_origin = np.array([1.0, 2.0, 3.0])
+    placed, cage_placed, triangles, origins = bind_steps.computing_frame(points, vertices, faces_world, world,
+                                                                         cage_origin)
+    np.testing.assert_allclose(placed, points @ world[:3, :3].T + world[:3, 3])
+    assert triangles is faces_world and signed_volume(cage_placed, triangles) > 0.0
+    np.testing.assert_array_equal(origins, [world[:3, 3], cage_origin])
+    local, cage_local, triangles, origins = bind_steps.computing_frame(points, vertices, faces_world, world,
+                                                                       cage_origin, local=True)
+    assert local is points and cage_local is vertices and signed_volume(cage_local, triangles) > 0.0
+    np.testing.assert_allclose(origins @ world[:3, :3].T + world[:3, 3], [world[:3, 3], cage_origin], atol=1e-12)
+
+
+def test_zero_scale_axes_are_those_far_below_the_longest():
+    assert bind_steps.zero_scale_axes(rotation_scale(0.3, 1e-3), 1e-6) == []  # small, not flat
+    assert bind_steps.zero_scale_axes(np.diag([1.0, 1.0, 1e-8, 1.0]), 1e-6) == ['Z']
+    assert bind_steps.zero_scale_axes(np.zeros((4, 4)), 1e-6) == ['X', 'Y', 'Z']
