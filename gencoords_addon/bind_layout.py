@@ -12,7 +12,10 @@ slots are ``[phi, psi]``). Green bindings made before their node group kept the 
 triangles also have those (three vertex indices) on the mesh's first m points
 (``triangle_attribute_name``): their groups read them there. Sparse storage keeps instead
 per vertex K INT and K FLOAT attributes (its pairs), and in two levels the grid nodes'
-pairs three to a vector attribute (``graph.sparse``: ``BindData.attribute_names``).
+pairs three to a vector attribute (``storage.sparse``, ``storage.two_level``:
+``BindData.attribute_names``). Each storage's module (``gencoords_addon.storage``) writes
+and reads the attributes named here; the names stay here, beside the format number, as
+the file's layout (a leaf: anything reads them).
 
 Format 3 added sparse storage and harmonic coordinates; format 2 bindings are the same
 bind data without them and read as format 3 (``BindData.from_properties``).
@@ -22,6 +25,8 @@ from dataclasses import dataclass, field, fields
 from types import MappingProxyType
 from typing import Mapping, Optional
 
+from ..core.storage import Storage
+
 FORMAT = 3  # bind data layout; data of another number read as "Bind again"
 READABLE_FORMATS = (2,)  # earlier layouts read as this one (they are a part of it)
 METADATA = "gencoords"  # ID property of the binding's node group
@@ -29,7 +34,7 @@ BAKE_INFO = "gencoords_bake"  # ID property of a baked rig's armature: the bake'
 ATTRIBUTE_PREFIX = ".gencoords_"  # a leading dot keeps them out of the attribute lists
 # Slot attributes an Unbind in progress has taken away (hidden: the leading dot).
 PARKED_PREFIX = ".unbinding"
-STORAGES = ('EXACT', 'COMPACT', 'SPARSE')  # the storages a binding is written in
+STORAGES = (Storage.EXACT, Storage.COMPACT, Storage.SPARSE)  # the storages a binding is written in
 
 
 @dataclass(frozen=True)
@@ -45,7 +50,7 @@ class BindData:
     kind: Optional[str] = None  # the core's name of the coordinates, e.g. 'mean_value'
     gamma: Optional[float] = None  # the kind's parameter, for the kinds that have one
     outside: Optional[str] = None  # the core's name, e.g. 'raise'
-    storage: Optional[str] = None  # one of STORAGES
+    storage: Optional[str] = None  # one of STORAGES (as its value: equal to it)
     slot_count: Optional[int] = None  # numbers stored per mesh vertex
     cage_vertex_count: Optional[int] = None  # n
     mesh_vertex_count: Optional[int] = None  # k
@@ -94,7 +99,7 @@ class BindData:
     def attribute_names(self):
         """The attributes the binding's group reads from the mesh (Green bindings made
         before their group kept the cage's triangles have those too)."""
-        if self.storage == 'SPARSE':
+        if self.storage == Storage.SPARSE:
             return sparse_attribute_names(self.key, self.slot_count, self.mesh_vertex_count,
                                           self.node_count or 0, self.node_slot_count or 0)
         return self.slot_names + (self.basis_names or [])
@@ -102,7 +107,7 @@ class BindData:
     @property
     def basis_names(self):
         """Compact storage's basis attributes; None for exact storage."""
-        return basis_attribute_names(self.key, self.slot_count) if self.storage == 'COMPACT' else None
+        return basis_attribute_names(self.key, self.slot_count) if self.storage == Storage.COMPACT else None
 
     @property
     def triangle_name(self):
@@ -154,7 +159,7 @@ def triangle_attribute_name(key):
     return f"{attribute_prefix(key)}triangles"
 
 
-# Sparse storage (graph/sparse.py): per vertex K index and K weight attributes, in two
+# Sparse storage (storage/sparse.py, storage/two_level.py): per vertex K index and K weight attributes, in two
 # levels the grid nodes' pairs three to a vector, stacked.
 NODE_DISPLACEMENT_SUFFIX = "node_displacement"
 SLOT_MARK = "#"  # stands for the slot number in a name template

@@ -7,6 +7,7 @@ kinds (``core.KIND_TABLE``) is the one list of them, with Green coordinates afte
 
 from .. import core
 from ..core.construction.green import GREEN, GREEN_DESCRIPTION, GREEN_LABEL
+from ..core.storage import Storage
 from ..core.surfaces.named import HARMONIC
 
 HARMONIC_LABEL = "Harmonic"  # short: the Properties editor's default width shows it whole
@@ -27,17 +28,17 @@ OUTSIDE_ITEMS = (
      "Evaluate the coordinate formula outside the cage too (may be unstable far away)"),
 )
 STORAGE_ITEMS = (
-    ("AUTO", "Automatic",
+    (Storage.AUTO.value, "Automatic",
      "Exact while its cost is moderate (mesh vertices x cage vertices up to 8 million, "
      "cages up to 400 vertices); beyond, Sparse or else Compact with the fewest pairs or "
      "slots that keep the deviation under 1e-3 of the cage diagonal, measured at Bind, else "
      "Exact. Harmonic: Sparse in two levels"),
-    ("EXACT", "Exact",
+    (Storage.EXACT.value, "Exact",
      "Every coordinate of every vertex: the deformation is exact to float32 rounding"),
-    ("COMPACT", "Compact",
+    (Storage.COMPACT.value, "Compact",
      "A few numbers per vertex: exact for affine and smooth cage motions, close for "
      "others (the panel shows the deviation); for dense meshes and large cages"),
-    ("SPARSE", "Sparse",
+    (Storage.SPARSE.value, "Sparse",
      "Each vertex's largest coordinates as (cage vertex, weight) pairs summing to 1: "
      "translations exact, fast for local coordinates (Harmonic: pairs per grid node, each "
      "vertex interpolated from 4 grid nodes); the panel shows the deviation"),

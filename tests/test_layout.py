@@ -163,6 +163,47 @@ def test_the_storage_id_scan_sees_a_literal_and_not_a_docstring(tmp_path):
     assert storage_id_literals(source) == [(2, "EXACT")]
 
 
+def storage_spellings(path):
+    """Where ``path`` spells a storage id as a string ('SPARSE' or 'sparse'; 'Sparse' is the
+    panel's word) rather than through the enum (``gencoords.storage.Storage``). 'AUTO' is
+    also the Worker Processes preference's, so it is not looked for."""
+    from gencoords.storage import Storage
+
+    ids = {storage.value for storage in Storage} - {Storage.AUTO.value}
+    ids |= {value.lower() for value in ids}
+    return [f"{path.name}:{node.lineno} {node.value!r}"
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in ids]
+
+
+def test_the_storage_finder_finds_a_spelled_storage(tmp_path):
+    source = tmp_path / "probe.py"
+    source.write_text('"""Sparse."""\nif data.storage == \'SPARSE\' or kind == "compact" or label == "Exact":\n'
+                      '    pass\n', encoding="utf-8")
+    assert storage_spellings(source) == ["probe.py:2 'SPARSE'", "probe.py:2 'compact'"]
+
+
+def test_storage_ids_are_spelled_only_in_the_storage_modules():
+    """The add-on names a storage through the core's enum; each storage's decisions live in
+    its module under ``gencoords_addon/storage/``."""
+    home = REPO / "gencoords_addon" / "storage"
+    found = [f"{path.parent.name}/{spelling}" for path in sorted((REPO / "gencoords_addon").rglob("*.py"))
+             if home not in path.parents for spelling in storage_spellings(path)]
+    assert not found
+
+
+def test_the_graph_builds_nodes_and_the_storages_write_the_mesh():
+    """``graph/`` neither reads nor writes mesh data (``blender_io.mesh_arrays``) nor knows the
+    storages' modules: each storage's module writes its attributes and calls the graph."""
+    graph = import_graph()
+    for name, targets in graph.items():
+        if name.startswith("gencoords_addon.graph"):
+            assert not {target for target in targets
+                        if target == "gencoords_addon.blender_io.mesh_arrays"
+                        or target.startswith("gencoords_addon.storage")}, name
+    assert "gencoords_addon.graph.deformer" in graph["gencoords_addon.storage.exact"]
+
+
 def code_lines(function, source_lines):
     """Lines of ``function`` holding code: no blank lines, comments or docstrings."""
     docstrings = set()

@@ -20,7 +20,7 @@ import bpy
 import numpy as np
 
 from ...core.skinning import skinning
-from ...core.storage import compact
+from ...core.storage import Storage, compact
 from .. import bind_layout
 from ..bind import bindings as bindings_module
 from ..blender_io import compat, mesh_arrays, mesh_io
@@ -41,7 +41,7 @@ def negative_message(obj, found, count, smallest):
     kind = kind_label(found.data.kind)
     compact_note = (" (this binding uses Compact storage, which reproduces coordinates "
                     "approximately: Storage Exact may help)"
-                    if found.data.storage == 'COMPACT' else "")
+                    if found.data.storage == Storage.COMPACT else "")
     return (f"Cannot bake '{obj.name}' to bones: {count} of its {kind} coordinates are "
             f"negative (down to {smallest:.3g}){compact_note}, and vertex-group weights "
             "cannot be (Blender clamps them to 0 to 1). Bind with Type Wachspress, or Mean "

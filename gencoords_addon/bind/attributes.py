@@ -1,31 +1,22 @@
-"""The bind data's attributes on the mesh through their life: written at Bind, parked
+"""The bind data's attributes on the mesh through their life, whatever the storage: written
+at Bind (each storage's module says which, ``gencoords_addon.storage``), parked
 (renamed out of the deformer's reach, no copy) when an Unbind starts, then put back if it
 fails or dropped once the modifier is gone, and removed when a Bind fails half-way."""
 
 
 from ..blender_io import mesh_arrays
-from ..graph import sparse
 from ..bind_layout import PARKED_PREFIX, attribute_prefix
-from ..steps import run_to_end
 
 
 # Attributes written between two steps of a Bind's writing (progress, Esc).
 STEP_ATTRIBUTES = 16
 
 
-def write(mesh, data, slots, basis=None):
-    """Write a binding's attributes (named by ``data``, a ``BindData``): its slots ((k, s))
-    and compact storage's basis ((rows, s)). (Green coordinates' cage triangles were kept
-    on the mesh too, in ``data.triangle_name``, before the group kept them.)"""
-    run_to_end(write_steps(mesh, data, slots, basis))
-
-
-def write_steps(mesh, data, slots, basis=None):
-    """:func:`write` in steps of ``STEP_ATTRIBUTES`` attributes, yielding the fraction
-    written (what is written stays: :func:`remove_slots` removes it)."""
-    parts = [(data.slot_names, slots)]
-    if data.basis_names is not None:
-        parts.append((data.basis_names, basis))
+def write_steps(mesh, parts):
+    """Write vector point attributes three columns each, ``parts`` a list of (names,
+    (rows, 3 len(names)) values) pairs, in steps of ``STEP_ATTRIBUTES`` attributes: a
+    generator yielding the fraction written (what is written stays: :func:`remove_slots`
+    removes it). Each storage says what it writes (``gencoords_addon.storage``)."""
     total, written = sum(len(names) for names, _ in parts), 0
     for names, values in parts:
         for start in range(0, len(names), STEP_ATTRIBUTES):
@@ -33,14 +24,6 @@ def write_steps(mesh, data, slots, basis=None):
             batch = names[start:start + STEP_ATTRIBUTES]
             mesh_arrays.write_triples(mesh, batch, values[:, 3 * start:3 * (start + len(batch))])
             written += len(batch)
-
-
-def write_sparse(mesh, data, weights, indices, nodes=None):
-    """Write a sparse binding's pairs: each vertex's ``indices`` and ``weights`` ((k, K)),
-    and in two levels the grid nodes' pairs (``nodes``: (N, K') indices and weights)."""
-    sparse.write_pairs(mesh, data.key, indices, weights)
-    if nodes is not None:
-        sparse.write_node_pairs(mesh, data.key, *nodes)
 
 
 def remove_slots(mesh, key):

@@ -10,9 +10,10 @@ from dataclasses import dataclass, replace
 import bpy
 import numpy as np
 
-from ..blender_io import compat, mesh_arrays, mesh_io
+from .. import storage
+from ..blender_io import compat, mesh_io
 from ..bind_layout import BAKE_INFO, METADATA, BindData
-from ..graph import deformer, helpers, sparse
+from ..graph import deformer, helpers
 from . import attributes
 
 
@@ -47,30 +48,11 @@ class Binding:
     def coordinates(self, mesh):
         """The (k, rows) float32 coordinates the mesh deforms with (compact: as reproduced
         by its slots and basis; sparse: its pairs'), or None when the bind data is missing."""
-        data = self.data
-        if data.storage == 'SPARSE':
-            coordinates = sparse.read_coordinates(mesh, data.key, data.cage_vertex_count, data.slot_count,
-                                                  data.node_count or 0, data.node_slot_count or 0)
-            return None if coordinates is None else coordinates.astype(np.float32)
-        slots = mesh_arrays.read_triples(mesh, data.slot_names, data.slot_count)
-        if slots is None or data.basis_names is None:
-            return slots
-        basis = mesh_arrays.read_triples(mesh, data.basis_names, data.slot_count)
-        return None if basis is None else slots @ basis[:data.rows].T
+        return storage.of(self.data).read_coordinates(mesh, self.data)
 
     def coordinate_column(self, mesh, cage_vertex):
         """Every mesh vertex's coordinate for ``cage_vertex`` ((k,) float32), or None."""
-        data = self.data
-        if data.storage == 'SPARSE':
-            coordinates = self.coordinates(mesh)
-            return None if coordinates is None else coordinates[:, cage_vertex]
-        slots = mesh_arrays.read_triples(mesh, data.slot_names, data.slot_count)
-        if slots is None:
-            return None
-        if data.basis_names is None:
-            return slots[:, cage_vertex]
-        basis = mesh_arrays.read_triples(mesh, data.basis_names, data.slot_count)
-        return None if basis is None else slots @ basis[cage_vertex]
+        return storage.of(self.data).read_column(mesh, self.data, cage_vertex)
 
 
 def bindings(obj):

@@ -9,8 +9,9 @@ import bpy
 
 from ..blender_io import compat
 from ..bind_layout import METADATA
-from ..graph import deformer, helpers, sparse
+from ..graph import deformer, helpers
 from ..steps import run_to_end, scaled
+from .. import storage
 from . import attributes
 from .bindings import binding, bindings, remove
 
@@ -41,21 +42,13 @@ def steps(obj, cage, result, started=None):
     earlier = binding(obj, cage) or binding(obj, missing_cage=True)
     others = bindings(obj)
     data = result.data
-    key, basis_names = data.key, data.basis_names
+    key = data.key
     group = modifier = None
     try:
         name = f"GenCoords: {obj.name} in {cage.name}"
-        if data.storage == 'SPARSE':  # its group's size does not depend on the slots: one step
-            group = sparse.build_sparse_group(name, key, result.rest_cage, data.mesh_vertex_count, data.slot_count,
-                                              data.node_count, data.node_slot_count)
-            yield WRITING_GROUP
-            attributes.write_sparse(obj.data, data, result.slots, result.indices, result.nodes)
-        else:
-            group = yield from scaled(deformer.group_steps(
-                name, key, result.rest_cage, data.mesh_vertex_count, data.slot_count, basis_names,
-                result.triangles), 0.0, WRITING_GROUP)
-            yield from scaled(attributes.write_steps(obj.data, data, result.slots, result.basis),
-                              WRITING_GROUP, 1.0 - WRITING_GROUP)
+        home = storage.of(data)
+        group = yield from scaled(home.group_steps(name, data, result), 0.0, WRITING_GROUP)
+        yield from scaled(home.write_steps(obj.data, data, result), WRITING_GROUP, 1.0 - WRITING_GROUP)
         modifier = obj.modifiers.new(MODIFIER_NAME, 'NODES')
         modifier.node_group = group
         modifier.show_in_editmode = True

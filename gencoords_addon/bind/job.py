@@ -1,9 +1,10 @@
 """One Bind: ``BindJob(obj, context)`` reads everything it needs from the scene and checks
-it (``bind.scene``); ``job.steps()`` runs the core's planner (``core.planning.bind_plan``: a
-generator yielding the fraction done, so the UI can show progress and cancel between
-chunks); ``job.commit_steps()`` (or ``job.commit()``, to the end) then writes the plan
-(``bind.commit``), in steps too. Nothing in the file changes before the writing, and the
-writing undoes its own partial work if it fails or is cancelled, so a failed or
+it (``bind.scene``); ``job.steps()`` runs the core's planning step
+(``core.planning.bind_steps.plan_steps`` over ``core.planning.bind_plan``: a generator
+yielding the fraction done, so the UI can show progress and cancel between chunks), the
+job being the Blender side it asks (a ``PlanTool``); ``job.commit_steps()`` (or
+``job.commit()``, to the end) then writes the plan (``bind.commit``), in steps too.
+Nothing in the file changes before the writing, and the writing undoes its own partial work if it fails or is cancelled, so a failed or
 cancelled Bind leaves the mesh, its modifier stack and any earlier binding as they were.
 """
 
@@ -15,8 +16,8 @@ from typing import Optional
 import numpy as np
 
 from ... import core
-from ...core.planning import bind_plan
-from .. import messages, preferences
+from ...core.planning import bind_plan, bind_steps
+from .. import messages, preferences, storage
 from ..bind_layout import FORMAT, BindData
 from ..enums import is_green
 from ..errors import BindError
@@ -53,10 +54,10 @@ class BindJob:
         self.settings = settings = BindSettings.of(obj)
         self.cage, self.kind_label = settings.cage, settings.kind_label
         self.green = is_green(settings.kind)
-        # Set when the workers failed and Blender computed instead: what to tell the artist.
-        self.worker_failure = None
+        # The workers' fallback to Blender's process (``bind.service``; None: no fallback).
+        self.fallback = bind_steps.WorkerFallback(in_workers)
+        self.workers = preferences.worker_count(context)
         self.input = scene = read_bind_input(obj, settings, context)
-        self.request = self._request(context, in_workers)
         # Bind data as far as the scene tells; the plan adds the storage and the figures.
         self.data = BindData(
             format=FORMAT, kind=settings.kind, gamma=settings.gamma, outside=settings.outside,
@@ -68,27 +69,34 @@ class BindJob:
         self.result = None
         self.writing = False  # set while the plan is being written (commit_steps)
 
-    def _request(self, context, in_workers):
+    @property
+    def worker_failure(self):
+        """Where the workers failed and Blender computed instead, what to tell the artist."""
+        return self.fallback.failure
+
+    def read_input(self):
+        """The mesh and the cage as read and checked (``BindInput``)."""
+        return self.input
+
+    def plan_request(self, run):
         """What the core plans: the settings in its terms, the workers the preferences ask
-        for, and ``in_workers(compute, workers)`` -> (result, failure message or None): the
-        fallback to Blender's process where they fail (``bind.service``; None: no fallback)."""
+        for, ``run(compute, workers)`` computing (the fallback)."""
         settings = self.settings
-
-        def run(compute, workers):
-            if self.worker_failure is not None:  # they failed once: the rest in Blender too
-                workers = 1
-            if in_workers is None:
-                return compute(workers)
-            result, failure = in_workers(compute, workers)
-            if failure is not None:
-                self.worker_failure = failure
-            return result
-
         return bind_plan.BindRequest(
             kind=settings.kind, outside=settings.outside, gamma=settings.gamma, storage=settings.storage,
             compact_size=settings.compact_size, sparse_size=settings.sparse_size,
-            resolution=settings.resolution, workers=preferences.worker_count(context),
+            resolution=settings.resolution, workers=self.workers,
             tolerance=FLOAT32_TOLERANCE, origins=self.input.origins, run=run)
+
+    def record(self, plan):
+        """What the plan writes (``self.result``): the arrays and the bind data."""
+        scene = self.input
+        data = replace(self.data, storage=plan.storage, slot_count=plan.slot_count, key=secrets.token_hex(3),
+                       bind_seconds=time.perf_counter() - self.started, **plan.figures())
+        data = replace(data, nbytes=storage.of(data).nbytes(data))  # of the attributes it writes
+        nodes = None if plan.node_indices is None else (plan.node_indices, plan.node_weights)
+        self.result = BindResult(plan.slots, plan.basis, scene.triangles if self.green else None,
+                                 scene.rest_cage, data, plan.indices, nodes)
 
     def steps(self):
         """Compute the bind data chunk by chunk, yielding the fraction done (0 to 1).
@@ -96,10 +104,8 @@ class BindJob:
         Raises BindError for a bad cage or vertices outside it. Closing the generator
         early (a cancel) stops the core's worker processes and leaves nothing behind.
         """
-        scene = self.input
         try:
-            plan = yield from bind_plan.plan_bind(scene.points, scene.cage_vertices, scene.triangles,
-                                                  self.request)
+            yield from bind_steps.plan_steps(self, self.fallback)
         except core.OutsideCageError:
             raise BindError(self._outside_message()) from None
         except bind_plan.ImpreciseCoordinatesError as error:
@@ -109,12 +115,6 @@ class BindJob:
                             "check the cage for tiny or overlapping faces") from None
         except ValueError as error:  # every other core error is a ValueError
             raise BindError(self._core_message(error)) from None
-        data = replace(self.data, storage=plan.storage, slot_count=plan.slot_count, key=secrets.token_hex(3),
-                       nbytes=int(bind_plan.plan_bytes(plan)), bind_seconds=time.perf_counter() - self.started,
-                       **plan.figures())
-        nodes = None if plan.node_indices is None else (plan.node_indices, plan.node_weights)
-        self.result = BindResult(plan.slots, plan.basis, scene.triangles if self.green else None,
-                                 scene.rest_cage, data, plan.indices, nodes)
 
     def _core_message(self, error):
         """The core's ``error`` in Blender's terms; for a cage that is not convex, with the

@@ -11,6 +11,7 @@ import bpy
 import numpy as np
 
 from ... import core
+from ...core.planning import bind_steps
 from .. import messages
 from ..blender_io import compat, mesh_io
 from ..enums import core_name, is_green, is_harmonic, kind_label, kind_parameter
@@ -97,10 +98,9 @@ def check_inputs(obj):
 
 def zero_scale_axes(matrix):
     """The local axes ('X', 'Y', 'Z') an object matrix (4x4) scales to (nearly) nothing,
-    which flattens the object: a list, empty for a usable matrix."""
-    lengths = np.linalg.norm(np.array(matrix, dtype=np.float64)[:3, :3], axis=0)
-    return [axis for axis, length in zip("XYZ", lengths)
-            if not length > FLOAT32_TOLERANCE * lengths.max()]
+    which flattens the object: a list, empty for a usable matrix (the core's
+    ``bind_steps.zero_scale_axes`` at float32's tolerance)."""
+    return bind_steps.zero_scale_axes(matrix, FLOAT32_TOLERANCE)
 
 
 CAPTURE_GROUP = ".GenCoords capture"
@@ -155,33 +155,20 @@ def read_bind_input(obj, settings, context):
     rest_cage = capture_rest_cage(obj, cage, context)
     if len(rest_cage) != len(geometry.positions):
         raise BindError(f"The cage '{cage.name}' changed while binding: try again")
-    # Coordinates are computed where the artist sees the shapes, in world space
-    # (they are affine combinations, so they hold in the mesh's local space too).
-    world = np.array(obj.evaluated_get(depsgraph).matrix_world, dtype=np.float64)
-    points = rest @ world[:3, :3].T + world[:3, 3]
-    cage_vertices = rest_cage.astype(np.float64) @ world[:3, :3].T + world[:3, 3]
+    # Coordinates are computed where the artist sees the shapes, in world space (Green
+    # coordinates in the mesh's local space: the core's ``computing_frame``).
+    frame = (rest, rest_cage.astype(np.float64), geometry.triangles,
+             np.array(obj.evaluated_get(depsgraph).matrix_world, dtype=np.float64),
+             np.array(cage.evaluated_get(depsgraph).matrix_world)[:3, 3])
+    points, cage_vertices, triangles, origins = bind_steps.computing_frame(*frame)
     if not np.isfinite(cage_vertices).all():
         raise BindError(f"The cage '{cage.name}' has vertices at undefined (NaN or "
                         "infinite) positions, or an object has zero scale: fix them, "
                         "then Bind")
-    triangles = geometry.triangles
-    # Float32 positions are rounded by their distance from these (the core's rounding check).
-    origins = np.array([world[:3, 3], np.array(cage.evaluated_get(depsgraph).matrix_world)[:3, 3]])
     if is_green(settings.kind):
-        points, cage_vertices, triangles = _green_frame(obj, settings, rest, rest_cage, triangles, world)
-        origins = (origins - world[:3, 3]) @ np.linalg.inv(world[:3, :3]).T
+        if settings.outside == 'extrapolate':
+            raise BindError("Green coordinates do not extrapolate outside the cage: set Outside "
+                            "to Report Error or Project, then Bind")
+        points, cage_vertices, triangles, origins = bind_steps.computing_frame(*frame, local=True)
     return BindInput(points, cage_vertices, triangles, geometry.triangle_faces, rest_cage, origins,
                      geometry.faces_hash, geometry.non_triangles)
-
-
-def _green_frame(obj, settings, rest, rest_cage, triangles, world):
-    """Green coordinates are similarity invariant, not affine: they are computed where
-    the deformer evaluates them, in the mesh's local space (a mirroring object
-    transform turns the cage's triangles inside out there: they are flipped). Returns
-    the points, the cage's vertices and its triangles there."""
-    if settings.outside == 'extrapolate':
-        raise BindError("Green coordinates do not extrapolate outside the cage: set Outside "
-                        "to Report Error or Project, then Bind")
-    if np.linalg.det(world[:3, :3]) < 0.0:
-        triangles = triangles[:, ::-1].copy()
-    return rest, rest_cage.astype(np.float64), triangles

@@ -5,19 +5,19 @@ reports.
 ``begin(obj, context)`` reads and checks (``BindJob``, out of Edit Mode), the caller runs
 ``steps(job, context)``, computing then writing (between events, or to the end), and
 ``finish(job, context)`` returns the report; ``bind(obj, context)`` does all three.
-Failures are ``BindError``.
+Failures are ``BindError``. The decisions that need no Blender (the order and shares of
+the steps, the workers' fallback, the report's level) are the core's
+(``core.planning.bind_steps``); this module hands it the Blender side.
 """
 
 import contextlib
 import time
-import warnings
 from dataclasses import dataclass
 
 import bpy
 
-from ... import core
+from ...core.planning import bind_steps
 from .. import messages
-from ..steps import run_to_end, scaled
 from . import bindings
 from . import job as bind_job
 
@@ -52,24 +52,12 @@ def object_mode(context, obj):
 
 def in_workers_or_blender(compute, workers):
     """``compute(workers)``; where the worker processes cannot start or fail, ``compute(1)``
-    in Blender's process instead: (its result, None or the message saying so).
+    in Blender's process instead (``core.planning.bind_steps.in_workers_or_here``): (its
+    result, None or the message saying so).
 
-    The message is also printed to the system console with the full cause. Other
-    warnings are passed on.
+    The message is also printed to the system console with the full cause.
     """
-    failure = None
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", core.WorkerWarning)  # automatic counts fall back here
-        try:
-            result = compute(workers)
-        except core.WorkerError as error:  # an explicit count
-            failure = error
-            result = compute(1)
-    for warning in caught:
-        if issubclass(warning.category, core.WorkerWarning):
-            failure = warning.message
-        else:
-            warnings.showwarning(warning.message, warning.category, warning.filename, warning.lineno)
+    result, failure = bind_steps.in_workers_or_here(compute, workers)
     if failure is None:
         return result, None
     message = messages.worker_fallback()
@@ -86,15 +74,30 @@ def begin(obj, context):
 
 
 # Of a Bind's progress, the computing's share; the writing takes the rest.
-COMPUTING = 0.9
+COMPUTING = bind_steps.COMPUTING
+
+
+class BlenderSide:
+    """A ``BindJob`` as the core's ``BindTool`` (the whole Bind): it writes out of Edit
+    Mode and reports progress in background mode."""
+
+    def __init__(self, job, context):
+        self.job, self.context = job, context
+        self.report_progress = print_progress(job)
+
+    def compute_steps(self):
+        return self.job.steps()
+
+    def write_binding(self):
+        with object_mode(self.context, self.job.obj):
+            return (yield from self.job.commit_steps())
 
 
 def steps(job, context):
     """The whole Bind of ``job``: computing, then writing (out of Edit Mode), a generator
-    yielding the fraction done. Closed early (Esc), it leaves the file as it was."""
-    yield from scaled(job.steps(), 0.0, COMPUTING)
-    with object_mode(context, job.obj):
-        yield from scaled(job.commit_steps(), COMPUTING, 1.0 - COMPUTING)
+    yielding the fraction done (``core.planning.bind_steps.bind_steps``). Closed early
+    (Esc), it leaves the file as it was."""
+    return bind_steps.bind_steps(BlenderSide(job, context))
 
 
 def finish(job, context):
@@ -106,7 +109,7 @@ def finish(job, context):
     notes = [] if job.worker_failure is None else [job.worker_failure]
     notes += [messages.follows_twice(job.obj.name, job.cage.name, modifier, rig)
               for modifier, rig in bindings.armatures_following(job.obj, job.cage)]
-    return BindReport('WARNING', "; ".join([headline] + notes)) if notes else BindReport('INFO', headline)
+    return BindReport(*bind_steps.bind_report(headline, notes))
 
 
 def print_progress(job):
@@ -124,5 +127,5 @@ def bind(obj, context):
     """Bind ``obj`` to its chosen cage, to the end (scripts, background mode, Auto Rebind
     there); its ``BindReport``. BindError when it cannot bind; nothing is changed then."""
     job = begin(obj, context)
-    run_to_end(steps(job, context), print_progress(job))
+    bind_steps.bind(BlenderSide(job, context))
     return finish(job, context)

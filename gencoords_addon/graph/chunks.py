@@ -13,10 +13,10 @@ file and shared by every binding; the number in their names is their layout.
 
 import bpy
 
+from ...core.storage import Storage
 from .builder import new_group
 from .helpers import DISPLACEMENT, HELPER_COLUMNS, LANES, SUMS, accumulate_group, cloud_lanes_group
 
-EXACT, COMPACT = "exact", "compact"
 # A binding's chunks, largest first: 64 triples (192 slots) a node, the rest in sixteens,
 # fours and ones (no slot computed for nothing). A chunk of 64 holds four of 16 added up
 # pairwise: one chain through 64 would make Blender gather the attributes it depends on
@@ -26,12 +26,13 @@ NESTED = {64: 16}
 CHUNK_PREFIX = ".GenCoords chunk "
 COMPACT_LANES_GROUP = ".GenCoords compact lanes 1"
 # What each storage's chunk reads its lanes from, and its per-triple inputs.
-SOURCES = {EXACT: ("Cloud",), COMPACT: ("Mesh", "Cage")}
-ENTRIES = {EXACT: ("Slots", "Triple"), COMPACT: ("Slots", "Basis")}
+SOURCES = {Storage.EXACT: ("Cloud",), Storage.COMPACT: ("Mesh", "Cage")}
+ENTRIES = {Storage.EXACT: ("Slots", "Triple"), Storage.COMPACT: ("Slots", "Basis")}
 
 
 def chunk_name(storage, size):
-    return f"{CHUNK_PREFIX}{storage} {size} 1"
+    """The shared group's name in the file (``.GenCoords chunk exact 16 1``: files keep it)."""
+    return f"{CHUNK_PREFIX}{storage.value.lower()} {size} 1"
 
 
 def chunk_plan(triples):
@@ -58,7 +59,7 @@ def chunk_group(storage, size):
     if size in NESTED:
         _nested_chunks(build, group_input, group_output, storage, size, NESTED[size])
         return group
-    lanes_helper = cloud_lanes_group() if storage == EXACT else compact_lanes_group()
+    lanes_helper = cloud_lanes_group() if storage is Storage.EXACT else compact_lanes_group()
     accumulate = accumulate_group()
     sums = [group_input.outputs[total] for total in SUMS]
     for k in range(size):

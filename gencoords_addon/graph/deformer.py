@@ -1,6 +1,8 @@
 """The deformer: a Geometry Nodes group that moves a bound mesh with its cage, natively.
+What every binding's group shares is built here (:func:`group_steps`); each storage's
+own part, the offset from its attributes, is its module's (``gencoords_addon.storage``).
 
-For mesh vertex i with slot values ``u_i`` (s numbers, stored on the mesh as point
+For exact and compact storage's mesh vertex i with slot values ``u_i`` (s numbers, stored on the mesh as point
 attributes) and the cage's vertices now (``C``) and at bind time (``R``), both in the
 mesh's local space, the group outputs
 
@@ -8,7 +10,8 @@ mesh's local space, the group outputs
 
 where ``P`` is the incoming position (shape keys, edits and earlier modifiers pass
 through). Exact storage has ``basis = I`` and ``u = coordinates``; compact storage a
-basis of s cage motions (``core.storage.compact``). At rest ``C == R`` bitwise (``R`` is read
+basis of s cage motions (``core.storage.compact``); sparse storage gathers pairs instead
+(``graph.gather``). At rest ``C == R`` bitwise (``R`` is read
 back from this same Object Info node, see ``bind.scene.capture_rest_cage``), so the mesh
 is unchanged bitwise.
 
@@ -40,20 +43,21 @@ Apply gives a clean mesh and later modifiers never see them.
 import bpy
 import numpy as np
 
-from ..bind_layout import attribute_prefix, slot_attribute_names
+from ..bind_layout import attribute_prefix
 from ..blender_io.compat import set_wildcard_removal
-from ..steps import run_to_end, scaled
+from ..steps import scaled
 from . import chunks
 from .builder import Builder
 from .green import green_displacements
-from .helpers import CAGE, DISPLACEMENT, GEOMETRY, LANE_NAMES, REST, SUMS, cage_info
+from .helpers import CAGE, DISPLACEMENT, GEOMETRY, REST, SUMS, cage_info
 
 STRENGTH = "Strength"
 REST_SWITCH = "GenCoords rest cage"  # the node keeping the bind-time cage (read_rest_cage)
 MASK = "Mask"
 INVERT = "Invert Mask"
+DESCRIPTION = "GenCoords cage deformation: moves the mesh with its cage (bind data in the mesh's point attributes)"
 
-# The binding's group reads left to right, one column per stage (``build_group``).
+# The binding's group reads left to right, one column per stage (``group_steps``).
 DEFORMER_COLUMNS = (
     "input",  # the modifier's inputs
     "cage",  # Object Info, the cage's index and positions
@@ -80,30 +84,6 @@ DEFORMER_COLUMNS = (
 )
 
 
-def _exact_lanes(build, cage, displacement, slot_count):
-    """The lane cloud: a point per triple t of slots holding its three lanes
-    (D_3t.c, D_3t+1.c, D_3t+2.c) for axes c (``LANE_NAMES``), read by the chunks."""
-    triples = -(-slot_count // 3)
-    cloud = build.add('GeometryNodePoints', "lane_index")
-    cloud.inputs["Count"].default_value = triples
-    index = build.add('GeometryNodeInputIndex', "lane_index").outputs[0]
-    parts = []
-    for offset in range(3):
-        cage_vertex = build.math("lane_index", 'MULTIPLY_ADD', index, 3.0, float(offset),
-                                 vector=False)
-        sampled = build.sample_index("lane_gather", cage, displacement, cage_vertex)
-        separate = build.add('ShaderNodeSeparateXYZ', "lane_split")
-        build.link(sampled, separate.inputs[0])
-        parts.append(separate.outputs)
-    geometry = cloud.outputs[0]
-    for axis, name in enumerate(LANE_NAMES):
-        combine = build.add('ShaderNodeCombineXYZ', "lane_join")
-        for offset in range(3):
-            build.link(parts[offset][axis], combine.inputs[offset])
-        geometry = build.store("lane_store", geometry, name, combine.outputs[0])
-    return {"Cloud": geometry}
-
-
 # Chunks chained into one sum while they hold at most this many triples, then added up
 # pairwise: Blender gathers the attributes a field depends on at every node, so one chain
 # over all slots costs time quadratic in their number at every evaluation (measured:
@@ -111,6 +91,15 @@ def _exact_lanes(build, cage, displacement, slot_count):
 CHAIN = 16
 # Chunk nodes placed between two steps of a Bind's writing (progress, Esc).
 STEP_CHUNKS = 8
+
+
+def chunk_offset_steps(build, storage, sources, slot_names, lane_entries):
+    """Each mesh vertex's displacement from slot attributes (exact and compact storage,
+    ``graph.chunks``): the weighted sums of :func:`_weighted_sums`, a generator yielding
+    the fraction built (0.1 to 0.9 of the group) and returning the offset's socket."""
+    yield 0.1
+    accumulated = yield from scaled(_weighted_sums(build, storage, sources, slot_names, lane_entries), 0.1, 0.8)
+    return _offset(build, accumulated)
 
 
 def _weighted_sums(build, storage, sources, slot_names, lane_entries):
@@ -145,46 +134,44 @@ def _weighted_sums(build, storage, sources, slot_names, lane_entries):
     return partial[0]
 
 
-def build_group(*args, **kwargs):
-    """A new node group deforming a mesh, built to the end (:func:`group_steps`)."""
-    return run_to_end(group_steps(*args, **kwargs))
-
-
-def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names=None, triangles=None):
+def group_steps(name, key, rest_cage, mesh_vertex_count, offset_steps, names, triangles=None,
+                description=DESCRIPTION):
     """A new node group deforming a mesh of ``mesh_vertex_count`` vertices: a generator
     yielding the fraction built (a Bind's writing shows progress and takes Esc between
     stages) and returning the group; closed early or failing, it removes the group.
 
     Built in stages that pass sockets along, each in its own columns
-    (``DEFORMER_COLUMNS``): the interface, the cage's displacement, the lanes, the
-    weighted sums, the masked offset, the guard and the attribute stripping.
+    (``DEFORMER_COLUMNS``): the interface, the cage's displacement, the storage's offset
+    (``offset_steps``), the masked move, the guard and the attribute stripping.
 
     Parameters
     ----------
     name : str
         Of the node group.
     key : str
-        The binding's key: slot attributes are ``slot_attribute_names(key, slot_count)``.
+        The binding's key: its attributes' names start with ``attribute_prefix(key)``.
     rest_cage : (n, 3) float32
         The cage at bind time in the mesh's local space, exactly as the group's Object
         Info node gives it.
     mesh_vertex_count : int
         The bound mesh's vertex count k (another count passes the mesh through).
-    slot_count : int
-        s: n for exact storage, the basis size for compact storage.
-    basis_names : list of str, optional
-        Compact storage: the attributes holding the basis of cage motions on the first n
-        points (n + m for Green coordinates; ``bind_layout.basis_attribute_names``); None
-        for exact storage.
+    offset_steps : callable
+        ``offset_steps(build, mesh, moving)``: the storage's part (``gencoords_addon.storage``),
+        a generator yielding the fraction built and returning each mesh vertex's
+        displacement (a vector field socket); ``moving`` is (geometry, displacement field)
+        of what the coordinates weigh: the cage's vertices, for Green also its faces.
+    names : list of str
+        The binding's attributes, stripped from the output.
     triangles : (m, 3) int, optional
         Green coordinates: the cage's triangles, kept in the group (groups made before
         read them from an attribute on the mesh's first m points: the mesh needed as
         many vertices); None for the other kinds.
+    description : str
+        Of the node group.
     """
     rest_cage = np.asarray(rest_cage, dtype=np.float32)
     group = bpy.data.node_groups.new(name, 'GeometryNodeTree')
-    group.description = ("GenCoords cage deformation: moves the mesh with its cage "
-                         "(bind data in the mesh's point attributes)")
+    group.description = description
     try:
         _deformer_interface(group.interface)
         build = Builder(group, DEFORMER_COLUMNS)
@@ -194,17 +181,8 @@ def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
         # What the slots weigh: the cage's vertices, or for Green also its faces.
         moving = (cage, displacement) if triangles is None else green_displacements(
             build, cage, len(rest_cage), triangles)
-        yield 0.1
-        slot_names = slot_attribute_names(key, slot_count)
-        if basis_names is None:
-            sums = _weighted_sums(build, chunks.EXACT, _exact_lanes(build, *moving, slot_count), slot_names,
-                                  range(len(slot_names)))
-        else:  # the basis is on the mesh's first n (n + m) points
-            sums = _weighted_sums(build, chunks.COMPACT, {"Mesh": mesh, "Cage": moving[0]}, slot_names,
-                                  basis_names)
-        accumulated = yield from scaled(sums, 0.1, 0.8)
-        names = slot_names + (basis_names or [])
-        _finish_group(build, group_input, (mesh, cage, moving), accumulated, key, names,
+        offset = yield from offset_steps(build, mesh, moving)
+        _finish_group(build, group_input, (mesh, cage, moving), offset, key, names,
                       (len(rest_cage), mesh_vertex_count))
     except BaseException:  # a failure, or a cancel (GeneratorExit): nothing left behind
         bpy.data.node_groups.remove(group)
@@ -212,12 +190,12 @@ def group_steps(name, key, rest_cage, mesh_vertex_count, slot_count, basis_names
     return group
 
 
-def _finish_group(build, group_input, geometries, accumulated, key, names, counts):
-    """The stages after the weighted sums: the masked offset, the guard (``geometries``:
+def _finish_group(build, group_input, geometries, offset, key, names, counts):
+    """The stages after the offset: the masked move, the guard (``geometries``:
     the mesh, the cage and what moves; ``counts``: the cage's and the mesh's vertices),
     the stripping of the attributes ``names``."""
     mesh, cage, moving = geometries
-    moved = _moved_mesh(build, group_input, _offset(build, accumulated))
+    moved = _moved_mesh(build, group_input, offset)
     usable = _usable(build, mesh, cage, moving, *counts)
     switch = build.add('GeometryNodeSwitch', "guard_switch", input_type='GEOMETRY')
     build.link(usable, switch.inputs["Switch"])
@@ -324,7 +302,7 @@ def _strip_attributes(build, geometry, key, names):
 
 
 def read_rest_cage(group, count):
-    """The bind-time cage ``build_group`` keeps in ``group`` ((count, 3) float32, the
+    """The bind-time cage ``group_steps`` keeps in ``group`` ((count, 3) float32, the
     mesh's local space, as its Object Info node gives it), or None when it is not there:
     the vector Index Switch named ``REST_SWITCH``, or in groups made before Green's
     triangles were kept in the group too, the only one."""

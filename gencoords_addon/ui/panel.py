@@ -5,6 +5,7 @@ import textwrap
 
 import bpy
 
+from ...core.storage import Storage
 from ..bind.bindings import binding, bindings, meshes_driven_by
 from ..enums import is_green, is_harmonic, kind_parameter
 from .status import status_lines
@@ -55,9 +56,9 @@ def draw_settings(layout, obj, width=None):
     draw_type(column, settings, width)
     column.prop(settings, "outside")
     column.prop(settings, "storage")
-    if settings.storage == 'COMPACT':  # Automatic picks its own slots, by measuring
+    if settings.storage == Storage.COMPACT:  # Automatic picks its own slots, by measuring
         column.prop(settings, "compact_size", text="Slots")
-    if settings.storage == 'SPARSE':
+    if settings.storage == Storage.SPARSE:
         column.prop(settings, "sparse_size", text="Pairs")
     column.prop(settings, "auto_rebind")
 

@@ -3,6 +3,7 @@
 import bpy
 
 from ...core.base.parameters import GAMMA_LIMIT
+from ...core.storage import Storage
 from ...core.planning.request import BIND_RESOLUTION, SPARSE_SIZE
 from ..enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 from . import visualise
@@ -46,7 +47,7 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
         description="What to do with mesh vertices that lie outside the cage when binding",
     )
     storage: bpy.props.EnumProperty(
-        name="Storage", items=STORAGE_ITEMS, default="AUTO", options=set(),
+        name="Storage", items=STORAGE_ITEMS, default=Storage.AUTO.value, options=set(),
         description="How the bind data is stored on the mesh and evaluated",
     )
     compact_size: bpy.props.IntProperty(

@@ -5,6 +5,7 @@ Every figure comes from the binding's metadata, which holds what the core comput
 """
 
 
+from ...core.storage import Storage
 from .. import messages
 from ..bind import bindings
 from ..bind.bindings import deformation_problem
@@ -30,7 +31,7 @@ def status_lines(obj, depsgraph=None):
 def _storage_words(data):
     """``Exact, 196 per vertex`` / ``Sparse, 16 pairs per vertex`` / the two levels."""
     storage = enum_label(STORAGE_ITEMS, data.storage)
-    if data.storage != 'SPARSE':
+    if data.storage != Storage.SPARSE:
         return f"{storage}, {data.slot_count} per vertex"
     if not data.node_count:
         return f"{storage}, {data.slot_count} pairs per vertex"
@@ -69,7 +70,7 @@ def binding_lines(obj, found, depsgraph=None):
     lines.append((f"Storage: {_storage_words(data)}, {data.nbytes / 2**20:.1f} MB", 'DISK_DRIVE'))
     if data.storage_choice is not None:  # what Automatic chose and why
         lines.append((data.storage_choice, 'INFO'))
-    if data.storage in ('COMPACT', 'SPARSE'):  # measured on every vertex, as written
+    if data.storage in (Storage.COMPACT, Storage.SPARSE):  # measured on every vertex, as written
         worst = data.deviation_drag_vertex  # absent from earlier versions' binds
         drag = "vertex drag" if worst is None else f"drag of cage vertex {worst}"
         lines.append((f"Deviation: {data.deviation_smooth:.1e} (smooth), "

@@ -40,6 +40,7 @@ Usage: bench_sparse_routes.py [--mesh character|sphere] [--slots 8 16 32] [--pre
 import argparse
 import sys
 import time
+from types import SimpleNamespace
 from pathlib import Path
 
 import numpy as np
@@ -166,23 +167,26 @@ GATHERS = {"repeat": None, "lane": lane_gather, "plain": plain_gather}  # None: 
 
 
 def gn_route(mesh, cage, rest_cage, gather, pairs, nodes=None):
-    """Bind a Geometry Nodes route; returns the build seconds."""
-    graph = session.addon_module("graph.sparse")
+    """Bind a Geometry Nodes route, as sparse storage writes it (``storage.sparse``, in two
+    levels ``storage.two_level``); returns the build seconds."""
+    layout, gathers = session.addon_module("bind_layout"), session.addon_module("graph.gather")
+    run_to_end = session.addon_module("steps").run_to_end
     start = time.perf_counter()
     indices, weights = pairs
-    graph.write_pairs(mesh.data, KEY, indices, weights)
-    if nodes is not None:
-        graph.write_node_pairs(mesh.data, KEY, *nodes)
-    original = graph.weighted_gather
+    data = layout.BindData(storage=layout.Storage.SPARSE, key=KEY, slot_count=indices.shape[1],
+                           mesh_vertex_count=len(mesh.data.vertices), cage_vertex_count=len(rest_cage),
+                           node_count=0 if nodes is None else len(nodes[0]),
+                           node_slot_count=0 if nodes is None else nodes[0].shape[1])
+    result = SimpleNamespace(slots=weights, indices=indices, nodes=nodes, rest_cage=rest_cage, triangles=None)
+    home = session.addon_module("storage").of(data)
+    run_to_end(home.write_steps(mesh.data, data, result))
+    original = gathers.weighted_gather
     if GATHERS[gather] is not None:
-        graph.weighted_gather = GATHERS[gather]
+        gathers.weighted_gather = GATHERS[gather]
     try:
-        group = graph.build_sparse_group(
-            f"Sparse {gather}", KEY, rest_cage, len(mesh.data.vertices), indices.shape[1],
-            node_count=0 if nodes is None else len(nodes[0]),
-            node_slot_count=0 if nodes is None else nodes[0].shape[1])
+        group = run_to_end(home.group_steps(f"Sparse {gather}", data, result))
     finally:
-        graph.weighted_gather = original
+        gathers.weighted_gather = original
     add_nodes_modifier(mesh, cage, group)
     return time.perf_counter() - start
 

@@ -30,7 +30,7 @@ ADDON_MODULES = (("binding", "bind.bindings"), ("job", "bind.job"), ("attributes
                  ("bones", "bake.bones"), ("compat", "blender_io.compat"), ("deformer", "graph.deformer"),
                  ("status", "ui.status"), ("visualise", "ui.visualise"), ("enums", "enums"),
                  ("bind_layout", "bind_layout"), ("mesh_arrays", "blender_io.mesh_arrays"), ("handlers", "handlers"),
-                 ("operators", "ui.operators"))
+                 ("operators", "ui.operators"), ("storage", "storage"))
 
 
 @pytest.fixture(scope="session")
