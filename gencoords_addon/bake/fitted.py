@@ -18,6 +18,7 @@ coordinates included: the fit's weights are never negative.
 """
 
 import contextlib
+import itertools
 import threading
 import time
 
@@ -173,10 +174,23 @@ def bake(obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENC
     return job.commit(context)
 
 
+def bone_names(obj, count):
+    """The bones' (and their vertex groups') names, none of them a vertex group of ``obj``
+    already: "GenCoords Fitted j" for a mesh's first bake, "GenCoords Fitted 2:j" for its
+    second (the Armature modifier reads the groups named as its bones: an earlier bake's
+    rig keeps reading its own weights), and so on."""
+    taken = set(obj.vertex_groups.keys())
+    for number in itertools.count(1):
+        prefix = BONE_PREFIX if number == 1 else f"{BONE_PREFIX}{number}:"
+        names = [f"{prefix}{j}" for j in range(count)]
+        if taken.isdisjoint(names):
+            return names
+
+
 def _write(obj, context, found, fit, rest, sampled, frames):
     """Write the rig, the vertex groups and the Armature modifier, measure, then remove
     the binding; on any failure everything written is removed and the binding stays."""
-    names = [f"{BONE_PREFIX}{j}" for j in range(fit.transforms.shape[1])]
+    names = bone_names(obj, fit.transforms.shape[1])
     had_groups = {g.name for g in obj.vertex_groups}
     parent, shown = obj.parent, found.modifier.show_viewport
     rig = skin = None
@@ -238,11 +252,8 @@ def _keyframe_fit(rig, names, frames, fit):
             rotations.append(rotation[:])
         for path, values in (("location", locations), ("rotation_quaternion", rotations)):
             for axis, column in enumerate(np.array(values).T):
-                curve = curves[(f'pose.bones["{name}"].{path}', axis)]
-                curve.keyframe_points.add(len(frames) - 1)
-                curve.keyframe_points.foreach_set(
-                    "co", np.column_stack([frames, column]).astype(np.float32).ravel())
-                curve.update()
+                bones.key_linearly(curves[(f'pose.bones["{name}"].{path}', axis)], frames, column)
+    bones.first_in_exports(rig)
 
 
 def summary(obj, rig, figures):

@@ -23,8 +23,8 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     bl_label = "Bake to Bones"
 
     max_influences: bpy.props.IntProperty(
-        name="Max Influences", default=0, min=0, soft_max=8,
-        description="Weights kept per vertex, renormalised (game engines take 4 or 8; "
+        name="Max Influences", default=0, min=0, max=8,
+        description="Weights kept per vertex, renormalised, at most 8 (game engines take 4 or 8; "
                     "three.js reads 4); 0 keeps all, which is exact (Fitted: 0 fits 4)")
     mode: bpy.props.EnumProperty(
         name="Mode", default='CAGE_VERTICES', items=(
