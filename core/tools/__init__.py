@@ -2,7 +2,7 @@
 cage preparation (triangulation, orientation, enclosing cages), compact bind-data storage,
 skinning (truncated coordinates, and skins fitted to a deformation), sparse storage,
 example shapes, Bind planning, volumes, self-intersection and tight cages (the modules
-``compact``, ``sparse``, ``skinning``, ``skin_fit``, ``shapes``, ``enclosing``,
+``compact``, ``sparse``, ``skinning``, ``skin_fit`` (its steps in ``skin_steps``), ``shapes``, ``enclosing``,
 ``bind_plan``, ``volumes``, ``self_intersection``, ``tight_cage``).
 """
 
