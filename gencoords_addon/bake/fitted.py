@@ -29,6 +29,7 @@ from mathutils import Matrix
 from ...core.tools import skin_fit
 from ..bind import bindings as bindings_module
 from ..blender_io import compat, mesh_arrays, mesh_io
+from .. import steps
 from ..errors import BakeError
 from . import bones
 
@@ -68,6 +69,12 @@ def sample_deformation(obj, context, frames, modifier):
     """The mesh's vertices in world space at each of ``frames``, deformed by ``modifier``
     alone (the binding's: its deformation is what is baked, and the Armature modifier
     that replaces it sees what it saw): (F, n, 3) float64."""
+    return steps.run_to_end(sampling_steps(obj, context, frames, modifier))
+
+
+def sampling_steps(obj, context, frames, modifier):
+    """:func:`sample_deformation` in steps (``steps``): a frame a step, the scene's frame
+    and the modifiers put back when it ends or is closed (Esc)."""
     scene = context.scene
     current = scene.frame_current, scene.frame_subframe
     count = len(obj.data.vertices)
@@ -77,6 +84,7 @@ def sample_deformation(obj, context, frames, modifier):
             for frame in frames:
                 scene.frame_set(int(frame))
                 positions.append(bones.evaluated_world_positions(obj, context.evaluated_depsgraph_get()))
+                yield len(positions) / len(frames)
     finally:
         scene.frame_set(current[0], subframe=current[1])
     if any(len(sampled) != count for sampled in positions):
@@ -96,12 +104,13 @@ class Cancelled(Exception):
 
 
 class FittedBakeJob:
-    """A fitted bake in three steps: sample the deformation (at creation, in Blender),
-    fit (``run``, or ``start`` in a thread so that the window stays live; numpy only),
-    ``commit`` (in Blender: write, measure, replace the binding)."""
+    """A fitted bake in three steps: sample the deformation (at creation, in Blender; or,
+    made with ``sample=False``, in the steps of ``sampling``), fit (``run``, or ``start``
+    in a thread so that the window stays live; numpy only), ``commit`` (in Blender:
+    write, measure, replace the binding)."""
 
     def __init__(self, obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENCES,
-                 frames=None, iterations=12, seed=0):
+                 frames=None, iterations=12, seed=0, sample=True):
         self.obj, self.found = obj, bindings_module.binding(obj)
         # A binding that does not deform (its cage deleted, its mesh edited since Bind)
         # would be fitted as a still mesh: refused, as Follow is.
@@ -111,11 +120,16 @@ class FittedBakeJob:
         self.frames = frame_range(context.scene) if frames is None else np.asarray(frames)
         world = np.array(obj.matrix_world, dtype=np.float64)
         self.rest = mesh_io.read_positions(obj.data).astype(np.float64) @ world[:3, :3].T + world[:3, 3]
-        self.sampled = sample_deformation(obj, context, self.frames, self.found.modifier)
+        self.sampled = steps.run_to_end(self.sampling(context)) if sample else None
         self.options = {"bones": min(bone_count, len(self.rest)), "max_influences": max_influences,
                         "iterations": iterations, "seed": seed}
         self.bone_count, self.fraction, self.fit, self.error = int(bone_count), 0.0, None, None
         self.fit_seconds, self._cancel, self._thread = 0.0, threading.Event(), None
+
+    def sampling(self, context):
+        """Sample the deformation in steps (``steps``: a frame a step); sets ``sampled``."""
+        self.sampled = yield from sampling_steps(self.obj, context, self.frames, self.found.modifier)
+        return self.sampled
 
     def run(self, progress=None):
         """Fit here; ``progress(fraction)`` as it goes (an exception it raises cancels)."""

@@ -185,7 +185,7 @@ def fitted_operator_stand_in(operators, **options):
     cls = operators.OBJECT_OT_gencoords_bake_bones
     methods = {name: vars(cls)[name] for name in (
         "execute", "invoke", "modal", "_fitted_options", "_guarded", "_fitted_job", "_commit_fitted",
-        "_bake_fitted", "_start_fitted")}
+        "_bake_fitted", "_start_fitted", "_step", "_end_modal")}
     stand_in = type("BakeStandIn", (), methods)()
     defaults = {"mode": 'FITTED', "bones": 8, "max_influences": 0, "use_scene_range": True,
                 "frame_start": 1, "frame_end": 250, "fitted_confirmed": False}
@@ -233,6 +233,20 @@ def test_in_a_window_the_fit_runs_modal_with_progress_and_esc(gc, monkeypatch):
     assert escaped.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
     assert escaped.reports == ["Bake to Bones cancelled: nothing was changed"]
     assert gc.binding.binding(obj) is not None and obj.parent is None and not obj.vertex_groups
+
+    # Issue 37 item 7: the frames are sampled a frame a timer event, with progress, and
+    # Esc among them puts the scene's frame and the modifiers back.
+    scene, shown = bpy.context.scene, [m.show_viewport for m in obj.modifiers]
+    frame = scene.frame_current
+    sampling = fitted_operator_stand_in(operators, fitted_confirmed=True)
+    assert sampling.invoke(context, None) == {'RUNNING_MODAL'}
+    updates = window_manager.calls.count("progress_update")
+    for _ in range(3):
+        assert sampling.modal(context, SimpleNamespace(type='TIMER')) == {'RUNNING_MODAL'}
+    assert window_manager.calls.count("progress_update") == updates + 3 and scene.frame_current == 3
+    assert sampling.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
+    assert scene.frame_current == frame and [m.show_viewport for m in obj.modifiers] == shown
+    assert sampling.reports == ["Bake to Bones cancelled: nothing was changed"] and obj.parent is None
 
     running = fitted_operator_stand_in(operators, fitted_confirmed=True)
     assert running.invoke(context, None) == {'RUNNING_MODAL'}
