@@ -146,10 +146,9 @@ def key_linearly(curve, frames, values):
     """Key ``curve`` (holding one key, at ``frames[0]``) at ``frames`` ((f,)) to ``values``
     ((f,)), LINEAR between keys: what game engines play between samples (glTF's and FBX's
     readers interpolate linearly), so Blender's preview at half frames is theirs."""
-    points = curve.keyframe_points
-    points.add(len(frames) - 1)
-    points.foreach_set("co", np.column_stack([frames, values]).astype(np.float32).ravel())
-    for point in points:
+    curve.keyframe_points.add(len(frames) - 1)
+    curve.keyframe_points.foreach_set("co", np.column_stack([frames, values]).astype(np.float32).ravel())
+    for point in curve.keyframe_points:
         point.interpolation = 'LINEAR'
     curve.update()
 
