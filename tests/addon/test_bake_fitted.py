@@ -363,15 +363,19 @@ def test_the_bake_keys_what_engines_play_between_frames(gc):
         np.testing.assert_allclose(pose(frame, 0.5), (pose(frame) + pose(frame + 1)) / 2, atol=1e-6)
 
 
-def test_the_default_fbx_export_plays_the_fitted_motion_first(gc, tmp_path):
+@pytest.mark.parametrize("mode", ["FITTED", "CAGE_VERTICES"])
+def test_the_default_fbx_export_plays_the_baked_motion_first(gc, tmp_path, mode):
     """Issue 37 item 10: with every option of Blender's FBX exporter at its default, the
-    file's first take (what ufbx and three.js play) is the fitted motion: the bones move
-    in it and the rig object does not. Read by our own FBX reader (tests/addon/fbx_reader.py);
-    before, the first take was the cage's own action (the rig still, or moved by it)."""
+    file's first take (what ufbx and three.js play) is the rig's motion, either bake's:
+    the bones move in it and the rig object does not. Read by our own FBX reader
+    (tests/addon/fbx_reader.py); before, the first take was the cage's own action (the
+    rig still, or moved by it)."""
     from fbx_reader import animation_takes
 
     obj, _ = bound_animated_scene(gc)
-    assert bake_fitted(obj, bones=8) == {'FINISHED'}
+    options = {"bones": 8} if mode == "FITTED" else {"mode": mode}
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bake_bones(**{"mode": 'FITTED', **options}) == {'FINISHED'}
     rig = obj.parent
     path = tmp_path / "fitted.fbx"
     assert bpy.ops.export_scene.fbx(filepath=str(path)) == {'FINISHED'}
