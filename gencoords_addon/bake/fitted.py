@@ -1,13 +1,14 @@
-"""Bake to Bones, Fitted (game engines): a few rotating bones and at most 4 weights a vertex,
-fitted to what the binding shows over a frame range.
+"""Bake to Bones, Fitted (game engines): a few rotating bones and at most 4 (or 8) weights a
+vertex, fitted to what the binding shows over a frame range.
 
 Truncating coordinates to the 4 largest per vertex (what a game engine reads of a bone
 per cage vertex) cannot follow the cage; fitting can (``core.tools.skin_fit``, SSDR as in
 Dem Bones). The bake samples the mesh as Blender evaluates it with the binding's
 modifier alone (its deformation, world space; other modifiers stay where they are and
 apply to the rig's result as they did to the binding's) at every frame of the range, fits a skin, and writes an
-armature whose bones are keyframed (location and rotation) at those frames, so that
-exporters write the animation with their default options; the vertex groups hold the
+armature whose bones are keyframed (location and rotation, LINEAR between keys, as
+engines play samples) at those frames, so that exporters write the animation with their
+default options (``bones.first_in_exports``); the vertex groups hold the
 fitted weights; an Armature modifier takes the GenCoords modifier's place. The figures
 reported are measured on what was written: the armature-deformed mesh, evaluated by
 Blender at every sampled frame, against the samples.
