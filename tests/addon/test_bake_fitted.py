@@ -386,12 +386,15 @@ def test_the_default_fbx_export_plays_the_baked_motion_first(gc, tmp_path, mode)
     assert max(models[bone] for bone in bones) > 0.0
 
 
-def test_the_default_gltf_export_holds_one_clip_for_the_rig(gc, tmp_path):
+@pytest.mark.parametrize("mode", ["FITTED", "CAGE_VERTICES"])
+def test_the_default_gltf_export_holds_one_clip_for_the_rig(gc, tmp_path, mode):
     """Issue 37 item 8: exported with every glTF option at its default (the whole scene),
-    one clip moves the rig's joints, its armature or its mesh: the fitted motion (the cage
-    keeps a clip of its own, which moves only the cage)."""
+    one clip moves the rig's joints, its armature or its mesh: the rig's motion, either
+    bake's (the cage keeps a clip of its own, which moves only the cage)."""
     obj, _ = bound_animated_scene(gc)
-    assert bake_fitted(obj, bones=8) == {'FINISHED'}
+    options = {"bones": 8} if mode == "FITTED" else {"mode": mode}
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bake_bones(**{"mode": 'FITTED', **options}) == {'FINISHED'}
     rig = obj.parent
     blend, glb = tmp_path / "fitted.blend", tmp_path / "fitted.glb"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
