@@ -1,5 +1,6 @@
 """Fitting a linear blend skin (gencoords.tools.skin_fit): what Bake to Bones (Fitted) writes."""
 
+import importlib
 import itertools
 import time
 
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import shapes, skin_fit, skin_steps
+from gencoords.tools import shapes, skin_fit
 
 
 def rotation(axis, angle):
@@ -223,6 +224,10 @@ def test_eight_influences_fit_no_worse_than_four_and_cost_about_as_much(cage_def
         figures[influences] = skin_fit.deviations(rest, frames, fit)
     assert figures[8][0] <= figures[4][0] and figures[8][1] <= figures[4][1]
     assert seconds[8] <= 2.0 * seconds[4] + 1.0
+
+
+# The weight step's module, beside skin_fit (wherever the package keeps the two).
+skin_steps = importlib.import_module(skin_fit.__name__.rpartition(".")[0] + ".skin_steps")
 
 
 def brute_force_simplex(gram, width):
