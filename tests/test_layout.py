@@ -21,7 +21,7 @@ MAX_MODULE_LINES = 400  # as the add-on's (tests/addon/test_addon_package.py)
 # TEMPORARY: modules other developers are editing while the core was regrouped (issue 38):
 # moved into their folders unchanged, to be split by the lead after those branches merge.
 # Remove each entry once its module is under MAX_MODULE_LINES.
-OVER_400_LINES_FOR_NOW = {"core/skinning/skin_fit.py", "core/cages/tight_cage.py"}
+OVER_400_LINES_FOR_NOW = {"core/cages/tight_cage.py"}
 STORAGE_IDS = {"AUTO", "EXACT", "COMPACT", "SPARSE"}
 
 

@@ -127,11 +127,31 @@ def keyframe_motion(rig, names, frames, positions):
         # A pose bone's location is in its rest frame: head now = head + axes @ location.
         location = (positions[:, j] - np.array(bone.head_local)) @ axes
         for axis in range(3):
-            curve = curves[(f'pose.bones["{name}"].location', axis)]
-            curve.keyframe_points.add(len(frames) - 1)
-            curve.keyframe_points.foreach_set(
-                "co", np.column_stack([frames, location[:, axis]]).astype(np.float32).ravel())
-            curve.update()
+            key_linearly(curves[(f'pose.bones["{name}"].location', axis)], frames, location[:, axis])
+    first_in_exports(rig)
+
+
+def first_in_exports(rig):
+    """Also lay the rig's action as a strip of an NLA track of its own name: Blender's FBX
+    exporter, with its defaults (NLA Strips and All Actions), writes NLA strips first, then
+    every action whose curves resolve on an object applied to it (the cage's own action
+    applied to the rig among them); readers (ufbx, three.js) play the first take. Blender
+    and the glTF exporter play and write the action once."""
+    action = rig.animation_data.action
+    track = rig.animation_data.nla_tracks.new()
+    track.name = action.name
+    track.strips.new(action.name, int(action.frame_range[0]), action)
+
+
+def key_linearly(curve, frames, values):
+    """Key ``curve`` (holding one key, at ``frames[0]``) at ``frames`` ((f,)) to ``values``
+    ((f,)), LINEAR between keys: what game engines play between samples (glTF's and FBX's
+    readers interpolate linearly), so Blender's preview at half frames is theirs."""
+    curve.keyframe_points.add(len(frames) - 1)
+    curve.keyframe_points.foreach_set("co", np.column_stack([frames, values]).astype(np.float32).ravel())
+    for point in curve.keyframe_points:
+        point.interpolation = 'LINEAR'
+    curve.update()
 
 
 def bake(obj, context, max_influences=0, keyframes=True):

@@ -1,13 +1,14 @@
-"""Bake to Bones, Fitted (game engines): a few rotating bones and at most 4 weights a vertex,
-fitted to what the binding shows over a frame range.
+"""Bake to Bones, Fitted (game engines): a few rotating bones and at most 4 (or 8) weights a
+vertex, fitted to what the binding shows over a frame range.
 
 Truncating coordinates to the 4 largest per vertex (what a game engine reads of a bone
 per cage vertex) cannot follow the cage; fitting can (``core.skinning.skin_fit``, SSDR as in
 Dem Bones). The bake samples the mesh as Blender evaluates it with the binding's
 modifier alone (its deformation, world space; other modifiers stay where they are and
 apply to the rig's result as they did to the binding's) at every frame of the range, fits a skin, and writes an
-armature whose bones are keyframed (location and rotation) at those frames, so that
-exporters write the animation with their default options; the vertex groups hold the
+armature whose bones are keyframed (location and rotation, LINEAR between keys, as
+engines play samples) at those frames, so that exporters write the animation with their
+default options (``bones.first_in_exports``); the vertex groups hold the
 fitted weights; an Armature modifier takes the GenCoords modifier's place. The figures
 reported are measured on what was written: the armature-deformed mesh, evaluated by
 Blender at every sampled frame, against the samples.
@@ -18,6 +19,7 @@ coordinates included: the fit's weights are never negative.
 """
 
 import contextlib
+import itertools
 import threading
 import time
 
@@ -28,6 +30,7 @@ from mathutils import Matrix
 from ...core.skinning import skin_fit
 from ..bind import bindings as bindings_module
 from ..blender_io import compat, mesh_arrays, mesh_io
+from .. import steps
 from ..errors import BakeError
 from . import bones
 
@@ -67,6 +70,12 @@ def sample_deformation(obj, context, frames, modifier):
     """The mesh's vertices in world space at each of ``frames``, deformed by ``modifier``
     alone (the binding's: its deformation is what is baked, and the Armature modifier
     that replaces it sees what it saw): (F, n, 3) float64."""
+    return steps.run_to_end(sampling_steps(obj, context, frames, modifier))
+
+
+def sampling_steps(obj, context, frames, modifier):
+    """:func:`sample_deformation` in steps (``steps``): a frame a step, the scene's frame
+    and the modifiers put back when it ends or is closed (Esc)."""
     scene = context.scene
     current = scene.frame_current, scene.frame_subframe
     count = len(obj.data.vertices)
@@ -76,6 +85,7 @@ def sample_deformation(obj, context, frames, modifier):
             for frame in frames:
                 scene.frame_set(int(frame))
                 positions.append(bones.evaluated_world_positions(obj, context.evaluated_depsgraph_get()))
+                yield len(positions) / len(frames)
     finally:
         scene.frame_set(current[0], subframe=current[1])
     if any(len(sampled) != count for sampled in positions):
@@ -95,12 +105,13 @@ class Cancelled(Exception):
 
 
 class FittedBakeJob:
-    """A fitted bake in three steps: sample the deformation (at creation, in Blender),
-    fit (``run``, or ``start`` in a thread so that the window stays live; numpy only),
-    ``commit`` (in Blender: write, measure, replace the binding)."""
+    """A fitted bake in three steps: sample the deformation (at creation, in Blender; or,
+    made with ``sample=False``, in the steps of ``sampling``), fit (``run``, or ``start``
+    in a thread so that the window stays live; numpy only), ``commit`` (in Blender:
+    write, measure, replace the binding)."""
 
     def __init__(self, obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENCES,
-                 frames=None, iterations=12, seed=0):
+                 frames=None, iterations=12, seed=0, sample=True):
         self.obj, self.found = obj, bindings_module.binding(obj)
         # A binding that does not deform (its cage deleted, its mesh edited since Bind)
         # would be fitted as a still mesh: refused, as Follow is.
@@ -110,11 +121,16 @@ class FittedBakeJob:
         self.frames = frame_range(context.scene) if frames is None else np.asarray(frames)
         world = np.array(obj.matrix_world, dtype=np.float64)
         self.rest = mesh_io.read_positions(obj.data).astype(np.float64) @ world[:3, :3].T + world[:3, 3]
-        self.sampled = sample_deformation(obj, context, self.frames, self.found.modifier)
+        self.sampled = steps.run_to_end(self.sampling(context)) if sample else None
         self.options = {"bones": min(bone_count, len(self.rest)), "max_influences": max_influences,
                         "iterations": iterations, "seed": seed}
         self.bone_count, self.fraction, self.fit, self.error = int(bone_count), 0.0, None, None
         self.fit_seconds, self._cancel, self._thread = 0.0, threading.Event(), None
+
+    def sampling(self, context):
+        """Sample the deformation in steps (``steps``: a frame a step); sets ``sampled``."""
+        self.sampled = yield from sampling_steps(self.obj, context, self.frames, self.found.modifier)
+        return self.sampled
 
     def run(self, progress=None):
         """Fit here; ``progress(fraction)`` as it goes (an exception it raises cancels)."""
@@ -173,10 +189,23 @@ def bake(obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENC
     return job.commit(context)
 
 
+def bone_names(obj, count):
+    """The bones' (and their vertex groups') names, none of them a vertex group of ``obj``
+    already: "GenCoords Fitted j" for a mesh's first bake, "GenCoords Fitted 2:j" for its
+    second (the Armature modifier reads the groups named as its bones: an earlier bake's
+    rig keeps reading its own weights), and so on."""
+    taken = set(obj.vertex_groups.keys())
+    for number in itertools.count(1):
+        prefix = BONE_PREFIX if number == 1 else f"{BONE_PREFIX}{number}:"
+        names = [f"{prefix}{j}" for j in range(count)]
+        if taken.isdisjoint(names):
+            return names
+
+
 def _write(obj, context, found, fit, rest, sampled, frames):
     """Write the rig, the vertex groups and the Armature modifier, measure, then remove
     the binding; on any failure everything written is removed and the binding stays."""
-    names = [f"{BONE_PREFIX}{j}" for j in range(fit.transforms.shape[1])]
+    names = bone_names(obj, fit.transforms.shape[1])
     had_groups = {g.name for g in obj.vertex_groups}
     parent, shown = obj.parent, found.modifier.show_viewport
     rig = skin = None
@@ -238,11 +267,8 @@ def _keyframe_fit(rig, names, frames, fit):
             rotations.append(rotation[:])
         for path, values in (("location", locations), ("rotation_quaternion", rotations)):
             for axis, column in enumerate(np.array(values).T):
-                curve = curves[(f'pose.bones["{name}"].{path}', axis)]
-                curve.keyframe_points.add(len(frames) - 1)
-                curve.keyframe_points.foreach_set(
-                    "co", np.column_stack([frames, column]).astype(np.float32).ravel())
-                curve.update()
+                bones.key_linearly(curves[(f'pose.bones["{name}"].{path}', axis)], frames, column)
+    bones.first_in_exports(rig)
 
 
 def summary(obj, rig, figures):

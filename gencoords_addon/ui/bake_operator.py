@@ -23,8 +23,8 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
     bl_label = "Bake to Bones"
 
     max_influences: bpy.props.IntProperty(
-        name="Max Influences", default=0, min=0, soft_max=8,
-        description="Weights kept per vertex, renormalised (game engines take 4 or 8; "
+        name="Max Influences", default=0, min=0, max=8,
+        description="Weights kept per vertex, renormalised, at most 8 (game engines take 4 or 8; "
                     "three.js reads 4); 0 keeps all, which is exact (Fitted: 0 fits 4)")
     mode: bpy.props.EnumProperty(
         name="Mode", default='CAGE_VERTICES', items=(
@@ -135,13 +135,14 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             return internal_error(self, error)
         return {'CANCELLED'}
 
-    def _fitted_job(self, context):
+    def _fitted_job(self, context, sample=True):
         obj = context.active_object
         frames = (None if self.use_scene_range else
                   fitted.frame_range(context.scene, self.frame_start, self.frame_end))
         with object_mode(context, obj):
             return fitted.FittedBakeJob(
-                obj, context, self.bones, self.max_influences or fitted.DEFAULT_INFLUENCES, frames)
+                obj, context, self.bones, self.max_influences or fitted.DEFAULT_INFLUENCES, frames,
+                sample=sample)
 
     def _commit_fitted(self, context, job):
         if job.error is not None:
@@ -164,32 +165,57 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             context.window_manager.progress_end()
 
     def _start_fitted(self, context):
-        self._job = self._guarded(self._fitted_job, context)
+        """The modal bake: the frames sampled a frame a timer event, then the fit in a
+        thread; progress shown and Esc taken throughout."""
+        self._job = self._guarded(self._fitted_job, context, False)
         if isinstance(self._job, set):
             return self._job
-        self._job.start()
+        self._sampling = self._job.sampling(context)
         window_manager = context.window_manager
         self._timer = window_manager.event_timer_add(0.1, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
         return {'RUNNING_MODAL'}
 
+    def _step(self, context):
+        """One timer event's work: a frame sampled (the fit started after the last), or
+        nothing while the fit runs; the fraction done (sampling counts for a tenth)."""
+        job = self._job
+        if self._sampling is None:
+            return 0.1 + 0.9 * job.fraction
+        try:
+            with object_mode(context, job.obj):
+                return 0.1 * next(self._sampling)
+        except StopIteration:
+            self._sampling = None
+            job.start()
+            return 0.1
+
     def modal(self, context, event):
         job = self._job
         if event.type == 'ESC':
+            if self._sampling is not None:
+                self._sampling.close()  # the frame and the modifiers put back
             job.cancel()
             job.error = fitted.Cancelled()
         elif event.type != 'TIMER':
             return {'RUNNING_MODAL'}  # nothing else is edited while the fit runs
         elif not job.done:
-            context.window_manager.progress_update(job.fraction)
+            fraction = self._guarded(self._step, context)
+            if isinstance(fraction, set):  # the sampling failed (reported)
+                self._end_modal(context)
+                return fraction
+            context.window_manager.progress_update(fraction)
             context.workspace.status_text_set(f"GenCoords: fitting bones to '{job.obj.name}' "
-                                              f"{job.fraction:.0%} (Esc to cancel)")
+                                              f"{fraction:.0%} (Esc to cancel)")
             return {'RUNNING_MODAL'}
+        self._end_modal(context)
+        return self._guarded(self._commit_fitted, context, job)
+
+    def _end_modal(self, context):
         context.window_manager.event_timer_remove(self._timer)
         context.window_manager.progress_end()
         context.workspace.status_text_set(None)
-        return self._guarded(self._commit_fitted, context, job)
 
 
 def draw_menu(self, context):

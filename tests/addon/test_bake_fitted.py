@@ -185,7 +185,7 @@ def fitted_operator_stand_in(operators, **options):
     cls = operators.OBJECT_OT_gencoords_bake_bones
     methods = {name: vars(cls)[name] for name in (
         "execute", "invoke", "modal", "_fitted_options", "_guarded", "_fitted_job", "_commit_fitted",
-        "_bake_fitted", "_start_fitted")}
+        "_bake_fitted", "_start_fitted", "_step", "_end_modal")}
     stand_in = type("BakeStandIn", (), methods)()
     defaults = {"mode": 'FITTED', "bones": 8, "max_influences": 0, "use_scene_range": True,
                 "frame_start": 1, "frame_end": 250, "fitted_confirmed": False}
@@ -233,6 +233,20 @@ def test_in_a_window_the_fit_runs_modal_with_progress_and_esc(gc, monkeypatch):
     assert escaped.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
     assert escaped.reports == ["Bake to Bones cancelled: nothing was changed"]
     assert gc.binding.binding(obj) is not None and obj.parent is None and not obj.vertex_groups
+
+    # Issue 37 item 7: the frames are sampled a frame a timer event, with progress, and
+    # Esc among them puts the scene's frame and the modifiers back.
+    scene, shown = bpy.context.scene, [m.show_viewport for m in obj.modifiers]
+    frame = scene.frame_current
+    sampling = fitted_operator_stand_in(operators, fitted_confirmed=True)
+    assert sampling.invoke(context, None) == {'RUNNING_MODAL'}
+    updates = window_manager.calls.count("progress_update")
+    for _ in range(3):
+        assert sampling.modal(context, SimpleNamespace(type='TIMER')) == {'RUNNING_MODAL'}
+    assert window_manager.calls.count("progress_update") == updates + 3 and scene.frame_current == 3
+    assert sampling.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
+    assert scene.frame_current == frame and [m.show_viewport for m in obj.modifiers] == shown
+    assert sampling.reports == ["Bake to Bones cancelled: nothing was changed"] and obj.parent is None
 
     running = fitted_operator_stand_in(operators, fitted_confirmed=True)
     assert running.invoke(context, None) == {'RUNNING_MODAL'}
@@ -294,3 +308,101 @@ def test_a_binding_whose_cage_was_deleted_is_refused_and_nothing_changes(gc):
         bake_fitted(obj, bones=8)
     assert set(bpy.data.objects.keys()) == objects and [m.name for m in obj.modifiers] == modifiers
     assert not obj.vertex_groups and obj.parent is None
+
+
+def first_rig_alone(obj, armature, frames):
+    """The mesh's world positions at ``frames`` deformed by ``armature`` (an Armature
+    modifier) alone."""
+    shown = [(m, m.show_viewport) for m in obj.modifiers]
+    for modifier, _ in shown:
+        modifier.show_viewport = modifier == armature
+    try:
+        return binding_motion(obj, frames)
+    finally:
+        for modifier, visible in shown:
+            modifier.show_viewport = visible
+
+
+def test_a_second_fitted_bake_leaves_the_first_rig_as_it_was(gc):
+    """Issue 37 item 3: bake, bind the mesh to another cage, bake again (through the
+    operator): the second bake's bones and vertex groups have names of their own, so the
+    first rig reads its own weights and plays as before, to the float."""
+    obj, _ = bound_animated_scene(gc)
+    assert bake_fitted(obj, bones=8) == {'FINISHED'}
+    first_rig, (first_armature,) = obj.parent, obj.modifiers
+    before = first_rig_alone(obj, first_armature, FRAMES)
+    other_cage = add_icosphere_cage(radius=2.3, name="Other cage")
+    other_cage.location = (0.05, 0.0, 0.1)
+    assert bind(obj, other_cage) == {'FINISHED'}
+    assert bake_fitted(obj, bones=6) == {'FINISHED'}
+    second = next(m for m in obj.modifiers if m != first_armature)
+    assert second.type == 'ARMATURE' and second.object not in (None, first_rig)
+    first_names = {bone.name for bone in first_rig.data.bones}
+    second_names = {bone.name for bone in second.object.data.bones}
+    assert first_names.isdisjoint(second_names) and second_names <= set(obj.vertex_groups.keys())
+    after = first_rig_alone(obj, first_armature, FRAMES)
+    for frame in FRAMES:
+        np.testing.assert_array_equal(after[frame], before[frame])
+
+
+def test_the_bake_keys_what_engines_play_between_frames(gc):
+    """Issue 37 item 11: the keys are LINEAR (engines interpolate samples linearly, and
+    spherically for turns): at half frames the evaluated rig's bones hold the mean of
+    their two keyed neighbours' values (Bezier keys overshoot it where the motion bends)."""
+    obj, _ = bound_animated_scene(gc)
+    assert bake_fitted(obj, bones=8) == {'FINISHED'}
+    rig, scene = obj.parent, bpy.context.scene
+    curves = list(rig.animation_data.action.layers[0].strips[0].channelbag(rig.animation_data.action_slot).fcurves) \
+        if hasattr(rig.animation_data.action, "layers") else list(rig.animation_data.action.fcurves)
+    assert curves and all(point.interpolation == 'LINEAR' for curve in curves for point in curve.keyframe_points)
+
+    def pose(frame, subframe=0.0):
+        scene.frame_set(frame, subframe=subframe)
+        return np.array([list(bone.location) + list(bone.rotation_quaternion) for bone in rig.pose.bones])
+    for frame in (2, 5, 8):
+        np.testing.assert_allclose(pose(frame, 0.5), (pose(frame) + pose(frame + 1)) / 2, atol=1e-6)
+
+
+@pytest.mark.parametrize("mode", ["FITTED", "CAGE_VERTICES"])
+def test_the_default_fbx_export_plays_the_baked_motion_first(gc, tmp_path, mode):
+    """Issue 37 item 10: with every option of Blender's FBX exporter at its default, the
+    file's first take (what ufbx and three.js play) is the rig's motion, either bake's:
+    the bones move in it and the rig object does not. Read by our own FBX reader
+    (tests/addon/fbx_reader.py); before, the first take was the cage's own action (the
+    rig still, or moved by it)."""
+    from fbx_reader import animation_takes
+
+    obj, _ = bound_animated_scene(gc)
+    options = {"bones": 8} if mode == "FITTED" else {"mode": mode}
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bake_bones(**{"mode": 'FITTED', **options}) == {'FINISHED'}
+    rig = obj.parent
+    path = tmp_path / "fitted.fbx"
+    assert bpy.ops.export_scene.fbx(filepath=str(path)) == {'FINISHED'}
+    (name, models), *others = animation_takes(path)
+    assert name == rig.animation_data.action.name and others
+    bones = [bone.name for bone in rig.data.bones]
+    assert models.get(rig.name, 0.0) == 0.0 and all(bone in models for bone in bones)
+    assert max(models[bone] for bone in bones) > 0.0
+
+
+@pytest.mark.parametrize("mode", ["FITTED", "CAGE_VERTICES"])
+def test_the_default_gltf_export_holds_one_clip_for_the_rig(gc, tmp_path, mode):
+    """Issue 37 item 8: exported with every glTF option at its default (the whole scene),
+    one clip moves the rig's joints, its armature or its mesh: the rig's motion, either
+    bake's (the cage keeps a clip of its own, which moves only the cage)."""
+    obj, _ = bound_animated_scene(gc)
+    options = {"bones": 8} if mode == "FITTED" else {"mode": mode}
+    with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bake_bones(**{"mode": 'FITTED', **options}) == {'FINISHED'}
+    rig = obj.parent
+    blend, glb = tmp_path / "fitted.blend", tmp_path / "fitted.glb"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+    report = report_of(run_blender_script("blender_gltf_export.py", blend, glb, json.dumps({}), survive_exit_bug=True))
+    assert report == {"exported": ["FINISHED"]}
+    document, _ = read_glb(glb)
+    names = [node.get("name") for node in document["nodes"]]
+    rig_nodes = {names.index(rig.name), names.index(obj.name), *document["skins"][0]["joints"]}
+    moving_rig = [clip["name"] for clip in document["animations"]
+                  if any(channel["target"].get("node") in rig_nodes for channel in clip["channels"])]
+    assert moving_rig == [rig.animation_data.action.name]
