@@ -114,8 +114,9 @@ def follow_cage(obj, found):
         cage = None
     data = found.data
     if cage is not None:
-        if data.cage_name != cage.name:  # renamed since Bind
-            _store(found, replace(data, cage_name=cage.name))
+        # Renamed since Bind, or a deletion undone in memory (see ``hold_cage``).
+        if data.cage_name != cage.name or data.deleted_cage is not None:
+            _store(found, replace(data, cage_name=cage.name, deleted_cage=None))
         return None
     if data.deleted_cage is not None or data.cage_name is None:
         return None
@@ -124,6 +125,16 @@ def follow_cage(obj, found):
     # shows the last deformation until something else changes.
     obj.update_tag()
     return data.cage_name
+
+
+def hold_cage(obj, found, cage):
+    """Give the binding ``found`` of ``obj`` back the cage ``follow_cage`` let go of, as
+    Ctrl+Z of the Delete should have: Blender's undo keeps in memory the data whose saved
+    state is the same in both undo steps, and the letting go came after the Delete's step
+    was saved, so the undo keeps it."""
+    compat.set_modifier_input(found.modifier, deformer.CAGE, cage)
+    follow_cage(obj, found)  # reads the input again: clears the deleted cage's name
+    obj.update_tag()
 
 
 def _store(found, data):

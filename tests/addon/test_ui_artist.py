@@ -106,6 +106,52 @@ def test_undo_of_deleting_the_cage_brings_it_back_driving_the_mesh(gc):
         np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
 
 
+def as_the_ui(operator, obj):
+    """Run ``operator`` on ``obj`` alone as a click does: its undo step pushed as it
+    finishes (``undo=True``), before the depsgraph update that runs the add-on's handler."""
+    make_active(obj)
+    window = bpy.context.window_manager.windows[0]
+    with bpy.context.temp_override(window=window, selected_objects=[obj], active_object=obj,
+                                   object=obj):
+        assert operator('EXEC_DEFAULT', True) == {'FINISHED'}
+    update()
+
+
+def test_undo_of_deleting_an_animated_cage_after_edit_mode_gives_the_binding_its_cage(gc):
+    """Issue 37 item 1: an animated cage, Tab, Tab, X, Ctrl+Z: the cage came back and
+    animated while the mesh stayed undeformed and the panel said it was deleted. The
+    undo kept in memory the mesh and node group as the housekeeping had left them after
+    the Delete's undo step was saved (identical saved states are not read again)."""
+    preferences = bpy.context.preferences.edit
+    preferences.use_global_undo, preferences.undo_steps = True, 32
+    with bpy.context.temp_override(window=bpy.context.window_manager.windows[0]):
+        obj, cage = bound(gc)
+        cage.keyframe_insert("location", frame=1)
+        cage.location.x = 0.3
+        cage.keyframe_insert("location", frame=10)
+        bpy.ops.ed.undo_push(message="Bind")
+        as_the_ui(bpy.ops.object.editmode_toggle, cage)
+        as_the_ui(bpy.ops.object.editmode_toggle, cage)
+        as_the_ui(bpy.ops.object.delete, cage)
+        assert fault_text(gc, obj) == DELETED
+
+        assert bpy.ops.ed.undo() == {'FINISHED'}
+        update()
+        obj, cage = bpy.data.objects["Mesh"], bpy.data.objects["Cage"]
+        assert cage.name in bpy.context.scene.objects
+        assert obj.gencoords.cage == cage and gc.binding.binding(obj).cage == cage
+        assert fault_text(gc, obj) == ""
+        bpy.context.scene.frame_set(10)
+        rest = read_positions(obj.data)
+        np.testing.assert_allclose(evaluated_positions(obj), rest + (0.3, 0.0, 0.0), atol=1e-5)
+
+        assert bpy.ops.ed.redo() == {'FINISHED'}
+        update()
+        obj = bpy.data.objects["Mesh"]
+        assert fault_text(gc, obj) == DELETED
+        np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+
+
 def test_a_cage_unlinked_from_every_collection_is_let_go_of(gc):
     """Where Delete only unlinks the cage (Blender does when the object has other real
     users) it would live on through the modifier and the Cage setting."""
