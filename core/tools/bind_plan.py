@@ -28,7 +28,8 @@ import numpy as np
 from ..base.grid import fit_grid
 from ..base.tolerances import LINEAR_PRECISION, ROUNDING_AMPLIFICATION, TRANSLATION_PRECISION
 from ..construction.boundary import BOUNDARY, INSIDE, OUTSIDE
-from ..construction.green import GREEN
+from ..base.errors import OutsideCageError
+from ..construction.green import GREEN, GreenOutsideError
 from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
 from ..evaluation.deformation import coordinate_summary, linear_precision
@@ -652,6 +653,10 @@ def plan_bind(points, cage_vertices, triangles, request):
 
 def _plan(points, cage, request):
     count = len(points)
+    if request.outside == "raise":  # refused before any coordinates, at a small part of their cost
+        outside = cage.outside_points(points)
+        if len(outside):
+            raise (GreenOutsideError if request.green else OutsideCageError)(outside, count)
     # Workers are chosen once for the whole plan; each call gives every one a chunk.
     workers = cage.suggested_workers(count) if request.workers is None else request.workers
     field = None
