@@ -147,11 +147,12 @@ def inside_points(cage, points):
     return inside_by_grid(cage, cage.local(points), *cage.inside_lookup)[0]
 
 
-def outside_points(cage, points, tolerance):
+def outside_points(cage, points, tolerance, convex):
     """The points outside the cage beyond ``tolerance`` (what :data:`OUTSIDE` means to
-    :func:`locate`), found without their coordinates: the grid lookup and winding numbers
-    of :func:`inside_points`, then the nearest facet of only the points not inside, but for
-    those beyond the cage's box grown by ``tolerance``, which are outside whatever it is.
+    :func:`locate`), found without their coordinates: those not inside (a convex cage:
+    behind a facet's plane; another: the grid lookup and winding numbers of
+    :func:`inside_points`), less those near enough to a facet, looked for only among the
+    facets whose boxes grown by ``tolerance`` hold them (the others are farther).
 
     Parameters
     ----------
@@ -159,13 +160,23 @@ def outside_points(cage, points, tolerance):
     points : (k, N) float
     tolerance : float
         Absolute distance in the cage's frame (as :func:`locate`'s).
+    convex : bool
+        Whether the cage is convex.
 
     Returns
     -------
     outside : (o,) int
         Indices into ``points``, ascending.
     """
-    candidates = np.flatnonzero(~inside_points(cage, points))
+    if convex:
+        normals = cage.facet_normals / np.linalg.norm(cage.facet_normals, axis=1)[:, None]
+        offsets = cage.facet_offsets / np.linalg.norm(cage.facet_normals, axis=1)
+        chunk = max(1, _PAIR_CHUNK * 16 // len(normals))  # (point, facet) distances a batch
+        depth = np.concatenate([(offsets - cage.local(points[start:start + chunk]) @ normals.T).min(axis=1)
+                                for start in range(0, len(points), chunk)] or [np.empty(0)])
+        candidates = np.flatnonzero(depth < 0.0)
+    else:
+        candidates = np.flatnonzero(~inside_points(cage, points))
     remaining = points[candidates]
     local = cage.local(remaining)
     corners = cage.facet_corners()  # (m, N, N)
@@ -174,7 +185,6 @@ def outside_points(cage, points, tolerance):
     chunk = max(1, _PAIR_CHUNK // len(corners))  # (point, facet) pairs a batch: bounded memory
     for start in range(0, len(candidates), chunk):
         x = local[start:start + chunk, None, :]
-        # Only facets whose box grown by the tolerance holds the point can be that near.
         point_index, facet_index = np.nonzero(((x >= low) & (x <= high)).all(axis=2))
         which, _, _, distance = _nearest_of_pairs(cage, remaining, start + point_index, facet_index)
         touching[which[distance <= tolerance]] = True

@@ -246,7 +246,7 @@ class Cage:
         without their coordinates or those of the others, at a small part of their cost:
         (o,) int indices, ascending."""
         return outside_points(self._prepared, np.asarray(points, dtype=np.float64),
-                              self.tolerance * self._prepared.size)
+                              self.tolerance * self._prepared.size, self.convex)
 
     # -- shared machinery ----------------------------------------------------------------
 
