@@ -87,11 +87,15 @@ def gamma_words(gamma):
     return "" if gamma is None else f" (gamma {gamma:g})"
 
 
-def zero_scale(what, name, axes, then):
-    """Message for an object (``what``: "cage", "mesh") scaled to zero on ``axes``."""
+def zero_scale(what, name, axes, then, effect=None):
+    """Message for an object (``what``: "cage", "mesh") scaled to zero on ``axes`` (none
+    named where only a parent's axis turned against the object's is) and what that does,
+    ``effect``, if anything."""
     plural = "axes" if len(axes) > 1 else "axis"
-    return (f"The {what} object '{name}' is scaled to zero on its {' and '.join(axes)} {plural} (or its "
-            f"parent is): give it a non-zero Scale (Object Properties > Transform), then {then}")
+    where = f" on its {' and '.join(axes)} {plural}" if axes else ""  # none: a parent's turned axis
+    effect = ": " if effect is None else f": {effect}; "
+    return (f"The {what} object '{name}' is scaled to zero{where} (or its parent is){effect}give it a "
+            f"non-zero Scale (Object Properties > Transform), then {then}")
 
 
 # What keeps weights positive, for the panel's note on negative ones.

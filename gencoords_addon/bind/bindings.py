@@ -10,6 +10,7 @@ from dataclasses import dataclass, replace
 import bpy
 import numpy as np
 
+from .. import messages
 from ..blender_io import compat, mesh_arrays, mesh_io
 from ..bind_layout import BAKE_INFO, METADATA, BindData
 from ..graph import deformer, helpers, sparse
@@ -266,6 +267,9 @@ def deformation_problem(obj, found, depsgraph=None):
         verb = "added" if change > 0 else "deleted"
         return (f"Mesh edited since Bind: {abs(change)} vertices {verb}; it is not deformed "
                 "until you Bind again (or turn on Auto Rebind)")
+    if not mesh_io.invertible(obj.matrix_world):  # the deformer's guard: no cage in its space
+        return messages.zero_scale("mesh", obj.name, mesh_io.zero_scale_axes(obj.matrix_world),
+                                   "it deforms again", effect="the mesh is not deformed")
     depsgraph = depsgraph or bpy.context.view_layer.depsgraph
     with mesh_io.evaluated_mesh(cage, depsgraph) as cage_mesh:
         count = len(cage_mesh.vertices)

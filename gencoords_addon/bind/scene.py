@@ -13,6 +13,7 @@ import numpy as np
 from ... import core
 from .. import messages
 from ..blender_io import compat, mesh_io
+from ..blender_io.mesh_io import zero_scale_axes
 from ..enums import core_name, is_green, is_harmonic, kind_label, kind_parameter
 from ..errors import BindError
 from ..graph import deformer, helpers
@@ -93,14 +94,6 @@ def check_inputs(obj):
                         "cannot drive each other")
     if len(obj.data.vertices) == 0:
         raise BindError(f"'{obj.name}' has no vertices to bind")
-
-
-def zero_scale_axes(matrix):
-    """The local axes ('X', 'Y', 'Z') an object matrix (4x4) scales to (nearly) nothing,
-    which flattens the object: a list, empty for a usable matrix."""
-    lengths = np.linalg.norm(np.array(matrix, dtype=np.float64)[:3, :3], axis=0)
-    return [axis for axis, length in zip("XYZ", lengths)
-            if not length > FLOAT32_TOLERANCE * lengths.max()]
 
 
 CAPTURE_GROUP = ".GenCoords capture"

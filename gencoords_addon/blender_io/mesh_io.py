@@ -79,3 +79,17 @@ def read_evaluated_cage(cage, depsgraph):
         positions = read_positions(mesh)
         return CageGeometry(positions, *read_triangles(mesh, positions),
                             count_non_triangles(mesh), faces_hash(mesh))
+
+
+def zero_scale_axes(matrix):
+    """The local axes ('X', 'Y', 'Z') an object matrix (4x4) scales to (nearly) nothing,
+    which flattens the object: a list, empty for a usable matrix."""
+    lengths = np.linalg.norm(np.array(matrix, dtype=np.float64)[:3, :3], axis=0)
+    return [axis for axis, length in zip("XYZ", lengths)
+            if not length > core.base.tolerances.FLOAT32 * lengths.max()]
+
+
+def invertible(matrix):
+    """Whether Blender inverts the object matrix (4x4) as the deformer does (Invert
+    Matrix: a float32 determinant that is not zero)."""
+    return bool(np.linalg.det(np.array(matrix, dtype=np.float32)) != 0.0)

@@ -255,6 +255,37 @@ def test_a_cage_object_scaled_to_zero_is_told_so(gc, axes, said):
         "it a non-zero Scale (Object Properties > Transform), then Bind"))
 
 
+@pytest.mark.parametrize("kind", ["MEAN_VALUE", "HARMONIC", "GREEN"])
+@pytest.mark.parametrize(("scaled", "scale", "said"), [("mesh", (1.0, 1.0, 0.0), " on its Z axis"),
+                                                       ("mesh", (1.0, 0.0, 1.0), " on its Y axis"),
+                                                       ("parent", (1.0, 1.0, 0.0), "")])
+def test_a_mesh_object_scaled_to_zero_after_bind_stays_at_rest_and_is_told_so(gc, kind, scaled, scale, said):
+    """Issue 37 item 9: the mesh object (turned, away from the cage's origin) scaled to
+    zero after Bind was displaced at rest (up to 0.57 here): Invert Matrix gives the
+    identity for it, so the cage landed elsewhere in the mesh's space. The deformer now
+    passes the mesh through and the panel says why; a scale again deforms it again."""
+    cage, obj = add_icosphere_cage(), add_sphere()
+    obj.location, obj.rotation_euler, obj.scale = (0.3, 0.2, 0.1), (0.3, 0.2, 0.1), (1.1, 0.9, 1.2)
+    parent = bpy.data.objects.new("Parent", None)
+    bpy.context.collection.objects.link(parent)
+    obj.parent = parent
+    obj.gencoords.cage, obj.gencoords.kind = cage, kind
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+    rest = read_positions(obj.data).copy()
+    (obj if scaled == "mesh" else parent).scale = scale
+    update()
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    assert fault_text(gc, obj) == (
+        f"The mesh object 'Mesh' is scaled to zero{said} (or its parent is): the mesh is not deformed; give it a "
+        "non-zero Scale (Object Properties > Transform), then it deforms again")
+    (obj if scaled == "mesh" else parent).scale = (1.0, 1.0, 1.0)
+    update()
+    assert fault_text(gc, obj) == ""
+    write_positions(cage.data, read_positions(cage.data) + (0.0, 0.0, 0.1))
+    assert np.abs(evaluated_positions(obj) - rest).max() > 0.05
+
+
 def test_a_flat_cage_mesh_is_told_it_encloses_no_volume(gc):
     cage = add_icosphere_cage()
     write_positions(cage.data, read_positions(cage.data) * (1.0, 1.0, 0.0))
