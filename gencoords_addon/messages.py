@@ -21,8 +21,8 @@ CAGE_PROBLEMS = {
                     "Select All by Trait > Non Manifold",
     "inconsistent_orientation": "has faces pointing different ways: " + RECALCULATE_NORMALS,
     "inward": "is inside out (normals point inward): " + RECALCULATE_NORMALS,
-    "non_convex": "is not convex, which {kind} coordinates need: choose Mean Value "
-                  "(works on any closed cage) or make the cage convex",
+    "non_convex": "is not convex, which {kind} coordinates need: choose Mean Value or "
+                  f"{HARMONIC_LABEL} (they work on any closed cage) or make the cage convex",
 }
 
 
@@ -103,6 +103,12 @@ POSITIVE_WEIGHTS = (f"Type {HARMONIC_LABEL} (local, positive) keeps weights posi
                     "part of the cage, in any closed cage; so does a convex cage (Make Cage)")
 
 
+def percent(share):
+    """A share in percent as the panel writes it: three significant digits, never an
+    exponent down to 1e-4 (``100``, ``2.5``, ``0.0312``; ``< 0.0001`` below)."""
+    return f"{share:.3g}" if share >= 1e-4 or share == 0.0 else "< 0.0001"
+
+
 def negative_weights(data, kind_label):
     """Panel lines (text, icon) explaining a binding's negative coordinates, from its
     ``BindData``: how many (vertices, and of all its coordinates), why, what keeps them
@@ -116,9 +122,9 @@ def negative_weights(data, kind_label):
         why = f"{kind_label} coordinates can be negative in this cage"
     # Earlier binds lack the count of negative coordinates.
     entries = "" if data.negative_entries is None else (
-        f", {100.0 * data.negative_entries / max(data.mesh_vertex_count * data.cage_vertex_count, 1):.2g} % "
+        f", {percent(100.0 * data.negative_entries / max(data.mesh_vertex_count * data.cage_vertex_count, 1))} % "
         "of all coordinates")
-    return [(f"{share:.2g} % of vertices have negative weights{entries} (smallest {data.min_coordinate:.3g})",
+    return [(f"{percent(share)} % of vertices have negative weights{entries} (smallest {data.min_coordinate:.3g})",
              'INFO'),
             (f"{why}: parts of the mesh may move against the cage", 'BLANK1'),
             (POSITIVE_WEIGHTS, 'BLANK1')]

@@ -265,8 +265,9 @@ def deformation_problem(obj, found, depsgraph=None):
     change = len(obj.data.vertices) - data.mesh_vertex_count
     if change and obj.mode != 'EDIT':
         verb = "added" if change > 0 else "deleted"
-        return (f"Mesh edited since Bind: {abs(change)} vertices {verb}; it is not deformed "
-                "until you Bind again (or turn on Auto Rebind)")
+        until = ("bound again (Auto Rebind binds it on leaving Edit Mode, or Bind)" if obj.gencoords.auto_rebind
+                 else "you Bind again (or turn on Auto Rebind)")
+        return f"Mesh edited since Bind: {abs(change)} vertices {verb}; it is not deformed until {until}"
     if not mesh_io.invertible(obj.matrix_world):  # the deformer's guard: no cage in its space
         return messages.zero_scale("mesh", obj.name, mesh_io.zero_scale_axes(obj.matrix_world),
                                    "it deforms again", effect="the mesh is not deformed")

@@ -73,18 +73,20 @@ def test_broken_cages_are_refused(gc, change, message):
     assert_bind_refused(add_sphere(), cage, message)
 
 
-def test_non_convex_cage_suggests_mean_value(gc):
+def test_non_convex_cage_suggests_mean_value_and_harmonic(gc):
     cage = add_cube_cage()
     edit_mesh(cage, dent)
     obj = add_sphere(radius=0.5)
-    assert_bind_refused(obj, cage, "not convex, which Wachspress coordinates need: choose "
-                                   "Mean Value", kind="WACHSPRESS")
+    assert_bind_refused(obj, cage, re.escape("not convex, which Wachspress coordinates need: choose "
+                                             "Mean Value or Harmonic (they work on any closed cage)"),
+                        kind="WACHSPRESS")
     # The faces named are the cage's own (quads an artist can select), around the dent.
     with pytest.raises(RuntimeError) as error:
         bind(obj, cage, kind="WACHSPRESS")
     named = [int(index) for index in re.search(r"faces dent inward: ([\d, ]+);", str(error.value)).group(1).split(",")]
     assert all(0 in cage.data.polygons[face].vertices for face in named)
     assert bind(obj, cage, kind="MEAN_VALUE") == {'FINISHED'}
+    assert bind(obj, cage, kind="HARMONIC") == {'FINISHED'}
 
 
 def test_mesh_with_an_undefined_vertex_is_refused(gc):
@@ -271,7 +273,7 @@ def test_status_names_negative_coordinates_only_when_there_are_some(gc):
     lines = gc.status.status_lines(obj)
     share = 100 * info.negative_points / info.mesh_vertex_count
     of_all = 100 * info.negative_entries / (info.mesh_vertex_count * info.cage_vertex_count)
-    expected = (f"{share:.2g} % of vertices have negative weights, {of_all:.2g} % of all coordinates "
+    expected = (f"{share:.3g} % of vertices have negative weights, {of_all:.3g} % of all coordinates "
                 f"(smallest {info.min_coordinate:.3g})")
     assert (expected, 'INFO') in lines
     assert ("Vertices outside the cage are extrapolated: parts of the mesh may move against the cage",

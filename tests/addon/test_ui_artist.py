@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from scene_helpers import (make_active, add_cube_cage, add_icosphere_cage, add_sphere, bind,
-                           evaluated_positions, mesh_state, read_positions, update,
+                           edit_mesh, evaluated_positions, mesh_state, read_positions, update,
                            write_positions)
 from test_bind_errors import assert_bind_refused, bound, fault_text
 
@@ -486,3 +486,28 @@ def test_bind_and_unbind_leave_the_cage_with_the_users_it_had(gc):
     obj.gencoords.cage = None
     update()
     assert cage.users == 1  # its collection alone
+
+
+def test_the_panels_words_issue_37(gc):
+    """Issue 37 item 8: "1e+02 %"; "turn on Auto Rebind" while it was on; "Rebind" with
+    the Cage field empty; the status's figures pushing Bake to Bones below the window."""
+    cage = add_icosphere_cage(radius=2.0)
+    obj = add_sphere(radius=0.5, location=(4.0, 0.0, 0.0))  # wholly outside: every vertex extrapolated
+    assert bind(obj, cage, outside="EXTRAPOLATE") == {'FINISHED'}
+    texts = [text for text, _ in gc.status.status_lines(obj)]
+    assert any(text.startswith("100 % of vertices have negative weights") for text in texts), texts
+
+    drawn = drawn_panel(obj)
+    bound_to, bake = drawn.index(("label", "Bound to 'Cage' (modifier 'GenCoords')")), \
+        drawn.index(("operator", "object.gencoords_bake_bones"))
+    assert bound_to < bake < drawn.index(("label", "Coordinates: Mean Value"))  # the figures below
+    assert drawn[drawn.index(("operator", "object.gencoords_bind")) + 1] == ("text", "Rebind")
+    obj.gencoords.cage = None
+    drawn = drawn_panel(obj)
+    assert drawn[drawn.index(("operator", "object.gencoords_bind")) + 1] == ("text", "Bind")
+
+    obj.gencoords.cage, obj.gencoords.auto_rebind = cage, True
+    edit_mesh(obj, lambda bm: bm.verts.new((4.0, 0.0, 0.0)))  # edited in its data, not in Edit Mode
+    problem = fault_text(gc, obj)
+    assert problem.startswith("Mesh edited since Bind: 1 vertices added") and "turn on" not in problem
+    assert "Auto Rebind binds it on leaving Edit Mode, or Bind" in problem
