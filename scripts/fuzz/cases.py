@@ -20,10 +20,11 @@ from gencoords.tools.bind_plan import HARMONIC
 # The core's kinds, Green coordinates and harmonic coordinates (the add-on's enum order).
 KINDS = tuple(kind.name.upper() for kind in gencoords.KIND_TABLE) + (GREEN.upper(), HARMONIC.upper())
 # Harmonic coordinates' grid: coarse, so a case binds in a second (the setting's minimum
-# is 4, and 5 leaves a cell straddling the middle), now and then fine (the setting's soft
-# maximum: a few seconds on these cages).
+# is 4, and 5 leaves a cell straddling the middle), now and then finer than Bind's default
+# (48). The setting's soft maximum, 128, ran past the case's 120 s (seeds 81 and 343 on two
+# busy cores).
 HARMONIC_RESOLUTIONS = (4, 4, 5, 8, 16)
-HARMONIC_FINE = 128
+HARMONIC_FINE = 64
 OUTSIDE = ("RAISE", "PROJECT", "EXTRAPOLATE")
 STORAGE = ("AUTO", "EXACT", "COMPACT", "SPARSE")
 BAKE_MODES = ("CAGE_VERTICES", "CAGE_VERTICES", "FITTED")
