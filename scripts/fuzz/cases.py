@@ -20,11 +20,11 @@ from gencoords.tools.bind_plan import HARMONIC
 # The core's kinds, Green coordinates and harmonic coordinates (the add-on's enum order).
 KINDS = tuple(kind.name.upper() for kind in gencoords.KIND_TABLE) + (GREEN.upper(), HARMONIC.upper())
 # Harmonic coordinates' grid: coarse, so a case binds in a second (the setting's minimum
-# is 4, and 5 leaves a cell straddling the middle), now and then finer than Bind's default
-# (48). The setting's soft maximum, 128, ran past the case's 120 s (seeds 81 and 343 on two
-# busy cores).
+# is 4, and 5 leaves a cell straddling the middle), now and then fine. Finer grids do not
+# fit a case's 120 s on a busy machine: the field of a 162-vertex icosphere took 63 s at
+# Bind's default 48 and 177 s at 64 on two shared cores (seeds 81 and 343 drawn at 128).
 HARMONIC_RESOLUTIONS = (4, 4, 5, 8, 16)
-HARMONIC_FINE = 64
+HARMONIC_FINE = 32
 OUTSIDE = ("RAISE", "PROJECT", "EXTRAPOLATE")
 STORAGE = ("AUTO", "EXACT", "COMPACT", "SPARSE")
 BAKE_MODES = ("CAGE_VERTICES", "CAGE_VERTICES", "FITTED")
