@@ -46,6 +46,12 @@ def cage_error(cage_name, error, kind_label, triangle_faces, dented=None):
     return f"Cage '{cage_name}' {problem}{where}"
 
 
+def no_extrapolation(kind_label):
+    """Refusal of Outside: Extrapolate for a kind that has no formula outside the cage."""
+    return (f"{kind_label} coordinates do not extrapolate outside the cage: set Outside to Report Error or "
+            "Project, then Bind")
+
+
 def outside_error(cage_name, outside_count, total):
     """Message for mesh vertices outside the cage when Outside is Report Error."""
     return (f"{outside_count} of {total} mesh vertices lie outside the cage '{cage_name}': "

@@ -125,6 +125,8 @@ def read_bind_input(obj, settings, context):
     """Read the mesh ``obj`` and its cage (``settings.cage``) and check them: a
     ``BindInput`` in world space (Green coordinates: the mesh's local space)."""
     cage = settings.cage
+    if is_harmonic(settings.kind) and settings.outside == 'extrapolate':  # refused before its field is solved
+        raise BindError(messages.no_extrapolation(settings.kind_label))
     depsgraph = context.evaluated_depsgraph_get()
     rest = mesh_io.read_positions(obj.data).astype(np.float64)
     undefined = np.flatnonzero(~np.isfinite(rest).all(axis=1))
@@ -173,8 +175,7 @@ def _green_frame(obj, settings, rest, rest_cage, triangles, world):
     transform turns the cage's triangles inside out there: they are flipped). Returns
     the points, the cage's vertices and its triangles there."""
     if settings.outside == 'extrapolate':
-        raise BindError("Green coordinates do not extrapolate outside the cage: set Outside "
-                        "to Report Error or Project, then Bind")
+        raise BindError(messages.no_extrapolation(settings.kind_label))
     if np.linalg.det(world[:3, :3]) < 0.0:
         triangles = triangles[:, ::-1].copy()
     return rest, rest_cage.astype(np.float64), triangles

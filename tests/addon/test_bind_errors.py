@@ -143,6 +143,23 @@ def test_vertices_outside_are_refused_before_any_coordinates_are_computed(gc, mo
     assert_bind_refused(obj, cage, r"\d+ of 114 mesh vertices lie outside the cage 'Cage'", kind=kind)
 
 
+def test_harmonic_refuses_extrapolation_in_blenders_words_before_solving_its_field(gc, monkeypatch):
+    """Found by the fuzz (seed 81): Harmonic with Outside Extrapolate was refused after its
+    field was solved, in the core's words ("use outside='raise' or outside='project'")."""
+    def never(*args, **kwargs):
+        raise AssertionError("the field solved before the refusal")
+
+    monkeypatch.setattr(gc.core.tools.bind_plan, "harmonic_field", never)
+    obj = add_sphere(radius=0.5)
+    before = mesh_state(obj)
+    with pytest.raises(RuntimeError, match=re.escape(
+            "Harmonic coordinates do not extrapolate outside the cage: set Outside to Report Error or Project, "
+            "then Bind")):
+        bind(obj, add_icosphere_cage(), kind="HARMONIC", outside="EXTRAPOLATE")
+    np.testing.assert_array_equal(mesh_state(obj)[0], before[0])
+    assert not obj.modifiers
+
+
 def fault_text(gc, obj):
     return "\n".join(text for text, icon in gc.status.status_lines(obj) if icon == 'ERROR')
 
