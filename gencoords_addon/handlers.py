@@ -14,7 +14,10 @@ the object for its other users, unlinks it from every collection, and the modifi
 and the Cage setting would keep it alive and driving the mesh. Either way, as with Mesh
 Deform, the binding lets go of it: the mesh is passed through unchanged, the panel says
 which cage was deleted, and the orphaned cage is neither saved nor kept by a purge.
-Ctrl+Z of the Delete brings back the state before it, references and all.
+Ctrl+Z of the Delete brings back the state before it, references and all: Blender's undo
+keeps in memory the data whose saved state is the same in both steps, which the letting
+go changed after the Delete's step was saved, so ``on_undo_or_redo`` gives each binding
+back the cage it let go of where the undo brought that cage back.
 """
 
 import functools
@@ -29,6 +32,8 @@ from .errors import BindError
 
 _was_editing = set()  # Object.session_uid of bound meshes seen in Edit Mode
 _cage_names = {}  # Object.session_uid -> name, of the bound cages at the last housekeeping
+_let_go = {}  # (mesh session_uid, binding key) -> session_uid of the deleted cage it let go of
+_bound_cages = {}  # the same, of the cages bound at the last housekeeping
 _rebind_pending = set()  # Object.session_uid of meshes the timer is to rebind in a window
 REBIND_RETRY_SECONDS = 0.5  # how often the timer looks again while a modal Bind of the mesh runs
 
@@ -125,9 +130,14 @@ def release_deleted_cages():
         if obj.library is not None:
             continue
         for found in bindings.bindings(obj):
+            held = (obj.session_uid, found.key)
+            if found.cage is not None and not bindings.is_deleted(found.cage):
+                _bound_cages[held] = found.cage.session_uid
             name = bindings.follow_cage(obj, found)
             if name is not None:
                 released.add(name)
+                if held in _bound_cages:
+                    _let_go[held] = _bound_cages.pop(held)
             cage = found.cage
             if cage is not None:
                 _cage_names[cage.session_uid] = cage.name
@@ -173,18 +183,40 @@ def on_depsgraph_update(scene, depsgraph):
 
 
 @_never_raise
+def on_undo_or_redo(*_):
+    """Ctrl+Z (or Ctrl+Shift+Z) that brought back a deleted cage (in a scene again) gives
+    the bindings that let go of it their cage back (see the module's docstring)."""
+    objects = {obj.session_uid: obj for obj in bpy.data.objects}
+    for (mesh_uid, key), cage_uid in list(_let_go.items()):
+        obj, cage = objects.get(mesh_uid), objects.get(cage_uid)
+        if obj is None or cage is None or bindings.is_deleted(cage):
+            continue
+        found = next((b for b in bindings.bindings(obj) if b.key == key and b.cage is None), None)
+        del _let_go[mesh_uid, key]
+        if found is None:
+            continue
+        bindings.hold_cage(obj, found, cage)
+        if obj.gencoords.cage is None:
+            obj.gencoords.cage = cage
+
+
+@_never_raise
 def on_load_post(*_):
     """A file opened: nothing of the previous one is pending, and a cage deleted while
     an older GenCoords kept it alive (saved with the file) is let go of now, not at the
     first update touching a scene."""
     _was_editing.clear()
     _rebind_pending.clear()
+    _let_go.clear()
+    _bound_cages.clear()
     release_deleted_cages()
     bindings.remove_orphaned_groups()
 
 
 HANDLERS = ((bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
-            (bpy.app.handlers.load_post, on_load_post))
+            (bpy.app.handlers.load_post, on_load_post),
+            (bpy.app.handlers.undo_post, on_undo_or_redo),
+            (bpy.app.handlers.redo_post, on_undo_or_redo))
 
 
 def register():
@@ -202,3 +234,5 @@ def unregister():
     _was_editing.clear()
     _cage_names.clear()
     _rebind_pending.clear()
+    _let_go.clear()
+    _bound_cages.clear()

@@ -21,8 +21,8 @@ CAGE_PROBLEMS = {
                     "Select All by Trait > Non Manifold",
     "inconsistent_orientation": "has faces pointing different ways: " + RECALCULATE_NORMALS,
     "inward": "is inside out (normals point inward): " + RECALCULATE_NORMALS,
-    "non_convex": "is not convex, which {kind} coordinates need: choose Mean Value "
-                  "(works on any closed cage) or make the cage convex",
+    "non_convex": "is not convex, which {kind} coordinates need: choose Mean Value or "
+                  f"{HARMONIC_LABEL} (they work on any closed cage) or make the cage convex",
 }
 
 
@@ -44,6 +44,12 @@ def cage_error(cage_name, error, kind_label, triangle_faces, dented=None):
     elif error.vertices:
         where = f" (vertices {_first_indices(error.vertices)})"
     return f"Cage '{cage_name}' {problem}{where}"
+
+
+def no_extrapolation(kind_label):
+    """Refusal of Outside: Extrapolate for a kind that has no formula outside the cage."""
+    return (f"{kind_label} coordinates do not extrapolate outside the cage: set Outside to Report Error or "
+            "Project, then Bind")
 
 
 def outside_error(cage_name, outside_count, total):
@@ -87,16 +93,26 @@ def gamma_words(gamma):
     return "" if gamma is None else f" (gamma {gamma:g})"
 
 
-def zero_scale(what, name, axes, then):
-    """Message for an object (``what``: "cage", "mesh") scaled to zero on ``axes``."""
+def zero_scale(what, name, axes, then, effect=None):
+    """Message for an object (``what``: "cage", "mesh") scaled to zero on ``axes`` (none
+    named where only a parent's axis turned against the object's is) and what that does,
+    ``effect``, if anything."""
     plural = "axes" if len(axes) > 1 else "axis"
-    return (f"The {what} object '{name}' is scaled to zero on its {' and '.join(axes)} {plural} (or its "
-            f"parent is): give it a non-zero Scale (Object Properties > Transform), then {then}")
+    where = f" on its {' and '.join(axes)} {plural}" if axes else ""  # none: a parent's turned axis
+    effect = ": " if effect is None else f": {effect}; "
+    return (f"The {what} object '{name}' is scaled to zero{where} (or its parent is){effect}give it a "
+            f"non-zero Scale (Object Properties > Transform), then {then}")
 
 
 # What keeps weights positive, for the panel's note on negative ones.
 POSITIVE_WEIGHTS = (f"Type {HARMONIC_LABEL} (local, positive) keeps weights positive and each part of the mesh to its own "
                     "part of the cage, in any closed cage; so does a convex cage (Make Cage)")
+
+
+def percent(share):
+    """A share in percent as the panel writes it: three significant digits, never an
+    exponent down to 1e-4 (``100``, ``2.5``, ``0.0312``; ``< 0.0001`` below)."""
+    return f"{share:.3g}" if share >= 1e-4 or share == 0.0 else "< 0.0001"
 
 
 def negative_weights(data, kind_label):
@@ -112,9 +128,9 @@ def negative_weights(data, kind_label):
         why = f"{kind_label} coordinates can be negative in this cage"
     # Earlier binds lack the count of negative coordinates.
     entries = "" if data.negative_entries is None else (
-        f", {100.0 * data.negative_entries / max(data.mesh_vertex_count * data.cage_vertex_count, 1):.2g} % "
+        f", {percent(100.0 * data.negative_entries / max(data.mesh_vertex_count * data.cage_vertex_count, 1))} % "
         "of all coordinates")
-    return [(f"{share:.2g} % of vertices have negative weights{entries} (smallest {data.min_coordinate:.3g})",
+    return [(f"{percent(share)} % of vertices have negative weights{entries} (smallest {data.min_coordinate:.3g})",
              'INFO'),
             (f"{why}: parts of the mesh may move against the cage", 'BLANK1'),
             (POSITIVE_WEIGHTS, 'BLANK1')]

@@ -11,7 +11,7 @@ from ..base.grid import column_pairs, fit_grid, inside_nodes, surface_cells
 from ..base.simplex import closest_points_on_simplices
 
 __all__ = ["INSIDE", "BOUNDARY", "OUTSIDE", "plane_distances", "locate", "winding_numbers", "inside_lookup",
-           "inside_by_grid", "inside_points", "plane_limit_coordinates", "nearest_boundary_coordinates"]
+           "inside_by_grid", "inside_points", "outside_points", "plane_limit_coordinates", "nearest_boundary_coordinates"]
 
 INSIDE, BOUNDARY, OUTSIDE = 1, 0, -1
 _PAIR_CHUNK = 1 << 16  # (point, facet) pairs per closest-point batch: bounded memory
@@ -145,6 +145,50 @@ def inside_points(cage, points):
     if cage.dimension != 3 or cage.inside_lookup is None:
         return winding_numbers(cage, points) >= 0.5
     return inside_by_grid(cage, cage.local(points), *cage.inside_lookup)[0]
+
+
+def outside_points(cage, points, tolerance, convex):
+    """The points outside the cage beyond ``tolerance`` (what :data:`OUTSIDE` means to
+    :func:`locate`), found without their coordinates: those not inside (a convex cage:
+    behind a facet's plane; another: the grid lookup and winding numbers of
+    :func:`inside_points`), less those near enough to a facet, looked for only among the
+    facets whose boxes grown by ``tolerance`` hold them (the others are farther).
+
+    Parameters
+    ----------
+    cage : PreparedCage
+    points : (k, N) float
+    tolerance : float
+        Absolute distance in the cage's frame (as :func:`locate`'s).
+    convex : bool
+        Whether the cage is convex.
+
+    Returns
+    -------
+    outside : (o,) int
+        Indices into ``points``, ascending.
+    """
+    if convex:
+        normals = cage.facet_normals / np.linalg.norm(cage.facet_normals, axis=1)[:, None]
+        offsets = cage.facet_offsets / np.linalg.norm(cage.facet_normals, axis=1)
+        chunk = max(1, _PAIR_CHUNK * 16 // len(normals))  # (point, facet) distances a batch
+        depth = np.concatenate([(offsets - cage.local(points[start:start + chunk]) @ normals.T).min(axis=1)
+                                for start in range(0, len(points), chunk)] or [np.empty(0)])
+        candidates = np.flatnonzero(depth < 0.0)
+    else:
+        candidates = np.flatnonzero(~inside_points(cage, points))
+    remaining = points[candidates]
+    local = cage.local(remaining)
+    corners = cage.facet_corners()  # (m, N, N)
+    low, high = corners.min(axis=1) - tolerance, corners.max(axis=1) + tolerance
+    touching = np.zeros(len(candidates), dtype=bool)
+    chunk = max(1, _PAIR_CHUNK // len(corners))  # (point, facet) pairs a batch: bounded memory
+    for start in range(0, len(candidates), chunk):
+        x = local[start:start + chunk, None, :]
+        point_index, facet_index = np.nonzero(((x >= low) & (x <= high)).all(axis=2))
+        which, _, _, distance = _nearest_of_pairs(cage, remaining, start + point_index, facet_index)
+        touching[which[distance <= tolerance]] = True
+    return candidates[~touching]
 
 
 def _nearest_of_pairs(cage, points, point_index, facet_index):

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 
 from ..base import tolerances
-from ..construction.boundary import BOUNDARY, OUTSIDE
+from ..construction.boundary import BOUNDARY, OUTSIDE, outside_points
 from ..construction.general import point_frame
 from ..base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerError
 from .rows import chunk_size, evaluate_rows, evaluation_terms, keep_freed_memory_for_reuse, locate_rows
@@ -248,6 +248,13 @@ class Cage:
             rows = slice(start, start + chunk)
             locations[rows] = locate_rows(self._prepared, points[rows], absolute, self.convex)
         return locations
+
+    def outside_points(self, points):
+        """The points ``outside="raise"`` refuses (outside beyond the tolerance), found
+        without their coordinates or those of the others, at a small part of their cost:
+        (o,) int indices, ascending."""
+        return outside_points(self._prepared, np.asarray(points, dtype=np.float64),
+                              self.tolerance * self._prepared.size, self.convex)
 
     # -- shared machinery ----------------------------------------------------------------
 

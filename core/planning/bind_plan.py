@@ -22,9 +22,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..base.errors import OutsideCageError
 from ..base.grid import fit_grid
 from ..base.tolerances import LINEAR_PRECISION, ROUNDING_AMPLIFICATION, TRANSLATION_PRECISION
 from ..construction.boundary import OUTSIDE
+from ..construction.green import GreenOutsideError
 from ..evaluation.cage import Cage
 from ..harmonic import harmonic_field
 from ..storage import Storage, two_level
@@ -156,6 +158,10 @@ def plan_bind(points, cage_vertices, triangles, request):
 
 def _plan(points, cage, request):
     count = len(points)
+    if request.outside == "raise":  # refused before any coordinates, at a small part of their cost
+        outside = cage.outside_points(points)
+        if len(outside):
+            raise (GreenOutsideError if request.green else OutsideCageError)(outside, count)
     # Workers are chosen once for the whole plan; each call gives every one a chunk.
     workers = cage.suggested_workers(count) if request.workers is None else request.workers
     field = None

@@ -137,7 +137,7 @@ def kind_report(request, cage, field=None):
         return "Green: similarity invariant, shape-preserving; any closed cage"
     if field is not None:
         return (f"Harmonic: local, never negative; any closed cage (resolution {field.resolution}: "
-                f"{len(field.node_coordinates)} grid nodes)")
+                f"{len(field.node_coordinates)} grid nodes solved)")
     return coordinate_report(cage.vertices, cage.faces, request.kind, gamma=request.gamma,
                              samples=REPORT_SAMPLES, tolerance=request.tolerance).headline
 

@@ -10,8 +10,8 @@ from dataclasses import dataclass, replace
 import bpy
 import numpy as np
 
-from .. import storage
-from ..blender_io import compat, mesh_io
+from .. import messages, storage
+from ..blender_io import compat, mesh_arrays, mesh_io
 from ..bind_layout import BAKE_INFO, METADATA, BindData
 from ..graph import deformer, helpers
 from . import attributes
@@ -96,8 +96,9 @@ def follow_cage(obj, found):
         cage = None
     data = found.data
     if cage is not None:
-        if data.cage_name != cage.name:  # renamed since Bind
-            _store(found, replace(data, cage_name=cage.name))
+        # Renamed since Bind, or a deletion undone in memory (see ``hold_cage``).
+        if data.cage_name != cage.name or data.deleted_cage is not None:
+            _store(found, replace(data, cage_name=cage.name, deleted_cage=None))
         return None
     if data.deleted_cage is not None or data.cage_name is None:
         return None
@@ -106,6 +107,16 @@ def follow_cage(obj, found):
     # shows the last deformation until something else changes.
     obj.update_tag()
     return data.cage_name
+
+
+def hold_cage(obj, found, cage):
+    """Give the binding ``found`` of ``obj`` back the cage ``follow_cage`` let go of, as
+    Ctrl+Z of the Delete should have: Blender's undo keeps in memory the data whose saved
+    state is the same in both undo steps, and the letting go came after the Delete's step
+    was saved, so the undo keeps it."""
+    compat.set_modifier_input(found.modifier, deformer.CAGE, cage)
+    follow_cage(obj, found)  # reads the input again: clears the deleted cage's name
+    obj.update_tag()
 
 
 def _store(found, data):
@@ -235,8 +246,12 @@ def deformation_problem(obj, found, depsgraph=None):
     change = len(obj.data.vertices) - data.mesh_vertex_count
     if change and obj.mode != 'EDIT':
         verb = "added" if change > 0 else "deleted"
-        return (f"Mesh edited since Bind: {abs(change)} vertices {verb}; it is not deformed "
-                "until you Bind again (or turn on Auto Rebind)")
+        until = ("bound again (Auto Rebind binds it on leaving Edit Mode, or Bind)" if obj.gencoords.auto_rebind
+                 else "you Bind again (or turn on Auto Rebind)")
+        return f"Mesh edited since Bind: {abs(change)} vertices {verb}; it is not deformed until {until}"
+    if not mesh_io.invertible(obj.matrix_world):  # the deformer's guard: no cage in its space
+        return messages.zero_scale("mesh", obj.name, mesh_io.zero_scale_axes(obj.matrix_world),
+                                   "it deforms again", effect="the mesh is not deformed")
     depsgraph = depsgraph or bpy.context.view_layer.depsgraph
     with mesh_io.evaluated_mesh(cage, depsgraph) as cage_mesh:
         count = len(cage_mesh.vertices)

@@ -14,6 +14,7 @@ from ... import core
 from ...core.planning import bind_steps
 from .. import messages
 from ..blender_io import compat, mesh_io
+from ..blender_io.mesh_io import zero_scale_axes
 from ..enums import core_name, is_green, is_harmonic, kind_label, kind_parameter
 from ..errors import BindError
 from ..graph import deformer, helpers
@@ -96,13 +97,6 @@ def check_inputs(obj):
         raise BindError(f"'{obj.name}' has no vertices to bind")
 
 
-def zero_scale_axes(matrix):
-    """The local axes ('X', 'Y', 'Z') an object matrix (4x4) scales to (nearly) nothing,
-    which flattens the object: a list, empty for a usable matrix (the core's
-    ``bind_steps.zero_scale_axes`` at float32's tolerance)."""
-    return bind_steps.zero_scale_axes(matrix, FLOAT32_TOLERANCE)
-
-
 CAPTURE_GROUP = ".GenCoords capture"
 
 
@@ -132,6 +126,8 @@ def read_bind_input(obj, settings, context):
     """Read the mesh ``obj`` and its cage (``settings.cage``) and check them: a
     ``BindInput`` in world space (Green coordinates: the mesh's local space)."""
     cage = settings.cage
+    if is_harmonic(settings.kind) and settings.outside == 'extrapolate':  # refused before its field is solved
+        raise BindError(messages.no_extrapolation(settings.kind_label))
     depsgraph = context.evaluated_depsgraph_get()
     rest = mesh_io.read_positions(obj.data).astype(np.float64)
     undefined = np.flatnonzero(~np.isfinite(rest).all(axis=1))
@@ -167,8 +163,7 @@ def read_bind_input(obj, settings, context):
                         "then Bind")
     if is_green(settings.kind):
         if settings.outside == 'extrapolate':
-            raise BindError("Green coordinates do not extrapolate outside the cage: set Outside "
-                            "to Report Error or Project, then Bind")
+            raise BindError(messages.no_extrapolation(settings.kind_label))
         points, cage_vertices, triangles, origins = bind_steps.computing_frame(*frame, local=True)
     return BindInput(points, cage_vertices, triangles, geometry.triangle_faces, rest_cage, origins,
                      geometry.faces_hash, geometry.non_triangles)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import core
+from ...core.planning import bind_steps
 from .mesh_arrays import (read_corner_vertices, read_face_sizes, read_faces, read_loop_triangle_faces,
                           read_positions)
 
@@ -79,3 +80,16 @@ def read_evaluated_cage(cage, depsgraph):
         positions = read_positions(mesh)
         return CageGeometry(positions, *read_triangles(mesh, positions),
                             count_non_triangles(mesh), faces_hash(mesh))
+
+
+def zero_scale_axes(matrix):
+    """The local axes ('X', 'Y', 'Z') an object matrix (4x4) scales to (nearly) nothing,
+    which flattens the object: a list, empty for a usable matrix (the core's
+    ``bind_steps.zero_scale_axes`` at float32's tolerance)."""
+    return bind_steps.zero_scale_axes(matrix, core.base.tolerances.FLOAT32)
+
+
+def invertible(matrix):
+    """Whether Blender inverts the object matrix (4x4) as the deformer does (Invert
+    Matrix: a float32 determinant that is not zero)."""
+    return bool(np.linalg.det(np.array(matrix, dtype=np.float32)) != 0.0)

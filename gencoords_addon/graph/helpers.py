@@ -66,7 +66,12 @@ def cage_info(build, group_input):
     build.link(info.outputs["Geometry"], placed.inputs["Geometry"])
     build.link(_transformed(build, 'FunctionNodeTransformDirection', inverse.outputs[0], world),
                placed.inputs["Position"])
-    return placed.outputs["Geometry"]
+    # A mesh object scaled to zero has no space to place the cage in (the inverse would
+    # be the identity): no cage then, and the deformer's guard passes the mesh through.
+    kept = build.add('GeometryNodeSwitch', "cage", input_type='GEOMETRY')
+    build.link(inverse.outputs["Invertible"], kept.inputs["Switch"])
+    build.link(placed.outputs["Geometry"], kept.inputs["True"])
+    return kept.outputs[0]
 
 
 def _transformed(build, node_type, matrix, vector):

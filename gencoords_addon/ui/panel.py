@@ -13,6 +13,7 @@ from .visualise import field_range
 
 
 CHARACTER_WIDTH = 7  # pixels of an average interface character at UI scale 1
+HEADLINE_ICONS = {'ERROR', 'LINKED', 'UNLINKED'}  # status lines always shown: faults, what it is bound to
 
 
 def wrapped(text, width):
@@ -63,7 +64,7 @@ def draw_settings(layout, obj, width=None):
     column.prop(settings, "auto_rebind")
 
     row = layout.row(align=True)
-    rebind = binding(obj, settings.cage) is not None
+    rebind = settings.cage is not None and binding(obj, settings.cage) is not None
     row.operator("object.gencoords_bind", text="Rebind" if rebind else "Bind", icon='LINKED')
     unbind = row.row(align=True)
     unbind.enabled = bound
@@ -78,11 +79,10 @@ def draw_settings(layout, obj, width=None):
             item.operator("object.gencoords_unbind", text="", icon='X').modifier = \
                 found.modifier.name
 
-    box = layout.box().column(align=True)
-    for text, icon in status_lines(obj):
-        for number, line in enumerate(wrapped(text, width)):
-            box.label(text=line, icon=icon if number == 0 else 'BLANK1')
-
+    # What is wrong and what it is bound to first; the figures fold away below, after the
+    # buttons (at full length they pushed Bake to Bones below a 1000-pixel window's edge).
+    lines = status_lines(obj)
+    _draw_lines(layout.box().column(align=True), [line for line in lines if line[1] in HEADLINE_ICONS], width)
     if bound:
         # For game engines and exporters; its options (influences, keyframes) in a dialog.
         layout.operator("object.gencoords_bake_bones", icon='ARMATURE_DATA')
@@ -99,6 +99,19 @@ def draw_settings(layout, obj, width=None):
             legend.label(text=f"Purple 0 to yellow {highest:.3g}")
             if lowest < 0.0:
                 legend.label(text=f"Pink to red: negative, down to {lowest:.3g}")
+    details = [line for line in lines if line[1] not in HEADLINE_ICONS]
+    if details:
+        header, body = layout.panel("GENCOORDS_status_details", default_closed=False)
+        header.label(text="Binding Details")
+        if body is not None:
+            _draw_lines(body.box().column(align=True), details, width)
+
+
+def _draw_lines(column, lines, width):
+    """Status ``lines`` ((text, icon)) as labels, wrapped to ``width`` characters."""
+    for text, icon in lines:
+        for number, line in enumerate(wrapped(text, width)):
+            column.label(text=line, icon=icon if number == 0 else 'BLANK1')
 
 
 class GenCoordsPanel:

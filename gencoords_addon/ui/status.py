@@ -35,8 +35,10 @@ def _storage_words(data):
         return f"{storage}, {data.slot_count} per vertex"
     if not data.node_count:
         return f"{storage}, {data.slot_count} pairs per vertex"
-    return (f"{storage} in two levels, each vertex interpolated from {data.slot_count} grid nodes, "
-            f"{data.node_count} nodes of {data.node_slot_count} pairs")
+    # The nodes stored: the grid nodes the mesh's cells use (of those solved, which the
+    # "In this cage" line counts) and vertices at the cage, each a node of its own.
+    return (f"{storage} in two levels, {data.slot_count} nodes a vertex; {data.node_count} nodes stored, "
+            f"{data.node_slot_count} pairs each")
 
 
 def binding_lines(obj, found, depsgraph=None):

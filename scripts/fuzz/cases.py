@@ -19,8 +19,12 @@ from gencoords.surfaces.named import HARMONIC
 
 # The core's kinds, Green coordinates and harmonic coordinates (the add-on's enum order).
 KINDS = tuple(kind.name.upper() for kind in gencoords.KIND_TABLE) + (GREEN.upper(), HARMONIC.upper())
-# Harmonic coordinates' grid: coarse, so a case binds in a second (the setting's minimum is 4).
-HARMONIC_RESOLUTIONS = (4, 8, 16)
+# Harmonic coordinates' grid: coarse, so a case binds in a second (the setting's minimum
+# is 4, and 5 leaves a cell straddling the middle), now and then fine. Finer grids do not
+# fit a case's 120 s on a busy machine: the field of a 162-vertex icosphere took 63 s at
+# Bind's default 48 and 177 s at 64 on two shared cores (seeds 81 and 343 drawn at 128).
+HARMONIC_RESOLUTIONS = (4, 4, 5, 8, 16)
+HARMONIC_FINE = 32
 OUTSIDE = ("RAISE", "PROJECT", "EXTRAPOLATE")
 STORAGE = ("AUTO", "EXACT", "COMPACT", "SPARSE")
 BAKE_MODES = ("CAGE_VERTICES", "CAGE_VERTICES", "FITTED")
@@ -31,6 +35,11 @@ CAGE_DEFECTS = ("open", "non_manifold", "self_intersecting", "duplicate_vertices
 CAGE_MODIFIERS = ("SUBSURF", "TRIANGULATE", "DISPLACE", "SOLIDIFY")
 MESH_SHAPES = ("sphere", "monkey", "grid", "icosphere", "points", "cage_itself", "single_vertex")
 MESH_MODIFIERS = ("SUBSURF", "SMOOTH", "DISPLACE")
+# What Make Cage's mesh may be made first (its data): all its vertices at one point, a
+# thousandth of a micrometre across, or flat.
+MESH_ODDITIES = ("one_point", "tiny", "flat")
+# Make Cage Tight's offsets (the setting's share of the mesh's size; soft maximum 0.1).
+TIGHT_OFFSETS = (0.0, 0.001, 0.01, 0.1, 0.5, 1.25)
 # Object scales: a zero or a negative axis, or a mirror on every axis.
 ODD_SCALES = ("zero_x", "negative_x", "negative_all")
 # The roles objects play; steps name roles, the scene maps them to objects.
@@ -83,7 +92,29 @@ def bind_step(rng, available, op="bind"):
     if kind == POWER.upper():
         step["gamma"] = rng.choice((-16.0, -8.0, -2.0, -1.0, -0.5, 0.0, 1.0, 2.0, 16.0))
     if kind == HARMONIC.upper():
-        step["resolution"] = rng.choice(HARMONIC_RESOLUTIONS)
+        step["resolution"] = HARMONIC_FINE if rng.random() < 0.1 else rng.choice(HARMONIC_RESOLUTIONS)
+    return step
+
+
+def bake_step(rng, target, mode=None):
+    """Bake to Bones; Fitted with 1 to 8 influences (0: its default 4), a few bones, and
+    a short frame range anywhere: before frame 0, one frame, or ending before it starts."""
+    step = {"op": "bake", "target": target, "max_influences": rng.choice((0, 0, 1, 4, 8)),
+            "keyframes": rng.random() < 0.5, "mode": mode or rng.choice(BAKE_MODES)}
+    if step["mode"] == "FITTED":  # a few bones over a few frames: seconds, not minutes
+        start = rng.choice((-3, 0, 1, 1, 7))
+        step.update(max_influences=rng.randint(0, 8), bones=rng.choice((1, 2, 4, 8, 16)), frame_start=start,
+                    frame_end=start + rng.choice((-1, 0, 1, 2, 2)))
+    return step
+
+
+def make_cage_step(rng, target):
+    """Make Cage, convex or tight, now and then of an odd mesh (``MESH_ODDITIES``)."""
+    step = {"op": "make_cage", "target": target, "vertices": rng.choice((8, 20, 100, 300)),
+            "margin": rng.choice((0.0, 0.01, 0.05, 0.5)), "shape": rng.choice(("CONVEX", "CONVEX", "TIGHT")),
+            "oddity": _pick(rng, MESH_ODDITIES, 0.2)}
+    if step["shape"] == "TIGHT":
+        step["offset"] = rng.choice(TIGHT_OFFSETS)
     return step
 
 
@@ -122,17 +153,9 @@ def step_of(rng, available):
     if op == "apply":
         return {"op": op, "target": role(rng, available, ("mesh", "mesh", "twin", "cage")), "which": rng.choice(("first", "last"))}
     if op == "bake":
-        step = {"op": op, "target": target, "max_influences": rng.choice((0, 0, 1, 4, 8)),
-                "keyframes": rng.random() < 0.5, "mode": rng.choice(BAKE_MODES)}
-        if step["mode"] == "FITTED":  # a few bones over a few frames: seconds, not minutes
-            step.update(bones=rng.choice((1, 4, 8)), frame_end=rng.choice((1, 3)))
-        return step
+        return bake_step(rng, target)
     if op == "make_cage":
-        step = {"op": op, "target": target, "vertices": rng.choice((8, 20, 100, 300)),
-                "margin": rng.choice((0.0, 0.01, 0.05, 0.5)), "shape": rng.choice(("CONVEX", "CONVEX", "TIGHT"))}
-        if step["shape"] == "TIGHT":
-            step["offset"] = rng.choice((0.0, 0.01, 0.1))
-        return step
+        return make_cage_step(rng, target)
     if op == "frame":
         return {"op": op, "cage": cage, "amount": 10.0 ** rng.uniform(-3, 0),
                 "direction": [rng.gauss(0, 1) for _ in range(3)]}
@@ -153,14 +176,15 @@ def step_of(rng, available):
 
 def story(rng, available, scene):
     """A sequence where cage deformers tend to break, its parameters random: a good
-    binding first, then copies sharing its data, a bake, the cage deleted, a tiny cage
-    object moved, or the mesh object flat; random steps follow."""
+    binding first, then copies sharing its data, a bake, two Fitted bakes of one mesh (a
+    rebind or a second cage between them), the cage deleted, a tiny cage object moved, or
+    the mesh object flat; random steps follow."""
     # A cage and a mesh that bind (the defects come later), but for a flat mesh object.
     scene["cage"].update(defect=None, odd_scale=None)
     scene["mesh"].update(nan=False, odd_scale=None, shape=rng.choice(("sphere", "monkey", "icosphere", "grid")))
     steps = [dict(bind_step(rng, available), target="mesh", cage="cage",
                   kind=MEAN_VALUE.upper(), outside="PROJECT")]  # any closed cage
-    theme = rng.choice(("copies", "bake", "deleted cage", "small", "flat mesh"))
+    theme = rng.choice(("copies", "bake", "two bakes", "deleted cage", "small", "flat mesh"))
     if theme == "copies":
         steps.append({"op": "duplicate", "target": "mesh", "linked": rng.random() < 0.8})
         available.add("copy")
@@ -172,6 +196,16 @@ def story(rng, available, scene):
                           "nan": True})
         steps.append({"op": "bake", "target": "mesh", "max_influences": rng.choice((0, 4)),
                       "keyframes": rng.random() < 0.5})
+    elif theme == "two bakes":
+        steps.append(bake_step(rng, "mesh", "FITTED"))
+        if rng.random() < 0.5:
+            steps.append({"op": "rebind", "target": "mesh"})
+        else:  # a second cage around the mesh, bound beside the first
+            steps.append(dict(make_cage_step(rng, "mesh"), shape="CONVEX", oddity=None))
+            steps.append(dict(bind_step(rng, available), target="mesh", cage="made", kind=MEAN_VALUE.upper(),
+                              outside="PROJECT"))
+            available.add("made")
+        steps.append(bake_step(rng, "mesh", "FITTED"))
     elif theme == "deleted cage":
         steps.append({"op": "delete", "target": "cage"})
         steps.append({"op": "show_field", "target": "mesh", "vertex": rng.choice((0, 1, 5))})

@@ -370,8 +370,8 @@ def bake(state, step):
     options = {"max_influences": step["max_influences"], "keyframes": step["keyframes"]}
     fitted = step.get("mode") == "FITTED"
     if fitted:
-        options.update(mode='FITTED', bones=step["bones"], use_scene_range=False, frame_start=1,
-                       frame_end=step["frame_end"])
+        options.update(mode='FITTED', bones=step["bones"], use_scene_range=False,
+                       frame_start=step.get("frame_start", 1), frame_end=step["frame_end"])
     operate(target, bpy.ops.object.gencoords_bake_bones, **options)
     _forget_pristine(state, target)
     if step["max_influences"] == 0 and not fitted:  # every weight kept: as the binding did
@@ -394,8 +394,28 @@ def clear_field(state, step):
     return "done"
 
 
+def _make_odd(state, obj, oddity):
+    """Make the mesh data of ``obj`` odd (``cases.MESH_ODDITIES``): every vertex at the
+    first's position, shrunk a billionfold about its centre, or flattened along Z."""
+    state.reshaped.add(obj.name)  # its rigs and followers no longer move as bound
+    _forget_pristine(state, obj)
+    positions = arrays.read_positions(obj.data).astype(np.float64)
+    if not len(positions):
+        return
+    centre = positions.mean(axis=0)
+    if oddity == "one_point":
+        positions[:] = positions[0]
+    elif oddity == "tiny":
+        positions = centre + (positions - centre) * 1e-9
+    else:
+        positions[:, 2] = centre[2]
+    arrays.write_positions(obj.data, positions.astype(np.float32))
+
+
 def make_cage(state, step):
     target = state.get(step["target"])
+    if step.get("oddity") and target.type == 'MESH':
+        _make_odd(state, target, step["oddity"])
     options = {"target_vertices": step["vertices"], "margin": step["margin"]}
     if step.get("shape") == "TIGHT":
         options.update(shape='TIGHT', offset=step["offset"])

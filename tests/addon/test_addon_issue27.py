@@ -356,7 +356,7 @@ def test_negative_mean_value_weights_in_a_non_convex_cage_are_explained_not_an_e
     share = 100 * info.negative_points / info.mesh_vertex_count
     of_all = 100 * info.negative_entries / (info.mesh_vertex_count * info.cage_vertex_count)
     assert 0 < of_all < share  # some of each vertex's coordinates
-    assert (f"{share:.2g} % of vertices have negative weights, {of_all:.2g} % of all coordinates (smallest "
+    assert (f"{share:.3g} % of vertices have negative weights, {of_all:.3g} % of all coordinates (smallest "
             f"{info.min_coordinate:.3g})") in texts
     assert "The cage is not convex: parts of the mesh may move against the cage" in texts
     assert any(text.startswith("Type Harmonic (local, positive) keeps weights positive") for text in texts)

@@ -73,6 +73,10 @@ class RecordingLayout:
 
     column = row = box = _nested
 
+    def panel(self, idname, default_closed=False):
+        """A layout panel, open: its header and body."""
+        return RecordingLayout(self.drawn), RecordingLayout(self.drawn)
+
     def prop(self, data, name, **kwargs):
         assert name in data.bl_rna.properties, name
         self.drawn.append(("prop", name))
@@ -81,6 +85,8 @@ class RecordingLayout:
         category, name = idname.split(".")
         assert hasattr(getattr(bpy.ops, category), name), idname
         self.drawn.append(("operator", idname))
+        if "text" in kwargs:  # the button's own words
+            self.drawn.append(("text", kwargs["text"]))
 
     def label(self, text, icon='NONE'):
         self.drawn.append(("label", text))

@@ -352,6 +352,8 @@ def test_bake_to_bones_is_in_the_object_animation_menu_and_the_panel(gc):
                 return lambda idname, **options: drawn.append(idname) or type("Props", (), {})()
             if name in ("row", "column", "box"):
                 return lambda *args, **options: self
+            if name == "panel":  # a layout panel: its header and body
+                return lambda *args, **options: (self, self)
             return lambda *args, **options: None
 
     panel.draw_settings(PanelLayout(), obj)

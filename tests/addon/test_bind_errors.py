@@ -73,18 +73,20 @@ def test_broken_cages_are_refused(gc, change, message):
     assert_bind_refused(add_sphere(), cage, message)
 
 
-def test_non_convex_cage_suggests_mean_value(gc):
+def test_non_convex_cage_suggests_mean_value_and_harmonic(gc):
     cage = add_cube_cage()
     edit_mesh(cage, dent)
     obj = add_sphere(radius=0.5)
-    assert_bind_refused(obj, cage, "not convex, which Wachspress coordinates need: choose "
-                                   "Mean Value", kind="WACHSPRESS")
+    assert_bind_refused(obj, cage, re.escape("not convex, which Wachspress coordinates need: choose "
+                                             "Mean Value or Harmonic (they work on any closed cage)"),
+                        kind="WACHSPRESS")
     # The faces named are the cage's own (quads an artist can select), around the dent.
     with pytest.raises(RuntimeError) as error:
         bind(obj, cage, kind="WACHSPRESS")
     named = [int(index) for index in re.search(r"faces dent inward: ([\d, ]+);", str(error.value)).group(1).split(",")]
     assert all(0 in cage.data.polygons[face].vertices for face in named)
     assert bind(obj, cage, kind="MEAN_VALUE") == {'FINISHED'}
+    assert bind(obj, cage, kind="HARMONIC") == {'FINISHED'}
 
 
 def test_mesh_with_an_undefined_vertex_is_refused(gc):
@@ -123,6 +125,39 @@ def test_vertices_outside_are_counted_and_project_or_extrapolate_bind(gc):
         assert surely_outside <= info.points_outside <= np.count_nonzero(distances > 1.5)
         assert np.isfinite(evaluated_positions(obj)).all()
         assert any(f"outside the cage ({verb})" in text for text, _ in gc.status.status_lines(obj))
+
+
+@pytest.mark.parametrize("kind", ["MEAN_VALUE", "HARMONIC", "GREEN"])
+def test_vertices_outside_are_refused_before_any_coordinates_are_computed(gc, monkeypatch, kind):
+    """Issue 37 item 12: Harmonic refused the vertices outside after solving its field
+    (8.5 s of an 11.1 s Bind), the others after most of the coordinates: now before."""
+    cage = add_icosphere_cage(radius=2.0)
+    obj = add_sphere(radius=1.0, location=(1.5, 0, 0))
+
+    def never(*args, **kwargs):
+        raise AssertionError("coordinates computed before the refusal")
+
+    for name in ("coordinates", "green_coordinates"):
+        monkeypatch.setattr(gc.core.Cage, name, never)
+    monkeypatch.setattr(gc.core.tools.bind_plan, "harmonic_field", never)
+    assert_bind_refused(obj, cage, r"\d+ of 114 mesh vertices lie outside the cage 'Cage'", kind=kind)
+
+
+def test_harmonic_refuses_extrapolation_in_blenders_words_before_solving_its_field(gc, monkeypatch):
+    """Found by the fuzz (seed 81): Harmonic with Outside Extrapolate was refused after its
+    field was solved, in the core's words ("use outside='raise' or outside='project'")."""
+    def never(*args, **kwargs):
+        raise AssertionError("the field solved before the refusal")
+
+    monkeypatch.setattr(gc.core.tools.bind_plan, "harmonic_field", never)
+    obj = add_sphere(radius=0.5)
+    before = mesh_state(obj)
+    with pytest.raises(RuntimeError, match=re.escape(
+            "Harmonic coordinates do not extrapolate outside the cage: set Outside to Report Error or Project, "
+            "then Bind")):
+        bind(obj, add_icosphere_cage(), kind="HARMONIC", outside="EXTRAPOLATE")
+    np.testing.assert_array_equal(mesh_state(obj)[0], before[0])
+    assert not obj.modifiers
 
 
 def fault_text(gc, obj):
@@ -255,7 +290,7 @@ def test_status_names_negative_coordinates_only_when_there_are_some(gc):
     lines = gc.status.status_lines(obj)
     share = 100 * info.negative_points / info.mesh_vertex_count
     of_all = 100 * info.negative_entries / (info.mesh_vertex_count * info.cage_vertex_count)
-    expected = (f"{share:.2g} % of vertices have negative weights, {of_all:.2g} % of all coordinates "
+    expected = (f"{share:.3g} % of vertices have negative weights, {of_all:.3g} % of all coordinates "
                 f"(smallest {info.min_coordinate:.3g})")
     assert (expected, 'INFO') in lines
     assert ("Vertices outside the cage are extrapolated: parts of the mesh may move against the cage",

@@ -5,6 +5,7 @@ still when one limb moves; strength, mask, two cages, Unbind, Bake to Bones; spa
 storage for the other kinds; and the panel's words for mean value in a non-convex cage."""
 
 import importlib
+import re
 
 import bpy
 import numpy as np
@@ -103,7 +104,13 @@ def test_harmonic_binding_is_sparse_positive_bitwise_at_rest_and_translates_exac
     assert np.linalg.norm(evaluated_positions(obj) - expected, axis=1).max() < 1e-5 * diagonal(cage)
     write_positions(cage.data, cage_rest)
     np.testing.assert_array_equal(evaluated_positions(obj), rest)
-    assert "Harmonic" in " ".join(text for text, _ in gc.status.status_lines(obj))
+    texts = [text for text, _ in gc.status.status_lines(obj)]
+    assert "Harmonic" in " ".join(texts)
+    # Issue 37 item 8: the nodes stored and the grid nodes solved, each said as what it is.
+    data = gc.binding.binding(obj).data
+    assert any(f"two levels, 4 nodes a vertex; {data.node_count} nodes stored, {data.node_slot_count} pairs each"
+               in text for text in texts), texts
+    assert any(re.search(r"In this cage: .*resolution \d+: \d+ grid nodes solved\)$", text) for text in texts), texts
 
 
 def test_automatic_keeps_every_pair_of_few_nodes_deep_in_a_convex_cage(gc):

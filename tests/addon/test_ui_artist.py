@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from scene_helpers import (make_active, add_cube_cage, add_icosphere_cage, add_sphere, bind,
-                           evaluated_positions, mesh_state, read_positions, update,
+                           edit_mesh, evaluated_positions, mesh_state, read_positions, update,
                            write_positions)
 from test_bind_errors import assert_bind_refused, bound, fault_text
 
@@ -98,6 +98,52 @@ def test_undo_of_deleting_the_cage_brings_it_back_driving_the_mesh(gc):
         assert obj.gencoords.cage == cage and gc.binding.binding(obj).cage == cage
         assert fault_text(gc, obj) == ""
         assert_follows(obj, cage)
+
+        assert bpy.ops.ed.redo() == {'FINISHED'}
+        update()
+        obj = bpy.data.objects["Mesh"]
+        assert fault_text(gc, obj) == DELETED
+        np.testing.assert_array_equal(evaluated_positions(obj), read_positions(obj.data))
+
+
+def as_the_ui(operator, obj):
+    """Run ``operator`` on ``obj`` alone as a click does: its undo step pushed as it
+    finishes (``undo=True``), before the depsgraph update that runs the add-on's handler."""
+    make_active(obj)
+    window = bpy.context.window_manager.windows[0]
+    with bpy.context.temp_override(window=window, selected_objects=[obj], active_object=obj,
+                                   object=obj):
+        assert operator('EXEC_DEFAULT', True) == {'FINISHED'}
+    update()
+
+
+def test_undo_of_deleting_an_animated_cage_after_edit_mode_gives_the_binding_its_cage(gc):
+    """Issue 37 item 1: an animated cage, Tab, Tab, X, Ctrl+Z: the cage came back and
+    animated while the mesh stayed undeformed and the panel said it was deleted. The
+    undo kept in memory the mesh and node group as the housekeeping had left them after
+    the Delete's undo step was saved (identical saved states are not read again)."""
+    preferences = bpy.context.preferences.edit
+    preferences.use_global_undo, preferences.undo_steps = True, 32
+    with bpy.context.temp_override(window=bpy.context.window_manager.windows[0]):
+        obj, cage = bound(gc)
+        cage.keyframe_insert("location", frame=1)
+        cage.location.x = 0.3
+        cage.keyframe_insert("location", frame=10)
+        bpy.ops.ed.undo_push(message="Bind")
+        as_the_ui(bpy.ops.object.editmode_toggle, cage)
+        as_the_ui(bpy.ops.object.editmode_toggle, cage)
+        as_the_ui(bpy.ops.object.delete, cage)
+        assert fault_text(gc, obj) == DELETED
+
+        assert bpy.ops.ed.undo() == {'FINISHED'}
+        update()
+        obj, cage = bpy.data.objects["Mesh"], bpy.data.objects["Cage"]
+        assert cage.name in bpy.context.scene.objects
+        assert obj.gencoords.cage == cage and gc.binding.binding(obj).cage == cage
+        assert fault_text(gc, obj) == ""
+        bpy.context.scene.frame_set(10)
+        rest = read_positions(obj.data)
+        np.testing.assert_allclose(evaluated_positions(obj), rest + (0.3, 0.0, 0.0), atol=1e-5)
 
         assert bpy.ops.ed.redo() == {'FINISHED'}
         update()
@@ -207,6 +253,37 @@ def test_a_cage_object_scaled_to_zero_is_told_so(gc, axes, said):
     assert_bind_refused(add_sphere(), cage, re.escape(
         f"The cage object 'Cage' is scaled to zero on its {said} (or its parent is): give "
         "it a non-zero Scale (Object Properties > Transform), then Bind"))
+
+
+@pytest.mark.parametrize("kind", ["MEAN_VALUE", "HARMONIC", "GREEN"])
+@pytest.mark.parametrize(("scaled", "scale", "said"), [("mesh", (1.0, 1.0, 0.0), " on its Z axis"),
+                                                       ("mesh", (1.0, 0.0, 1.0), " on its Y axis"),
+                                                       ("parent", (1.0, 1.0, 0.0), "")])
+def test_a_mesh_object_scaled_to_zero_after_bind_stays_at_rest_and_is_told_so(gc, kind, scaled, scale, said):
+    """Issue 37 item 9: the mesh object (turned, away from the cage's origin) scaled to
+    zero after Bind was displaced at rest (up to 0.57 here): Invert Matrix gives the
+    identity for it, so the cage landed elsewhere in the mesh's space. The deformer now
+    passes the mesh through and the panel says why; a scale again deforms it again."""
+    cage, obj = add_icosphere_cage(), add_sphere()
+    obj.location, obj.rotation_euler, obj.scale = (0.3, 0.2, 0.1), (0.3, 0.2, 0.1), (1.1, 0.9, 1.2)
+    parent = bpy.data.objects.new("Parent", None)
+    bpy.context.collection.objects.link(parent)
+    obj.parent = parent
+    obj.gencoords.cage, obj.gencoords.kind = cage, kind
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+    rest = read_positions(obj.data).copy()
+    (obj if scaled == "mesh" else parent).scale = scale
+    update()
+    np.testing.assert_array_equal(evaluated_positions(obj), rest)
+    assert fault_text(gc, obj) == (
+        f"The mesh object 'Mesh' is scaled to zero{said} (or its parent is): the mesh is not deformed; give it a "
+        "non-zero Scale (Object Properties > Transform), then it deforms again")
+    (obj if scaled == "mesh" else parent).scale = (1.0, 1.0, 1.0)
+    update()
+    assert fault_text(gc, obj) == ""
+    write_positions(cage.data, read_positions(cage.data) + (0.0, 0.0, 0.1))
+    assert np.abs(evaluated_positions(obj) - rest).max() > 0.05
 
 
 def test_a_flat_cage_mesh_is_told_it_encloses_no_volume(gc):
@@ -409,3 +486,28 @@ def test_bind_and_unbind_leave_the_cage_with_the_users_it_had(gc):
     obj.gencoords.cage = None
     update()
     assert cage.users == 1  # its collection alone
+
+
+def test_the_panels_words_issue_37(gc):
+    """Issue 37 item 8: "1e+02 %"; "turn on Auto Rebind" while it was on; "Rebind" with
+    the Cage field empty; the status's figures pushing Bake to Bones below the window."""
+    cage = add_icosphere_cage(radius=2.0)
+    obj = add_sphere(radius=0.5, location=(4.0, 0.0, 0.0))  # wholly outside: every vertex extrapolated
+    assert bind(obj, cage, outside="EXTRAPOLATE") == {'FINISHED'}
+    texts = [text for text, _ in gc.status.status_lines(obj)]
+    assert any(text.startswith("100 % of vertices have negative weights") for text in texts), texts
+
+    drawn = drawn_panel(obj)
+    bound_to, bake = drawn.index(("label", "Bound to 'Cage' (modifier 'GenCoords')")), \
+        drawn.index(("operator", "object.gencoords_bake_bones"))
+    assert bound_to < bake < drawn.index(("label", "Coordinates: Mean Value"))  # the figures below
+    assert drawn[drawn.index(("operator", "object.gencoords_bind")) + 1] == ("text", "Rebind")
+    obj.gencoords.cage = None
+    drawn = drawn_panel(obj)
+    assert drawn[drawn.index(("operator", "object.gencoords_bind")) + 1] == ("text", "Bind")
+
+    obj.gencoords.cage, obj.gencoords.auto_rebind = cage, True
+    edit_mesh(obj, lambda bm: bm.verts.new((4.0, 0.0, 0.0)))  # edited in its data, not in Edit Mode
+    problem = fault_text(gc, obj)
+    assert problem.startswith("Mesh edited since Bind: 1 vertices added") and "turn on" not in problem
+    assert "Auto Rebind binds it on leaving Edit Mode, or Bind" in problem

@@ -281,3 +281,42 @@ def test_a_cage_of_long_slanted_facets_builds_no_lookup_grid_and_still_locates_p
     expected = boundary.winding_numbers(cage, points) >= 0.5
     assert 0 < expected.sum() < len(points)
     np.testing.assert_array_equal(boundary.inside_points(cage, points), expected)
+
+
+@pytest.mark.parametrize("shape", ["t_pose", "icosphere"])
+def test_outside_points_are_those_point_locations_calls_outside(shape):
+    """``Cage.outside_points`` (no coordinates, no plane distances of every pair for a
+    non-convex cage) finds what ``outside="raise"`` refuses: points at the tolerance's
+    threshold along facets' normals, beyond sharp apices, in the gaps of a non-convex
+    cage and far away."""
+    from gencoords.tools.shapes import block_cage, t_pose_blocks
+
+    tolerance = 1e-6
+    if shape == "t_pose":  # non-convex: arms, legs, gaps between them
+        vertices, quads = block_cage(t_pose_blocks())
+        faces = gencoords.tools.triangulate_quads(vertices, quads)
+    else:
+        vertices, faces = icosphere(2)
+    size = np.linalg.norm(np.ptp(vertices, axis=0))
+    rng = np.random.default_rng(11)
+    low, high = vertices.min(axis=0) - 0.5, vertices.max(axis=0) + 0.5
+    triangle = vertices[faces[:200]]
+    centres = triangle.mean(axis=1)
+    normals = np.cross(triangle[:, 1] - triangle[:, 0], triangle[:, 2] - triangle[:, 0])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    offsets = rng.choice([-3.0, -0.5, 0.5, 3.0], len(centres))[:, None] * tolerance * size
+    points = np.vstack([rng.uniform(low, high, (3000, 3)), centres + offsets * normals, vertices * 1.0001])
+    with gencoords.Cage(vertices, faces, tolerance=tolerance) as cage:
+        assert cage.convex == (shape == "icosphere")
+        expected = np.flatnonzero(cage.point_locations(points) == gencoords.OUTSIDE)
+        found = cage.outside_points(points)
+    np.testing.assert_array_equal(found, expected)
+    assert 0 < len(expected) < len(points)
+
+
+def test_outside_points_beyond_a_sharp_apex_within_tolerance_of_its_planes():
+    tolerance = 1e-6
+    apex_vertices, apex_faces = octahedron((1.0, 1.0, 20.0))
+    beyond = apex_vertices[4] + [0.0, 0.0, 5.0 * tolerance * np.linalg.norm(np.ptp(apex_vertices, axis=0))]
+    with gencoords.Cage(apex_vertices, apex_faces, tolerance=tolerance) as cage:
+        assert list(cage.outside_points(np.vstack([beyond, [0.0, 0.0, 0.0]]))) == [0]
