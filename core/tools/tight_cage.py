@@ -1,5 +1,7 @@
 """Tight (non-convex) cages around a mesh: pushing a cage out until it encloses every
-point, the checks such a cage must pass, and how much it adds to the mesh's volume.
+point, and the checks such a cage must pass (the surface's measures are in
+:mod:`gencoords.tools.surface`, its volume against the mesh's in
+:mod:`gencoords.tools.volumes`).
 
 A cage made by offsetting and simplifying a mesh's surface (the Blender add-on uses a
 voxel remesh and a decimation) hugs the mesh but need not enclose it: simplification
@@ -7,7 +9,7 @@ cuts chords across convex parts. :func:`enclose` finds the points the cage leave
 (winding numbers, so any closed cage, convex or not), moves the faces nearest to them
 outward along the vertex normals by the distance they miss plus a clearance, and
 checks again, a bounded number of times. :func:`fit_tight_cage` then requires what a
-cage needs to bind: closed, manifold (at edges and at vertices: :func:`pinched_vertices`),
+cage needs to bind: closed, manifold (at edges and at vertices: :func:`gencoords.tools.surface.pinched_vertices`),
 outward, no self-intersection (:mod:`gencoords.tools.self_intersection`), every point
 strictly inside.
 """
@@ -16,15 +18,13 @@ import numpy as np
 
 from ..base.errors import CageError
 from ..base.simplex import closest_points_on_simplices
-from ..base.triangulation import triangulate_quads
 from ..construction.boundary import INSIDE
 from ..construction.validation import validate_cage
 from ..evaluation.barycentric import point_locations
 from .self_intersection import self_intersections
-from .volumes import signed_volume, union_volume
+from .surface import cage_triangles, pinched_vertices, vertex_normals
 
-__all__ = ["TightCageError", "vertex_normals", "pinched_vertices", "degenerate_pieces", "outward_pushes", "cage_triangles",
-           "enclose", "fit_tight_cage", "volume_ratio"]
+__all__ = ["TightCageError", "outward_pushes", "enclose", "fit_tight_cage"]
 
 PUSH_ITERATIONS = 16  # push-outs before giving up
 _PAIR_BLOCK = 1 << 18  # (point, triangle) pairs per block when finding nearest triangles
@@ -39,110 +39,6 @@ class TightCageError(ValueError):
     def __init__(self, problem, message):
         super().__init__(message)
         self.problem = problem
-
-
-def vertex_normals(vertices, triangles):
-    """Area-weighted unit normals at the vertices of an outward triangle mesh.
-
-    Parameters
-    ----------
-    vertices : (n, 3) float
-    triangles : (m, 3) int
-
-    Returns
-    -------
-    normals : (n, 3) float64
-        Zero at vertices of no triangle.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.tight_cage import vertex_normals
-    >>> vertices, faces = octahedron()
-    >>> bool(np.allclose(vertex_normals(vertices, faces), vertices))  # unit, along each vertex
-    True
-    """
-    vertices = np.asarray(vertices, dtype=np.float64)
-    triangles = np.asarray(triangles, dtype=np.int64)
-    corners = vertices[triangles]
-    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    normals = np.zeros_like(vertices)
-    for corner in range(3):
-        np.add.at(normals, triangles[:, corner], face)
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
-
-
-def pinched_vertices(triangles):
-    """Vertices where a closed, edge-manifold triangle mesh touches itself: their faces
-    form more than one fan (two sheets meeting at a point).
-
-    Around each vertex, a face's corner leads across its outgoing edge to the face on the
-    other side; the corners of a vertex whose faces form one fan make a single cycle.
-
-    Parameters
-    ----------
-    triangles : (m, 3) int
-        Every edge shared by two consistently oriented triangles.
-
-    Returns
-    -------
-    vertices : (p,) int64
-        Sorted; empty for a manifold mesh.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.tight_cage import pinched_vertices
-    >>> faces = octahedron()[1]
-    >>> pinched_vertices(faces).tolist(), pinched_vertices(np.concatenate([faces, faces + 5])).tolist()
-    ([], [5])
-    """
-    triangles = np.asarray(triangles, dtype=np.int64)
-    corner_vertex = triangles.ravel()
-    following = np.roll(triangles, -1, axis=1).ravel()  # the corner's outgoing edge ends here
-    # The twin of edge (v, w) is (w, v): in its face, the corner at v follows the one at w.
-    key = {(int(w), int(v)): c for c, (v, w) in enumerate(zip(corner_vertex, following))}
-    successor = np.array([key[(int(v), int(w))] for v, w in zip(corner_vertex, following)])
-    twin_face, twin_position = np.divmod(successor, 3)
-    step = 3 * twin_face + (twin_position + 1) % 3  # the twin face's corner at v
-    seen = np.zeros(len(step), dtype=bool)
-    fans = np.zeros(int(corner_vertex.max(initial=-1)) + 1, dtype=np.int64)
-    for start in range(len(step)):
-        if not seen[start]:
-            fans[corner_vertex[start]] += 1
-            corner = start
-            while not seen[corner]:
-                seen[corner] = True
-                corner = step[corner]
-    return np.flatnonzero(fans > 1).astype(np.int64)
-
-
-def degenerate_pieces(triangles):
-    """Whether a simplified surface has pieces that enclose nothing: a triangle twice (a
-    closed piece collapsed to two back-to-back faces) or a vertex in fewer than 3
-    triangles. A collapse decimation keeps every separate piece, down to 3 vertices.
-
-    Parameters
-    ----------
-    triangles : (m, 3) int
-
-    Returns
-    -------
-    bool
-
-    Examples
-    --------
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.tight_cage import degenerate_pieces
-    >>> degenerate_pieces(octahedron()[1]), degenerate_pieces([[0, 1, 2], [0, 2, 1]])
-    (False, True)
-    """
-    faces = np.sort(np.asarray(triangles, dtype=np.int64).reshape(-1, 3), axis=1)
-    uses = np.bincount(faces.ravel())
-    return len(np.unique(faces, axis=0)) < len(faces) or bool(((uses > 0) & (uses < 3)).any())
 
 
 def _nearest_triangles(vertices, triangles, points):
@@ -181,7 +77,7 @@ def outward_pushes(vertices, triangles, points, clearance):
     Returns
     -------
     pushes : (n,) float64
-        Non-negative distances along :func:`vertex_normals`.
+        Non-negative distances along :func:`gencoords.tools.surface.vertex_normals`.
 
     Examples
     --------
@@ -219,35 +115,6 @@ def outward_pushes(vertices, triangles, points, clearance):
     return spread
 
 
-def cage_triangles(vertices, triangles, quads=None):
-    """The triangles a cage of triangles and quads is bound with: its triangles, then
-    each quad split as :func:`gencoords.tools.triangulate_quads` splits it (the diagonal
-    depends on the positions, so it is found again whenever they move).
-
-    Parameters
-    ----------
-    vertices : (n, 3) float
-    triangles : (m, 3) int
-    quads : (q, 4) int or None
-
-    Returns
-    -------
-    triangles : (m + 2q, 3) int64
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.tools.tight_cage import cage_triangles
-    >>> square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
-    >>> cage_triangles(square, np.zeros((0, 3), int), [[0, 1, 2, 3]]).tolist()
-    [[0, 1, 2], [0, 2, 3]]
-    """
-    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    if quads is None or not len(quads):
-        return triangles
-    return np.concatenate([triangles, triangulate_quads(vertices, quads)])
-
-
 def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
             workers=None, stored_as=np.float64, quads=None):
     """Push the cage out until every point is strictly inside it.
@@ -271,7 +138,7 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
         positions are rounded to it before they are checked, so the check holds for what
         is stored.
     quads : (q, 4) int or None
-        Quads of the cage beside its triangles, checked as :func:`cage_triangles` splits
+        Quads of the cage beside its triangles, checked as :func:`gencoords.tools.surface.cage_triangles` splits
         them.
 
     Returns
@@ -414,34 +281,3 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
                                                   "closer than twice the offset): lower the offset or "
                                                   "raise the vertex count")
     return vertices, pushes
-
-
-def volume_ratio(cage_vertices, cage_triangles, mesh_vertices, mesh_triangles, columns=256):
-    """The cage's volume over the mesh's (the union of its shells, see
-    :func:`gencoords.tools.volumes.union_volume`).
-
-    Parameters
-    ----------
-    cage_vertices : (n, 3) float
-    cage_triangles : (m, 3) int
-    mesh_vertices : (k, 3) float
-    mesh_triangles : (t, 3) int
-    columns : int
-        The union volume's columns across the mesh.
-
-    Returns
-    -------
-    ratio : float
-        ``inf`` for a mesh that encloses no volume (open or flat).
-
-    Examples
-    --------
-    >>> from gencoords.tools.shapes import octahedron
-    >>> from gencoords.tools.tight_cage import volume_ratio
-    >>> vertices, faces = octahedron()
-    >>> round(volume_ratio(2.0 * vertices, faces, vertices, faces, columns=400), 2)
-    8.0
-    """
-    mesh = union_volume(mesh_vertices, mesh_triangles, columns)
-    cage = signed_volume(cage_vertices, cage_triangles)
-    return cage / mesh if mesh > 0.0 else float("inf")

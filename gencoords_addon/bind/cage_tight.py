@@ -18,7 +18,7 @@ import bpy
 import numpy as np
 
 from ... import core
-from ...core.tools import tight_cage
+from ...core.tools import surface, tight_cage
 from .. import preferences
 from ..blender_io import mesh_io
 from ..blender_io.mesh_arrays import read_loop_triangles, read_positions
@@ -114,9 +114,9 @@ def offset_surface(points, triangles, offset, target_vertices, context):
             if len(remeshed) < 4:
                 raise CageError("the voxel remesh left nothing: the mesh has no volume to wrap "
                                 "(close it, or use Convex)")
-            surface = _decimated(obj, len(remeshed), target_vertices, context)
-            if not tight_cage.degenerate_pieces(surface[1]):
-                return surface
+            decimated = _decimated(obj, len(remeshed), target_vertices, context)
+            if not surface.degenerate_pieces(decimated[1]):
+                return decimated
         raise CageError("the voxel remesh breaks the mesh into more pieces than the vertices asked "
                         "for can wrap (holes or thin open parts): raise Vertices or Offset, close "
                         "the holes, or use Convex")

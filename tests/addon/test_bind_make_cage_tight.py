@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import self_intersection, tight_cage
+from gencoords.tools import self_intersection, volumes
 from fresh_process import PACKAGE
 from scene_helpers import evaluated_positions, read_positions, write_positions, write_shape_key
 from scripts.common import scenes
@@ -67,8 +67,8 @@ def test_tight_cage_around_the_character_encloses_binds_and_stays_within_3_volum
     assert 170 <= len(cage_points) <= 230  # 200 asked for
     sizes = [len(polygon.vertices) for polygon in cage.data.polygons]
     assert set(sizes) == {3, 4} and sizes.count(4) > len(sizes) / 3  # quads, for editing
-    ratio = tight_cage.volume_ratio(cage_points, cage_triangles, body, body_triangles)
-    artist = tight_cage.volume_ratio(*world_arrays(artist_cage), body, body_triangles)
+    ratio = volumes.volume_ratio(cage_points, cage_triangles, body, body_triangles)
+    artist = volumes.volume_ratio(*world_arrays(artist_cage), body, body_triangles)
     assert ratio <= 3.0 and ratio < artist  # the artist's box cage: 3.4 times the body
     # The core's harmonic coordinates (non-convex cages too) accept it: non-negative,
     # rows summing to 1, reproducing the points to within a grid cell.

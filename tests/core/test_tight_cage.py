@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import self_intersection, tight_cage, volumes
+from gencoords.tools import self_intersection, surface, tight_cage, volumes
 from gencoords.tools.shapes import icosphere, octahedron
 from scripts.common import character
 
@@ -165,7 +165,7 @@ def test_fit_tight_cage_refuses_a_cage_through_itself_and_measures_volume():
     assert pushes == 0 and np.array_equal(fitted, 1.1 * vertices)
     cage_vertices, cage_faces = _character_cage()
     body, body_faces, _ = character.body_mesh(0.5)
-    ratio = tight_cage.volume_ratio(cage_vertices, cage_faces, body, body_faces)
+    ratio = volumes.volume_ratio(cage_vertices, cage_faces, body, body_faces)
     assert 3.0 < ratio < 4.0  # the artist's box-modelled cage: 3.4 times the body
 
 
@@ -177,7 +177,7 @@ def test_a_quad_cage_is_pushed_out_and_checked_as_its_quads_are_split():
     fitted, pushes = tight_cage.fit_tight_cage(vertices, no_triangles, points, 0.05, 1e-6,
                                                stored_as=np.float32, quads=quads)
     assert pushes >= 1 and np.array_equal(fitted, fitted.astype(np.float32))
-    split = tight_cage.cage_triangles(fitted, no_triangles, quads)
+    split = surface.cage_triangles(fitted, no_triangles, quads)
     np.testing.assert_array_equal(split, gencoords.tools.triangulate_quads(fitted, quads))
     assert (gencoords.point_locations(points, fitted, split, 1e-6) == gencoords.INSIDE).all()
 
@@ -193,12 +193,12 @@ def test_a_push_moves_a_patch_its_neighbours_half_as_far():
 
 def test_pinched_vertices_are_where_two_sheets_meet_and_are_refused():
     vertices, faces = octahedron()
-    assert tight_cage.pinched_vertices(faces).size == 0
-    assert tight_cage.pinched_vertices(_character_cage()[1]).size == 0
+    assert surface.pinched_vertices(faces).size == 0
+    assert surface.pinched_vertices(_character_cage()[1]).size == 0
     # Two octahedra touching at a corner: the second's bottom (5) is the first's top (4).
     touching = np.concatenate([vertices, vertices[:5] + [0.0, 0.0, 2.0]])
     both = np.concatenate([faces, np.array([6, 7, 8, 9, 10, 4])[faces]])
-    assert tight_cage.pinched_vertices(both).tolist() == [4]
+    assert surface.pinched_vertices(both).tolist() == [4]
     gencoords.advanced.validate_cage(touching, both, convex=False)  # edge-manifold, closed
     with pytest.raises(tight_cage.TightCageError, match="touches itself at 1 vertices") as caught:
         tight_cage.fit_tight_cage(touching, both, [[0.0, 0.0, 0.5]], 0.01, 1e-6)

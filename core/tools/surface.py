@@ -1,0 +1,143 @@
+"""Measures of a closed triangle surface that Make Cage Tight checks its cages with:
+normals at the vertices, vertices where two sheets touch, pieces that enclose nothing, and
+the triangles a cage of triangles and quads is bound with.
+"""
+
+import numpy as np
+
+from ..base.triangulation import triangulate_quads
+
+__all__ = ["vertex_normals", "pinched_vertices", "degenerate_pieces", "cage_triangles"]
+
+
+def vertex_normals(vertices, triangles):
+    """Area-weighted unit normals at the vertices of an outward triangle mesh.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+
+    Returns
+    -------
+    normals : (n, 3) float64
+        Zero at vertices of no triangle.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.surface import vertex_normals
+    >>> vertices, faces = octahedron()
+    >>> bool(np.allclose(vertex_normals(vertices, faces), vertices))  # unit, along each vertex
+    True
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    corners = vertices[triangles]
+    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals = np.zeros_like(vertices)
+    for corner in range(3):
+        np.add.at(normals, triangles[:, corner], face)
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+
+
+def pinched_vertices(triangles):
+    """Vertices where a closed, edge-manifold triangle mesh touches itself: their faces
+    form more than one fan (two sheets meeting at a point).
+
+    Around each vertex, a face's corner leads across its outgoing edge to the face on the
+    other side; the corners of a vertex whose faces form one fan make a single cycle.
+
+    Parameters
+    ----------
+    triangles : (m, 3) int
+        Every edge shared by two consistently oriented triangles.
+
+    Returns
+    -------
+    vertices : (p,) int64
+        Sorted; empty for a manifold mesh.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.surface import pinched_vertices
+    >>> faces = octahedron()[1]
+    >>> pinched_vertices(faces).tolist(), pinched_vertices(np.concatenate([faces, faces + 5])).tolist()
+    ([], [5])
+    """
+    triangles = np.asarray(triangles, dtype=np.int64)
+    corner_vertex = triangles.ravel()
+    following = np.roll(triangles, -1, axis=1).ravel()  # the corner's outgoing edge ends here
+    # The twin of edge (v, w) is (w, v): in its face, the corner at v follows the one at w.
+    key = {(int(w), int(v)): c for c, (v, w) in enumerate(zip(corner_vertex, following))}
+    successor = np.array([key[(int(v), int(w))] for v, w in zip(corner_vertex, following)])
+    twin_face, twin_position = np.divmod(successor, 3)
+    step = 3 * twin_face + (twin_position + 1) % 3  # the twin face's corner at v
+    seen = np.zeros(len(step), dtype=bool)
+    fans = np.zeros(int(corner_vertex.max(initial=-1)) + 1, dtype=np.int64)
+    for start in range(len(step)):
+        if not seen[start]:
+            fans[corner_vertex[start]] += 1
+            corner = start
+            while not seen[corner]:
+                seen[corner] = True
+                corner = step[corner]
+    return np.flatnonzero(fans > 1).astype(np.int64)
+
+
+def degenerate_pieces(triangles):
+    """Whether a simplified surface has pieces that enclose nothing: a triangle twice (a
+    closed piece collapsed to two back-to-back faces) or a vertex in fewer than 3
+    triangles. A collapse decimation keeps every separate piece, down to 3 vertices.
+
+    Parameters
+    ----------
+    triangles : (m, 3) int
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.surface import degenerate_pieces
+    >>> degenerate_pieces(octahedron()[1]), degenerate_pieces([[0, 1, 2], [0, 2, 1]])
+    (False, True)
+    """
+    faces = np.sort(np.asarray(triangles, dtype=np.int64).reshape(-1, 3), axis=1)
+    uses = np.bincount(faces.ravel())
+    return len(np.unique(faces, axis=0)) < len(faces) or bool(((uses > 0) & (uses < 3)).any())
+
+
+def cage_triangles(vertices, triangles, quads=None):
+    """The triangles a cage of triangles and quads is bound with: its triangles, then
+    each quad split as :func:`gencoords.tools.triangulate_quads` splits it (the diagonal
+    depends on the positions, so it is found again whenever they move).
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+    quads : (q, 4) int or None
+
+    Returns
+    -------
+    triangles : (m + 2q, 3) int64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.surface import cage_triangles
+    >>> square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    >>> cage_triangles(square, np.zeros((0, 3), int), [[0, 1, 2, 3]]).tolist()
+    [[0, 1, 2], [0, 2, 3]]
+    """
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if quads is None or not len(quads):
+        return triangles
+    return np.concatenate([triangles, triangulate_quads(vertices, quads)])
