@@ -8,12 +8,64 @@ inequality). Its vertices come from the polar dual: the half-space ``i`` maps to
 ``n_i / (h_i + margin - n_i . c)`` around an interior point ``c``, the dual's convex hull
 facets are the polytope's vertices (where three planes meet), and half-spaces whose dual
 point is inside that hull are redundant. Any convex-hull routine serves for the dual
-(the Blender add-on uses bmesh's); the arithmetic is here.
+(the Blender add-on uses bmesh's); the arithmetic is here. A cage of either shape needs
+a mesh with a size: :func:`mesh_extent` refuses one without, before anything is made.
 """
 
 import numpy as np
 
-__all__ = ["sphere_directions", "supporting_offsets", "dual_points", "facet_vertices"]
+from ..base.errors import CageError
+
+__all__ = ["mesh_extent", "sphere_directions", "supporting_offsets", "dual_points", "facet_vertices"]
+
+# A mesh's diagonal must span this many of the smallest distances its positions resolve:
+# a cage's vertices (a few per side) then stay apart where they are stored.
+EXTENT_STEPS = 64
+
+
+def mesh_extent(points, resolution=0.0):
+    """The bounding-box diagonal of the points a cage is to enclose, refusing points with
+    none to speak of: all at one point, or within ``EXTENT_STEPS`` times ``resolution``
+    of one another (the cage's vertices could not be told apart where they are stored).
+    Points on a line or in a plane have an extent: a cage around them is a prism or slab.
+
+    Parameters
+    ----------
+    points : (k, 3) float
+    resolution : float
+        Absolute: the smallest distance the cage's stored positions resolve there (a
+        float32 step at the mesh's coordinates); 0 refuses only coinciding points.
+
+    Returns
+    -------
+    diagonal : float
+
+    Raises
+    ------
+    CageError
+        ``problem`` "no_extent"; the message says how far apart the points are.
+
+    Examples
+    --------
+    >>> from gencoords.tools.enclosing import mesh_extent
+    >>> mesh_extent([[0.0, 0.0, 0.0], [3.0, 4.0, 0.0]])  # on a line: a prism encloses them
+    5.0
+    >>> try:
+    ...     mesh_extent([[1e6, 0.0, 0.0]] * 4 + [[1e6, 0.01, 0.0]], resolution=0.0625)
+    ... except ValueError as error:
+    ...     print(error)
+    every vertex of the mesh lies within 0.01 of one another, too close to tell apart where they are (positions there are stored 0.0625 apart): a cage needs a mesh with a size
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    diagonal = float(np.linalg.norm(np.ptp(points, axis=0))) if len(points) else 0.0
+    if diagonal > EXTENT_STEPS * resolution and diagonal > 0.0 and np.isfinite(diagonal):
+        return diagonal
+    if diagonal == 0.0:
+        where = "sits at one point"
+    else:
+        where = (f"lies within {diagonal:.3g} of one another, too close to tell apart where they "
+                 f"are (positions there are stored {resolution:.3g} apart)")
+    raise CageError("no_extent", f"every vertex of the mesh {where}: a cage needs a mesh with a size")
 
 
 def sphere_directions(count):

@@ -62,9 +62,7 @@ def make_cage_geometry(points, target_vertices, margin):
         Gap between the mesh and the cage, relative to the mesh's bounding-box diagonal.
     """
     points = np.asarray(points, dtype=np.float64)
-    size = float(np.linalg.norm(np.ptp(points, axis=0)))
-    if size == 0.0:
-        raise CageError("the mesh has no extent: a cage needs a volume to enclose")
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))  # > 0: ``_enclosed_points`` checked
     directions = enclosing.sphere_directions(max(4, target_vertices // 2 + 2))
     offsets = enclosing.supporting_offsets(points, directions, max(margin, MIN_MARGIN) * size)
     dual = enclosing.dual_points(directions, offsets, points.mean(axis=0))
@@ -114,19 +112,31 @@ def _enclosed_points(obj, context):
     if flat_axes:  # the cage would be flat
         raise CageError(messages.zero_scale("mesh", obj.name, flat_axes, "Make Cage"))
     world = np.array(obj.matrix_world, dtype=np.float64)
-    return with_rounding_copies(local @ world[:3, :3].T + world[:3, 3], local, world)
+    points, corners = local @ world[:3, :3].T + world[:3, 3], rounding_corners(local, world)
+    try:  # one refusal for both shapes, before anything is made
+        core.tools.enclosing.mesh_extent(points, float(np.linalg.norm(corners, axis=1).max()))
+    except core.CageError as error:
+        raise CageError(f"'{obj.name}': {error} (move its vertices apart in Edit Mode, or "
+                        "choose another mesh)") from None
+    return with_rounding_copies(points, corners)
 
 
-def with_rounding_copies(points, local, world):
-    """``points`` ((k, 3), world space), and where Bind's rounding of the cage into the
-    mesh's local space (r per coordinate, ``BIND_ROUNDING_STEPS``) is not negligible
-    against the mesh's size (its data lies far from its object's origin), the corners
-    of a box of half-width r about each (in the mesh's local axes): a cage enclosing them
-    keeps ``points`` inside once Bind has rounded its vertices, which moves a face by at
-    most r |n|_1 along its normal n (some corner lies that far beyond the point)."""
+def rounding_corners(local, world):
+    """The corners (8, 3), in world space, of the box of half-width r about a point in the
+    mesh's local axes: r is Bind's rounding of the cage into the mesh's local space (r per
+    coordinate, ``BIND_ROUNDING_STEPS`` float32 steps at the size of ``local`` (k, 3))."""
     step = BIND_ROUNDING_STEPS * float(np.spacing(np.float32(np.abs(local).max(initial=0.0))))
     signs = np.array(np.meshgrid([-1.0, 1.0], [-1.0, 1.0], [-1.0, 1.0])).reshape(3, -1).T
-    corners = (signs * step) @ world[:3, :3].T  # (8, 3): the box's corners in world space
+    return (signs * step) @ world[:3, :3].T
+
+
+def with_rounding_copies(points, corners):
+    """``points`` ((k, 3), world space), and where Bind's rounding of the cage into the
+    mesh's local space (``rounding_corners``) is not negligible against the mesh's size
+    (its data lies far from its object's origin), copies of each at those corners: a
+    cage enclosing them keeps ``points`` inside once Bind has rounded its vertices, which
+    moves a face by at most r |n|_1 along its normal n (some corner lies that far beyond
+    the point)."""
     if np.linalg.norm(corners, axis=1).max() <= FLOAT32_TOLERANCE * np.linalg.norm(np.ptp(points, axis=0)):
         return points
     return np.concatenate([points] + [points + corner for corner in corners])

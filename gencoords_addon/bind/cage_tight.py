@@ -179,9 +179,7 @@ def make_tight_cage(points, triangles, target_vertices, margin, context):
     bounding-box diagonal, float32 tolerances and the preferences' worker processes (in
     Blender's process if they cannot start): vertices, triangles and None or what to say
     about the workers (:func:`service.in_workers_or_blender`)."""
-    size = float(np.linalg.norm(np.ptp(points, axis=0)))
-    if not size > 0.0:
-        raise CageError("the mesh has no extent: a cage needs a volume to enclose")
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))  # > 0: Make Cage checked
     (vertices, faces), worker_failure = in_workers_or_blender(
         lambda workers: make_tight_cage_geometry(points, triangles, target_vertices, margin * size,
                                                  FLOAT32_TOLERANCE, context, workers),

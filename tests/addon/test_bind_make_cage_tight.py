@@ -181,3 +181,46 @@ def test_a_torus_keeps_its_hole_and_a_flat_grid_gets_a_slab(gc):
     points, triangles = world_arrays(grid.gencoords.cage)
     assert_tight_cage(world_arrays(grid)[0], points, triangles)
     assert np.ptp(points[:, 2]) < 0.2 * np.ptp(points[:, 0])  # a thin slab, not a box
+
+
+def _added():
+    return len(bpy.data.objects), len(bpy.data.meshes)
+
+
+@pytest.mark.parametrize("shape", ["CONVEX", "TIGHT"])
+@pytest.mark.parametrize("where, apart, refusal", [
+    ((0.0, 0.0, 0.0), 0.0, "sits at one point"),
+    ((1e6, -2e5, 3e5), 0.0, "sits at one point"),
+    # 1e6 from the origin in its own data, a hair apart: float32 could not keep a cage's
+    # vertices apart there (Bind would refuse the cage as "vertices at the same position").
+    ((1e6, -2e5, 3e5), 0.2, r"lies within 0.188 of one another, too close to tell apart where they are "
+                            r"\(positions there are stored 0.108 apart\)")])
+def test_a_mesh_without_extent_is_refused_before_anything_is_made(gc, shape, where, apart, refusal):
+    """One refusal for both shapes, naming the cause (not an internal error, not a cage
+    Bind then refuses); nothing added, no cage picked."""
+    vertices = np.zeros((6, 3)) + where
+    vertices[0, 0] += apart
+    obj = scenes.add_mesh_object("Collapsed", vertices, gencoords.tools.shapes.octahedron()[1])
+    before = _added()
+    with pytest.raises(RuntimeError, match=rf"Cannot make a cage: 'Collapsed': every vertex of the mesh "
+                                           rf"{refusal}.*a cage needs a mesh with a size") as caught:
+        make_cage(obj, shape=shape)
+    assert "internal error" not in str(caught.value)
+    assert _added() == before and obj.gencoords.cage is None
+
+
+@pytest.mark.parametrize("name, vertices", [
+    ("Line", np.column_stack([np.linspace(0.0, 2.0, 9), np.zeros(9), np.zeros(9)]) + (3.0, 1.0, 0.0)),
+    ("Plane", np.column_stack([np.random.default_rng(1).uniform(-1.0, 1.0, (40, 2)), np.zeros(40)]))])
+def test_convex_cages_of_a_line_and_a_plane_enclose_and_bind(gc, name, vertices):
+    """Points on a line or in a plane have a size: Convex wraps them in a prism or a slab
+    that Bind takes."""
+    obj = scenes.add_mesh_object(name, vertices)
+    assert make_cage(obj, shape='CONVEX') == {'FINISHED'}
+    cage_points, cage_triangles = world_arrays(obj.gencoords.cage)
+    gencoords.advanced.validate_cage(cage_points, cage_triangles, convex=True, tolerance=TOLERANCE)
+    where = gencoords.point_locations(vertices, cage_points, cage_triangles, tolerance=TOLERANCE)
+    assert (where == gencoords.INSIDE).all()
+    obj.gencoords.kind = "MEAN_VALUE"
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}

@@ -203,3 +203,18 @@ def test_pinched_vertices_are_where_two_sheets_meet_and_are_refused():
     with pytest.raises(tight_cage.TightCageError, match="touches itself at 1 vertices") as caught:
         tight_cage.fit_tight_cage(touching, both, [[0.0, 0.0, 0.5]], 0.01, 1e-6)
     assert caught.value.problem == "pinched"
+
+
+def test_mesh_extent_refuses_points_without_a_size_and_takes_lines_and_planes():
+    from gencoords.tools.enclosing import EXTENT_STEPS, mesh_extent
+
+    line = np.column_stack([np.linspace(0.0, 2.0, 5), np.zeros(5), np.zeros(5)])
+    assert mesh_extent(line) == pytest.approx(2.0)
+    assert mesh_extent(np.column_stack([line[:, :2], line[:, 0]])) == pytest.approx(np.sqrt(8.0))
+    for points, resolution, said in (([[1.0, 2.0, 3.0]] * 4, 0.0, "sits at one point"),
+                                     ([[1e6, 0.0, 0.0]] * 3, 0.1, "sits at one point"),
+                                     (line, 2.0 / EXTENT_STEPS, "lies within 2 of one another")):
+        with pytest.raises(gencoords.CageError, match=said) as caught:
+            mesh_extent(points, resolution)
+        assert caught.value.problem == "no_extent"
+    assert mesh_extent(line, 1.99 / EXTENT_STEPS) == pytest.approx(2.0)  # just enough
