@@ -248,7 +248,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
                                  "type accepts it, but it fills the gaps between limbs"),
             ('TIGHT', "Tight", "Hugs the mesh at the offset, keeping the gaps between limbs "
                                "(voxel remesh and decimation): non-convex, so bind it with "
-                               "Mean Value or Green")))
+                               "Harmonic (positive weights, each part of the mesh to its own "
+                               "part of the cage); Mean Value and Green accept it too")))
     target_vertices: bpy.props.IntProperty(
         name="Vertices", default=100, min=8, soft_min=20, soft_max=500,
         description="About how many vertices the cage gets")
