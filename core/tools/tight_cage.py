@@ -24,7 +24,13 @@ from ..evaluation.barycentric import point_locations
 from .self_intersection import self_intersections
 from .surface import cage_triangles, pinched_vertices, vertex_normals
 
-__all__ = ["TightCageError", "outward_pushes", "enclose", "fit_tight_cage"]
+__all__ = ["TightCageError", "check_offset", "outward_pushes", "enclose", "fit_tight_cage"]
+
+# The largest offset, of the mesh's size, Tight offsets by: displaced farther, a voxel
+# remesh's surface folds (its normals' noise grows with the distance) into loose pieces
+# (a 12-vertex icosphere: 0.75 still wraps, 1.25 breaks apart), and so far out a convex
+# cage hugs as well.
+LARGEST_OFFSET = 0.5
 
 PUSH_ITERATIONS = 16  # push-outs before giving up
 _PAIR_BLOCK = 1 << 18  # (point, triangle) pairs per block when finding nearest triangles
@@ -55,6 +61,38 @@ def _nearest_triangles(vertices, triangles, points):
         nearest[start:start + rows] = found.argmin(axis=1)
         distance[start:start + rows] = found.min(axis=1)
     return nearest, distance
+
+
+def check_offset(offset):
+    """Refuse an offset Tight cannot make a cage at, before anything is made.
+
+    Parameters
+    ----------
+    offset : float
+        The gap between the mesh and the cage, a share of the mesh's bounding-box
+        diagonal.
+
+    Raises
+    ------
+    TightCageError
+        ``problem`` "offset": above ``LARGEST_OFFSET``; the message says what helps.
+
+    Examples
+    --------
+    >>> from gencoords.tools.tight_cage import check_offset
+    >>> check_offset(0.01)
+    >>> try:
+    ...     check_offset(1.25)
+    ... except ValueError as error:
+    ...     print(error)
+    an Offset of 1.25 of the mesh's size is more than Tight offsets by (0.5): displaced that far, the voxel remesh's surface folds into loose pieces. Lower Offset to 0.5 or less, or use Convex with Margin 1.25 (that far out a convex cage hugs as well)
+    """
+    if not offset <= LARGEST_OFFSET:
+        raise TightCageError("offset", f"an Offset of {offset:.3g} of the mesh's size is more than Tight "
+                                       f"offsets by ({LARGEST_OFFSET:g}): displaced that far, the voxel "
+                                       "remesh's surface folds into loose pieces. Lower Offset to "
+                                       f"{LARGEST_OFFSET:g} or less, or use Convex with Margin {offset:.3g} "
+                                       "(that far out a convex cage hugs as well)")
 
 
 def outward_pushes(vertices, triangles, points, clearance):
@@ -237,11 +275,11 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
 
     Raises
     ------
-    CageError
-        The cage is not closed, manifold, outward, or has degenerate faces (before or
-        after pushing).
     TightCageError
-        Points stay outside, or the cage touches ("pinched") or passes through itself.
+        ``problem`` "simplified": the cage given is not closed, manifold, outward, or has
+        coinciding vertices or degenerate faces (the simplification spoilt it); "pushed":
+        so after pushing; "outside": points stay outside; "pinched", "self_intersecting":
+        the cage touches or passes through itself.
 
     Examples
     --------
@@ -259,7 +297,13 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
     ...     print(error.problem)
     self_intersecting
     """
-    validate_cage(vertices, cage_triangles(vertices, triangles, quads), convex=False, tolerance=tolerance)
+    try:  # what the remesh and the decimation made, before any push
+        validate_cage(vertices, cage_triangles(vertices, triangles, quads), convex=False, tolerance=tolerance)
+    except CageError as error:
+        raise TightCageError("simplified", f"simplifying the offset surface to {len(vertices)} vertices "
+                                           f"spoiled it ({error.problem.replace('_', ' ')}, "
+                                           f"{_where(error)}): raise the vertex count, or change "
+                                           "the offset a little") from None
     vertices, pushes = enclose(vertices, triangles, points, clearance, tolerance, iterations, workers,
                                stored_as, quads)
     triangles = cage_triangles(vertices, triangles, quads)
@@ -281,3 +325,10 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
                                                   "closer than twice the offset): lower the offset or "
                                                   "raise the vertex count")
     return vertices, pushes
+
+
+def _where(error):
+    """Where a ``CageError`` found its problem, in words."""
+    if error.vertices:
+        return f"at its vertices {', '.join(map(str, error.vertices[:4]))}"
+    return f"at its faces {', '.join(map(str, error.faces[:4]))}" if error.faces else "somewhere"

@@ -118,8 +118,9 @@ def offset_surface(points, triangles, offset, target_vertices, context):
             if not surface.degenerate_pieces(decimated[1]):
                 return decimated
         raise CageError("the voxel remesh breaks the mesh into more pieces than the vertices asked "
-                        "for can wrap (holes or thin open parts): raise Vertices or Offset, close "
-                        "the holes, or use Convex")
+                        "for can wrap (holes or thin open parts): raise Vertices, raise Offset (up "
+                        f"to {tight_cage.LARGEST_OFFSET:g}) to wrap the thin parts whole, close the "
+                        "holes, or use Convex")
     finally:
         bpy.data.objects.remove(obj)
         bpy.data.meshes.remove(mesh)
@@ -180,6 +181,10 @@ def make_tight_cage(points, triangles, target_vertices, margin, context):
     Blender's process if they cannot start): vertices, triangles and None or what to say
     about the workers (:func:`service.in_workers_or_blender`)."""
     size = float(np.linalg.norm(np.ptp(points, axis=0)))  # > 0: Make Cage checked
+    try:
+        tight_cage.check_offset(margin)
+    except tight_cage.TightCageError as error:
+        raise CageError(str(error)) from None
     (vertices, faces), worker_failure = in_workers_or_blender(
         lambda workers: make_tight_cage_geometry(points, triangles, target_vertices, margin * size,
                                                  FLOAT32_TOLERANCE, context, workers),

@@ -6,6 +6,7 @@ body's volume (the union of its capsules, by winding numbers along columns), bin
 Green, the bound mesh following it, and takes the core's harmonic coordinates."""
 
 import importlib
+import re
 
 import bpy
 import numpy as np
@@ -224,3 +225,49 @@ def test_convex_cages_of_a_line_and_a_plane_enclose_and_bind(gc, name, vertices)
     obj.gencoords.kind = "MEAN_VALUE"
     with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
         assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+
+
+def test_an_offset_too_large_is_refused_with_what_helps_and_the_advice_works(gc):
+    """Offset 1.25 on a closed 12-vertex icosphere: not "holes ... raise Offset" (there are
+    none, and more offset breaks it further) but the offset, named, and what helps;
+    following the advice (Offset 0.5, or Convex at Margin 1.25) makes a cage."""
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=1)
+    obj = bpy.context.active_object
+    before = _added()
+    with pytest.raises(RuntimeError) as caught:
+        make_cage(obj, shape='TIGHT', offset=1.25)
+    said = str(caught.value)
+    assert re.search(r"an Offset of 1.25 of the mesh's size is more than Tight offsets by \(0.5\).*"
+                     r"Lower Offset to 0.5 or less, or use Convex with Margin 1.25", said)
+    assert "holes" not in said and "raise" not in said.lower()
+    assert _added() == before and obj.gencoords.cage is None
+    for options in ({"shape": 'TIGHT', "offset": 0.5}, {"shape": 'CONVEX', "margin": 1.25}):
+        assert make_cage(obj, **options) == {'FINISHED'}
+        assert_encloses(world_arrays(obj)[0], *world_arrays(obj.gencoords.cage))
+
+
+def test_a_spoilt_simplification_names_it_not_a_cage_to_merge(gc, monkeypatch):
+    """Blender's remesh and decimation once left two vertices of the offset surface at one
+    place (Suzanne scaled 0.6 with a Smooth modifier, Blender 5.2): the refusal said
+    "cage vertices 17 and 18 coincide; merge them (Merge by Distance)" of a cage that was
+    never made. Now it names the simplification and what helps, and adds nothing."""
+    cage_tight = importlib.import_module(f"{PACKAGE}.gencoords_addon.bind.cage_tight")
+    vertices, faces = gencoords.tools.shapes.icosphere(1)
+    vertices = 0.6 * vertices
+    vertices[18] = vertices[17]  # as the decimation left them
+    monkeypatch.setattr(cage_tight, "offset_surface", lambda *args: (vertices, faces))
+    obj = scenes.add_suzanne(level=0)
+    before = _added()
+    with pytest.raises(RuntimeError) as caught:
+        make_cage(obj, shape='TIGHT')
+    said = str(caught.value)
+    assert re.search(r"simplifying the offset surface to 42 vertices spoiled it \(duplicate vertices, "
+                     r"at its vertices 17, 18\): raise the vertex count", said), said
+    assert "Merge by Distance" not in said and _added() == before and obj.gencoords.cage is None
+
+
+def assert_encloses(mesh_points, cage_points, cage_triangles):
+    """Closed, manifold, outward, every point strictly inside."""
+    gencoords.advanced.validate_cage(cage_points, cage_triangles, convex=False, tolerance=TOLERANCE)
+    where = gencoords.point_locations(mesh_points, cage_points, cage_triangles, tolerance=TOLERANCE)
+    assert (where == gencoords.INSIDE).all()

@@ -159,8 +159,14 @@ def test_fit_tight_cage_refuses_a_cage_through_itself_and_measures_volume():
     with pytest.raises(tight_cage.TightCageError, match="passes through itself") as caught:
         tight_cage.fit_tight_cage(both, both_faces, [[0.5, 0.0, 0.0]], 0.01, 1e-6)
     assert caught.value.problem == "self_intersecting"
-    with pytest.raises(gencoords.CageError, match="open"):
+    # A surface the simplification spoilt is named so (no cage exists yet to mend).
+    with pytest.raises(tight_cage.TightCageError, match=r"simplifying the offset surface to 162 vertices "
+                                                        r"spoiled it \(open, at its vertices") as caught:
         tight_cage.fit_tight_cage(vertices, faces[1:], [[0.0, 0.0, 0.0]], 0.01, 1e-6)
+    assert caught.value.problem == "simplified"
+    with pytest.raises(tight_cage.TightCageError, match="Offset of 0.6 .* Lower Offset to 0.5"):
+        tight_cage.check_offset(0.6)
+    tight_cage.check_offset(tight_cage.LARGEST_OFFSET)
     fitted, pushes = tight_cage.fit_tight_cage(1.1 * vertices, faces, 0.9 * vertices, 0.01, 1e-6)
     assert pushes == 0 and np.array_equal(fitted, 1.1 * vertices)
     cage_vertices, cage_faces = _character_cage()
