@@ -24,13 +24,15 @@ from ..evaluation.barycentric import point_locations
 from .self_intersection import self_intersections
 from .surface import cage_triangles, pinched_vertices, vertex_normals
 
-__all__ = ["TightCageError", "check_offset", "outward_pushes", "enclose", "fit_tight_cage"]
+__all__ = ["TightCageError", "check_offset", "outward_pushes", "enclose", "enclose_steps", "fit_tight_cage",
+           "fit_tight_cage_steps"]
 
 # The largest offset, of the mesh's size, Tight offsets by: displaced farther, a voxel
 # remesh's surface folds (its normals' noise grows with the distance) into loose pieces
 # (a 12-vertex icosphere: 0.75 still wraps, 1.25 breaks apart), and so far out a convex
 # cage hugs as well.
 LARGEST_OFFSET = 0.5
+PUSHING = 0.8  # of a fit's progress, the push-outs' share; the checks take the rest
 
 PUSH_ITERATIONS = 16  # push-outs before giving up
 _PAIR_BLOCK = 1 << 18  # (point, triangle) pairs per block when finding nearest triangles
@@ -203,6 +205,15 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
     >>> pushes > 0, bool((where == gencoords.INSIDE).all())
     (True, True)
     """
+    return _to_end(enclose_steps(vertices, triangles, points, clearance, tolerance, iterations, workers,
+                                 stored_as, quads))
+
+
+def enclose_steps(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
+                  workers=None, stored_as=np.float64, quads=None):
+    """:func:`enclose` in steps: a generator yielding the fraction done after each push
+    out (of ``iterations``) and returning what :func:`enclose` returns (``vertices, pushes
+    = yield from enclose_steps(...)``); closed early, it stops there."""
     vertices = np.asarray(vertices, dtype=stored_as).astype(np.float64)
     points = np.asarray(points, dtype=np.float64)
     split = cage_triangles(vertices, triangles, quads)
@@ -221,6 +232,7 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
                                             f"the cage after pushing it out {iterations} times: "
                                             "raise the offset or the vertex count")
         pushes, checked_all = pushes + 1, False
+        yield pushes / (iterations + 1)
         # Each push out overshoots more: a vertex pushed alone tilts its faces away from
         # the points beside the one it was pushed for.
         moves = outward_pushes(vertices, split, points[left_out], clearance * pushes)
@@ -297,6 +309,15 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
     ...     print(error.problem)
     self_intersecting
     """
+    return _to_end(fit_tight_cage_steps(vertices, triangles, points, clearance, tolerance, iterations,
+                                        workers, stored_as, quads))
+
+
+def fit_tight_cage_steps(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
+                         workers=None, stored_as=np.float64, quads=None):
+    """:func:`fit_tight_cage` in steps: a generator yielding the fraction done (pushes,
+    then the checks) and returning what :func:`fit_tight_cage` returns; closed early, it
+    stops there. A modal operator shows its progress and takes Esc between steps."""
     try:  # what the remesh and the decimation made, before any push
         validate_cage(vertices, cage_triangles(vertices, triangles, quads), convex=False, tolerance=tolerance)
     except CageError as error:
@@ -304,20 +325,24 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
                                            f"spoiled it ({error.problem.replace('_', ' ')}, "
                                            f"{_where(error)}): raise the vertex count, or change "
                                            "the offset a little") from None
-    vertices, pushes = enclose(vertices, triangles, points, clearance, tolerance, iterations, workers,
-                               stored_as, quads)
+    yield 0.0
+    pushing = enclose_steps(vertices, triangles, points, clearance, tolerance, iterations, workers, stored_as,
+                            quads)
+    vertices, pushes = yield from _scaled(pushing, PUSHING)
     triangles = cage_triangles(vertices, triangles, quads)
     try:
         validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
     except CageError as error:
         raise TightCageError("pushed", f"pushing the cage out to enclose the mesh spoiled it "
                                        f"({error}): raise the offset or the vertex count") from None
+    yield PUSHING
     pinched = pinched_vertices(triangles)
     if len(pinched):
         raise TightCageError("pinched", f"the cage touches itself at {len(pinched)} vertices (first: "
                                         f"vertex {pinched[0]}), where parts of the mesh are closer "
                                         "than twice the offset: lower the offset or raise the "
                                         "vertex count")
+    yield PUSHING
     crossing = self_intersections(vertices, triangles, tolerance)
     if len(crossing):
         raise TightCageError("self_intersecting", f"the cage passes through itself ({len(crossing)} "
@@ -332,3 +357,22 @@ def _where(error):
     if error.vertices:
         return f"at its vertices {', '.join(map(str, error.vertices[:4]))}"
     return f"at its faces {', '.join(map(str, error.faces[:4]))}" if error.faces else "somewhere"
+
+
+def _to_end(steps):
+    """The result of a generator of steps, run to its end."""
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+def _scaled(steps, share):
+    """``steps``' fractions times ``share``; returns its result."""
+    while True:
+        try:
+            fraction = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield share * fraction

@@ -15,9 +15,10 @@ from ...core.tools import enclosing
 from .. import messages, preferences
 from ..blender_io import mesh_arrays, mesh_io
 from ..errors import CageError
+from ..steps import run_to_end
 from . import cage_tight
 from .scene import FLOAT32_TOLERANCE, zero_scale_axes
-from .service import in_workers_or_blender
+from .service import in_workers_or_blender, object_mode
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
@@ -160,32 +161,49 @@ def _enclosing_cage(obj, points, target_vertices, margin, context):
 
 
 def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None):
-    """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
-    None or what to say about worker processes that failed, see
-    :func:`service.in_workers_or_blender`). ``tight``: a non-convex cage hugging the
-    mesh (``cage_tight``); ``distance``: the margin in world units, not a share of the
-    mesh's size.
+    """:func:`make_cage_steps` run to the end (scripts, background mode)."""
+    return run_to_end(make_cage_steps(obj, context, target_vertices, margin, tight, distance))
+
+
+def make_cage_steps(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None):
+    """Add a cage object around the mesh object ``obj`` and pick it as its cage, in steps
+    (see ``steps.py``: a modal Make Cage shows their progress and takes Esc between
+    them; closed early, nothing is left behind): returns (the cage, None or what to say
+    about worker processes that failed, see :func:`service.in_workers_or_blender`).
+    ``tight``: a non-convex cage hugging the mesh (``cage_tight``); ``distance``: the
+    margin in world units, not a share of the mesh's size.
 
     A mesh farther from the origin than its size gets its cage object at the middle of
     its bounds (a float32 location), with vertices relative to it: float32 vertices then
     keep the cage's shape however far from the origin and however small the mesh.
     """
-    points = _enclosed_points(obj, context)
+    with object_mode(context, obj):
+        points = _enclosed_points(obj, context)
+        triangles = cage_tight.enclosed_triangles(obj, context) if tight else None
     centre = ((points.min(axis=0) + points.max(axis=0)) / 2).astype(np.float32).astype(np.float64)
     if np.linalg.norm(centre) <= np.linalg.norm(np.ptp(points, axis=0)):
         centre[:] = 0.0  # near the origin: the cage object there, read back without a transform
     points = points - centre
     if distance is not None:
         margin = distance / max(float(np.linalg.norm(np.ptp(points, axis=0))), np.finfo(float).tiny)
+    yield 0.0
     if tight:  # the core checks the enclosure, as stored
-        stored, triangles, worker_failure = cage_tight.make_tight_cage(
-            points, cage_tight.enclosed_triangles(obj, context), target_vertices, margin, context)
+        stored, faces, worker_failure = yield from cage_tight.tight_cage_steps(
+            points, triangles, target_vertices, margin, context)
     else:
-        stored, triangles, worker_failure = _enclosing_cage(obj, points, target_vertices, margin, context)
+        stored, faces, worker_failure = _enclosing_cage(obj, points, target_vertices, margin, context)
+    with object_mode(context, obj):
+        return _add_cage(obj, stored, faces, centre), worker_failure
+
+
+def _add_cage(obj, stored, faces, centre):
+    """The cage object of vertices ``stored`` (c, 3) and ``faces`` (triangles, and quads
+    for Tight) at ``centre``, in the mesh's collections, picked as its cage: all or
+    nothing (what was added goes again on a failure)."""
     mesh = bpy.data.meshes.new(f"{obj.name} cage")
     cage = None
-    try:  # all or nothing: what was added goes again on a failure
-        mesh.from_pydata(stored.tolist(), [], [list(face) for face in triangles])  # Tight: quads too
+    try:
+        mesh.from_pydata(stored.tolist(), [], [list(face) for face in faces])
         mesh.update()
         cage = bpy.data.objects.new(f"{obj.name} cage", mesh)
         cage.location = centre.tolist()
@@ -198,7 +216,7 @@ def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, dista
             bpy.data.objects.remove(cage)
         bpy.data.meshes.remove(mesh)
         raise
-    return cage, worker_failure
+    return cage
 
 
 def select_dented_faces(obj):

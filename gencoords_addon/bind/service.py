@@ -57,14 +57,26 @@ def in_workers_or_blender(compute, workers):
     The message is also printed to the system console with the full cause. Other
     warnings are passed on.
     """
+    def at_once(count):
+        return compute(count)
+        yield  # unreached: a generator of no steps
+
+    return run_to_end(steps_in_workers_or_blender(at_once, workers))
+
+
+def steps_in_workers_or_blender(make_steps, workers):
+    """:func:`in_workers_or_blender` for work in steps (``make_steps(workers)``, a
+    generator of fractions, see ``steps.py``): yields its fractions and returns (its
+    result, None or the message saying the workers failed); where they fail, the steps
+    start again in Blender's process."""
     failure = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", core.WorkerWarning)  # automatic counts fall back here
         try:
-            result = compute(workers)
+            result = yield from make_steps(workers)
         except core.WorkerError as error:  # an explicit count
             failure = error
-            result = compute(1)
+            result = yield from make_steps(1)
     for warning in caught:
         if issubclass(warning.category, core.WorkerWarning):
             failure = warning.message

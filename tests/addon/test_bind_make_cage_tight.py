@@ -7,6 +7,7 @@ Green, the bound mesh following it, and takes the core's harmonic coordinates.""
 
 import importlib
 import re
+import time
 
 import bpy
 import numpy as np
@@ -271,3 +272,82 @@ def assert_encloses(mesh_points, cage_points, cage_triangles):
     gencoords.advanced.validate_cage(cage_points, cage_triangles, convex=False, tolerance=TOLERANCE)
     where = gencoords.point_locations(mesh_points, cage_points, cage_triangles, tolerance=TOLERANCE)
     assert (where == gencoords.INSIDE).all()
+
+
+def make_cage_stand_in(operators, **options):
+    """The Make Cage operator's own methods on a plain object (Blender operators cannot be
+    made outside a call), with its properties (Tight, the defaults, confirmed in the
+    dialog) and reports."""
+    methods = ("execute", "invoke", "modal", "_start", "_stop", "_arguments", "_made", "_refused")
+    cls = operators.OBJECT_OT_gencoords_make_cage
+    stand_in = type("MakeCageStandIn", (), {name: cls.__dict__[name] for name in methods})()
+    settings = {"shape": 'TIGHT', "target_vertices": 100, "offset_unit": 'SHARE', "margin": 0.05,
+                "offset": 0.01, "distance": 0.03, "dialog_shown": False, "confirmed": True}
+    for name, value in {**settings, **options}.items():
+        setattr(stand_in, name, value)
+    stand_in.reports = []
+    stand_in.report = lambda kind, text: stand_in.reports.append(text)
+    return stand_in
+
+
+def window_and_operators(monkeypatch):
+    """A window's stand-ins (recording what the operator does to it) and the operators'
+    module, told it runs in a window."""
+    from test_ui_artist import ContextStandIn, WindowStandIn
+
+    operators = importlib.import_module(f"{PACKAGE}.gencoords_addon.ui.operators")
+    monkeypatch.setattr(operators, "interactive", lambda context: True)
+    return ContextStandIn(WindowStandIn()), operators
+
+
+def test_in_a_window_make_cage_tight_shows_progress_and_esc_leaves_nothing(gc, monkeypatch):
+    """The dialog's OK hands over to a modal Make Cage; Esc midway (Blender's remesh done,
+    its temporary copy in the file) returns within a second and leaves the file as it
+    was; left alone it makes the cage, reporting progress on the way; a script's call in
+    a window still runs to the end."""
+    from types import SimpleNamespace
+
+    from scene_helpers import make_active
+
+    context, operators = window_and_operators(monkeypatch)
+    obj = scenes.add_suzanne(level=1)
+    make_active(obj)
+    before = _added()
+    asking = make_cage_stand_in(operators, dialog_shown=True, confirmed=False, target_vertices=120)
+    handed_over = []
+    fake_ops = SimpleNamespace(object=SimpleNamespace(
+        gencoords_make_cage=lambda *args, **kwargs: handed_over.append((args, kwargs))))
+    with monkeypatch.context() as patch:
+        patch.setattr(operators.bpy, "ops", fake_ops)
+        assert asking.execute(context) == {'CANCELLED'}
+    ((args, kwargs),) = handed_over
+    assert args == ('INVOKE_DEFAULT',) and kwargs["confirmed"] and kwargs["target_vertices"] == 120
+    assert kwargs["shape"] == 'TIGHT' and _added() == before
+
+    escaped = make_cage_stand_in(operators)
+    assert escaped.invoke(context, None) == {'RUNNING_MODAL'}
+    while _added() == before:  # steps until Blender's temporary copy is in the file
+        assert escaped.modal(context, SimpleNamespace(type='TIMER')) == {'RUNNING_MODAL'}
+    assert escaped.modal(context, SimpleNamespace(type='LEFTMOUSE')) == {'RUNNING_MODAL'}  # held
+    started = time.perf_counter()
+    assert escaped.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
+    assert time.perf_counter() - started < 1.0
+    assert escaped.reports == ["Make Cage cancelled: nothing was changed"]
+    assert _added() == before and obj.gencoords.cage is None
+
+    running = make_cage_stand_in(operators)
+    progress = []
+    monkeypatch.setattr(context.window_manager, "progress_update", progress.append, raising=False)
+    assert running.invoke(context, None) == {'RUNNING_MODAL'}
+    result = {'RUNNING_MODAL'}
+    while result == {'RUNNING_MODAL'}:
+        result = running.modal(context, SimpleNamespace(type='TIMER'))
+    assert result == {'FINISHED'} and running.reports[-1].startswith("Made 'Suzanne cage' (")
+    assert len(set(progress)) >= 4 and progress == sorted(progress) and 0.0 <= progress[0] < progress[-1] <= 1.0
+    assert {"event_timer_add", "progress_begin", "modal_handler_add", "progress_end",
+            "event_timer_remove"} <= set(context.window_manager.calls)
+    assert _added() == (before[0] + 1, before[1] + 1)  # the cage alone: the copies went
+    assert_encloses(world_arrays(obj)[0], *world_arrays(obj.gencoords.cage))
+
+    scripted = make_cage_stand_in(operators, confirmed=False, shape='CONVEX')  # exec, in a window
+    assert scripted.execute(context) == {'FINISHED'} and obj.gencoords.cage.name == "Suzanne cage.001"
