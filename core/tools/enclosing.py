@@ -9,18 +9,31 @@ inequality). Its vertices come from the polar dual: the half-space ``i`` maps to
 facets are the polytope's vertices (where three planes meet), and half-spaces whose dual
 point is inside that hull are redundant. Any convex-hull routine serves for the dual
 (the Blender add-on uses bmesh's); the arithmetic is here. A cage of either shape needs
-a mesh with a size: :func:`mesh_extent` refuses one without, before anything is made.
+a mesh with a size: :func:`mesh_extent` refuses one without, before anything is made;
+a tight one an offset it can make (:func:`check_offset`) and, to keep the mesh's parts
+apart, one below the gaps between them (:func:`offset_for_gap`).
 """
 
 import numpy as np
 
 from ..base.errors import CageError
 
-__all__ = ["mesh_extent", "sphere_directions", "supporting_offsets", "dual_points", "facet_vertices"]
+__all__ = ["mesh_extent", "check_offset", "offset_for_gap", "sphere_directions", "supporting_offsets",
+           "dual_points", "facet_vertices"]
 
 # A mesh's diagonal must span this many of the smallest distances its positions resolve:
 # a cage's vertices (a few per side) then stay apart where they are stored.
 EXTENT_STEPS = 64
+# The largest offset, of the mesh's size, Tight offsets by: displaced farther, a voxel
+# remesh's surface folds (its normals' noise grows with the distance) into loose pieces
+# (a 12-vertex icosphere: 0.75 still wraps, 1.25 breaks apart), and so far out a convex
+# cage hugs as well.
+LARGEST_OFFSET = 0.5
+# Keeping gaps, the offset is at most this share of the narrowest gap between the mesh's
+# parts: the cage's two sheets in it stay two thirds of it apart, room for the
+# decimation's chords and the push-outs (a hand, fingers 1/60 of its size apart: 1/6
+# separates them at 100 vertices, 1/4 crosses).
+GAP_SHARE = 1.0 / 6.0
 
 
 def mesh_extent(points, resolution=0.0):
@@ -66,6 +79,63 @@ def mesh_extent(points, resolution=0.0):
         where = (f"lies within {diagonal:.3g} of one another, too close to tell apart where they "
                  f"are (positions there are stored {resolution:.3g} apart)")
     raise CageError("no_extent", f"every vertex of the mesh {where}: a cage needs a mesh with a size")
+
+
+def check_offset(offset):
+    """Refuse an offset Tight cannot make a cage at, before anything is made.
+
+    Parameters
+    ----------
+    offset : float
+        The gap between the mesh and the cage, a share of the mesh's bounding-box
+        diagonal.
+
+    Raises
+    ------
+    CageError
+        ``problem`` "offset": above ``LARGEST_OFFSET``; the message says what helps.
+
+    Examples
+    --------
+    >>> from gencoords.tools.enclosing import check_offset
+    >>> check_offset(0.01)
+    >>> try:
+    ...     check_offset(1.25)
+    ... except ValueError as error:
+    ...     print(error)
+    an Offset of 1.25 of the mesh's size is more than Tight offsets by (0.5): displaced that far, the voxel remesh's surface folds into loose pieces. Lower Offset to 0.5 or less, or use Convex with Margin 1.25 (that far out a convex cage hugs as well)
+    """
+    if not offset <= LARGEST_OFFSET:
+        raise CageError("offset", f"an Offset of {offset:.3g} of the mesh's size is more than Tight "
+                                  f"offsets by ({LARGEST_OFFSET:g}): displaced that far, the voxel "
+                                  "remesh's surface folds into loose pieces. Lower Offset to "
+                                  f"{LARGEST_OFFSET:g} or less, or use Convex with Margin {offset:.3g} "
+                                  "(that far out a convex cage hugs as well)")
+
+
+def offset_for_gap(offset, gap):
+    """The offset a tight cage keeps the mesh's parts apart with: ``offset``, or
+    ``GAP_SHARE`` of the narrowest gap between them where that is less.
+
+    Parameters
+    ----------
+    offset : float
+        The offset asked for, a share of the mesh's size.
+    gap : float
+        The narrowest gap between the mesh's parts, a share of its size
+        (:func:`gencoords.tools.surface.narrowest_gap`; ``inf`` for none).
+
+    Returns
+    -------
+    offset : float
+
+    Examples
+    --------
+    >>> from gencoords.tools.enclosing import offset_for_gap
+    >>> round(offset_for_gap(0.01, 1.0 / 60.0), 5), offset_for_gap(0.01, float("inf"))
+    (0.00278, 0.01)
+    """
+    return float(min(offset, GAP_SHARE * gap))
 
 
 def sphere_directions(count):

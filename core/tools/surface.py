@@ -1,13 +1,15 @@
 """Measures of a closed triangle surface that Make Cage Tight checks its cages with:
 normals at the vertices, vertices where two sheets touch, pieces that enclose nothing, and
-the triangles a cage of triangles and quads is bound with.
+the triangles a cage of triangles and quads is bound with, and the narrowest gap between
+the parts of a mesh (from rays cast outward: the caster, Blender's BVH tree in the add-on,
+is the caller's).
 """
 
 import numpy as np
 
 from ..base.triangulation import triangulate_quads
 
-__all__ = ["vertex_normals", "pinched_vertices", "degenerate_pieces", "cage_triangles"]
+__all__ = ["vertex_normals", "pinched_vertices", "degenerate_pieces", "cage_triangles", "ray_samples", "narrowest_gap"]
 
 
 def vertex_normals(vertices, triangles):
@@ -141,3 +143,80 @@ def cage_triangles(vertices, triangles, quads=None):
     if quads is None or not len(quads):
         return triangles
     return np.concatenate([triangles, triangulate_quads(vertices, quads)])
+
+
+# A ray's hit counts as the gap to another part where the surface hit faces back along it
+# within this cosine (about 25 degrees): parallel parts (fingers) count; a crease where
+# two overlapping parts meet at an angle does not.
+FACING = 0.9
+# Of each triangle, the points rays start from (barycentric): its centroid and a point
+# towards each corner, so a coarse mesh's long faces are sampled near their ends too.
+_SAMPLES = np.array([[2.0, 2.0, 2.0], [4.0, 1.0, 1.0], [1.0, 4.0, 1.0], [1.0, 1.0, 4.0]]) / 6.0
+
+
+def ray_samples(vertices, triangles, count=20_000):
+    """Where rays that measure the gaps between a surface's parts start, and their
+    directions: points on the triangles (their centroid and a point towards each
+    corner) and the triangles' outward unit normals, at most ``count`` (evenly spread
+    over the triangles).
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    triangles : (m, 3) int
+        Outward.
+    count : int
+
+    Returns
+    -------
+    origins : (r, 3) float64
+    directions : (r, 3) float64
+        Unit; triangles of no area give none.
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import octahedron
+    >>> from gencoords.tools.surface import ray_samples
+    >>> origins, directions = ray_samples(*octahedron())
+    >>> origins.shape, directions.shape  # 8 faces, 4 points each
+    ((32, 3), (32, 3))
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    corners = vertices[triangles]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normals, axis=1)
+    keep = np.flatnonzero(length > 0.0)
+    if len(keep) * len(_SAMPLES) > count:  # evenly spread over the triangles
+        keep = keep[np.unique(np.linspace(0, len(keep) - 1, max(1, count // len(_SAMPLES))).astype(np.int64))]
+    origins = np.einsum("sc,tci->tsi", _SAMPLES, corners[keep]).reshape(-1, 3)
+    directions = np.repeat(normals[keep] / length[keep, None], len(_SAMPLES), axis=0)
+    return origins, directions
+
+
+def narrowest_gap(distances, cosines):
+    """The narrowest gap between a surface's parts, from rays cast outward from it
+    (:func:`ray_samples`): the shortest distance to a hit whose surface faces back along
+    the ray (the cosine between its normal and the ray below ``-FACING``).
+
+    Parameters
+    ----------
+    distances : (r,) float
+        Along each ray to its first hit; ``inf`` (or NaN) for none.
+    cosines : (r,) float
+        Between the hit surface's outward normal and the ray's direction.
+
+    Returns
+    -------
+    gap : float
+        ``inf`` where no part faces another.
+
+    Examples
+    --------
+    >>> from gencoords.tools.surface import narrowest_gap
+    >>> narrowest_gap([0.5, 0.1, 0.3, float("inf")], [-1.0, -0.5, -0.95, 0.0])  # 0.1: a crease
+    0.3
+    """
+    distances = np.asarray(distances, dtype=np.float64)
+    facing = np.isfinite(distances) & (np.asarray(cosines, dtype=np.float64) < -FACING)
+    return float(distances[facing].min()) if facing.any() else float("inf")

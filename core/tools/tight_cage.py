@@ -24,29 +24,24 @@ from ..evaluation.barycentric import point_locations
 from .self_intersection import self_intersections
 from .surface import cage_triangles, pinched_vertices, vertex_normals
 
-__all__ = ["TightCageError", "check_offset", "outward_pushes", "enclose", "enclose_steps", "fit_tight_cage",
+__all__ = ["TightCageError", "outward_pushes", "enclose", "enclose_steps", "fit_tight_cage",
            "fit_tight_cage_steps"]
-
-# The largest offset, of the mesh's size, Tight offsets by: displaced farther, a voxel
-# remesh's surface folds (its normals' noise grows with the distance) into loose pieces
-# (a 12-vertex icosphere: 0.75 still wraps, 1.25 breaks apart), and so far out a convex
-# cage hugs as well.
-LARGEST_OFFSET = 0.5
-PUSHING = 0.8  # of a fit's progress, the push-outs' share; the checks take the rest
 
 PUSH_ITERATIONS = 16  # push-outs before giving up
 _PAIR_BLOCK = 1 << 18  # (point, triangle) pairs per block when finding nearest triangles
 _SMALLEST_COSINE = 0.5  # a vertex moves at most twice what a face next to it needs
 _NEIGHBOUR_SHARE = 0.5  # of a vertex's push, its neighbours move at least this
+PUSHING = 0.8  # of a fit's progress, the push-outs' share; the checks take the rest
 
 
 class TightCageError(ValueError):
     """The cage cannot be made tight: ``problem`` names why ("outside",
-    "self_intersecting"), the message says what to change."""
+    "self_intersecting", ...), ``cause`` says what happened and ``advice`` what to change
+    (the message: both)."""
 
-    def __init__(self, problem, message):
-        super().__init__(message)
-        self.problem = problem
+    def __init__(self, problem, cause, advice):
+        super().__init__(f"{cause}: {advice}")
+        self.problem, self.cause, self.advice = problem, cause, advice
 
 
 def _nearest_triangles(vertices, triangles, points):
@@ -63,38 +58,6 @@ def _nearest_triangles(vertices, triangles, points):
         nearest[start:start + rows] = found.argmin(axis=1)
         distance[start:start + rows] = found.min(axis=1)
     return nearest, distance
-
-
-def check_offset(offset):
-    """Refuse an offset Tight cannot make a cage at, before anything is made.
-
-    Parameters
-    ----------
-    offset : float
-        The gap between the mesh and the cage, a share of the mesh's bounding-box
-        diagonal.
-
-    Raises
-    ------
-    TightCageError
-        ``problem`` "offset": above ``LARGEST_OFFSET``; the message says what helps.
-
-    Examples
-    --------
-    >>> from gencoords.tools.tight_cage import check_offset
-    >>> check_offset(0.01)
-    >>> try:
-    ...     check_offset(1.25)
-    ... except ValueError as error:
-    ...     print(error)
-    an Offset of 1.25 of the mesh's size is more than Tight offsets by (0.5): displaced that far, the voxel remesh's surface folds into loose pieces. Lower Offset to 0.5 or less, or use Convex with Margin 1.25 (that far out a convex cage hugs as well)
-    """
-    if not offset <= LARGEST_OFFSET:
-        raise TightCageError("offset", f"an Offset of {offset:.3g} of the mesh's size is more than Tight "
-                                       f"offsets by ({LARGEST_OFFSET:g}): displaced that far, the voxel "
-                                       "remesh's surface folds into loose pieces. Lower Offset to "
-                                       f"{LARGEST_OFFSET:g} or less, or use Convex with Margin {offset:.3g} "
-                                       "(that far out a convex cage hugs as well)")
 
 
 def outward_pushes(vertices, triangles, points, clearance):
@@ -229,8 +192,8 @@ def enclose_steps(vertices, triangles, points, clearance, tolerance, iterations=
             continue
         if pushes == iterations:
             raise TightCageError("outside", f"{int(left_out.sum())} mesh vertices stay outside "
-                                            f"the cage after pushing it out {iterations} times: "
-                                            "raise the offset or the vertex count")
+                                            f"the cage after pushing it out {iterations} times",
+                                 "raise the offset or the vertex count")
         pushes, checked_all = pushes + 1, False
         yield pushes / (iterations + 1)
         # Each push out overshoots more: a vertex pushed alone tilts its faces away from
@@ -322,9 +285,8 @@ def fit_tight_cage_steps(vertices, triangles, points, clearance, tolerance, iter
         validate_cage(vertices, cage_triangles(vertices, triangles, quads), convex=False, tolerance=tolerance)
     except CageError as error:
         raise TightCageError("simplified", f"simplifying the offset surface to {len(vertices)} vertices "
-                                           f"spoiled it ({error.problem.replace('_', ' ')}, "
-                                           f"{_where(error)}): raise the vertex count, or change "
-                                           "the offset a little") from None
+                                           f"spoiled it ({error.problem.replace('_', ' ')}, {_where(error)})",
+                             "raise the vertex count, or change the offset a little") from None
     yield 0.0
     pushing = enclose_steps(vertices, triangles, points, clearance, tolerance, iterations, workers, stored_as,
                             quads)
@@ -333,22 +295,21 @@ def fit_tight_cage_steps(vertices, triangles, points, clearance, tolerance, iter
     try:
         validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
     except CageError as error:
-        raise TightCageError("pushed", f"pushing the cage out to enclose the mesh spoiled it "
-                                       f"({error}): raise the offset or the vertex count") from None
+        raise TightCageError("pushed", f"pushing the cage out to enclose the mesh spoiled it ({error})",
+                             "raise the offset or the vertex count") from None
     yield PUSHING
     pinched = pinched_vertices(triangles)
     if len(pinched):
         raise TightCageError("pinched", f"the cage touches itself at {len(pinched)} vertices (first: "
                                         f"vertex {pinched[0]}), where parts of the mesh are closer "
-                                        "than twice the offset: lower the offset or raise the "
-                                        "vertex count")
+                                        "than twice the offset", "lower the offset or raise the vertex count")
     yield PUSHING
     crossing = self_intersections(vertices, triangles, tolerance)
     if len(crossing):
         raise TightCageError("self_intersecting", f"the cage passes through itself ({len(crossing)} "
                                                   "pairs of faces cross, where parts of the mesh are "
-                                                  "closer than twice the offset): lower the offset or "
-                                                  "raise the vertex count")
+                                                  "closer than twice the offset)",
+                             "lower the offset or raise the vertex count")
     return vertices, pushes
 
 

@@ -160,18 +160,19 @@ def _enclosing_cage(obj, points, target_vertices, margin, context):
     raise CageError(f"{count} vertices of '{obj.name}' ended outside the cage: raise the margin")
 
 
-def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None):
+def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None, keep_gaps=True):
     """:func:`make_cage_steps` run to the end (scripts, background mode)."""
-    return run_to_end(make_cage_steps(obj, context, target_vertices, margin, tight, distance))
+    return run_to_end(make_cage_steps(obj, context, target_vertices, margin, tight, distance, keep_gaps))
 
 
-def make_cage_steps(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None):
+def make_cage_steps(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None, keep_gaps=True):
     """Add a cage object around the mesh object ``obj`` and pick it as its cage, in steps
     (see ``steps.py``: a modal Make Cage shows their progress and takes Esc between
     them; closed early, nothing is left behind): returns (the cage, None or what to say
     about worker processes that failed, see :func:`service.in_workers_or_blender`).
     ``tight``: a non-convex cage hugging the mesh (``cage_tight``); ``distance``: the
-    margin in world units, not a share of the mesh's size.
+    margin in world units, not a share of the mesh's size; ``keep_gaps``: Tight's offset
+    below the gaps between the mesh's parts (``cage_tight.tight_cage_steps``).
 
     A mesh farther from the origin than its size gets its cage object at the middle of
     its bounds (a float32 location), with vertices relative to it: float32 vertices then
@@ -189,7 +190,7 @@ def make_cage_steps(obj, context, target_vertices=100, margin=0.05, tight=False,
     yield 0.0
     if tight:  # the core checks the enclosure, as stored
         stored, faces, worker_failure = yield from cage_tight.tight_cage_steps(
-            points, triangles, target_vertices, margin, context)
+            points, triangles, target_vertices, margin, context, keep_gaps)
     else:
         stored, faces, worker_failure = _enclosing_cage(obj, points, target_vertices, margin, context)
     with object_mode(context, obj):

@@ -16,9 +16,10 @@ import math
 import bmesh
 import bpy
 import numpy as np
+from mathutils.bvhtree import BVHTree
 
 from ... import core
-from ...core.tools import surface, tight_cage
+from ...core.tools import enclosing, surface, tight_cage
 from .. import preferences
 from ..blender_io import mesh_io
 from ..blender_io.mesh_arrays import read_loop_triangles, read_positions
@@ -133,7 +134,7 @@ def offset_surface_steps(points, triangles, offset, target_vertices, context):
             yield (2 * attempt + 2) / 4
         raise CageError("the voxel remesh breaks the mesh into more pieces than the vertices asked "
                         "for can wrap (holes or thin open parts): raise Vertices, raise Offset (up "
-                        f"to {tight_cage.LARGEST_OFFSET:g}) to wrap the thin parts whole, close the "
+                        f"to {enclosing.LARGEST_OFFSET:g}) to wrap the thin parts whole, close the "
                         "holes, or use Convex")
     finally:
         bpy.data.objects.remove(obj)
@@ -152,9 +153,27 @@ def enclosed_triangles(obj, context):
 
 # Of Make Cage Tight's progress, Blender's shaping's share; the core's fit takes the rest.
 SHAPING = 0.7
+LIFT = 1e-6  # rays start this share of the mesh's size off its surface: past their own face
 
 
-def tight_cage_steps(points, triangles, target_vertices, margin, context):
+def narrowest_gap(points, triangles):
+    """The narrowest gap between the parts of the mesh of ``points`` (k, 3) and
+    ``triangles`` (t, 3), a share of its size (``inf`` where no parts face each other):
+    rays from its surface (``surface.ray_samples``) cast with Blender's BVH tree, the
+    core judging the hits (``surface.narrowest_gap``)."""
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))
+    tree = BVHTree.FromPolygons(points.tolist(), triangles.tolist(), epsilon=0.0)
+    origins, directions = surface.ray_samples(points, triangles)
+    distances, cosines = np.full(len(origins), np.inf), np.zeros(len(origins))
+    for index, (origin, direction) in enumerate(zip((origins + LIFT * size * directions).tolist(),
+                                                    directions.tolist())):
+        location, normal, _, distance = tree.ray_cast(origin, direction)
+        if location is not None:
+            distances[index], cosines[index] = distance, normal.dot(direction)
+    return surface.narrowest_gap(distances, cosines) / size
+
+
+def tight_cage_steps(points, triangles, target_vertices, margin, context, keep_gaps=True):
     """A tight cage around the mesh, in steps: a generator of the fraction done returning
     its vertices (c, 3) float64, its outward faces (a list of triangles and quads, lists of
     vertex indices) and None or what to say about worker processes that failed
@@ -171,13 +190,18 @@ def tight_cage_steps(points, triangles, target_vertices, margin, context):
     margin : float
         Distance between the mesh and the cage, a share of the mesh's bounding-box
         diagonal.
+    keep_gaps : bool
+        The offset at most a sixth of the narrowest gap between the mesh's parts
+        (``enclosing.offset_for_gap``), so the cage keeps them apart.
     """
     if not len(triangles):
         raise CageError("Tight wraps the mesh's faces and it has none: use Convex")
     try:
-        tight_cage.check_offset(margin)
-    except tight_cage.TightCageError as error:
+        enclosing.check_offset(margin)
+    except core.CageError as error:
         raise CageError(str(error)) from None
+    gap = narrowest_gap(points, triangles) if keep_gaps else np.inf
+    margin = enclosing.offset_for_gap(margin, gap)
     # Blender shapes a copy of unit size about the origin: voxel sizes have a floor, and
     # float32 positions far from the origin lose the detail.
     centre = (points.min(axis=0) + points.max(axis=0)) / 2.0
@@ -195,6 +219,12 @@ def tight_cage_steps(points, triangles, target_vertices, margin, context):
         preferences.worker_count(context))
     try:
         (vertices, _), worker_failure = yield from scaled(fitting, SHAPING, 1.0 - SHAPING)
-    except (core.CageError, tight_cage.TightCageError) as error:
+    except tight_cage.TightCageError as error:
+        if error.problem in ("pinched", "self_intersecting") and np.isfinite(gap):  # offset below the gaps
+            raise CageError(f"the tight cage failed: {error.cause}: raise Vertices (Offset {margin:.2g} "
+                            f"is at most 1/{round(1 / enclosing.GAP_SHARE)} of the narrowest gap between "
+                            f"the mesh's parts, {gap:.2g} of its size, already)") from None
+        raise CageError(f"the tight cage failed: {error}") from None
+    except core.CageError as error:
         raise CageError(f"the tight cage failed: {error}") from None
     return vertices, triangles.tolist() + quads.tolist(), worker_failure

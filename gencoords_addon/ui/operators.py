@@ -269,8 +269,10 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
     distance: bpy.props.FloatProperty(
         name="Distance", default=0.03, min=0.0, soft_max=1.0, subtype='DISTANCE',
         description="Gap between the mesh and the cage")
-    # The dialog's OK calls execute(), which would block the window: it hands over to a
-    # second, modal Make Cage (progress, Esc).
+    keep_gaps: bpy.props.BoolProperty(
+        name="Keep Gaps", default=True, description="Tight: the offset at most a sixth of the narrowest "
+        "gap between the mesh's parts (fingers), so the cage keeps them apart")
+    # The dialog's OK calls execute(), which hands over to a modal Make Cage (progress, Esc).
     dialog_shown: bpy.props.BoolProperty(name="Dialog Shown", options={'HIDDEN', 'SKIP_SAVE'})
     confirmed: bpy.props.BoolProperty(name="Confirmed", options={'HIDDEN', 'SKIP_SAVE'},
                                       description="Make the cage between events (progress, Esc)")
@@ -283,10 +285,11 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         layout.prop(self, "offset_unit", expand=True)
         layout.prop(self, "distance" if self.offset_unit == 'DISTANCE'
                     else "offset" if self.shape == 'TIGHT' else "margin")
+        if self.shape == 'TIGHT':
+            layout.prop(self, "keep_gaps")
 
     def invoke(self, context, event):
-        """In the UI: ask for the shape and sizes first, then make the cage between events
-        (progress, Esc)."""
+        """In the UI: the options dialog, then the cage made between events (progress, Esc)."""
         if not interactive(context):
             return self.execute(context)
         if self.confirmed:
@@ -297,15 +300,14 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
     def _arguments(self, context):
         tight = self.shape == 'TIGHT'
         return (context.active_object, context, self.target_vertices, self.offset if tight else self.margin,
-                tight, self.distance if self.offset_unit == 'DISTANCE' else None)
+                tight, self.distance if self.offset_unit == 'DISTANCE' else None, self.keep_gaps)
 
     def execute(self, context):
         """Run to the end: scripts and background mode."""
         if self.dialog_shown and not self.confirmed and interactive(context):
-            # OK in the dialog: make the cage as invoke does, with progress and Esc. This
-            # call ends here (nothing changed, no undo step of its own).
+            # OK in the dialog: a modal Make Cage does it; this call ends here (no undo step).
             options = {name: getattr(self, name) for name in ("shape", "target_vertices", "offset_unit",
-                                                              "margin", "offset", "distance")}
+                                                              "margin", "offset", "distance", "keep_gaps")}
             bpy.ops.object.gencoords_make_cage('INVOKE_DEFAULT', confirmed=True, **options)
             return {'CANCELLED'}
         try:
@@ -327,8 +329,7 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
 
     def _start(self, context):
         self._obj = context.active_object
-        self._steps = cage_maker.make_cage_steps(*self._arguments(context))
-        window_manager = context.window_manager
+        self._steps, window_manager = cage_maker.make_cage_steps(*self._arguments(context)), context.window_manager
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
@@ -336,9 +337,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
 
     def _stop(self, context):
         """The window as it was; the steps closed (what they made so far removed)."""
-        window_manager = context.window_manager
-        window_manager.event_timer_remove(self._timer)
-        window_manager.progress_end()
+        context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
         context.workspace.status_text_set(None)
         self._steps.close()
 

@@ -149,7 +149,7 @@ def test_the_dialog_shows_the_gap_the_shape_uses(gc, shape, unit, shown):
                              bl_rna=bpy.ops.object.gencoords_make_cage.get_rna_type())
     operator.draw(dialog, bpy.context)
     assert drawn == [("prop", "shape"), ("prop", "target_vertices"), ("prop", "offset_unit"),
-                     ("prop", shown)]
+                     ("prop", shown)] + [("prop", "keep_gaps")] * (shape == 'TIGHT')
 
 
 @pytest.mark.parametrize("scale, location", [(1e-4, (0.0, 0.0, 0.0)), (1e3, (0.0, 0.0, 0.0)),
@@ -282,7 +282,7 @@ def make_cage_stand_in(operators, **options):
     cls = operators.OBJECT_OT_gencoords_make_cage
     stand_in = type("MakeCageStandIn", (), {name: cls.__dict__[name] for name in methods})()
     settings = {"shape": 'TIGHT', "target_vertices": 100, "offset_unit": 'SHARE', "margin": 0.05,
-                "offset": 0.01, "distance": 0.03, "dialog_shown": False, "confirmed": True}
+                "offset": 0.01, "distance": 0.03, "keep_gaps": True, "dialog_shown": False, "confirmed": True}
     for name, value in {**settings, **options}.items():
         setattr(stand_in, name, value)
     stand_in.reports = []
@@ -351,3 +351,37 @@ def test_in_a_window_make_cage_tight_shows_progress_and_esc_leaves_nothing(gc, m
 
     scripted = make_cage_stand_in(operators, confirmed=False, shape='CONVEX')  # exec, in a window
     assert scripted.execute(context) == {'FINISHED'} and obj.gencoords.cage.name == "Suzanne cage.001"
+
+
+def finger_gap_points():
+    """Points in the gaps between the hand fixture's neighbouring fingers, from base to
+    tip (midway between their facing sides): outside a cage that keeps them apart."""
+    parts = scenes.hand_parts()
+    fingers = parts[1:1 + scenes.HAND_FINGERS]
+    points = []
+    for (left, _), (right, _) in zip(fingers, fingers[1:]):
+        for along in np.linspace(0.05, 1.0, 8):  # corners 4, 5: the left finger's right side
+            points.append((left[4] + along * (left[5] - left[4]) + right[0] + along * (right[1] - right[0])) / 2)
+    return np.array(points)
+
+
+def test_tight_cage_with_the_defaults_keeps_a_hands_fingers_apart_and_binds(gc):
+    """A hand whose fingers are 1/60 to 1/30 of its size apart, closer than twice the
+    default Offset (0.01): the defaults made no usable cage (the cage crossed itself, or
+    joined the fingers near their bases: 10 of these 24 gap points inside). Keep Gaps lowers the offset below the narrowest gap it measures:
+    the cage encloses the hand, does not cross itself, leaves every gap between fingers
+    outside, and binds."""
+    cage_tight = importlib.import_module(f"{PACKAGE}.gencoords_addon.bind.cage_tight")
+    hand = scenes.add_hand()
+    points, triangles = world_arrays(hand)
+    size = np.linalg.norm(np.ptp(points, axis=0))
+    assert 1 / 61 < cage_tight.narrowest_gap(points, triangles) < 1 / 50  # sampled near the bases
+    assert make_cage(hand, shape='TIGHT') == {'FINISHED'}
+    cage_points, cage_triangles = world_arrays(hand.gencoords.cage)
+    assert_tight_cage(points, cage_points, cage_triangles)
+    gaps = finger_gap_points()
+    assert (gencoords.point_locations(gaps, cage_points, cage_triangles) == gencoords.OUTSIDE).all()
+    assert 80 <= len(cage_points) <= 120 and np.ptp(cage_points, axis=0).max() < 1.05 * size
+    hand.gencoords.kind = "MEAN_VALUE"
+    with bpy.context.temp_override(active_object=hand, object=hand, selected_objects=[hand]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}

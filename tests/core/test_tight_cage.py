@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.tools import self_intersection, surface, tight_cage, volumes
+from gencoords.tools import enclosing, self_intersection, surface, tight_cage, volumes
 from gencoords.tools.shapes import icosphere, octahedron
 from scripts.common import character
 
@@ -164,9 +164,10 @@ def test_fit_tight_cage_refuses_a_cage_through_itself_and_measures_volume():
                                                         r"spoiled it \(open, at its vertices") as caught:
         tight_cage.fit_tight_cage(vertices, faces[1:], [[0.0, 0.0, 0.0]], 0.01, 1e-6)
     assert caught.value.problem == "simplified"
-    with pytest.raises(tight_cage.TightCageError, match="Offset of 0.6 .* Lower Offset to 0.5"):
-        tight_cage.check_offset(0.6)
-    tight_cage.check_offset(tight_cage.LARGEST_OFFSET)
+    with pytest.raises(gencoords.CageError, match="Offset of 0.6 .* Lower Offset to 0.5") as caught:
+        enclosing.check_offset(0.6)
+    assert caught.value.problem == "offset"
+    enclosing.check_offset(enclosing.LARGEST_OFFSET)
     fitted, pushes = tight_cage.fit_tight_cage(1.1 * vertices, faces, 0.9 * vertices, 0.01, 1e-6)
     assert pushes == 0 and np.array_equal(fitted, 1.1 * vertices)
     cage_vertices, cage_faces = _character_cage()
