@@ -153,6 +153,7 @@ def enclosed_triangles(obj, context):
 
 # Of Make Cage Tight's progress, Blender's shaping's share; the core's fit takes the rest.
 SHAPING = 0.7
+GAP_TRIES, TRY_SHARE = 3, 0.4  # tries keeping the gaps; the progress each leaves to the next
 LIFT = 1e-6  # rays start this share of the mesh's size off its surface: past their own face
 
 
@@ -192,7 +193,8 @@ def tight_cage_steps(points, triangles, target_vertices, margin, context, keep_g
         diagonal.
     keep_gaps : bool
         The offset at most a sixth of the narrowest gap between the mesh's parts
-        (``enclosing.offset_for_gap``), so the cage keeps them apart.
+        (``enclosing.offset_for_gap``), so the cage keeps them apart; where it still
+        crosses or touches itself, twice the vertices, up to ``GAP_TRIES`` tries.
     """
     if not len(triangles):
         raise CageError("Tight wraps the mesh's faces and it has none: use Convex")
@@ -202,6 +204,31 @@ def tight_cage_steps(points, triangles, target_vertices, margin, context, keep_g
         raise CageError(str(error)) from None
     gap = narrowest_gap(points, triangles) if keep_gaps else np.inf
     margin = enclosing.offset_for_gap(margin, gap)
+    # Below the gaps, a cage crosses itself where the decimation's chords are long against
+    # them: twice the vertices, up to GAP_TRIES times, before telling the artist.
+    tries = GAP_TRIES if np.isfinite(gap) else 1
+    for attempt in range(tries):
+        start = 1.0 - TRY_SHARE ** attempt  # each try's progress after the last one's
+        span = 1.0 - start if attempt == tries - 1 else (1.0 - TRY_SHARE) * TRY_SHARE ** attempt
+        asked = target_vertices * 2 ** attempt
+        try:
+            return (yield from scaled(_tight_cage_try(points, triangles, asked, margin, context), start, span))
+        except tight_cage.TightCageError as error:
+            if error.problem not in ("pinched", "self_intersecting"):
+                raise CageError(f"the tight cage failed: {error}") from None
+            if attempt == tries - 1:
+                advice = (error.advice if tries == 1 else
+                          f"raise Vertices above {asked} (Offset {margin:.2g} is at most "
+                          f"1/{round(1 / enclosing.GAP_SHARE)} of the narrowest gap between the "
+                          f"mesh's parts, {gap:.2g} of its size, already)")
+                raise CageError(f"the tight cage failed: {error.cause}: {advice}") from None
+        except core.CageError as error:
+            raise CageError(f"the tight cage failed: {error}") from None
+
+
+def _tight_cage_try(points, triangles, target_vertices, margin, context):
+    """One try of :func:`tight_cage_steps` at ``target_vertices`` and the offset
+    ``margin``: the same generator and result; the core's errors pass."""
     # Blender shapes a copy of unit size about the origin: voxel sizes have a floor, and
     # float32 positions far from the origin lose the detail.
     centre = (points.min(axis=0) + points.max(axis=0)) / 2.0
@@ -217,14 +244,5 @@ def tight_cage_steps(points, triangles, target_vertices, margin, context, keep_g
                                                         clearance, FLOAT32_TOLERANCE, workers=workers,
                                                         stored_as=np.float32, quads=quads),
         preferences.worker_count(context))
-    try:
-        (vertices, _), worker_failure = yield from scaled(fitting, SHAPING, 1.0 - SHAPING)
-    except tight_cage.TightCageError as error:
-        if error.problem in ("pinched", "self_intersecting") and np.isfinite(gap):  # offset below the gaps
-            raise CageError(f"the tight cage failed: {error.cause}: raise Vertices (Offset {margin:.2g} "
-                            f"is at most 1/{round(1 / enclosing.GAP_SHARE)} of the narrowest gap between "
-                            f"the mesh's parts, {gap:.2g} of its size, already)") from None
-        raise CageError(f"the tight cage failed: {error}") from None
-    except core.CageError as error:
-        raise CageError(f"the tight cage failed: {error}") from None
+    (vertices, _), worker_failure = yield from scaled(fitting, SHAPING, 1.0 - SHAPING)
     return vertices, triangles.tolist() + quads.tolist(), worker_failure

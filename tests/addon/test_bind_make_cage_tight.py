@@ -256,7 +256,11 @@ def test_a_spoilt_simplification_names_it_not_a_cage_to_merge(gc, monkeypatch):
     vertices, faces = gencoords.tools.shapes.icosphere(1)
     vertices = 0.6 * vertices
     vertices[18] = vertices[17]  # as the decimation left them
-    monkeypatch.setattr(cage_tight, "offset_surface", lambda *args: (vertices, faces))
+    def spoilt(*args):
+        yield 0.5
+        return vertices, faces
+
+    monkeypatch.setattr(cage_tight, "offset_surface_steps", spoilt)
     obj = scenes.add_suzanne(level=0)
     before = _added()
     with pytest.raises(RuntimeError) as caught:

@@ -225,3 +225,50 @@ def test_mesh_extent_refuses_points_without_a_size_and_takes_lines_and_planes():
             mesh_extent(points, resolution)
         assert caught.value.problem == "no_extent"
     assert mesh_extent(line, 1.99 / EXTENT_STEPS) == pytest.approx(2.0)  # just enough
+
+
+def _first_hits(origins, directions, vertices, triangles):
+    """Reference ray caster (Moller-Trumbore, all pairs): distance to the first hit of
+    each ray and the cosine between the hit triangle's normal and the ray."""
+    corners = vertices[triangles]
+    a, e1, e2 = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    normals = np.cross(e1, e2)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    p = np.cross(directions[:, None], e2[None])
+    det = np.einsum("rti,ti->rt", p, e1)
+    s = origins[:, None] - a[None]
+    q = np.cross(s, e1[None])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.einsum("rti,rti->rt", s, p) / det
+        v = np.einsum("ri,rti->rt", directions, q) / det
+        t = np.einsum("ti,rti->rt", e2, q) / det
+    t = np.where((u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9), t, np.inf)
+    first = t.argmin(axis=1)
+    return t[np.arange(len(t)), first], np.einsum("ri,ri->r", normals[first], directions)
+
+
+def _boxes(*bounds):
+    """Closed, outward boxes (low, high): vertices (8b, 3) and triangles (12b, 3)."""
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+    vertices = np.concatenate([np.array(low) + corners * (np.array(high) - low) for low, high in bounds])
+    quads = np.concatenate([quads + 8 * i for i in range(len(bounds))])
+    return vertices, np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+
+
+def test_the_narrowest_gap_is_between_facing_parts_not_in_creases():
+    """Two unit cubes 0.05 apart side by side, and a third box overlapping the first from
+    above (creases where they meet): the gap is 0.05, cast by an independent ray caster;
+    without the second cube no parts face each other. The offset keeping it is a sixth."""
+    from gencoords.tools.enclosing import offset_for_gap
+
+    first, second, overlapping = ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)), ((1.05, 0.0, 0.0), (2.05, 1.0, 1.0)), \
+        ((0.25, 0.25, 0.9), (0.75, 0.75, 1.6))
+    for bounds, gap in (((first, second, overlapping), 0.05), ((first, overlapping), np.inf)):
+        vertices, triangles = _boxes(*bounds)
+        origins, directions = surface.ray_samples(vertices, triangles)
+        assert len(origins) == 4 * len(triangles)
+        np.testing.assert_allclose(np.linalg.norm(directions, axis=1), 1.0)
+        distances, cosines = _first_hits(origins + 1e-9 * directions, directions, vertices, triangles)
+        assert surface.narrowest_gap(distances, cosines) == pytest.approx(gap)
+    assert offset_for_gap(0.05, 0.05) == pytest.approx(0.05 / 6) and offset_for_gap(0.001, 0.05) == 0.001
