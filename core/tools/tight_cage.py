@@ -176,7 +176,23 @@ def enclose_steps(vertices, triangles, points, clearance, tolerance, iterations=
                   workers=None, stored_as=np.float64, quads=None):
     """:func:`enclose` in steps: a generator yielding the fraction done after each push
     out (of ``iterations``) and returning what :func:`enclose` returns (``vertices, pushes
-    = yield from enclose_steps(...)``); closed early, it stops there."""
+    = yield from enclose_steps(...)``); closed early, it stops there.
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.tools.tight_cage import enclose_steps
+    >>> steps = enclose_steps(*icosphere(1), icosphere(3)[0], clearance=0.02, tolerance=1e-6)
+    >>> fractions = []
+    >>> while True:
+    ...     try:
+    ...         fractions.append(next(steps))
+    ...     except StopIteration as done:
+    ...         pushed, pushes = done.value
+    ...         break
+    >>> len(fractions) == pushes > 0, 0.0 < fractions[0] < 1.0
+    (True, True)
+    """
     vertices = np.asarray(vertices, dtype=stored_as).astype(np.float64)
     points = np.asarray(points, dtype=np.float64)
     split = cage_triangles(vertices, triangles, quads)
@@ -280,7 +296,18 @@ def fit_tight_cage_steps(vertices, triangles, points, clearance, tolerance, iter
                          workers=None, stored_as=np.float64, quads=None):
     """:func:`fit_tight_cage` in steps: a generator yielding the fraction done (pushes,
     then the checks) and returning what :func:`fit_tight_cage` returns; closed early, it
-    stops there. A modal operator shows its progress and takes Esc between steps."""
+    stops there. A modal operator shows its progress and takes Esc between steps.
+
+    Examples
+    --------
+    >>> from gencoords.tools.shapes import icosphere
+    >>> from gencoords.tools.tight_cage import fit_tight_cage_steps
+    >>> vertices, faces = icosphere(1)
+    >>> steps = fit_tight_cage_steps(vertices, faces, 0.5 * vertices, 0.01, 1e-6)
+    >>> next(steps), next(steps)  # started; the checks after no push-out
+    (0.0, 0.8)
+    >>> steps.close()  # cancelled: nothing more is computed
+    """
     try:  # what the remesh and the decimation made, before any push
         validate_cage(vertices, cage_triangles(vertices, triangles, quads), convex=False, tolerance=tolerance)
     except CageError as error:

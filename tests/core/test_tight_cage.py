@@ -242,7 +242,7 @@ def _first_hits(origins, directions, vertices, triangles):
         u = np.einsum("rti,rti->rt", s, p) / det
         v = np.einsum("ri,rti->rt", directions, q) / det
         t = np.einsum("ti,rti->rt", e2, q) / det
-    t = np.where((u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9), t, np.inf)
+        t = np.where((u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9), t, np.inf)  # parallel: NaN, no hit
     first = t.argmin(axis=1)
     return t[np.arange(len(t)), first], np.einsum("ri,ri->r", normals[first], directions)
 
