@@ -364,17 +364,21 @@ def finger_gap_points():
     fingers = parts[1:1 + scenes.HAND_FINGERS]
     points = []
     for (left, _), (right, _) in zip(fingers, fingers[1:]):
-        for along in np.linspace(0.05, 1.0, 8):  # corners 4, 5: the left finger's right side
-            points.append((left[4] + along * (left[5] - left[4]) + right[0] + along * (right[1] - right[0])) / 2)
+        # Mid-thickness on the left finger's right side (corners 4 to 7) and the right
+        # one's left side (0 to 3), from above the palm's cage to the tips.
+        sides = [(corners[first] + corners[first + 2]) / 2 for corners, first in ((left, 4), (left, 5),
+                                                                                   (right, 0), (right, 1))]
+        for along in np.linspace(0.1, 1.0, 8):
+            points.append((sides[0] + along * (sides[1] - sides[0]) + sides[2] + along * (sides[3] - sides[2])) / 2)
     return np.array(points)
 
 
 def test_tight_cage_with_the_defaults_keeps_a_hands_fingers_apart_and_binds(gc):
     """A hand whose fingers are 1/60 to 1/30 of its size apart, closer than twice the
     default Offset (0.01): the defaults made no usable cage (the cage crossed itself, or
-    joined the fingers near their bases: 10 of these 24 gap points inside). Keep Gaps lowers the offset below the narrowest gap it measures:
-    the cage encloses the hand, does not cross itself, leaves every gap between fingers
-    outside, and binds."""
+    joined the fingers near their bases). Keep Gaps lowers the offset below the narrowest
+    gap it measures: the cage encloses the hand, does not cross itself, leaves the gaps
+    between fingers outside, and binds."""
     cage_tight = importlib.import_module(f"{PACKAGE}.gencoords_addon.bind.cage_tight")
     hand = scenes.add_hand()
     points, triangles = world_arrays(hand)
