@@ -393,3 +393,34 @@ def test_tight_cage_with_the_defaults_keeps_a_hands_fingers_apart_and_binds(gc):
     hand.gencoords.kind = "MEAN_VALUE"
     with bpy.context.temp_override(active_object=hand, object=hand, selected_objects=[hand]):
         assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+
+
+def test_below_the_gaps_a_cage_crossing_itself_is_tried_with_twice_the_vertices(gc, monkeypatch):
+    """Keeping the gaps, a cage that still crosses itself (long decimation chords against
+    the gaps) is made once more with twice the vertices; where both cross, the advice
+    names what was tried and the offset kept below the gaps (not "lower the offset").
+    Nothing is added meanwhile. (Blender's tries stood in for: a box around the hand.)"""
+    cage_tight = importlib.import_module(f"{PACKAGE}.gencoords_addon.bind.cage_tight")
+    tried = []
+
+    def crossing_below(points, triangles, target_vertices, margin, context, passing=200):
+        tried.append((target_vertices, margin))
+        yield 0.5
+        if target_vertices < passing:
+            raise gc.core.tools.tight_cage.TightCageError("self_intersecting", "the cage passes through itself",
+                                                          "lower the offset or raise the vertex count")
+        low, high = points.min(axis=0) - 0.1, points.max(axis=0) + 0.1
+        return scenes.box_mesh(low, high)[0], scenes.box_mesh(low, high)[1].tolist(), None
+
+    monkeypatch.setattr(cage_tight, "_tight_cage_try", crossing_below)
+    hand = scenes.add_hand()
+    assert make_cage(hand, shape='TIGHT', offset=0.05) == {'FINISHED'}
+    (first, offset), (second, same) = tried
+    assert (first, second) == (100, 200) and offset == same < 1 / 6 / 50  # below the gaps, kept
+    tried.clear()
+    before = _added()
+    monkeypatch.setattr(cage_tight, "_tight_cage_try", lambda *args: crossing_below(*args, passing=10_000))
+    with pytest.raises(RuntimeError, match=r"the cage passes through itself: try other Vertices than 100 and 200, "
+                                           r"or Offset a little below 0.0032 \(at most 1/6 of the narrowest gap"):
+        make_cage(hand, shape='TIGHT')
+    assert [vertices for vertices, _ in tried] == [100, 200] and _added() == before
