@@ -29,11 +29,13 @@ EXTENT_STEPS = 64
 # (a 12-vertex icosphere: 0.75 still wraps, 1.25 breaks apart), and so far out a convex
 # cage hugs as well.
 LARGEST_OFFSET = 0.5
-# Keeping gaps, the offset is at most this share of the narrowest gap between the mesh's
-# parts: the cage's two sheets in it stay two thirds of it apart, room for the
-# decimation's chords and the push-outs (a hand, fingers 1/60 of its size apart: 1/6
-# separates them at 100 vertices, 1/4 crosses).
-GAP_SHARE = 1.0 / 6.0
+# Keeping gaps: an offset above this share of the narrowest gap between the mesh's parts
+# leaves the cage's two sheets in it too close (or joins them); it is lowered to
+# GAP_SHARE of the gap, the sheets then two thirds of it apart, room for the decimation's
+# chords and the push-outs (a hand, fingers 1/60 of its size apart: 1/6 separates them
+# at 100 vertices, 1/4 crosses). A smaller offset stays: on Suzanne (gap 0.049) 0.01
+# makes a cage at 100 vertices, 0.0082 crosses (crossings come and go with settings).
+CLOSING_SHARE, GAP_SHARE = 1.0 / 3.0, 1.0 / 6.0
 
 
 def mesh_extent(points, resolution=0.0):
@@ -114,8 +116,8 @@ def check_offset(offset):
 
 
 def offset_for_gap(offset, gap):
-    """The offset a tight cage keeps the mesh's parts apart with: ``offset``, or
-    ``GAP_SHARE`` of the narrowest gap between them where that is less.
+    """The offset a tight cage keeps the mesh's parts apart with: ``offset``, or where it
+    is above ``CLOSING_SHARE`` of the narrowest gap between them, ``GAP_SHARE`` of it.
 
     Parameters
     ----------
@@ -132,10 +134,10 @@ def offset_for_gap(offset, gap):
     Examples
     --------
     >>> from gencoords.tools.enclosing import offset_for_gap
-    >>> round(offset_for_gap(0.01, 1.0 / 60.0), 5), offset_for_gap(0.01, float("inf"))
-    (0.00278, 0.01)
+    >>> round(offset_for_gap(0.01, 1.0 / 60.0), 5), offset_for_gap(0.01, 0.049), offset_for_gap(0.01, float("inf"))
+    (0.00278, 0.01, 0.01)
     """
-    return float(min(offset, GAP_SHARE * gap))
+    return float(offset if offset <= CLOSING_SHARE * gap else GAP_SHARE * gap)
 
 
 def sphere_directions(count):

@@ -192,9 +192,10 @@ def tight_cage_steps(points, triangles, target_vertices, margin, context, keep_g
         Distance between the mesh and the cage, a share of the mesh's bounding-box
         diagonal.
     keep_gaps : bool
-        The offset at most a sixth of the narrowest gap between the mesh's parts
-        (``enclosing.offset_for_gap``), so the cage keeps them apart; where it still
-        crosses or touches itself, once more with twice the vertices (``GAP_TRIES``).
+        An offset above a third of the narrowest gap between the mesh's parts lowered to
+        a sixth of it (``enclosing.offset_for_gap``), so the cage keeps them apart; where
+        it still crosses or touches itself, once more with twice the vertices
+        (``GAP_TRIES``).
     """
     if not len(triangles):
         raise CageError("Tight wraps the mesh's faces and it has none: use Convex")
@@ -203,25 +204,25 @@ def tight_cage_steps(points, triangles, target_vertices, margin, context, keep_g
     except core.CageError as error:
         raise CageError(str(error)) from None
     gap = narrowest_gap(points, triangles) if keep_gaps else np.inf
-    margin = enclosing.offset_for_gap(margin, gap)
-    # Below the gaps, a cage can still cross itself where the decimation's chords are long
-    # against them: once more with twice the vertices before telling the artist (on the
-    # hand fixture, where crossings come and go with both settings, 100 vertices at
+    asked, margin = margin, enclosing.offset_for_gap(margin, gap)
+    # Lowered below the gaps, a cage can still cross itself where the decimation's chords
+    # are long against them: once more with twice the vertices before telling the artist
+    # (on the hand fixture, where crossings come and go with both settings, 100 vertices at
     # Offset 0.0032 pass and 200 or 400 cross: the second try is a second chance).
-    tries = GAP_TRIES if np.isfinite(gap) else 1
+    tries = GAP_TRIES if margin < asked else 1
     for attempt in range(tries):
         start = 1.0 - TRY_SHARE ** attempt  # each try's progress after the last one's
         span = 1.0 - start if attempt == tries - 1 else (1.0 - TRY_SHARE) * TRY_SHARE ** attempt
-        asked = target_vertices * 2 ** attempt
+        vertices = target_vertices * 2 ** attempt
         try:
-            return (yield from scaled(_tight_cage_try(points, triangles, asked, margin, context), start, span))
+            return (yield from scaled(_tight_cage_try(points, triangles, vertices, margin, context), start, span))
         except tight_cage.TightCageError as error:
             if error.problem not in ("pinched", "self_intersecting"):
                 raise CageError(f"the tight cage failed: {error}") from None
             if attempt == tries - 1:
                 advice = (error.advice if tries == 1 else
-                          f"try other Vertices than {target_vertices} and {asked}, or Offset a "
-                          f"little below {margin:.2g} (at most 1/{round(1 / enclosing.GAP_SHARE)} of "
+                          f"try other Vertices than {target_vertices} and {vertices}, or Offset a "
+                          f"little below {margin:.2g} (lowered to 1/{round(1 / enclosing.GAP_SHARE)} of "
                           f"the narrowest gap between the mesh's parts, {gap:.2g} of its size, "
                           "already); or Convex")
                 raise CageError(f"the tight cage failed: {error.cause}: {advice}") from None

@@ -270,8 +270,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         name="Distance", default=0.03, min=0.0, soft_max=1.0, subtype='DISTANCE',
         description="Gap between the mesh and the cage")
     keep_gaps: bpy.props.BoolProperty(
-        name="Keep Gaps", default=True, description="Tight: the offset at most a sixth of the narrowest "
-        "gap between the mesh's parts (fingers), so the cage keeps them apart")
+        name="Keep Gaps", default=True, description="Tight: an offset above a third of the narrowest gap "
+        "between the mesh's parts (fingers) lowered to a sixth of it, so the cage keeps them apart")
     # The dialog's OK calls execute(), which hands over to a modal Make Cage (progress, Esc).
     dialog_shown: bpy.props.BoolProperty(name="Dialog Shown", options={'HIDDEN', 'SKIP_SAVE'})
     confirmed: bpy.props.BoolProperty(name="Confirmed", options={'HIDDEN', 'SKIP_SAVE'},

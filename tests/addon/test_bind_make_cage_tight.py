@@ -421,6 +421,6 @@ def test_below_the_gaps_a_cage_crossing_itself_is_tried_with_twice_the_vertices(
     before = _added()
     monkeypatch.setattr(cage_tight, "_tight_cage_try", lambda *args: crossing_below(*args, passing=10_000))
     with pytest.raises(RuntimeError, match=r"the cage passes through itself: try other Vertices than 100 and 200, "
-                                           r"or Offset a little below 0.0032 \(at most 1/6 of the narrowest gap"):
+                                           r"or Offset a little below 0.0032 \(lowered to 1/6 of the narrowest gap"):
         make_cage(hand, shape='TIGHT')
     assert [vertices for vertices, _ in tried] == [100, 200] and _added() == before
