@@ -1,5 +1,7 @@
 """Tight (non-convex) cages around a mesh: pushing a cage out until it encloses every
-point, the checks such a cage must pass, and how much it adds to the mesh's volume.
+point, and the checks such a cage must pass (the surface's measures are in
+:mod:`gencoords.cages.surface`, its volume against the mesh's in
+:mod:`gencoords.cages.volumes`).
 
 A cage made by offsetting and simplifying a mesh's surface (the Blender add-on uses a
 voxel remesh and a decimation) hugs the mesh but need not enclose it: simplification
@@ -7,7 +9,7 @@ cuts chords across convex parts. :func:`enclose` finds the points the cage leave
 (winding numbers, so any closed cage, convex or not), moves the faces nearest to them
 outward along the vertex normals by the distance they miss plus a clearance, and
 checks again, a bounded number of times. :func:`fit_tight_cage` then requires what a
-cage needs to bind: closed, manifold (at edges and at vertices: :func:`pinched_vertices`),
+cage needs to bind: closed, manifold (at edges and at vertices: :func:`gencoords.cages.surface.pinched_vertices`),
 outward, no self-intersection (:mod:`gencoords.cages.self_intersection`), every point
 strictly inside.
 """
@@ -16,133 +18,30 @@ import numpy as np
 
 from ..base.errors import CageError
 from ..base.simplex import closest_points_on_simplices
-from ..base.triangulation import triangulate_quads
 from ..construction.boundary import INSIDE
 from ..construction.validation import validate_cage
 from ..evaluation.barycentric import point_locations
 from .self_intersection import self_intersections
-from .volumes import signed_volume, union_volume
+from .surface import cage_triangles, pinched_vertices, vertex_normals
 
-__all__ = ["TightCageError", "vertex_normals", "pinched_vertices", "degenerate_pieces", "outward_pushes", "cage_triangles",
-           "enclose", "fit_tight_cage", "volume_ratio"]
+__all__ = ["TightCageError", "outward_pushes", "enclose", "enclose_steps", "fit_tight_cage",
+           "fit_tight_cage_steps"]
 
 PUSH_ITERATIONS = 16  # push-outs before giving up
 _PAIR_BLOCK = 1 << 18  # (point, triangle) pairs per block when finding nearest triangles
 _SMALLEST_COSINE = 0.5  # a vertex moves at most twice what a face next to it needs
 _NEIGHBOUR_SHARE = 0.5  # of a vertex's push, its neighbours move at least this
+PUSHING = 0.8  # of a fit's progress, the push-outs' share; the checks take the rest
 
 
 class TightCageError(ValueError):
     """The cage cannot be made tight: ``problem`` names why ("outside",
-    "self_intersecting"), the message says what to change."""
+    "self_intersecting", ...), ``cause`` says what happened and ``advice`` what to change
+    (the message: both)."""
 
-    def __init__(self, problem, message):
-        super().__init__(message)
-        self.problem = problem
-
-
-def vertex_normals(vertices, triangles):
-    """Area-weighted unit normals at the vertices of an outward triangle mesh.
-
-    Parameters
-    ----------
-    vertices : (n, 3) float
-    triangles : (m, 3) int
-
-    Returns
-    -------
-    normals : (n, 3) float64
-        Zero at vertices of no triangle.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.cages.shapes import octahedron
-    >>> from gencoords.cages.tight_cage import vertex_normals
-    >>> vertices, faces = octahedron()
-    >>> bool(np.allclose(vertex_normals(vertices, faces), vertices))  # unit, along each vertex
-    True
-    """
-    vertices = np.asarray(vertices, dtype=np.float64)
-    triangles = np.asarray(triangles, dtype=np.int64)
-    corners = vertices[triangles]
-    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    normals = np.zeros_like(vertices)
-    for corner in range(3):
-        np.add.at(normals, triangles[:, corner], face)
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
-
-
-def pinched_vertices(triangles):
-    """Vertices where a closed, edge-manifold triangle mesh touches itself: their faces
-    form more than one fan (two sheets meeting at a point).
-
-    Around each vertex, a face's corner leads across its outgoing edge to the face on the
-    other side; the corners of a vertex whose faces form one fan make a single cycle.
-
-    Parameters
-    ----------
-    triangles : (m, 3) int
-        Every edge shared by two consistently oriented triangles.
-
-    Returns
-    -------
-    vertices : (p,) int64
-        Sorted; empty for a manifold mesh.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.cages.shapes import octahedron
-    >>> from gencoords.cages.tight_cage import pinched_vertices
-    >>> faces = octahedron()[1]
-    >>> pinched_vertices(faces).tolist(), pinched_vertices(np.concatenate([faces, faces + 5])).tolist()
-    ([], [5])
-    """
-    triangles = np.asarray(triangles, dtype=np.int64)
-    corner_vertex = triangles.ravel()
-    following = np.roll(triangles, -1, axis=1).ravel()  # the corner's outgoing edge ends here
-    # The twin of edge (v, w) is (w, v): in its face, the corner at v follows the one at w.
-    key = {(int(w), int(v)): c for c, (v, w) in enumerate(zip(corner_vertex, following))}
-    successor = np.array([key[(int(v), int(w))] for v, w in zip(corner_vertex, following)])
-    twin_face, twin_position = np.divmod(successor, 3)
-    step = 3 * twin_face + (twin_position + 1) % 3  # the twin face's corner at v
-    seen = np.zeros(len(step), dtype=bool)
-    fans = np.zeros(int(corner_vertex.max(initial=-1)) + 1, dtype=np.int64)
-    for start in range(len(step)):
-        if not seen[start]:
-            fans[corner_vertex[start]] += 1
-            corner = start
-            while not seen[corner]:
-                seen[corner] = True
-                corner = step[corner]
-    return np.flatnonzero(fans > 1).astype(np.int64)
-
-
-def degenerate_pieces(triangles):
-    """Whether a simplified surface has pieces that enclose nothing: a triangle twice (a
-    closed piece collapsed to two back-to-back faces) or a vertex in fewer than 3
-    triangles. A collapse decimation keeps every separate piece, down to 3 vertices.
-
-    Parameters
-    ----------
-    triangles : (m, 3) int
-
-    Returns
-    -------
-    bool
-
-    Examples
-    --------
-    >>> from gencoords.cages.shapes import octahedron
-    >>> from gencoords.cages.tight_cage import degenerate_pieces
-    >>> degenerate_pieces(octahedron()[1]), degenerate_pieces([[0, 1, 2], [0, 2, 1]])
-    (False, True)
-    """
-    faces = np.sort(np.asarray(triangles, dtype=np.int64).reshape(-1, 3), axis=1)
-    uses = np.bincount(faces.ravel())
-    return len(np.unique(faces, axis=0)) < len(faces) or bool(((uses > 0) & (uses < 3)).any())
+    def __init__(self, problem, cause, advice):
+        super().__init__(f"{cause}: {advice}")
+        self.problem, self.cause, self.advice = problem, cause, advice
 
 
 def _nearest_triangles(vertices, triangles, points):
@@ -181,7 +80,7 @@ def outward_pushes(vertices, triangles, points, clearance):
     Returns
     -------
     pushes : (n,) float64
-        Non-negative distances along :func:`vertex_normals`.
+        Non-negative distances along :func:`gencoords.cages.surface.vertex_normals`.
 
     Examples
     --------
@@ -219,35 +118,6 @@ def outward_pushes(vertices, triangles, points, clearance):
     return spread
 
 
-def cage_triangles(vertices, triangles, quads=None):
-    """The triangles a cage of triangles and quads is bound with: its triangles, then
-    each quad split as :func:`gencoords.cages.triangulate_quads` splits it (the diagonal
-    depends on the positions, so it is found again whenever they move).
-
-    Parameters
-    ----------
-    vertices : (n, 3) float
-    triangles : (m, 3) int
-    quads : (q, 4) int or None
-
-    Returns
-    -------
-    triangles : (m + 2q, 3) int64
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.cages.tight_cage import cage_triangles
-    >>> square = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
-    >>> cage_triangles(square, np.zeros((0, 3), int), [[0, 1, 2, 3]]).tolist()
-    [[0, 1, 2], [0, 2, 3]]
-    """
-    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    if quads is None or not len(quads):
-        return triangles
-    return np.concatenate([triangles, triangulate_quads(vertices, quads)])
-
-
 def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
             workers=None, stored_as=np.float64, quads=None):
     """Push the cage out until every point is strictly inside it.
@@ -271,7 +141,7 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
         positions are rounded to it before they are checked, so the check holds for what
         is stored.
     quads : (q, 4) int or None
-        Quads of the cage beside its triangles, checked as :func:`cage_triangles` splits
+        Quads of the cage beside its triangles, checked as :func:`gencoords.cages.surface.cage_triangles` splits
         them.
 
     Returns
@@ -298,6 +168,31 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
     >>> pushes > 0, bool((where == gencoords.INSIDE).all())
     (True, True)
     """
+    return _to_end(enclose_steps(vertices, triangles, points, clearance, tolerance, iterations, workers,
+                                 stored_as, quads))
+
+
+def enclose_steps(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
+                  workers=None, stored_as=np.float64, quads=None):
+    """:func:`enclose` in steps: a generator yielding the fraction done after each push
+    out (of ``iterations``) and returning what :func:`enclose` returns (``vertices, pushes
+    = yield from enclose_steps(...)``); closed early, it stops there.
+
+    Examples
+    --------
+    >>> from gencoords.cages.shapes import icosphere
+    >>> from gencoords.cages.tight_cage import enclose_steps
+    >>> steps = enclose_steps(*icosphere(1), icosphere(3)[0], clearance=0.02, tolerance=1e-6)
+    >>> fractions = []
+    >>> while True:
+    ...     try:
+    ...         fractions.append(next(steps))
+    ...     except StopIteration as done:
+    ...         pushed, pushes = done.value
+    ...         break
+    >>> len(fractions) == pushes > 0, 0.0 < fractions[0] < 1.0
+    (True, True)
+    """
     vertices = np.asarray(vertices, dtype=stored_as).astype(np.float64)
     points = np.asarray(points, dtype=np.float64)
     split = cage_triangles(vertices, triangles, quads)
@@ -313,9 +208,10 @@ def enclose(vertices, triangles, points, clearance, tolerance, iterations=PUSH_I
             continue
         if pushes == iterations:
             raise TightCageError("outside", f"{int(left_out.sum())} mesh vertices stay outside "
-                                            f"the cage after pushing it out {iterations} times: "
-                                            "raise the offset or the vertex count")
+                                            f"the cage after pushing it out {iterations} times",
+                                 "raise the offset or the vertex count")
         pushes, checked_all = pushes + 1, False
+        yield pushes / (iterations + 1)
         # Each push out overshoots more: a vertex pushed alone tilts its faces away from
         # the points beside the one it was pushed for.
         moves = outward_pushes(vertices, split, points[left_out], clearance * pushes)
@@ -370,11 +266,11 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
 
     Raises
     ------
-    CageError
-        The cage is not closed, manifold, outward, or has degenerate faces (before or
-        after pushing).
     TightCageError
-        Points stay outside, or the cage touches ("pinched") or passes through itself.
+        ``problem`` "simplified": the cage given is not closed, manifold, outward, or has
+        coinciding vertices or degenerate faces (the simplification spoilt it); "pushed":
+        so after pushing; "outside": points stay outside; "pinched", "self_intersecting":
+        the cage touches or passes through itself.
 
     Examples
     --------
@@ -392,56 +288,79 @@ def fit_tight_cage(vertices, triangles, points, clearance, tolerance, iterations
     ...     print(error.problem)
     self_intersecting
     """
-    validate_cage(vertices, cage_triangles(vertices, triangles, quads), convex=False, tolerance=tolerance)
-    vertices, pushes = enclose(vertices, triangles, points, clearance, tolerance, iterations, workers,
-                               stored_as, quads)
+    return _to_end(fit_tight_cage_steps(vertices, triangles, points, clearance, tolerance, iterations,
+                                        workers, stored_as, quads))
+
+
+def fit_tight_cage_steps(vertices, triangles, points, clearance, tolerance, iterations=PUSH_ITERATIONS,
+                         workers=None, stored_as=np.float64, quads=None):
+    """:func:`fit_tight_cage` in steps: a generator yielding the fraction done (pushes,
+    then the checks) and returning what :func:`fit_tight_cage` returns; closed early, it
+    stops there. A modal operator shows its progress and takes Esc between steps.
+
+    Examples
+    --------
+    >>> from gencoords.cages.shapes import icosphere
+    >>> from gencoords.cages.tight_cage import fit_tight_cage_steps
+    >>> vertices, faces = icosphere(1)
+    >>> steps = fit_tight_cage_steps(vertices, faces, 0.5 * vertices, 0.01, 1e-6)
+    >>> next(steps), next(steps)  # started; the checks after no push-out
+    (0.0, 0.8)
+    >>> steps.close()  # cancelled: nothing more is computed
+    """
+    try:  # what the remesh and the decimation made, before any push
+        validate_cage(vertices, cage_triangles(vertices, triangles, quads), convex=False, tolerance=tolerance)
+    except CageError as error:
+        raise TightCageError("simplified", f"simplifying the offset surface to {len(vertices)} vertices "
+                                           f"spoiled it ({error.problem.replace('_', ' ')}, {_where(error)})",
+                             "raise the vertex count, or change the offset a little") from None
+    yield 0.0
+    pushing = enclose_steps(vertices, triangles, points, clearance, tolerance, iterations, workers, stored_as,
+                            quads)
+    vertices, pushes = yield from _scaled(pushing, PUSHING)
     triangles = cage_triangles(vertices, triangles, quads)
     try:
         validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
     except CageError as error:
-        raise TightCageError("pushed", f"pushing the cage out to enclose the mesh spoiled it "
-                                       f"({error}): raise the offset or the vertex count") from None
+        raise TightCageError("pushed", f"pushing the cage out to enclose the mesh spoiled it ({error})",
+                             "raise the offset or the vertex count") from None
+    yield PUSHING
     pinched = pinched_vertices(triangles)
     if len(pinched):
         raise TightCageError("pinched", f"the cage touches itself at {len(pinched)} vertices (first: "
                                         f"vertex {pinched[0]}), where parts of the mesh are closer "
-                                        "than twice the offset: lower the offset or raise the "
-                                        "vertex count")
+                                        "than twice the offset", "lower the offset or raise the vertex count")
+    yield PUSHING
     crossing = self_intersections(vertices, triangles, tolerance)
     if len(crossing):
         raise TightCageError("self_intersecting", f"the cage passes through itself ({len(crossing)} "
                                                   "pairs of faces cross, where parts of the mesh are "
-                                                  "closer than twice the offset): lower the offset or "
-                                                  "raise the vertex count")
+                                                  "closer than twice the offset)",
+                             "lower the offset or raise the vertex count")
     return vertices, pushes
 
 
-def volume_ratio(cage_vertices, cage_triangles, mesh_vertices, mesh_triangles, columns=256):
-    """The cage's volume over the mesh's (the union of its shells, see
-    :func:`gencoords.cages.volumes.union_volume`).
+def _where(error):
+    """Where a ``CageError`` found its problem, in words."""
+    if error.vertices:
+        return f"at its vertices {', '.join(map(str, error.vertices[:4]))}"
+    return f"at its faces {', '.join(map(str, error.faces[:4]))}" if error.faces else "somewhere"
 
-    Parameters
-    ----------
-    cage_vertices : (n, 3) float
-    cage_triangles : (m, 3) int
-    mesh_vertices : (k, 3) float
-    mesh_triangles : (t, 3) int
-    columns : int
-        The union volume's columns across the mesh.
 
-    Returns
-    -------
-    ratio : float
-        ``inf`` for a mesh that encloses no volume (open or flat).
+def _to_end(steps):
+    """The result of a generator of steps, run to its end."""
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
 
-    Examples
-    --------
-    >>> from gencoords.cages.shapes import octahedron
-    >>> from gencoords.cages.tight_cage import volume_ratio
-    >>> vertices, faces = octahedron()
-    >>> round(volume_ratio(2.0 * vertices, faces, vertices, faces, columns=400), 2)
-    8.0
-    """
-    mesh = union_volume(mesh_vertices, mesh_triangles, columns)
-    cage = signed_volume(cage_vertices, cage_triangles)
-    return cage / mesh if mesh > 0.0 else float("inf")
+
+def _scaled(steps, share):
+    """``steps``' fractions times ``share``; returns its result."""
+    while True:
+        try:
+            fraction = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield share * fraction

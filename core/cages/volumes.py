@@ -11,7 +11,7 @@ volume to the columns' spacing.
 
 import numpy as np
 
-__all__ = ["signed_volume", "union_volume"]
+__all__ = ["signed_volume", "union_volume", "volume_ratio"]
 
 
 def signed_volume(vertices, triangles):
@@ -117,3 +117,34 @@ def union_volume(vertices, triangles, columns=256):
     same_column = np.r_[column[1:] == column[:-1], False]
     length = np.where(same_column & (winding > 0), following - z, 0.0)
     return float(length.sum() * cell * cell)
+
+
+def volume_ratio(cage_vertices, cage_triangles, mesh_vertices, mesh_triangles, columns=256):
+    """The cage's volume over the mesh's (the union of its shells, see
+    :func:`union_volume`).
+
+    Parameters
+    ----------
+    cage_vertices : (n, 3) float
+    cage_triangles : (m, 3) int
+    mesh_vertices : (k, 3) float
+    mesh_triangles : (t, 3) int
+    columns : int
+        The union volume's columns across the mesh.
+
+    Returns
+    -------
+    ratio : float
+        ``inf`` for a mesh that encloses no volume (open or flat).
+
+    Examples
+    --------
+    >>> from gencoords.cages.shapes import octahedron
+    >>> from gencoords.cages.volumes import volume_ratio
+    >>> vertices, faces = octahedron()
+    >>> round(volume_ratio(2.0 * vertices, faces, vertices, faces, columns=400), 2)
+    8.0
+    """
+    mesh = union_volume(mesh_vertices, mesh_triangles, columns)
+    cage = signed_volume(cage_vertices, cage_triangles)
+    return cage / mesh if mesh > 0.0 else float("inf")

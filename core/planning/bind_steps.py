@@ -174,14 +174,32 @@ def in_workers_or_here(compute, workers):
     >>> in_workers_or_here(lambda workers: workers * 10, 1)
     (10, None)
     """
+    def at_once(count):
+        return compute(count)
+        yield  # unreached: a generator of no steps
+
+    return run_to_end(steps_in_workers_or_here(at_once, workers))
+
+
+def steps_in_workers_or_here(make_steps, workers):
+    """:func:`in_workers_or_here` for work in steps (``make_steps(workers)``, a generator
+    of fractions): yields its fractions and returns (its result, None or the failure);
+    where the workers fail, the steps start again in this process.
+
+    >>> def steps(workers):
+    ...     yield 0.5
+    ...     return workers * 10
+    >>> run_to_end(steps_in_workers_or_here(steps, 1))
+    (10, None)
+    """
     failure = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", WorkerWarning)  # automatic counts fall back here
         try:
-            result = compute(workers)
+            result = yield from make_steps(workers)
         except WorkerError as error:  # an explicit count
             failure = error
-            result = compute(1)
+            result = yield from make_steps(1)
     for warning in caught:
         if issubclass(warning.category, WorkerWarning):
             failure = warning.message

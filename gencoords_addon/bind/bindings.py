@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 
 from .. import messages, storage
-from ..blender_io import compat, mesh_arrays, mesh_io
+from ..blender_io import compat, mesh_io
 from ..bind_layout import BAKE_INFO, METADATA, BindData
 from ..graph import deformer, helpers
 from . import attributes

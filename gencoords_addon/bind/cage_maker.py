@@ -15,9 +15,10 @@ from ...core.cages import enclosing
 from .. import messages, preferences
 from ..blender_io import mesh_arrays, mesh_io
 from ..errors import CageError
+from ..steps import run_to_end
 from . import cage_tight
 from .scene import FLOAT32_TOLERANCE, zero_scale_axes
-from .service import in_workers_or_blender
+from .service import in_workers_or_blender, object_mode
 
 
 CORNER_MERGE = 1e-4  # corners closer than this (of the mesh's size) are one
@@ -62,9 +63,7 @@ def make_cage_geometry(points, target_vertices, margin):
         Gap between the mesh and the cage, relative to the mesh's bounding-box diagonal.
     """
     points = np.asarray(points, dtype=np.float64)
-    size = float(np.linalg.norm(np.ptp(points, axis=0)))
-    if size == 0.0:
-        raise CageError("the mesh has no extent: a cage needs a volume to enclose")
+    size = float(np.linalg.norm(np.ptp(points, axis=0)))  # > 0: ``_enclosed_points`` checked
     directions = enclosing.sphere_directions(max(4, target_vertices // 2 + 2))
     offsets = enclosing.supporting_offsets(points, directions, max(margin, MIN_MARGIN) * size)
     dual = enclosing.dual_points(directions, offsets, points.mean(axis=0))
@@ -114,19 +113,31 @@ def _enclosed_points(obj, context):
     if flat_axes:  # the cage would be flat
         raise CageError(messages.zero_scale("mesh", obj.name, flat_axes, "Make Cage"))
     world = np.array(obj.matrix_world, dtype=np.float64)
-    return with_rounding_copies(local @ world[:3, :3].T + world[:3, 3], local, world)
+    points, corners = local @ world[:3, :3].T + world[:3, 3], rounding_corners(local, world)
+    try:  # one refusal for both shapes, before anything is made
+        core.cages.enclosing.mesh_extent(points, float(np.linalg.norm(corners, axis=1).max()))
+    except core.CageError as error:
+        raise CageError(f"'{obj.name}': {error} (move its vertices apart in Edit Mode, or "
+                        "choose another mesh)") from None
+    return with_rounding_copies(points, corners)
 
 
-def with_rounding_copies(points, local, world):
-    """``points`` ((k, 3), world space), and where Bind's rounding of the cage into the
-    mesh's local space (r per coordinate, ``BIND_ROUNDING_STEPS``) is not negligible
-    against the mesh's size (its data lies far from its object's origin), the corners
-    of a box of half-width r about each (in the mesh's local axes): a cage enclosing them
-    keeps ``points`` inside once Bind has rounded its vertices, which moves a face by at
-    most r |n|_1 along its normal n (some corner lies that far beyond the point)."""
+def rounding_corners(local, world):
+    """The corners (8, 3), in world space, of the box of half-width r about a point in the
+    mesh's local axes: r is Bind's rounding of the cage into the mesh's local space (r per
+    coordinate, ``BIND_ROUNDING_STEPS`` float32 steps at the size of ``local`` (k, 3))."""
     step = BIND_ROUNDING_STEPS * float(np.spacing(np.float32(np.abs(local).max(initial=0.0))))
     signs = np.array(np.meshgrid([-1.0, 1.0], [-1.0, 1.0], [-1.0, 1.0])).reshape(3, -1).T
-    corners = (signs * step) @ world[:3, :3].T  # (8, 3): the box's corners in world space
+    return (signs * step) @ world[:3, :3].T
+
+
+def with_rounding_copies(points, corners):
+    """``points`` ((k, 3), world space), and where Bind's rounding of the cage into the
+    mesh's local space (``rounding_corners``) is not negligible against the mesh's size
+    (its data lies far from its object's origin), copies of each at those corners: a
+    cage enclosing them keeps ``points`` inside once Bind has rounded its vertices, which
+    moves a face by at most r |n|_1 along its normal n (some corner lies that far beyond
+    the point)."""
     if np.linalg.norm(corners, axis=1).max() <= FLOAT32_TOLERANCE * np.linalg.norm(np.ptp(points, axis=0)):
         return points
     return np.concatenate([points] + [points + corner for corner in corners])
@@ -149,33 +160,51 @@ def _enclosing_cage(obj, points, target_vertices, margin, context):
     raise CageError(f"{count} vertices of '{obj.name}' ended outside the cage: raise the margin")
 
 
-def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None):
-    """Add a cage object around the mesh object ``obj`` and pick it as its cage: (the cage,
-    None or what to say about worker processes that failed, see
-    :func:`service.in_workers_or_blender`). ``tight``: a non-convex cage hugging the
-    mesh (``cage_tight``); ``distance``: the margin in world units, not a share of the
-    mesh's size.
+def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None, keep_gaps=True):
+    """:func:`make_cage_steps` run to the end (scripts, background mode)."""
+    return run_to_end(make_cage_steps(obj, context, target_vertices, margin, tight, distance, keep_gaps))
+
+
+def make_cage_steps(obj, context, target_vertices=100, margin=0.05, tight=False, distance=None, keep_gaps=True):
+    """Add a cage object around the mesh object ``obj`` and pick it as its cage, in steps
+    (see ``steps.py``: a modal Make Cage shows their progress and takes Esc between
+    them; closed early, nothing is left behind): returns (the cage, None or what to say
+    about worker processes that failed, see :func:`service.in_workers_or_blender`).
+    ``tight``: a non-convex cage hugging the mesh (``cage_tight``); ``distance``: the
+    margin in world units, not a share of the mesh's size; ``keep_gaps``: Tight's offset
+    below the gaps between the mesh's parts (``cage_tight.tight_cage_steps``).
 
     A mesh farther from the origin than its size gets its cage object at the middle of
     its bounds (a float32 location), with vertices relative to it: float32 vertices then
     keep the cage's shape however far from the origin and however small the mesh.
     """
-    points = _enclosed_points(obj, context)
+    with object_mode(context, obj):
+        points = _enclosed_points(obj, context)
+        triangles = cage_tight.enclosed_triangles(obj, context) if tight else None
     centre = ((points.min(axis=0) + points.max(axis=0)) / 2).astype(np.float32).astype(np.float64)
     if np.linalg.norm(centre) <= np.linalg.norm(np.ptp(points, axis=0)):
         centre[:] = 0.0  # near the origin: the cage object there, read back without a transform
     points = points - centre
     if distance is not None:
         margin = distance / max(float(np.linalg.norm(np.ptp(points, axis=0))), np.finfo(float).tiny)
+    yield 0.0
     if tight:  # the core checks the enclosure, as stored
-        stored, triangles, worker_failure = cage_tight.make_tight_cage(
-            points, cage_tight.enclosed_triangles(obj, context), target_vertices, margin, context)
+        stored, faces, worker_failure = yield from cage_tight.tight_cage_steps(
+            points, triangles, target_vertices, margin, context, keep_gaps)
     else:
-        stored, triangles, worker_failure = _enclosing_cage(obj, points, target_vertices, margin, context)
+        stored, faces, worker_failure = _enclosing_cage(obj, points, target_vertices, margin, context)
+    with object_mode(context, obj):
+        return _add_cage(obj, stored, faces, centre), worker_failure
+
+
+def _add_cage(obj, stored, faces, centre):
+    """The cage object of vertices ``stored`` (c, 3) and ``faces`` (triangles, and quads
+    for Tight) at ``centre``, in the mesh's collections, picked as its cage: all or
+    nothing (what was added goes again on a failure)."""
     mesh = bpy.data.meshes.new(f"{obj.name} cage")
     cage = None
-    try:  # all or nothing: what was added goes again on a failure
-        mesh.from_pydata(stored.tolist(), [], [list(face) for face in triangles])  # Tight: quads too
+    try:
+        mesh.from_pydata(stored.tolist(), [], [list(face) for face in faces])
         mesh.update()
         cage = bpy.data.objects.new(f"{obj.name} cage", mesh)
         cage.location = centre.tolist()
@@ -188,7 +217,7 @@ def make_cage(obj, context, target_vertices=100, margin=0.05, tight=False, dista
             bpy.data.objects.remove(cage)
         bpy.data.meshes.remove(mesh)
         raise
-    return cage, worker_failure
+    return cage
 
 
 def select_dented_faces(obj):

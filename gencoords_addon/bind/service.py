@@ -58,11 +58,26 @@ def in_workers_or_blender(compute, workers):
     The message is also printed to the system console with the full cause.
     """
     result, failure = bind_steps.in_workers_or_here(compute, workers)
+    return result, _fallback_message(failure)
+
+
+def steps_in_workers_or_blender(make_steps, workers):
+    """:func:`in_workers_or_blender` for work in steps (``make_steps(workers)``, a
+    generator of fractions, see ``steps.py``): yields its fractions and returns (its
+    result, None or the message saying the workers failed); where they fail, the steps
+    start again in Blender's process."""
+    result, failure = yield from bind_steps.steps_in_workers_or_here(make_steps, workers)
+    return result, _fallback_message(failure)
+
+
+def _fallback_message(failure):
+    """None for no failure, else the panel's words for it, printed to the system console
+    with the full cause."""
     if failure is None:
-        return result, None
+        return None
     message = messages.worker_fallback()
     print(f"GenCoords: {message}\n  cause: {failure}", flush=True)
-    return result, message
+    return message
 
 
 def begin(obj, context):

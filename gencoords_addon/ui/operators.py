@@ -248,7 +248,8 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
                                  "type accepts it, but it fills the gaps between limbs"),
             ('TIGHT', "Tight", "Hugs the mesh at the offset, keeping the gaps between limbs "
                                "(voxel remesh and decimation): non-convex, so bind it with "
-                               "Mean Value or Green")))
+                               "Harmonic (positive weights, each part of the mesh to its own "
+                               "part of the cage); Mean Value and Green accept it too")))
     target_vertices: bpy.props.IntProperty(
         name="Vertices", default=100, min=8, soft_min=20, soft_max=500,
         description="About how many vertices the cage gets")
@@ -268,6 +269,13 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
     distance: bpy.props.FloatProperty(
         name="Distance", default=0.03, min=0.0, soft_max=1.0, subtype='DISTANCE',
         description="Gap between the mesh and the cage")
+    keep_gaps: bpy.props.BoolProperty(
+        name="Keep Gaps", default=True, description="Tight: an offset above a third of the narrowest gap "
+        "between the mesh's parts (fingers) lowered to a sixth of it, so the cage keeps them apart")
+    # The dialog's OK calls execute(), which hands over to a modal Make Cage (progress, Esc).
+    dialog_shown: bpy.props.BoolProperty(name="Dialog Shown", options={'HIDDEN', 'SKIP_SAVE'})
+    confirmed: bpy.props.BoolProperty(name="Confirmed", options={'HIDDEN', 'SKIP_SAVE'},
+                                      description="Make the cage between events (progress, Esc)")
 
     def draw(self, context):
         layout = self.layout
@@ -277,32 +285,82 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         layout.prop(self, "offset_unit", expand=True)
         layout.prop(self, "distance" if self.offset_unit == 'DISTANCE'
                     else "offset" if self.shape == 'TIGHT' else "margin")
+        if self.shape == 'TIGHT':
+            layout.prop(self, "keep_gaps")
 
     def invoke(self, context, event):
-        """In the UI: ask for the shape and sizes first."""
+        """In the UI: the options dialog, then the cage made between events (progress, Esc)."""
         if not interactive(context):
             return self.execute(context)
+        if self.confirmed:
+            return self._start(context)
+        self.dialog_shown = True  # its OK runs execute(), which hands over to a modal one
         return context.window_manager.invoke_props_dialog(self)
 
+    def _arguments(self, context):
+        tight = self.shape == 'TIGHT'
+        return (context.active_object, context, self.target_vertices, self.offset if tight else self.margin,
+                tight, self.distance if self.offset_unit == 'DISTANCE' else None, self.keep_gaps)
+
     def execute(self, context):
-        obj = context.active_object
-        try:
-            tight = self.shape == 'TIGHT'
-            with object_mode(context, obj):
-                cage, worker_failure = cage_maker.make_cage(
-                    obj, context, self.target_vertices, self.offset if tight else self.margin,
-                    tight=tight, distance=self.distance if self.offset_unit == 'DISTANCE' else None)
-        except CageError as error:
-            self.report({'ERROR'}, f"Cannot make a cage: {error}")
+        """Run to the end: scripts and background mode."""
+        if self.dialog_shown and not self.confirmed and interactive(context):
+            # OK in the dialog: a modal Make Cage does it; this call ends here (no undo step).
+            options = {name: getattr(self, name) for name in ("shape", "target_vertices", "offset_unit",
+                                                              "margin", "offset", "distance", "keep_gaps")}
+            bpy.ops.object.gencoords_make_cage('INVOKE_DEFAULT', confirmed=True, **options)
             return {'CANCELLED'}
+        try:
+            made = cage_maker.make_cage(*self._arguments(context))
         except Exception as error:
+            return self._refused(error)
+        return self._made(context.active_object, *made)
+
+    def _refused(self, error):
+        if not isinstance(error, CageError):
             return internal_error(self, error)
+        self.report({'ERROR'}, f"Cannot make a cage: {error}")
+        return {'CANCELLED'}
+
+    def _made(self, obj, cage, worker_failure):
         made = f"Made '{cage.name}' ({len(cage.data.vertices)} vertices) around '{obj.name}'"
-        if worker_failure is None:
-            self.report({'INFO'}, made)
-        else:
-            self.report({'WARNING'}, f"{made}; {worker_failure}")
+        self.report(*(({'INFO'}, made) if worker_failure is None else ({'WARNING'}, f"{made}; {worker_failure}")))
         return {'FINISHED'}
+
+    def _start(self, context):
+        self._obj = context.active_object
+        self._steps, window_manager = cage_maker.make_cage_steps(*self._arguments(context)), context.window_manager
+        self._timer = window_manager.event_timer_add(0.01, window=context.window)
+        window_manager.progress_begin(0.0, 1.0)
+        window_manager.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def _stop(self, context):
+        """The window as it was; the steps closed (what they made so far removed)."""
+        context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+        context.workspace.status_text_set(None)
+        self._steps.close()
+
+    def modal(self, context, event):
+        if event.type == 'ESC':
+            self._stop(context)
+            self.report({'WARNING'}, "Make Cage cancelled: nothing was changed")
+            return {'CANCELLED'}
+        if event.type != 'TIMER':
+            return {'RUNNING_MODAL'}  # the mesh was read: nothing else changes it meanwhile
+        try:
+            fraction = next(self._steps)
+        except StopIteration as done:
+            self._stop(context)
+            return self._made(self._obj, *done.value)
+        except Exception as error:
+            self._stop(context)
+            return self._refused(error)
+        context.window_manager.progress_update(fraction)
+        context.workspace.status_text_set(f"GenCoords: making a cage around '{self._obj.name}' "
+                                          f"{fraction:.0%} (Esc to cancel)")
+        return {'RUNNING_MODAL'}
 
 
 class MESH_OT_gencoords_select_dented_faces(MeshOperator, bpy.types.Operator):

@@ -24,7 +24,7 @@ from scripts.common import session  # noqa: E402
 session.prepare()  # before bpy is imported: Blender reads its user folder then
 import bpy  # noqa: E402
 import gencoords  # noqa: E402
-from gencoords.cages import self_intersection, tight_cage  # noqa: E402
+from gencoords.cages import self_intersection, volumes  # noqa: E402
 from scripts.common import scenes  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 
@@ -52,7 +52,7 @@ def row(mesh, cage, seconds, label):
     points, triangles = world_arrays(cage)
     where = gencoords.point_locations(body, points, triangles, tolerance=1e-6)
     crossing = len(self_intersection.self_intersections(points, triangles))
-    ratio = tight_cage.volume_ratio(points, triangles, body, body_triangles)
+    ratio = volumes.volume_ratio(points, triangles, body, body_triangles)
     inside = "all" if (where == gencoords.INSIDE).all() else f"{int((where != gencoords.INSIDE).sum())} not"
     time_text = f"{seconds:.1f} s" if seconds is not None else "-"
     quads = sum(len(polygon.vertices) == 4 for polygon in cage.data.polygons)

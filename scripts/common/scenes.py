@@ -183,3 +183,56 @@ def affine_map(points):
     matrix = (np.array(Euler((0.3, -0.2, 0.5)).to_matrix())
               @ np.array([[1.2, 0.25, 0.0], [0.0, 0.8, 0.1], [0.0, 0.0, 1.1]]))
     return np.asarray(points, dtype=float) @ matrix.T + np.array([0.3, -0.2, 0.15])
+
+
+def box_mesh(low, high):
+    """The 8 corners (8, 3) and 6 outward quads (6, 4) of the axis-aligned box from ``low``
+    to ``high``."""
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+    return np.asarray(low, dtype=float) + corners * (np.asarray(high, dtype=float) - low), quads
+
+
+# The hand's fingers: 4 across the palm's top and a thumb at its side, each a box (width,
+# length) turned about its base by an angle (radians, about y), in the palm's units (the
+# palm is 1 wide, 1 tall, 0.24 thick). Neighbouring fingers part by 3 degrees, so a gap
+# widens from the base (``HAND_GAPS[0]`` of the hand's diagonal) to the tip (``[1]``).
+HAND_FINGERS = 4
+HAND_FINGER_LENGTH = 0.75
+HAND_SPREAD = 0.053
+HAND_GAPS = (1.0 / 60.0, 1.0 / 30.0)
+
+
+def hand_parts():
+    """The hand fixture's parts: a list of (corners (8, 3), quads (6, 4)), a palm box and five
+    finger boxes (thumb last) sunk a little into it, spread slightly apart: between
+    neighbouring fingers, gaps from 1/60 to about 1/30 of the hand's bounding-box diagonal
+    (a mesh whose parts are closer than twice Make Cage Tight's usual offset)."""
+    diagonal = 2.40  # of the hand below, to 1 %: the finger gaps are shares of it
+    base_gap = HAND_GAPS[0] * diagonal
+    width = (1.0 - (HAND_FINGERS - 1) * base_gap) / HAND_FINGERS
+    parts = [box_mesh((0.0, -0.12, 0.0), (1.0, 0.12, 1.0))]
+    for finger in range(HAND_FINGERS):
+        angle = HAND_SPREAD * (finger - (HAND_FINGERS - 1) / 2.0)
+        base = np.array([finger * (width + base_gap) + width / 2.0, 0.0, 0.97])
+        parts.append(_finger(base, width, HAND_FINGER_LENGTH, angle, thickness=0.2))
+    parts.append(_finger(np.array([-0.02, 0.0, 0.35]), 0.24, 0.6, -1.0, thickness=0.2))  # the thumb
+    return parts
+
+
+def _finger(base, width, length, angle, thickness):
+    """A finger box from the middle of its base ``base`` (3,), turned by ``angle`` about y."""
+    corners, quads = box_mesh((-width / 2.0, -thickness / 2.0, 0.0), (width / 2.0, thickness / 2.0, length))
+    cos, sin = np.cos(angle), np.sin(angle)
+    turn = np.array([[cos, 0.0, sin], [0.0, 1.0, 0.0], [-sin, 0.0, cos]])
+    return corners @ turn.T + base, quads
+
+
+def add_hand(name="Hand"):
+    """The hand fixture (:func:`hand_parts`) as one mesh object of 6 closed boxes (48
+    vertices, quads), its parts overlapping as a modeller's blocked-out hand does."""
+    vertices, faces = [], []
+    for corners, quads in hand_parts():
+        faces.extend((quads + 8 * len(vertices)).tolist())
+        vertices.append(corners)
+    return add_mesh_object(name, np.concatenate(vertices), faces)

@@ -139,7 +139,7 @@ def test_vertices_outside_are_refused_before_any_coordinates_are_computed(gc, mo
 
     for name in ("coordinates", "green_coordinates"):
         monkeypatch.setattr(gc.core.Cage, name, never)
-    monkeypatch.setattr(gc.core.tools.bind_plan, "harmonic_field", never)
+    monkeypatch.setattr(gc.core.planning.bind_plan, "harmonic_field", never)
     assert_bind_refused(obj, cage, r"\d+ of 114 mesh vertices lie outside the cage 'Cage'", kind=kind)
 
 
@@ -149,7 +149,7 @@ def test_harmonic_refuses_extrapolation_in_blenders_words_before_solving_its_fie
     def never(*args, **kwargs):
         raise AssertionError("the field solved before the refusal")
 
-    monkeypatch.setattr(gc.core.tools.bind_plan, "harmonic_field", never)
+    monkeypatch.setattr(gc.core.planning.bind_plan, "harmonic_field", never)
     obj = add_sphere(radius=0.5)
     before = mesh_state(obj)
     with pytest.raises(RuntimeError, match=re.escape(

@@ -289,12 +289,12 @@ def test_outside_points_are_those_point_locations_calls_outside(shape):
     non-convex cage) finds what ``outside="raise"`` refuses: points at the tolerance's
     threshold along facets' normals, beyond sharp apices, in the gaps of a non-convex
     cage and far away."""
-    from gencoords.tools.shapes import block_cage, t_pose_blocks
+    from gencoords.cages.shapes import block_cage, t_pose_blocks
 
     tolerance = 1e-6
     if shape == "t_pose":  # non-convex: arms, legs, gaps between them
         vertices, quads = block_cage(t_pose_blocks())
-        faces = gencoords.tools.triangulate_quads(vertices, quads)
+        faces = gencoords.cages.triangulate_quads(vertices, quads)
     else:
         vertices, faces = icosphere(2)
     size = np.linalg.norm(np.ptp(vertices, axis=0))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from gencoords.cages import self_intersection, tight_cage, volumes
+from gencoords.cages import enclosing, self_intersection, surface, tight_cage, volumes
 from gencoords.cages.shapes import icosphere, octahedron
 from scripts.common import character
 
@@ -159,13 +159,20 @@ def test_fit_tight_cage_refuses_a_cage_through_itself_and_measures_volume():
     with pytest.raises(tight_cage.TightCageError, match="passes through itself") as caught:
         tight_cage.fit_tight_cage(both, both_faces, [[0.5, 0.0, 0.0]], 0.01, 1e-6)
     assert caught.value.problem == "self_intersecting"
-    with pytest.raises(gencoords.CageError, match="open"):
+    # A surface the simplification spoilt is named so (no cage exists yet to mend).
+    with pytest.raises(tight_cage.TightCageError, match=r"simplifying the offset surface to 162 vertices "
+                                                        r"spoiled it \(open, at its vertices") as caught:
         tight_cage.fit_tight_cage(vertices, faces[1:], [[0.0, 0.0, 0.0]], 0.01, 1e-6)
+    assert caught.value.problem == "simplified"
+    with pytest.raises(gencoords.CageError, match="Offset of 0.6 .* Lower Offset to 0.5") as caught:
+        enclosing.check_offset(0.6)
+    assert caught.value.problem == "offset"
+    enclosing.check_offset(enclosing.LARGEST_OFFSET)
     fitted, pushes = tight_cage.fit_tight_cage(1.1 * vertices, faces, 0.9 * vertices, 0.01, 1e-6)
     assert pushes == 0 and np.array_equal(fitted, 1.1 * vertices)
     cage_vertices, cage_faces = _character_cage()
     body, body_faces, _ = character.body_mesh(0.5)
-    ratio = tight_cage.volume_ratio(cage_vertices, cage_faces, body, body_faces)
+    ratio = volumes.volume_ratio(cage_vertices, cage_faces, body, body_faces)
     assert 3.0 < ratio < 4.0  # the artist's box-modelled cage: 3.4 times the body
 
 
@@ -177,7 +184,7 @@ def test_a_quad_cage_is_pushed_out_and_checked_as_its_quads_are_split():
     fitted, pushes = tight_cage.fit_tight_cage(vertices, no_triangles, points, 0.05, 1e-6,
                                                stored_as=np.float32, quads=quads)
     assert pushes >= 1 and np.array_equal(fitted, fitted.astype(np.float32))
-    split = tight_cage.cage_triangles(fitted, no_triangles, quads)
+    split = surface.cage_triangles(fitted, no_triangles, quads)
     np.testing.assert_array_equal(split, gencoords.cages.triangulate_quads(fitted, quads))
     assert (gencoords.point_locations(points, fitted, split, 1e-6) == gencoords.INSIDE).all()
 
@@ -193,13 +200,75 @@ def test_a_push_moves_a_patch_its_neighbours_half_as_far():
 
 def test_pinched_vertices_are_where_two_sheets_meet_and_are_refused():
     vertices, faces = octahedron()
-    assert tight_cage.pinched_vertices(faces).size == 0
-    assert tight_cage.pinched_vertices(_character_cage()[1]).size == 0
+    assert surface.pinched_vertices(faces).size == 0
+    assert surface.pinched_vertices(_character_cage()[1]).size == 0
     # Two octahedra touching at a corner: the second's bottom (5) is the first's top (4).
     touching = np.concatenate([vertices, vertices[:5] + [0.0, 0.0, 2.0]])
     both = np.concatenate([faces, np.array([6, 7, 8, 9, 10, 4])[faces]])
-    assert tight_cage.pinched_vertices(both).tolist() == [4]
+    assert surface.pinched_vertices(both).tolist() == [4]
     gencoords.advanced.validate_cage(touching, both, convex=False)  # edge-manifold, closed
     with pytest.raises(tight_cage.TightCageError, match="touches itself at 1 vertices") as caught:
         tight_cage.fit_tight_cage(touching, both, [[0.0, 0.0, 0.5]], 0.01, 1e-6)
     assert caught.value.problem == "pinched"
+
+
+def test_mesh_extent_refuses_points_without_a_size_and_takes_lines_and_planes():
+    from gencoords.cages.enclosing import EXTENT_STEPS, mesh_extent
+
+    line = np.column_stack([np.linspace(0.0, 2.0, 5), np.zeros(5), np.zeros(5)])
+    assert mesh_extent(line) == pytest.approx(2.0)
+    assert mesh_extent(np.column_stack([line[:, :2], line[:, 0]])) == pytest.approx(np.sqrt(8.0))
+    for points, resolution, said in (([[1.0, 2.0, 3.0]] * 4, 0.0, "sits at one point"),
+                                     ([[1e6, 0.0, 0.0]] * 3, 0.1, "sits at one point"),
+                                     (line, 2.0 / EXTENT_STEPS, "lies within 2 of one another")):
+        with pytest.raises(gencoords.CageError, match=said) as caught:
+            mesh_extent(points, resolution)
+        assert caught.value.problem == "no_extent"
+    assert mesh_extent(line, 1.99 / EXTENT_STEPS) == pytest.approx(2.0)  # just enough
+
+
+def _first_hits(origins, directions, vertices, triangles):
+    """Reference ray caster (Moller-Trumbore, all pairs): distance to the first hit of
+    each ray and the cosine between the hit triangle's normal and the ray."""
+    corners = vertices[triangles]
+    a, e1, e2 = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    normals = np.cross(e1, e2)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    p = np.cross(directions[:, None], e2[None])
+    det = np.einsum("rti,ti->rt", p, e1)
+    s = origins[:, None] - a[None]
+    q = np.cross(s, e1[None])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.einsum("rti,rti->rt", s, p) / det
+        v = np.einsum("ri,rti->rt", directions, q) / det
+        t = np.einsum("ti,rti->rt", e2, q) / det
+        t = np.where((u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9), t, np.inf)  # parallel: NaN, no hit
+    first = t.argmin(axis=1)
+    return t[np.arange(len(t)), first], np.einsum("ri,ri->r", normals[first], directions)
+
+
+def _boxes(*bounds):
+    """Closed, outward boxes (low, high): vertices (8b, 3) and triangles (12b, 3)."""
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+    vertices = np.concatenate([np.array(low) + corners * (np.array(high) - low) for low, high in bounds])
+    quads = np.concatenate([quads + 8 * i for i in range(len(bounds))])
+    return vertices, np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+
+
+def test_the_narrowest_gap_is_between_facing_parts_not_in_creases():
+    """Two unit cubes 0.05 apart side by side, and a third box overlapping the first from
+    above (creases where they meet): the gap is 0.05, cast by an independent ray caster;
+    without the second cube no parts face each other. The offset keeping it is a sixth."""
+    from gencoords.cages.enclosing import offset_for_gap
+
+    first, second, overlapping = ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)), ((1.05, 0.0, 0.0), (2.05, 1.0, 1.0)), \
+        ((0.25, 0.25, 0.9), (0.75, 0.75, 1.6))
+    for bounds, gap in (((first, second, overlapping), 0.05), ((first, overlapping), np.inf)):
+        vertices, triangles = _boxes(*bounds)
+        origins, directions = surface.ray_samples(vertices, triangles)
+        assert len(origins) == 4 * len(triangles)
+        np.testing.assert_allclose(np.linalg.norm(directions, axis=1), 1.0)
+        distances, cosines = _first_hits(origins + 1e-9 * directions, directions, vertices, triangles)
+        assert surface.narrowest_gap(distances, cosines) == pytest.approx(gap)
+    assert offset_for_gap(0.05, 0.05) == pytest.approx(0.05 / 6) and offset_for_gap(0.001, 0.05) == 0.001
