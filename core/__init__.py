@@ -24,6 +24,7 @@ from .base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerErr
 from .construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction.validation import DEFAULT_TOLERANCE
 from .construction.green import green_deform
+from .construction.quad_cage import MEAN_VALUE_QUADS, mean_value_quad_coordinates
 from .evaluation.barycentric import coordinates, green_coordinates, needs_convex, point_locations, weights
 from .evaluation.cage import Cage
 from .evaluation.deformation import deform
@@ -33,7 +34,7 @@ from . import advanced, tools  # noqa: E402  (the named sub-APIs, after the name
 
 __all__ = [
     "Cage", "coordinates", "weights", "point_locations", "deform", "green_coordinates", "green_deform",
-    "harmonic_coordinates", "harmonic_field", "HarmonicField",
+    "harmonic_coordinates", "harmonic_field", "HarmonicField", "mean_value_quad_coordinates", "MEAN_VALUE_QUADS",
     "KIND_TABLE", "needs_convex",
     "INSIDE", "BOUNDARY", "OUTSIDE", "DEFAULT_TOLERANCE",
     "CageError", "OutsideCageError", "WorkerError", "WorkerWarning", "AccuracyWarning",
