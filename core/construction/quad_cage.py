@@ -120,6 +120,12 @@ def _boundary_rows(points, vertices, polygons, absolute):
     centre = corners.mean(axis=1)
     radius = np.linalg.norm(corners - centre[:, None], axis=2).max(axis=1)
     point, face = np.nonzero(np.linalg.norm(points[:, None] - centre[None], axis=2) <= radius + absolute)
+    # A patch lies in the convex hull of its corners: between its corners' heights along any direction.
+    normal = corner_normals(corners).sum(axis=1)
+    heights = np.einsum("pij,pj->pi", corners[face] - points[point, None], normal[face])
+    reach = absolute * np.linalg.norm(normal[face], axis=1)
+    straddle = (heights.min(axis=1) <= reach) & (heights.max(axis=1) >= -reach)
+    point, face = point[straddle], face[straddle]
     quad = polygons[face, 3] >= 0
     hats = np.zeros((len(point), 4))
     distance = np.zeros(len(point))

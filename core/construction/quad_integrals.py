@@ -21,8 +21,8 @@ __all__ = ["triangle_weights", "corner_normals", "bilinear_hats", "patch_rule", 
 # centre) a point must be for that rule: the rule's error falls like (ratio * 2) ** -(2
 # * order), about 1e-9 of the sub-patch's share at 4 nodes and 3 radii (measured against
 # a dense rule in tests/core/test_quad_mean_value.py).
-GAUSS_ORDER = 4
-NEAR_RATIO = 3.0
+GAUSS_ORDER = 5
+NEAR_RATIO = 2.0
 # Sub-patches this many halvings deep are flat to float64 rounding: fan of 4 triangles.
 DEEPEST_LEVEL = 40
 
@@ -124,12 +124,20 @@ def _near(points, corners):
 
 def _gauss(points, corners):
     """Gauss rule on (sub-)patches: points (p, 3), corners (p, 4, 3) -> (p, 4) corner
-    weights and (p,) solid angles."""
-    nodes = np.einsum("ai,pij->paj", _RULE_HATS, corners) - points[:, None]
-    normals = np.einsum("ai,pij->paj", _RULE_HATS, corner_normals(corners))
-    squared = np.einsum("paj,paj->pa", nodes, nodes)
-    kernel = np.einsum("paj,paj->pa", nodes, normals) * _RULE_WEIGHTS / squared ** 2
-    return kernel @ _RULE_HATS, (kernel * np.sqrt(squared)).sum(axis=1)
+    weights and (p,) solid angles. Nodes by pairs, (nodes, p) planes per axis: one matrix
+    product each and contiguous element-wise work."""
+    planes = np.concatenate([corners, corner_normals(corners)], axis=2).transpose(1, 2, 0)  # (4, 6, p)
+    values = (_RULE_HATS @ planes.reshape(4, -1)).reshape(len(_RULE_HATS), 6, -1)
+    relative = values[:, :3] - points.T[None]
+    squared = _dot(relative, relative, axis=1)
+    kernel = _dot(relative, values[:, 3:], axis=1) * _RULE_WEIGHTS[:, None] / squared ** 2
+    return (_RULE_HATS.T @ kernel).T, (kernel * np.sqrt(squared)).sum(axis=0)
+
+
+def _dot(a, b, axis=-1):
+    """Dot products along an axis of length 3 (the last by default)."""
+    a, b = np.moveaxis(a, axis, 0), np.moveaxis(b, axis, 0)
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 def _fan(points, corners):
@@ -152,21 +160,28 @@ def _whole_quads(points, corners):
     weights and (k, q) solid angles. |y - x|^2 expanded loses digits only where y is near
     x, and those pairs are :func:`_near` and refined.
     """
-    nodes = np.einsum("ai,qij->qaj", _RULE_HATS, corners).reshape(-1, 3)
-    normals = np.einsum("ai,qij->qaj", _RULE_HATS, corner_normals(corners)).reshape(-1, 3)
-    along = np.einsum("bj,bj->b", nodes, normals) - points @ normals.T
-    squared = (nodes ** 2).sum(axis=1) - 2.0 * (points @ nodes.T) + (points ** 2).sum(axis=1)[:, None]
-    kernel = (along * np.tile(_RULE_WEIGHTS, len(corners)) / squared ** 2).reshape(len(points), len(corners),
-                                                                                    len(_RULE_WEIGHTS))
-    solid = (kernel * np.sqrt(squared).reshape(kernel.shape)).sum(axis=2)
-    return kernel @ _RULE_HATS, solid
+    nodes = np.matmul(_RULE_HATS, corners).reshape(-1, 3)
+    normals = np.matmul(_RULE_HATS, corner_normals(corners)).reshape(-1, 3)
+    kernel = points @ normals.T
+    np.subtract(_dot(nodes, normals), kernel, out=kernel)
+    np.multiply(kernel, np.tile(_RULE_WEIGHTS, len(corners)), out=kernel)
+    squared = points @ (-2.0 * nodes.T)
+    squared += (nodes ** 2).sum(axis=1)
+    squared += (points ** 2).sum(axis=1)[:, None]
+    distance = np.sqrt(squared)
+    np.multiply(squared, squared, out=squared)
+    np.divide(kernel, squared, out=kernel)
+    np.multiply(distance, kernel, out=distance)
+    shape = len(points), len(corners), len(_RULE_WEIGHTS)
+    weights = (kernel.reshape(-1, shape[2]) @ _RULE_HATS).reshape(shape[0], shape[1], 4)
+    return weights, distance.reshape(shape).sum(axis=2)
 
 
 def _subdivide(corners, mix):
     """The 4 children of each sub-patch: corners (p, 4, 3) and their hats' mix of the
     quad's corners (p, 4, 4) -> (4p, 4, 3), (4p, 4, 4), children of a pair together."""
-    children = np.einsum("cij,pjk->pcik", _CHILDREN, corners).reshape(-1, 4, 3)
-    return children, np.einsum("cij,pjk->pcik", _CHILDREN, mix).reshape(-1, 4, 4)
+    children = np.matmul(_CHILDREN, corners[:, None]).reshape(-1, 4, 3)
+    return children, np.matmul(_CHILDREN, mix[:, None]).reshape(-1, 4, 4)
 
 
 def quad_weights(points, corners):
@@ -204,7 +219,7 @@ def quad_weights(points, corners):
         rule = _fan if level == DEEPEST_LEVEL else _gauss
         done = np.ones_like(near) if level == DEEPEST_LEVEL else ~near
         local, angle = rule(points[point_index[done]], patches[done])
-        np.add.at(weights, (point_index[done], quad_index[done]), np.einsum("pi,pij->pj", local, mix[done]))
+        np.add.at(weights, (point_index[done], quad_index[done]), np.matmul(local[:, None], mix[done])[:, 0])
         np.add.at(solid, point_index[done], angle)
         point_index, quad_index, patches, mix = point_index[~done], quad_index[~done], patches[~done], mix[~done]
     return weights, solid
