@@ -211,7 +211,8 @@ def restore_linear_precision(coordinates, vertices, points):
 
 
 @checked
-def mean_value_quad_coordinates(points, vertices, polygons, outside="raise", tolerance=DEFAULT_TOLERANCE):
+def mean_value_quad_coordinates(points, vertices, polygons, outside="raise", tolerance=DEFAULT_TOLERANCE,
+                                locations=None):
     """Mean value coordinates of a cage of quads and triangles, each quad a bilinear patch.
 
     Quad-native: a non-planar quad is not split, so the result does not depend on a
@@ -224,16 +225,19 @@ def mean_value_quad_coordinates(points, vertices, polygons, outside="raise", tol
     polygons : (m, 3) or (m, 4) int, or a list of 3- and 4-index lists (mixed)
         Counter-clockwise seen from outside; closed, consistently oriented.
     outside : str
-        ``"raise"`` (OutsideCageError naming the points) or ``"extrapolate"`` (the
-        formula).
+        ``"raise"`` (OutsideCageError naming the points), ``"extrapolate"`` (the
+        formula) or ``"project"`` (the weights of the nearest point of the surface).
     tolerance : float
         Relative to the cage's bounding-box diagonal: points this close to a face get its
         bilinear (quad) or linear (triangle) weights.
+    locations : (k,) int8 ndarray, optional
+        Filled with 1 inside, 0 on a face, -1 outside.
 
     Returns
     -------
     coordinates : (k, n) float
-        Rows sum to 1 and reproduce the points.
+        Rows sum to 1 and reproduce the points (projected points: their nearest surface
+        point).
 
     Examples
     --------
@@ -244,8 +248,6 @@ def mean_value_quad_coordinates(points, vertices, polygons, outside="raise", tol
     >>> print(np.round(b, 6))
     [[0.125 0.125 0.125 0.125 0.125 0.125 0.125 0.125]]
     """
-    if outside not in ("raise", "extrapolate"):
-        raise ValueError(f"outside must be 'raise' or 'extrapolate' for quad cages, got {outside!r}")
     validate_polygons(vertices, polygons, tolerance)
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     origin, size = 0.5 * (low + high), float(np.linalg.norm(high - low))
@@ -253,10 +255,17 @@ def mean_value_quad_coordinates(points, vertices, polygons, outside="raise", tol
     on_face, face_rows = _boundary_rows(local_points, local_vertices, polygons, tolerance)
     rest = np.setdiff1d(np.arange(len(points)), on_face)
     weights, solid = integrated_weights(local_points[rest], local_vertices, polygons)
-    if outside == "raise" and (solid < 2.0 * np.pi).any():
-        raise OutsideCageError(rest[solid < 2.0 * np.pi], len(points))
+    away = rest[solid < 2.0 * np.pi]  # the winding number under 1/2
+    if outside == "raise" and len(away):
+        raise OutsideCageError(away, len(points))
     result = np.empty((len(points), len(vertices)))
     result[rest], _ = restore_linear_precision(weights / weights.sum(axis=1, keepdims=True), local_vertices,
                                                local_points[rest])
     result[on_face] = face_rows
+    if outside == "project" and len(away):
+        nearest, rows = _boundary_rows(local_points[away], local_vertices, polygons, np.inf)
+        result[away[nearest]] = rows
+    if locations is not None:
+        locations[:] = 1
+        locations[on_face], locations[away] = 0, -1
     return result

@@ -29,6 +29,7 @@ from ..base.grid import fit_grid
 from ..base.tolerances import LINEAR_PRECISION, ROUNDING_AMPLIFICATION, TRANSLATION_PRECISION
 from ..construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from ..construction.green import GREEN
+from ..construction.quad_cage import MEAN_VALUE_QUADS, mean_value_quad_coordinates
 from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
 from ..evaluation.deformation import coordinate_summary, linear_precision
@@ -191,6 +192,9 @@ class BindRequest:
     # ``run(compute, workers)`` calls ``compute(workers)``: a front end's hook to fall
     # back to its own process where workers fail (it then passes 1 on later calls).
     run: Callable = _in_this_process
+    # (m, 4) int: the cage's faces, a triangle's fourth index -1: mean value on quads
+    # (MEAN_VALUE_QUADS) reads them, not the triangles.
+    polygons: Optional[np.ndarray] = None
 
     @property
     def green(self):
@@ -532,6 +536,9 @@ def _solve(request, cage, points, workers, locations=None, field=None):
     def compute(count):
         if field is not None:
             return field.coordinates(points, outside=request.outside)
+        if request.kind == MEAN_VALUE_QUADS:  # one process: the quads' own integrals
+            return mean_value_quad_coordinates(points, cage.vertices, request.polygons, outside=request.outside,
+                                               tolerance=request.tolerance, locations=locations)
         if request.green:  # phi and psi side by side: the slots' n + m rows
             return np.hstack(cage.green_coordinates(points, outside=request.outside, locations=locations,
                                                     workers=count))
@@ -731,6 +738,8 @@ def _report(request, cage, field=None):
     cover those): positivity and well-definedness on a sample."""
     if request.green:
         return "Green: similarity invariant, shape-preserving; any closed cage"
+    if request.kind == MEAN_VALUE_QUADS:
+        return "Mean value on quads: each quad its bilinear patch, whichever corner it starts from; any closed cage"
     if field is not None:
         return (f"Harmonic: local, never negative; any closed cage (resolution {field.resolution}: "
                 f"{len(field.node_coordinates)} grid nodes)")

@@ -15,10 +15,11 @@ from typing import Optional
 import numpy as np
 
 from ... import core
+from ...core.construction.quad_cage import validate_polygons
 from ...core.tools import bind_plan
 from .. import messages, preferences
 from ..bind_layout import FORMAT, BindData
-from ..enums import is_green
+from ..enums import is_green, reads_quads
 from ..errors import BindError
 from ..steps import run_to_end
 from . import commit
@@ -88,7 +89,8 @@ class BindJob:
             kind=settings.kind, outside=settings.outside, gamma=settings.gamma, storage=settings.storage,
             compact_size=settings.compact_size, sparse_size=settings.sparse_size,
             resolution=settings.resolution, workers=preferences.worker_count(context),
-            tolerance=FLOAT32_TOLERANCE, origins=self.input.origins, run=run)
+            tolerance=FLOAT32_TOLERANCE, origins=self.input.origins, run=run,
+            polygons=self.input.polygons if reads_quads(settings.kind) else None)
 
     def steps(self):
         """Compute the bind data chunk by chunk, yielding the fraction done (0 to 1).
@@ -98,6 +100,8 @@ class BindJob:
         """
         scene = self.input
         try:
+            if self.request.polygons is not None:  # named as the cage's faces, before the split is checked
+                validate_polygons(scene.cage_vertices, scene.polygons, FLOAT32_TOLERANCE)
             plan = yield from bind_plan.plan_bind(scene.points, scene.cage_vertices, scene.triangles,
                                                   self.request)
         except core.OutsideCageError:
@@ -123,8 +127,8 @@ class BindJob:
         if isinstance(error, core.CageError) and error.problem == "non_convex":
             dented = np.unique(scene.triangle_faces[core.advanced.concave_facets(
                 scene.cage_vertices, scene.triangles, FLOAT32_TOLERANCE)])
-        return messages.core_error(self.cage.name, error, self.kind_label, len(scene.points),
-                                   scene.triangle_faces, dented)
+        faces = scene.polygon_faces if self.request.polygons is not None else scene.triangle_faces
+        return messages.core_error(self.cage.name, error, self.kind_label, len(scene.points), faces, dented)
 
     def _imprecise_message(self, error):
         settings, error_size = self.settings, bind_plan.short_number(error.error)

@@ -13,7 +13,7 @@ import numpy as np
 from ... import core
 from .. import messages
 from ..blender_io import compat, mesh_io
-from ..enums import core_name, is_green, is_harmonic, kind_label, kind_parameter
+from ..enums import core_name, is_green, is_harmonic, kind_label, kind_parameter, reads_quads
 from ..errors import BindError
 from ..graph import deformer, helpers
 from .bindings import drives, is_deleted
@@ -63,7 +63,9 @@ class BindInput:
     rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
     origins: np.ndarray  # (2, 3) float64: the mesh's and the cage's origins, in that space
     faces_hash: str  # mesh_io.faces_hash of the cage
-    non_triangles: int  # the cage's quads and n-gons
+    non_triangles: int  # the cage's faces split into triangles: quads and n-gons (quad kinds: n-gons)
+    polygons: np.ndarray  # (p, 4) int: the cage's triangles and quads (mesh_io.read_polygons)
+    polygon_faces: np.ndarray  # (p,) int: the cage face each polygon comes from
 
 
 def check_inputs(obj):
@@ -170,8 +172,11 @@ def read_bind_input(obj, settings, context):
     if is_green(settings.kind):
         points, cage_vertices, triangles = _green_frame(obj, settings, rest, rest_cage, triangles, world)
         origins = (origins - world[:3, 3]) @ np.linalg.inv(world[:3, :3]).T
+    # Kinds reading quads split only the faces of more corners (each gives several polygons).
+    split = (int(np.count_nonzero(np.bincount(geometry.polygon_faces) > 1)) if reads_quads(settings.kind)
+             else geometry.non_triangles)
     return BindInput(points, cage_vertices, triangles, geometry.triangle_faces, rest_cage, origins,
-                     geometry.faces_hash, geometry.non_triangles)
+                     geometry.faces_hash, split, geometry.polygons, geometry.polygon_faces)
 
 
 def _green_frame(obj, settings, rest, rest_cage, triangles, world):

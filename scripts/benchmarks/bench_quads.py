@@ -25,6 +25,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
 from gencoords.construction import quad_cage  # noqa: E402
+from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
 from scripts.common.character import body_points, character_cage  # noqa: E402
 
 
@@ -55,7 +56,7 @@ def main():
     vertices, quads = character_cage()
     triangles = gencoords.tools.triangulate_quads(vertices, quads)
     points = body_points(arguments.points, seed=0)
-    mean_value = lambda faces: gencoords.coordinates(points, vertices, faces, kind="mean_value", workers=1)  # noqa: E731
+    mean_value = lambda faces: gencoords.coordinates(points, vertices, faces, kind=MEAN_VALUE, workers=1)  # noqa: E731
     native = lambda faces: gencoords.mean_value_quad_coordinates(points, vertices, faces)  # noqa: E731
     split, quad = _best_times([lambda: mean_value(triangles), lambda: native(quads)], arguments.repeats)
     pairs = len(points) * len(quads)

@@ -198,3 +198,30 @@ def test_polygons_of_five_corners_and_open_cages_are_refused_by_index():
         gencoords.mean_value_quad_coordinates([[0.5, 0.5, 0.5]], vertices, quads[:5] + [quads[5][:3]])
     assert error.value.problem == "open" and set(error.value.faces) <= {1, 3, 5} and error.value.faces
     assert "the polygons: [" in str(error.value)
+
+
+def test_outside_points_projected_and_located():
+    vertices, quads = block_cage(np.ones((1, 1, 1), dtype=bool))
+    points = np.array([[0.5, 0.5, 0.5], [0.3, 0.6, 1.5], [0.5, 0.5, 1.0]])
+    locations = np.empty(3, dtype=np.int8)
+    b = gencoords.mean_value_quad_coordinates(points, vertices, quads, outside="project", locations=locations)
+    assert locations.tolist() == [1, -1, 0]
+    assert np.abs(b[1] @ vertices - [0.3, 0.6, 1.0]).max() < 1e-12
+
+
+def test_bind_plan_stores_the_quads_coordinates():
+    from gencoords.tools.bind_plan import BindRequest, plan_bind
+
+    vertices, quads = _bent_box()
+    points = _inside(vertices, 40)
+    polygons = np.asarray(quads)
+    request = BindRequest(gencoords.MEAN_VALUE_QUADS, storage="EXACT", workers=1, polygons=polygons)
+    steps = plan_bind(points, vertices, gencoords.tools.triangulate_quads(vertices, quads), request)
+    try:
+        while True:
+            next(steps)
+    except StopIteration as stop:
+        plan = stop.value
+    expected = gencoords.mean_value_quad_coordinates(points, vertices, quads)
+    assert np.abs(plan.slots - expected).max() < 1e-6  # float32 slots
+    assert plan.report.startswith("Mean value on quads")
