@@ -122,11 +122,11 @@ def _near(points, corners):
     return np.linalg.norm(points - centre, axis=1) < NEAR_RATIO * radius
 
 
-def _gauss(points, corners):
-    """Gauss rule on (sub-)patches: points (p, 3), corners (p, 4, 3) -> (p, 4) corner
-    weights and (p,) solid angles. Nodes by pairs, (nodes, p) planes per axis: one matrix
-    product each and contiguous element-wise work."""
-    planes = np.concatenate([corners, corner_normals(corners)], axis=2).transpose(1, 2, 0)  # (4, 6, p)
+def _gauss(points, patches):
+    """Gauss rule on (sub-)patches: points (p, 3), patches (p, 4, 6+) (corners, corner
+    normals) -> (p, 4) corner weights and (p,) solid angles. Nodes by pairs, (nodes, p)
+    planes per axis: one matrix product and contiguous element-wise work."""
+    planes = patches[:, :, :6].transpose(1, 2, 0)  # (4, 6, p)
     values = (_RULE_HATS @ planes.reshape(4, -1)).reshape(len(_RULE_HATS), 6, -1)
     relative = values[:, :3] - points.T[None]
     squared = _dot(relative, relative, axis=1)
@@ -177,11 +177,14 @@ def _whole_quads(points, corners):
     return weights, distance.reshape(shape).sum(axis=2)
 
 
-def _subdivide(corners, mix):
-    """The 4 children of each sub-patch: corners (p, 4, 3) and their hats' mix of the
-    quad's corners (p, 4, 4) -> (4p, 4, 3), (4p, 4, 4), children of a pair together."""
-    children = np.matmul(_CHILDREN, corners[:, None]).reshape(-1, 4, 3)
-    return children, np.matmul(_CHILDREN, mix[:, None]).reshape(-1, 4, 4)
+def _subdivide(patches):
+    """The 4 children of each sub-patch, children of a pair together: (p, 4, 10) -> (4p,
+    4, 10), a sub-patch's corners, its corner normals in its own parameters (the normal
+    is bilinear; halving both parameters quarters it) and its corners' hats of the quad's
+    corners."""
+    children = np.matmul(_CHILDREN, patches[:, None]).reshape(-1, 4, patches.shape[2])
+    children[:, :, 3:6] *= 0.25
+    return children
 
 
 def quad_weights(points, corners):
@@ -209,17 +212,19 @@ def quad_weights(points, corners):
     weights[point_index, quad_index] = 0.0
     solid[point_index, quad_index] = 0.0
     solid = solid.sum(axis=1)
-    patches, mix = corners[quad_index], np.broadcast_to(np.eye(4), (len(quad_index), 4, 4))
+    patches = np.concatenate([corners, corner_normals(corners), np.broadcast_to(np.eye(4), (len(corners), 4, 4))],
+                             axis=2)[quad_index]
     for level in range(1, DEEPEST_LEVEL + 1):
         if not len(point_index):
             break
-        patches, mix = _subdivide(patches, mix)
+        patches = _subdivide(patches)
         point_index, quad_index = np.repeat(point_index, 4), np.repeat(quad_index, 4)
-        near = _near(points[point_index], patches)
-        rule = _fan if level == DEEPEST_LEVEL else _gauss
-        done = np.ones_like(near) if level == DEEPEST_LEVEL else ~near
-        local, angle = rule(points[point_index[done]], patches[done])
-        np.add.at(weights, (point_index[done], quad_index[done]), np.matmul(local[:, None], mix[done])[:, 0])
+        near = _near(points[point_index], patches[:, :, :3])
+        deepest = level == DEEPEST_LEVEL
+        done = np.ones_like(near) if deepest else ~near
+        local, angle = (_fan(points[point_index[done]], patches[done, :, :3]) if deepest
+                        else _gauss(points[point_index[done]], patches[done]))
+        np.add.at(weights, (point_index[done], quad_index[done]), np.matmul(local[:, None], patches[done, :, 6:])[:, 0])
         np.add.at(solid, point_index[done], angle)
-        point_index, quad_index, patches, mix = point_index[~done], quad_index[~done], patches[~done], mix[~done]
+        point_index, quad_index, patches = point_index[~done], quad_index[~done], patches[~done]
     return weights, solid

@@ -3,7 +3,7 @@ the split cage: cost, the quadrature's error, and the dependence on each quad's 
 
 On the character's box-modelled quad cage (scripts/common/character.py: 196 vertices, 194
 quads), points inside its body; one process, BLAS on one thread, the two kinds timed in
-turn (best of ``--repeats``), the cost per (point, quad) (mean value's on the 388 triangles
+turn (CPU time, best of ``--repeats``: steadier on a shared machine), the cost per (point, quad) (mean value's on the 388 triangles
 of the split counted per quad too). Then how far the linear-precision correction moved the
 integrated coordinates (the quadrature's error), and how far each kind's coordinates move
 when every quad lists its corners from the next one.
@@ -33,9 +33,9 @@ def _best_times(calls, repeats):
     best = [np.inf] * len(calls)
     for _ in range(repeats):
         for i, call in enumerate(calls):
-            start = time.perf_counter()
+            start = time.process_time()
             call()
-            best[i] = min(best[i], time.perf_counter() - start)
+            best[i] = min(best[i], time.process_time() - start)
     return best
 
 
