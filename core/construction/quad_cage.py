@@ -119,13 +119,11 @@ def _boundary_rows(points, vertices, polygons, absolute):
     corners = vertices[np.where(polygons >= 0, polygons, polygons[:, :1])]  # a triangle's first corner twice
     centre = corners.mean(axis=1)
     radius = np.linalg.norm(corners - centre[:, None], axis=2).max(axis=1)
-    point, face = np.nonzero(np.linalg.norm(points[:, None] - centre[None], axis=2) <= radius + absolute)
-    # A patch lies in the convex hull of its corners: between its corners' heights along any direction.
     normal = corner_normals(corners).sum(axis=1)
-    heights = np.einsum("pij,pj->pi", corners[face] - points[point, None], normal[face])
-    reach = absolute * np.linalg.norm(normal[face], axis=1)
-    straddle = (heights.min(axis=1) <= reach) & (heights.max(axis=1) >= -reach)
-    point, face = point[straddle], face[straddle]
+    step = max(1, _CHUNK_ENTRIES // len(polygons))
+    pairs = [_straddling(points[start:start + step], corners, centre, radius + absolute, normal, absolute, start)
+             for start in range(0, len(points), step)]
+    point, face = (np.concatenate(found) for found in zip(*pairs)) if pairs else (np.zeros(0, int),) * 2
     quad = polygons[face, 3] >= 0
     hats = np.zeros((len(point), 4))
     distance = np.zeros(len(point))
@@ -143,6 +141,17 @@ def _boundary_rows(points, vertices, polygons, absolute):
     np.add.at(rows, (np.repeat(np.arange(len(point)), 4), np.where(columns >= 0, columns, 0).ravel()),
               np.where(columns >= 0, hats, 0.0).ravel())
     return point, rows
+
+
+def _straddling(points, corners, centre, reach, normal, absolute, offset):
+    """(point, face) pairs of faces possibly within ``absolute`` of the points: in reach of
+    the face's centre, and (a patch lies in the convex hull of its corners) the face's
+    corners on both sides of the point along the face's mean normal, to ``absolute``."""
+    point, face = np.nonzero(np.linalg.norm(points[:, None] - centre[None], axis=2) <= reach)
+    heights = np.einsum("pij,pj->pi", corners[face] - points[point, None], normal[face])
+    slack = absolute * np.linalg.norm(normal[face], axis=1)
+    straddle = (heights.min(axis=1) <= slack) & (heights.max(axis=1) >= -slack)
+    return point[straddle] + offset, face[straddle]
 
 
 def _scatter(values, faces, vertex_count):
