@@ -81,3 +81,22 @@ def test_a_folded_quad_is_refused_naming_its_face(gc):
     after = mesh_state(obj)
     np.testing.assert_array_equal(after[0], before[0])
     assert after[1] == before[1] and not obj.modifiers
+
+
+def test_faces_of_more_corners_are_split_and_counted(gc):
+    # A vertex on the top front edge: the top and front faces have five corners.
+    vertices = np.vstack([CUBE, [[0.0, -2.0, 2.0]]])
+    faces = [list(q) for q in QUADS]
+    faces[2] = [0, 4, 5, 8, 1]  # y = -2, through the new vertex between 5 and 1
+    faces[5] = [1, 8, 5, 7, 3]  # z = +2
+    mesh = bpy.data.meshes.new("Cage")
+    mesh.from_pydata(vertices.tolist(), [], faces)
+    cage = bpy.data.objects.new("Cage", mesh)
+    bpy.context.scene.collection.objects.link(cage)
+    obj = add_sphere()
+    rest = read_positions(obj.data).copy()
+    assert bind(obj, cage, kind="MEAN_VALUE_QUADS") == {'FINISHED'}
+    assert gc.binding.binding(obj).data.cage_non_triangles == 2
+    move_cage_vertex(cage, slice(None), [0.5, 0.25, -0.75])
+    update()
+    assert np.abs(evaluated_positions(obj) - (rest + [0.5, 0.25, -0.75])).max() <= 1e-5 * DIAGONAL
