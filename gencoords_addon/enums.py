@@ -14,7 +14,7 @@ HARMONIC_LABEL = "Harmonic"  # short: the Properties editor's default width show
 HARMONIC_DESCRIPTION = ("Local, positive: never negative in any closed cage, and, as Mesh Deform, moving one "
                         "limb's cage moves that limb alone. Solved on a grid (Resolution); stored "
                         "sparse by default")
-MEAN_VALUE_QUADS_LABEL = "Mean Value (Quads)"
+MEAN_VALUE_QUADS_LABEL = "Quad Mean Value"
 MEAN_VALUE_QUADS_DESCRIPTION = ("For quad cages: mean value with each quad as its own curved patch, not split in "
                                 "two, so a bent quad moves the mesh the same whichever corner it starts from. "
                                 "Quads and triangles; larger faces are split")

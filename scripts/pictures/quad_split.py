@@ -1,9 +1,9 @@
 """The README's quad picture: one non-planar edit of a six-quad box cage, the mesh bound
-with mean value split along one diagonal, along the other, and with Mean Value (Quads).
+with mean value split along one diagonal, along the other, and with Quad Mean Value.
 
 A sphere in a box cage of six quads, three times: bound with Mean Value as the quads are
 listed (each split along its first diagonal), with Mean Value with each quad's corners
-listed one position later (the other diagonal), and with Mean Value (Quads); each cage's
+listed one position later (the other diagonal), and with Quad Mean Value; each cage's
 top corner then dragged up and out (three quads no longer planar), rendered with
 Workbench, the cage in wireframe. Prints how far each mesh lies from the quad-native one.
 
@@ -32,7 +32,7 @@ BOX = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1
 QUADS = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
 CORNER, DRAG = 7, np.array([0.5, 0.5, 1.1])  # the top corner at (1, 1, 1), dragged up and out
 COLUMNS = (("Mean value, split one way", MEAN_VALUE, 0), ("Mean value, split the other way", MEAN_VALUE, 1),
-           ("Mean Value (Quads)", MEAN_VALUE_QUADS, 0))
+           ("Quad Mean Value", MEAN_VALUE_QUADS, 0))
 SPACING = 3.6
 BODY = (0.80, 0.80, 0.82, 1.0)
 CAGE = (0.15, 0.35, 0.85, 1.0)

@@ -1,4 +1,4 @@
-"""Mean Value (Quads) through the operator: a box cage's quads bound as quads, so the mesh
+"""Quad Mean Value through the operator: a box cage's quads bound as quads, so the mesh
 does not depend on which corner each quad lists first (issue 36)."""
 
 import bpy
