@@ -24,7 +24,8 @@ from .base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerErr
 from .construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction.validation import DEFAULT_TOLERANCE
 from .construction.green import green_deform
-from .construction.quad_cage import MEAN_VALUE_QUADS, mean_value_quad_coordinates
+from .construction.quad_cage import MEAN_VALUE_QUADS
+from .evaluation.quad_coordinates import mean_value_quad_coordinates
 from .evaluation.barycentric import coordinates, green_coordinates, needs_convex, point_locations, weights
 from .evaluation.cage import Cage
 from .evaluation.deformation import deform

@@ -1,4 +1,5 @@
-"""Mean value coordinates of cages of quads and triangles, each quad its bilinear patch.
+"""Mean value coordinates of cages of quads and triangles, each quad its bilinear patch:
+the parts (:mod:`gencoords.evaluation.quad_coordinates` puts them together).
 
 A quad's mesh-side result does not depend on how it would be split into triangles, nor
 on which corner it lists first (docs/MATH.md, "Quad cages"). The integrals are
@@ -9,13 +10,12 @@ removed by the smallest change that restores linear precision and partition of u
 
 import numpy as np
 
-from ..base.errors import CageError, OutsideCageError
-from ..base.inputs import checked
+from ..base.errors import CageError
 from ..base.simplex import closest_points_on_simplices
 from .quad_integrals import bilinear_hats, corner_normals, quad_weights, triangle_weights
 from .validation import DEFAULT_TOLERANCE, validate_cage
 
-__all__ = ["MEAN_VALUE_QUADS", "mean_value_quad_coordinates", "fan_split", "validate_polygons",
+__all__ = ["MEAN_VALUE_QUADS", "fan_split", "validate_polygons", "boundary_rows",
            "bilinear_parameters", "integrated_weights", "restore_linear_precision"]
 
 MEAN_VALUE_QUADS = "mean_value_quads"
@@ -111,7 +111,7 @@ def bilinear_parameters(points, corners):
     return np.stack([u, v], axis=1), np.linalg.norm(points - nearest, axis=1)
 
 
-def _boundary_rows(points, vertices, polygons, absolute):
+def boundary_rows(points, vertices, polygons, absolute):
     """Points within ``absolute`` of a face: their face's bilinear or linear weights.
 
     Returns (b,) point indices and their (b, n) rows; the nearest face wins.
@@ -217,64 +217,3 @@ def restore_linear_precision(coordinates, vertices, points):
     correction = (coordinates @ affine.T - np.column_stack([points, np.ones(len(points))])) @ np.linalg.solve(
         affine @ affine.T, affine)
     return coordinates - correction, np.abs(correction).max(axis=1, initial=0.0)
-
-
-@checked
-def mean_value_quad_coordinates(points, vertices, polygons, outside="raise", tolerance=DEFAULT_TOLERANCE,
-                                locations=None):
-    """Mean value coordinates of a cage of quads and triangles, each quad a bilinear patch.
-
-    Quad-native: a non-planar quad is not split, so the result does not depend on a
-    diagonal or on which corner a quad lists first (docs/MATH.md, "Quad cages").
-
-    Parameters
-    ----------
-    points : (k, 3) float
-    vertices : (n, 3) float
-    polygons : (m, 3) or (m, 4) int, or a list of 3- and 4-index lists (mixed)
-        Counter-clockwise seen from outside; closed, consistently oriented.
-    outside : str
-        ``"raise"`` (OutsideCageError naming the points), ``"extrapolate"`` (the
-        formula) or ``"project"`` (the weights of the nearest point of the surface).
-    tolerance : float
-        Relative to the cage's bounding-box diagonal: points this close to a face get its
-        bilinear (quad) or linear (triangle) weights.
-    locations : (k,) int8 ndarray, optional
-        Filled with 1 inside, 0 on a face, -1 outside.
-
-    Returns
-    -------
-    coordinates : (k, n) float
-        Rows sum to 1 and reproduce the points (projected points: their nearest surface
-        point).
-
-    Examples
-    --------
-    >>> import numpy as np, gencoords
-    >>> from gencoords.tools.shapes import block_cage
-    >>> vertices, quads = block_cage(np.ones((1, 1, 1), dtype=bool))   # a unit cube, six quads
-    >>> b = gencoords.mean_value_quad_coordinates([[0.5, 0.5, 0.5]], vertices, quads)
-    >>> print(np.round(b, 6))
-    [[0.125 0.125 0.125 0.125 0.125 0.125 0.125 0.125]]
-    """
-    validate_polygons(vertices, polygons, tolerance)
-    low, high = vertices.min(axis=0), vertices.max(axis=0)
-    origin, size = 0.5 * (low + high), float(np.linalg.norm(high - low))
-    local_vertices, local_points = (vertices - origin) / size, (points - origin) / size
-    on_face, face_rows = _boundary_rows(local_points, local_vertices, polygons, tolerance)
-    rest = np.setdiff1d(np.arange(len(points)), on_face)
-    weights, solid = integrated_weights(local_points[rest], local_vertices, polygons)
-    away = rest[solid < 2.0 * np.pi]  # the winding number under 1/2
-    if outside == "raise" and len(away):
-        raise OutsideCageError(away, len(points))
-    result = np.empty((len(points), len(vertices)))
-    result[rest], _ = restore_linear_precision(weights / weights.sum(axis=1, keepdims=True), local_vertices,
-                                               local_points[rest])
-    result[on_face] = face_rows
-    if outside == "project" and len(away):
-        nearest, rows = _boundary_rows(local_points[away], local_vertices, polygons, np.inf)
-        result[away[nearest]] = rows
-    if locations is not None:
-        locations[:] = 1
-        locations[on_face], locations[away] = 0, -1
-    return result

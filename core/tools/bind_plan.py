@@ -29,7 +29,8 @@ from ..base.grid import fit_grid
 from ..base.tolerances import LINEAR_PRECISION, ROUNDING_AMPLIFICATION, TRANSLATION_PRECISION
 from ..construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from ..construction.green import GREEN
-from ..construction.quad_cage import MEAN_VALUE_QUADS, mean_value_quad_coordinates
+from ..construction.quad_cage import MEAN_VALUE_QUADS
+from ..evaluation.quad_coordinates import mean_value_quad_coordinates
 from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
 from ..evaluation.deformation import coordinate_summary, linear_precision
@@ -536,9 +537,9 @@ def _solve(request, cage, points, workers, locations=None, field=None):
     def compute(count):
         if field is not None:
             return field.coordinates(points, outside=request.outside)
-        if request.kind == MEAN_VALUE_QUADS:  # one process: the quads' own integrals
+        if request.kind == MEAN_VALUE_QUADS:  # the quads' own integrals
             return mean_value_quad_coordinates(points, cage.vertices, request.polygons, outside=request.outside,
-                                               tolerance=request.tolerance, locations=locations)
+                                               tolerance=request.tolerance, locations=locations, workers=count)
         if request.green:  # phi and psi side by side: the slots' n + m rows
             return np.hstack(cage.green_coordinates(points, outside=request.outside, locations=locations,
                                                     workers=count))

@@ -57,7 +57,7 @@ def main():
     triangles = gencoords.tools.triangulate_quads(vertices, quads)
     points = body_points(arguments.points, seed=0)
     mean_value = lambda faces: gencoords.coordinates(points, vertices, faces, kind=MEAN_VALUE, workers=1)  # noqa: E731
-    native = lambda faces: gencoords.mean_value_quad_coordinates(points, vertices, faces)  # noqa: E731
+    native = lambda faces: gencoords.mean_value_quad_coordinates(points, vertices, faces, workers=1)  # noqa: E731
     split, quad = _best_times([lambda: mean_value(triangles), lambda: native(quads)], arguments.repeats)
     pairs = len(points) * len(quads)
     print(f"{len(vertices)}-vertex cage, {len(quads)} quads, {len(points)} points")

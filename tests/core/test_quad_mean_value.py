@@ -225,3 +225,13 @@ def test_bind_plan_stores_the_quads_coordinates():
     expected = gencoords.mean_value_quad_coordinates(points, vertices, quads)
     assert np.abs(plan.slots - expected).max() < 1e-6  # float32 slots
     assert plan.report.startswith("Mean value on quads")
+
+
+def test_workers_compute_the_same_rows():
+    vertices, polygons = _roofed_box()
+    points = _inside(vertices, 700)
+    here = gencoords.mean_value_quad_coordinates(points, vertices, polygons, workers=1)
+    fractions = []
+    spread = gencoords.mean_value_quad_coordinates(points, vertices, polygons, workers=2, progress=fractions.append)
+    assert np.array_equal(here, spread)
+    assert fractions and fractions[-1] == 1.0
