@@ -5,7 +5,7 @@ import bpy
 import numpy as np
 import pytest
 
-from scene_helpers import (add_sphere, bind, evaluated_positions, make_active, mesh_state, read_positions, update,
+from scene_helpers import (add_sphere, evaluated_positions, make_active, mesh_state, read_positions, update,
                            write_positions)
 
 CUBE = np.array([[x, y, z] for x in (-2.0, 2.0) for y in (-2.0, 2.0) for z in (-2.0, 2.0)])
@@ -22,6 +22,13 @@ def add_box_cage(name, shift=0):
     cage = bpy.data.objects.new(name, mesh)
     bpy.context.scene.collection.objects.link(cage)
     return cage
+
+
+def bind(obj, cage, kind):
+    """Bind as a pipeline script does: the settings, then the operator in temp_override."""
+    obj.gencoords.cage, obj.gencoords.kind = cage, kind
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        return bpy.ops.object.gencoords_bind()
 
 
 def move_cage_vertex(cage, vertex, offset):
@@ -72,12 +79,9 @@ def test_a_folded_quad_is_refused_naming_its_face(gc):
     move_cage_vertex(cage, 7, [-3.0, -3.0, 0.0])  # across its top quads' opposite diagonals
     obj = add_sphere(radius=0.5)
     before = mesh_state(obj)
-    obj.gencoords.cage = cage
-    obj.gencoords.kind = "MEAN_VALUE_QUADS"
     make_active(obj)
-    with bpy.context.temp_override(active_object=obj, object=obj), \
-            pytest.raises(RuntimeError, match=r"Cage .Cage. has a quad folded over itself .*\(faces [135]"):
-        bpy.ops.object.gencoords_bind()
+    with pytest.raises(RuntimeError, match=r"Cage .Cage. has a quad folded over itself .*\(faces [135]"):
+        bind(obj, cage, "MEAN_VALUE_QUADS")
     after = mesh_state(obj)
     np.testing.assert_array_equal(after[0], before[0])
     assert after[1] == before[1] and not obj.modifiers
