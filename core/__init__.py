@@ -30,12 +30,12 @@ from .evaluation.barycentric import coordinates, green_coordinates, needs_convex
 from .evaluation.cage import Cage
 from .evaluation.deformation import deform
 from .surfaces.named import KIND_TABLE
-from .harmonic import HarmonicField, harmonic_coordinates, harmonic_field
+from .harmonic import HarmonicField, harmonic_coordinates, harmonic_field, harmonic_quad_field
 from . import advanced, tools  # noqa: E402  (the named sub-APIs, after the names they use)
 
 __all__ = [
     "Cage", "coordinates", "weights", "point_locations", "deform", "green_coordinates", "green_deform",
-    "harmonic_coordinates", "harmonic_field", "HarmonicField", "mean_value_quad_coordinates", "MEAN_VALUE_QUADS",
+    "harmonic_coordinates", "harmonic_field", "harmonic_quad_field", "HarmonicField", "mean_value_quad_coordinates", "MEAN_VALUE_QUADS",
     "KIND_TABLE", "needs_convex",
     "INSIDE", "BOUNDARY", "OUTSIDE", "DEFAULT_TOLERANCE",
     "CageError", "OutsideCageError", "WorkerError", "WorkerWarning", "AccuracyWarning",

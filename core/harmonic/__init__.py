@@ -8,6 +8,6 @@ slabs, iterative), ``solve`` (every cage vertex's Shortley-Weller problem),
 reweighted to place their points exactly), ``field`` (the public :class:`HarmonicField`).
 """
 
-from .field import DEFAULT_RESOLUTION, HarmonicField, harmonic_coordinates, harmonic_field
+from .field import DEFAULT_RESOLUTION, HarmonicField, harmonic_coordinates, harmonic_field, harmonic_quad_field
 
-__all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]
+__all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_quad_field", "harmonic_coordinates"]

@@ -9,13 +9,14 @@ from ..base.errors import CageError, OutsideCageError
 from ..base.inputs import checked
 from ..construction.boundary import inside_by_grid
 from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
-from .boundary_values import nearest_boundary_points
+from ..construction.quad_cage import fan_split, validate_polygons
+from .boundary_values import between_split_and_patch, nearest_boundary_points
 from ..base.grid import fit_grid, inside_nodes, node_positions, surface_cells
 from .interpolation import CORNERS, tetrahedron
 from .reproduction import placing_largest, reproduce_points
 from .solve import NEAREST_CROSSING, SOLVER_TOLERANCE, boundary_rhs, solve_nodes
 
-__all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]
+__all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_quad_field", "harmonic_coordinates"]
 
 DEFAULT_RESOLUTION = 64
 # A point in a cell with a corner that does not place itself exactly keeps this many of
@@ -62,8 +63,9 @@ class HarmonicField:
     ----------
     vertices : (n, 3) float
         The cage's vertices (world units, as given).
-    faces : (m, 3) int
-        Its triangles.
+    faces : (m, 3) or (m, 4) int
+        Its triangles, or (:func:`gencoords.harmonic_quad_field`) its triangles and
+        quads, a triangle's fourth index -1.
     resolution : int
         Cells along the longest side of the cage's box.
     origin : (3,) float
@@ -284,7 +286,7 @@ class HarmonicField:
         columns, barycentric, distance = nearest_boundary_points(local, vertices, self.faces, 2.0 * spacing)
         nearest = np.einsum("bc,bcN->bN", barycentric, vertices[columns])
         hat = np.zeros_like(rows)
-        np.put_along_axis(hat, columns, barycentric, axis=1)
+        np.add.at(hat, (np.arange(len(hat))[:, None], columns), barycentric)  # a padding column adds 0
         direction = (local - nearest) / np.where(distance > 0.0, distance, 1.0)[:, None]
         on = distance <= self._exact
         rows[on] = hat[on]
@@ -314,9 +316,15 @@ class HarmonicField:
         return result
 
 
-def _grid_nodes(grid, corners, tolerance):
-    """The kept nodes and what is known of them before the solve: dict of arrays."""
+def _grid_nodes(grid, corners, tolerance, vertices, polygons=None):
+    """The kept nodes and what is known of them before the solve: dict of arrays. With
+    ``polygons`` (``corners`` their :func:`fan_split`'s) a node between a quad's two
+    triangles and its patch is inside or outside as the patch has it."""
     inside = inside_nodes(grid, corners)
+    if polygons is not None:
+        every = np.argwhere(np.ones(grid.shape, dtype=bool))
+        inside ^= between_split_and_patch(node_positions(grid, every), vertices, polygons).reshape(grid.shape)
+        corners = vertices[np.where(polygons >= 0, polygons, polygons[:, :1])]  # a quad's box, not its halves'
     surface = surface_cells(grid, corners, tolerance)
     kept = _cell_corners_any(surface | _cells_with_a_corner(inside))
     ids = np.full(grid.shape, -1, dtype=np.int64)
@@ -338,8 +346,8 @@ def _boundary_nodes(grid, parts, vertices, faces):
     -------
     measured : (b,) int
         The nodes measured: those outside and those at cells the surface may cross.
-    columns, values : (b, 3) int, (b, 3) float
-        Their nearest boundary point's hat values.
+    columns, values : (b, w) int, (b, w) float
+        Their nearest boundary point's hat values (w: the faces' width).
     solved : (g,) bool
     """
     measured = np.flatnonzero(~parts["inside"] | parts["near_surface"])
@@ -472,22 +480,71 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     if prepared.dimension != 3:
         raise CageError("bad_faces", f"harmonic coordinates need a 3D triangle cage, got a "
                                      f"{prepared.dimension}D one")
+    return _solved_field(prepared, vertices, faces, None, resolution, progress, workers, solver_tolerance, tolerance)
+
+
+@checked
+def harmonic_quad_field(vertices, polygons, resolution=DEFAULT_RESOLUTION, tolerance=DEFAULT_TOLERANCE,
+                        progress=None, workers=None, solver_tolerance=SOLVER_TOLERANCE):
+    """:func:`harmonic_field` of a cage of quads and triangles, each quad its bilinear
+    patch: on it the boundary values are its bilinear hats, so the field does not depend
+    on how a quad would be split, nor on which corner it lists first (docs/MATH.md,
+    "Harmonic coordinates on quads").
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    polygons : (m, 4) int, or a list of 3- and 4-index lists
+        Triangles and quads, counter-clockwise seen from outside; a triangle's fourth -1.
+    resolution, tolerance, progress, workers, solver_tolerance
+        As :func:`harmonic_field`.
+
+    Returns
+    -------
+    field : HarmonicField
+        Its ``faces`` the (m, 4) polygons.
+
+    Raises
+    ------
+    CageError
+        Not closed, manifold and outward, or a quad folded over itself (named).
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> vertices, quads = gencoords.tools.shapes.block_cage(np.ones((1, 1, 1), dtype=bool))
+    >>> field = gencoords.harmonic_quad_field(vertices, quads, resolution=8)
+    >>> print(field.coordinates([[0.5, 0.5, 0.5]]).round(3))  # the cube's centre
+    [[0.125 0.125 0.125 0.125 0.125 0.125 0.125 0.125]]
+    """
+    validate_polygons(vertices, polygons, tolerance)
+    triangles = fan_split(polygons)[0]
+    prepared = validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
+    return _solved_field(prepared, vertices, triangles, polygons, resolution, progress, workers, solver_tolerance,
+                         tolerance)
+
+
+def _solved_field(prepared, vertices, triangles, polygons, resolution, progress, workers, solver_tolerance,
+                  tolerance):
+    """The field of a validated cage: its ``triangles`` (the inside nodes, the workers'
+    cage) and the faces boundary values are taken on, ``polygons`` where given."""
+    faces = triangles if polygons is None else polygons
     grid = fit_grid(prepared.vertices, resolution)
     local = prepared.vertices
-    parts = _grid_nodes(grid, local[faces], tolerance * prepared.size)
+    parts = _grid_nodes(grid, local[triangles], tolerance * prepared.size, local, polygons)
     measured, columns, values, solved = _boundary_nodes(grid, parts, local, faces)
     hat_ids = np.full(grid.shape, -1, dtype=np.int64)
     hat_ids[tuple(parts["indices"][measured].T)] = np.arange(len(measured))
     unknowns = np.zeros(grid.shape, dtype=bool)
     unknowns[tuple(parts["indices"][solved].T)] = True
     rhs = boundary_rhs(unknowns, grid, local, faces, hat_ids, columns, values)
-    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, faces), solver_tolerance,
+    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, triangles), solver_tolerance,
                                                progress=progress, workers=workers)
     coordinates = np.zeros((len(parts["indices"]), len(local)))
     coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
     del result
     fixed = np.flatnonzero(~solved[measured])
-    coordinates[measured[fixed, None], columns[fixed]] = values[fixed]
+    np.add.at(coordinates, (measured[fixed, None], columns[fixed]), values[fixed])  # a padding column adds 0
     parts["coordinates"], parts["inside"] = coordinates, solved
     parts["exact_within"] = _EXACT * np.linalg.norm(np.ptp(local, axis=0))
     parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, grid,
