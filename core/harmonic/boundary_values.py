@@ -309,6 +309,8 @@ def between_split_and_patch(positions, vertices, polygons):
     bent = np.abs(np.einsum("qN,qN->q", twist, normal)) > 1e-12 * np.einsum("qN,qN->q", normal, normal)
     corners, normal = corners[bent], normal[bent]  # flat quads: the patch is its two triangles
     flips = np.zeros(len(positions), dtype=bool)
+    if not len(corners):
+        return flips
     node, face = _candidate_pairs(positions, corners, 0.0)
     for start in range(0, len(node), _PAIR_CHUNK):
         rows, chosen = node[start:start + _PAIR_CHUNK], face[start:start + _PAIR_CHUNK]
