@@ -13,7 +13,7 @@ from ..core.tools.bind_plan import HARMONIC
 HARMONIC_LABEL = "Harmonic"  # short: the Properties editor's default width shows it whole
 HARMONIC_DESCRIPTION = ("Local, positive: never negative in any closed cage, and, as Mesh Deform, moving one "
                         "limb's cage moves that limb alone. Solved on a grid (Resolution); stored "
-                        "sparse by default")
+                        "sparse by default. Quads are taken whole, as curved patches")
 MEAN_VALUE_QUADS_LABEL = "Quad Mean Value"
 MEAN_VALUE_QUADS_DESCRIPTION = ("For quad cages: mean value with each quad as its own curved patch, not split in "
                                 "two, so a bent quad moves the mesh the same whichever corner it starts from. "
@@ -86,5 +86,6 @@ def is_harmonic(identifier):
 
 
 def reads_quads(identifier):
-    """Whether a kind (enum identifier or core name) reads the cage's quads, unsplit."""
-    return core_name(identifier) == MEAN_VALUE_QUADS
+    """Whether a kind (enum identifier or core name) reads the cage's quads, unsplit: Quad
+    Mean Value, and Harmonic (each quad's boundary values its bilinear patch's)."""
+    return core_name(identifier) in (MEAN_VALUE_QUADS, HARMONIC)

@@ -34,7 +34,7 @@ from ..evaluation.quad_coordinates import mean_value_quad_coordinates
 from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
 from ..evaluation.deformation import coordinate_summary, linear_precision
-from ..harmonic import harmonic_field
+from ..harmonic import harmonic_field, harmonic_quad_field
 from . import compact, sparse
 from .report import coordinate_report
 
@@ -194,7 +194,7 @@ class BindRequest:
     # back to its own process where workers fail (it then passes 1 on later calls).
     run: Callable = _in_this_process
     # (m, 4) int: the cage's faces, a triangle's fourth index -1: mean value on quads
-    # (MEAN_VALUE_QUADS) reads them, not the triangles.
+    # (MEAN_VALUE_QUADS) and, given them, harmonic coordinates read them, not the triangles.
     polygons: Optional[np.ndarray] = None
 
     @property
@@ -665,8 +665,11 @@ def _plan(points, cage, request):
     field = None
     if request.harmonic:  # solved once, on the grid; the points look it up
         def solve(progress):
-            return request.run(lambda count: harmonic_field(
-                cage.vertices, cage.faces, resolution=request.resolution, tolerance=request.tolerance,
+            # Given the cage's polygons, each quad is its bilinear patch (harmonic_quad_field).
+            solver, faces = ((harmonic_field, cage.faces) if request.polygons is None
+                             else (harmonic_quad_field, request.polygons))
+            return request.run(lambda count: solver(
+                cage.vertices, faces, resolution=request.resolution, tolerance=request.tolerance,
                 progress=progress, workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers)
 
         nodes = int(np.prod(fit_grid(cage.vertices, request.resolution).shape))
@@ -742,7 +745,8 @@ def _report(request, cage, field=None):
     if request.kind == MEAN_VALUE_QUADS:
         return "Mean value on quads: each quad its bilinear patch, whichever corner it starts from; any closed cage"
     if field is not None:
-        return (f"Harmonic: local, never negative; any closed cage (resolution {field.resolution}: "
+        patches = ", each quad its bilinear patch" if field.faces.shape[1] == 4 else ""
+        return (f"Harmonic: local, never negative; any closed cage{patches} (resolution {field.resolution}: "
                 f"{len(field.node_coordinates)} grid nodes)")
     return coordinate_report(cage.vertices, cage.faces, request.kind, gamma=request.gamma,
                              samples=REPORT_SAMPLES, tolerance=request.tolerance).headline

@@ -1,5 +1,5 @@
-"""Quad Mean Value through the operator: a box cage's quads bound as quads, so the mesh
-does not depend on which corner each quad lists first (issue 36)."""
+"""Quad Mean Value and Harmonic through the operator: a box cage's quads bound as quads,
+so the mesh does not depend on which corner each quad lists first (issue 36)."""
 
 import bpy
 import numpy as np
@@ -59,6 +59,19 @@ def test_quad_mean_value_does_not_depend_on_each_quads_first_corner(gc):
 def test_split_mean_value_does_depend_on_it(gc):  # what the quads' kind is for
     first, relabelled = bent_meshes("MEAN_VALUE")
     assert np.abs(first - relabelled).max() > 1e-2 * DIAGONAL
+
+
+def test_harmonic_does_not_depend_on_each_quads_first_corner(gc):
+    first, relabelled = bent_meshes("HARMONIC")
+    assert np.abs(first - relabelled).max() <= 1e-5 * DIAGONAL
+
+
+def test_harmonic_reads_the_quads_whole(gc):  # none split: the status counts no triangulated face
+    cage = add_box_cage("Cage")
+    obj = add_sphere()
+    assert bind(obj, cage, kind="HARMONIC") == {'FINISHED'}
+    data = gc.binding.binding(obj).data
+    assert data.kind == "harmonic" and data.cage_non_triangles == 0
 
 
 def test_the_mesh_follows_the_cages_translation(gc):
