@@ -103,10 +103,12 @@ def bilinear_parameters(points, corners):
         du = (1 - v)[:, None] * (c1 - c0) + v[:, None] * (c2 - c3)
         dv = (1 - u)[:, None] * (c3 - c0) + u[:, None] * (c2 - c1)
         miss = points - np.einsum("pi,pij->pj", bilinear_hats(u, v), corners)
-        gram = np.stack([np.stack([(du * du).sum(1), (du * dv).sum(1)], -1),
-                         np.stack([(du * dv).sum(1), (dv * dv).sum(1)], -1)], -2)
-        step = np.linalg.solve(gram, np.stack([(du * miss).sum(1), (dv * miss).sum(1)], -1)[..., None])[..., 0]
-        u, v = np.clip(u + step[:, 0], 0.0, 1.0), np.clip(v + step[:, 1], 0.0, 1.0)
+        uu, uv, vv = np.einsum("pN,pN->p", du, du), np.einsum("pN,pN->p", du, dv), np.einsum("pN,pN->p", dv, dv)
+        along_u, along_v = np.einsum("pN,pN->p", du, miss), np.einsum("pN,pN->p", dv, miss)
+        determinant = uu * vv - uv * uv  # the 2 x 2 normal equations by Cramer's rule
+        inverse = np.where(determinant > 0.0, 1.0 / np.where(determinant > 0.0, determinant, 1.0), 0.0)
+        u = np.clip(u + (vv * along_u - uv * along_v) * inverse, 0.0, 1.0)
+        v = np.clip(v + (uu * along_v - uv * along_u) * inverse, 0.0, 1.0)
     nearest = np.einsum("pi,pij->pj", bilinear_hats(u, v), corners)
     return np.stack([u, v], axis=1), np.linalg.norm(points - nearest, axis=1)
 

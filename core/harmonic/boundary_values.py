@@ -99,10 +99,31 @@ def _closest(points, corners, quad):
     return values, distance
 
 
+def _possibly_nearest(positions, corners, quad, node, facet):
+    """The (node, facet) pairs that may hold the node's nearest point. A quad's patch is
+    within a quarter of its twist (``c0 - c1 + c2 - c3``) of its two triangles, so a quad
+    whose triangles are farther than another face's by more than both quarters cannot:
+    the costlier patch distances are measured for the others alone."""
+    slack = np.where(quad, 0.25 * np.linalg.norm(corners[:, 0] - corners[:, 1] + corners[:, 2] - corners[:, 3],
+                                                 axis=1), 0.0)
+    split = np.empty(len(node))
+    for start in range(0, len(node), _PAIR_CHUNK):
+        batch = slice(start, start + _PAIR_CHUNK)
+        here, faces = positions[node[batch]], corners[facet[batch]]
+        split[batch] = np.minimum(closest_on_triangles(here, faces[:, :3])[1],
+                                  closest_on_triangles(here, faces[:, [0, 2, 3]])[1])
+    farthest = np.full(len(positions), np.inf)
+    np.minimum.at(farthest, node, split + slack[facet])
+    keep = split - slack[facet] <= farthest[node]
+    return node[keep], facet[keep]
+
+
 def _nearest(positions, corners, quad, node, facet):
     """Per node, the nearest of its candidate facets: (facet, hat values (., w), distance),
     with facet -1 and distance inf for nodes without candidates."""
     width = corners.shape[1]
+    if width == 4:
+        node, facet = _possibly_nearest(positions, corners, quad, node, facet)
     barycentric = np.empty((len(node), width))
     distance = np.empty(len(node))
     for start in range(0, len(node), _PAIR_CHUNK):
