@@ -229,6 +229,7 @@ def good_calls():
         "harmonic_field": dict(vertices=vertices, faces=faces, resolution=8),
         "mean_value_quad_coordinates": dict(points=np.array([[0.5, 0.5, 0.5], [0.3, 0.4, 0.6]]), vertices=cube,
                                             polygons=quads),
+        "harmonic_quad_field": dict(vertices=cube, polygons=quads, resolution=8),
     }
 
 
