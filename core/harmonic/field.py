@@ -308,6 +308,8 @@ class HarmonicField:
     def _inside_or_on(self, local):
         """Whether each point (frame units) is inside the cage or within the tolerance of it."""
         result, crossed = inside_by_grid(self._prepared, local, self._grid, self._cell_inside, self._surface)
+        if self.faces.shape[1] == 4:  # counted on the quads' triangles: the patches decide between
+            result[crossed] ^= between_split_and_patch(local[crossed], self._prepared.vertices, self.faces)
         near = crossed[~result[crossed]]
         if len(near):
             _, _, distance = nearest_boundary_points(local[near], self._prepared.vertices, self.faces,

@@ -85,6 +85,31 @@ def test_on_a_quad_the_boundary_values_are_its_bilinear_hats(box):
         np.testing.assert_allclose(values, np.roll(hats, -shift, axis=1), atol=1e-12)
 
 
+def test_a_point_between_a_quads_split_and_its_patch_is_where_the_patch_puts_it(box):
+    vertices, quads, fields = box
+    corners = vertices[quads]
+    twist = corners[:, 0] - corners[:, 1] + corners[:, 2] - corners[:, 3]
+    bent = int(np.argmax(np.linalg.norm(twist, axis=1)))
+    centre = corners[bent].mean(axis=0)  # the patch's centre, |twist| / 4 from either diagonal
+    inward = vertices.mean(axis=0) - centre
+    inward *= 0.08 * np.linalg.norm(twist[bent]) / np.linalg.norm(inward)
+    for field in fields:  # just inside the patch: its coordinates; just outside: refused
+        assert field.coordinates([centre + inward]).min() >= 0.0
+        with pytest.raises(gencoords.OutsideCageError):
+            field.coordinates([centre - inward])
+    split = [gencoords.harmonic_field(vertices, fan_split(np.roll(quads, -shift, axis=1))[0], resolution=8,
+                                      workers=1) for shift in (0, 1)]
+    refused = []
+    for field in split:  # the two splits disagree on one of them: the test's points are in a sliver
+        for point in (centre + inward, centre - inward):
+            try:
+                field.coordinates([point])
+                refused.append(False)
+            except gencoords.OutsideCageError:
+                refused.append(True)
+    assert refused[:2] != refused[2:]
+
+
 def test_a_triangle_cage_gives_the_same_field_as_polygons():
     vertices, quads = _bent_box(seed=4)
     triangles = fan_split(quads)[0]
