@@ -27,18 +27,20 @@ from .base.errors import AccuracyWarning, CageError, OutsideCageError, WorkerErr
 from .construction.boundary import BOUNDARY, INSIDE, OUTSIDE
 from .construction.validation import DEFAULT_TOLERANCE
 from .construction.green_deform import green_deform
+from .construction.quad_cage import MEAN_VALUE_QUADS
+from .evaluation.quad_coordinates import mean_value_quad_coordinates
 from .evaluation.barycentric import coordinates, green_coordinates, needs_convex, point_locations, weights
 from .evaluation.cage import Cage
 from .evaluation.deformation import deform
 from .surfaces.named import KIND_TABLE
-from .harmonic import HarmonicField, harmonic_coordinates, harmonic_field
+from .harmonic import HarmonicField, harmonic_coordinates, harmonic_field, harmonic_quad_field
 from . import advanced, cages, planning, reports, skinning, storage  # noqa: E402  (the named sub-APIs)
 
 SUB_APIS = (advanced, cages, reports, storage, skinning, planning)  # each lists its names in __all__
 
 __all__ = [
     "Cage", "coordinates", "weights", "point_locations", "deform", "green_coordinates", "green_deform",
-    "harmonic_coordinates", "harmonic_field", "HarmonicField",
+    "harmonic_coordinates", "harmonic_field", "harmonic_quad_field", "HarmonicField", "mean_value_quad_coordinates", "MEAN_VALUE_QUADS",
     "KIND_TABLE", "needs_convex",
     "INSIDE", "BOUNDARY", "OUTSIDE", "DEFAULT_TOLERANCE",
     "CageError", "OutsideCageError", "WorkerError", "WorkerWarning", "AccuracyWarning",

@@ -7,18 +7,26 @@ kinds (``core.KIND_TABLE``) is the one list of them, with Green coordinates afte
 
 from .. import core
 from ..core.construction.green import GREEN, GREEN_DESCRIPTION, GREEN_LABEL
+from ..core.construction.quad_cage import MEAN_VALUE_QUADS
 from ..core.storage import Storage
 from ..core.surfaces.named import HARMONIC
 
 HARMONIC_LABEL = "Harmonic"  # short: the Properties editor's default width shows it whole
 HARMONIC_DESCRIPTION = ("Local, positive: never negative in any closed cage, and, as Mesh Deform, moving one "
                         "limb's cage moves that limb alone. Solved on a grid (Resolution); stored "
-                        "sparse by default")
+                        "sparse by default. Quads are taken whole, as curved patches")
+MEAN_VALUE_QUADS_LABEL = "Quad Mean Value"
+MEAN_VALUE_QUADS_DESCRIPTION = ("For quad cages: mean value with each quad as its own curved patch, not split in "
+                                "two, so a bent quad moves the mesh the same whichever corner it starts from. "
+                                "Quads and triangles; larger faces are split")
 # The paper's kinds, then Green coordinates (not a generating surface: the core keeps
 # them out of its table, and the deformer adds the cage's face terms for them) and
-# harmonic coordinates (solved on a grid: gencoords.harmonic_field).
+# harmonic coordinates (solved on a grid: gencoords.harmonic_field), then mean value on quads
+# (gencoords.mean_value_quad_coordinates: the cage's faces, not its triangles). Last: a
+# saved file stores a kind by its position.
 KIND_ITEMS = tuple((kind.name.upper(), kind.label, kind.description) for kind in core.KIND_TABLE) + (
-    (GREEN.upper(), GREEN_LABEL, GREEN_DESCRIPTION), (HARMONIC.upper(), HARMONIC_LABEL, HARMONIC_DESCRIPTION))
+    (GREEN.upper(), GREEN_LABEL, GREEN_DESCRIPTION), (HARMONIC.upper(), HARMONIC_LABEL, HARMONIC_DESCRIPTION),
+    (MEAN_VALUE_QUADS.upper(), MEAN_VALUE_QUADS_LABEL, MEAN_VALUE_QUADS_DESCRIPTION))
 DEFAULT_KIND = "MEAN_VALUE"
 OUTSIDE_ITEMS = (
     ("RAISE", "Report Error", "Refuse to bind when mesh vertices lie outside the cage"),
@@ -63,7 +71,7 @@ def kind_label(name):
 
 def kind_parameter(identifier):
     """The name of the kind's parameter ('gamma' for the power family), or None."""
-    if is_green(identifier) or is_harmonic(identifier):
+    if is_green(identifier) or is_harmonic(identifier) or reads_quads(identifier):
         return None
     return core.KIND_TABLE[core.advanced.KINDS.index(core_name(identifier))].parameter
 
@@ -76,3 +84,9 @@ def is_green(identifier):
 def is_harmonic(identifier):
     """Whether a kind (enum identifier or core name) is harmonic coordinates."""
     return core_name(identifier) == HARMONIC
+
+
+def reads_quads(identifier):
+    """Whether a kind (enum identifier or core name) reads the cage's quads, unsplit: Quad
+    Mean Value, and Harmonic (each quad's boundary values its bilinear patch's)."""
+    return core_name(identifier) in (MEAN_VALUE_QUADS, HARMONIC)

@@ -21,6 +21,8 @@ CAGE_PROBLEMS = {
                     "Select All by Trait > Non Manifold",
     "inconsistent_orientation": "has faces pointing different ways: " + RECALCULATE_NORMALS,
     "inward": "is inside out (normals point inward): " + RECALCULATE_NORMALS,
+    "folded_quad": "has a quad folded over itself (a bow-tie, or a corner pushed across the opposite "
+                   "diagonal): move the corner back, or split that quad (Face > Triangulate Faces)",
     "non_convex": "is not convex, which {kind} coordinates need: choose Mean Value or "
                   f"{HARMONIC_LABEL} (they work on any closed cage) or make the cage convex",
 }

@@ -56,7 +56,10 @@ def _faces(value, context, name="faces", width=None):
                                      + (f" for a {width}D cage" if name != "quads" and width else "")
                                      + f", got shape {array.shape}")
     limit = context.vertex_count
-    out_of_range = ((array < 0) | (array >= limit)).any(axis=1) if limit else (array < 0).any(axis=1)
+    negative = array < 0
+    if name == "polygons":  # a triangle's missing fourth corner
+        negative[:, 3] &= array[:, 3] != -1
+    out_of_range = (negative | (array >= limit)).any(axis=1) if limit else negative.any(axis=1)
     if out_of_range.any():
         first = int(np.flatnonzero(out_of_range)[0])
         upper = f"{limit - 1}" if limit else "(no upper limit)"
@@ -65,6 +68,22 @@ def _faces(value, context, name="faces", width=None):
     array = array.astype(np.int64, copy=False)
     context.faces = array
     return array
+
+
+def _polygons(value, context):
+    """Triangles and quads, mixed: (m, 3) or (m, 4) int, or a list of 3- or 4-index lists
+    -> (m, 4) int64, a triangle's fourth index -1."""
+    if context.dimension != 3:
+        raise ValueError(f"polygons need 3D vertices, got {context.dimension}D")
+    rows = value.tolist() if isinstance(value, np.ndarray) else list(value)
+    sizes = [len(row) if hasattr(row, "__len__") else 0 for row in rows]
+    wrong = [i for i, size in enumerate(sizes) if size not in (3, 4)]
+    if wrong or not rows:
+        raise CageError("bad_faces", f"polygon {wrong[0]} has {sizes[wrong[0]]} corners; give triangles and "
+                                     "quads (3 or 4 vertex indices)" if wrong else "polygons must not be empty",
+                        faces=wrong[:1])
+    padded = [list(row) + [-1] * (4 - size) for row, size in zip(rows, sizes)]
+    return _faces(np.array(padded), context, "polygons", width=4)  # integers, in range but the -1
 
 
 def _points(value, context, name="points", single=False):
@@ -303,6 +322,7 @@ CHECKS = {
     "faces": _faces,
     "facets": lambda value, context: _faces(value, context, "facets"),
     "quads": lambda value, context: _faces(value, context, "quads", width=4),
+    "polygons": _polygons,
     "phi": lambda value, context: _green_part(value, context, "phi"),
     "psi": lambda value, context: _green_part(value, context, "psi"),
     "points": _points,

@@ -10,6 +10,6 @@ reweighted to place their points exactly), ``field`` (the public :class:`Harmoni
 """
 
 from .field import DEFAULT_RESOLUTION, HarmonicField
-from .grid_field import harmonic_coordinates, harmonic_field
+from .grid_field import harmonic_coordinates, harmonic_field, harmonic_quad_field
 
-__all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_coordinates"]
+__all__ = ["DEFAULT_RESOLUTION", "HarmonicField", "harmonic_field", "harmonic_quad_field", "harmonic_coordinates"]

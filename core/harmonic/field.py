@@ -10,7 +10,7 @@ import numpy as np
 from ..base.errors import OutsideCageError
 from ..base.inputs import checked
 from ..construction.boundary import inside_by_grid
-from .boundary_values import nearest_boundary_points
+from .boundary_values import between_split_and_patch, nearest_boundary_points
 from ..base.grid import node_positions
 from .interpolation import tetrahedron
 from .reproduction import placing_largest
@@ -41,8 +41,9 @@ class HarmonicField:
     ----------
     vertices : (n, 3) float
         The cage's vertices (world units, as given).
-    faces : (m, 3) int
-        Its triangles.
+    faces : (m, 3) or (m, 4) int
+        Its triangles, or (:func:`gencoords.harmonic_quad_field`) its triangles and
+        quads, a triangle's fourth index -1.
     resolution : int
         Cells along the longest side of the cage's box.
     origin : (3,) float
@@ -263,7 +264,7 @@ class HarmonicField:
         columns, barycentric, distance = nearest_boundary_points(local, vertices, self.faces, 2.0 * spacing)
         nearest = np.einsum("bc,bcN->bN", barycentric, vertices[columns])
         hat = np.zeros_like(rows)
-        np.put_along_axis(hat, columns, barycentric, axis=1)
+        np.add.at(hat, (np.arange(len(hat))[:, None], columns), barycentric)  # a padding column adds 0
         direction = (local - nearest) / np.where(distance > 0.0, distance, 1.0)[:, None]
         on = distance <= self._exact
         rows[on] = hat[on]
@@ -285,6 +286,8 @@ class HarmonicField:
     def _inside_or_on(self, local):
         """Whether each point (frame units) is inside the cage or within the tolerance of it."""
         result, crossed = inside_by_grid(self._prepared, local, self._grid, self._cell_inside, self._surface)
+        if self.faces.shape[1] == 4:  # counted on the quads' triangles: the patches decide between
+            result[crossed] ^= between_split_and_patch(local[crossed], self._prepared.vertices, self.faces)
         near = crossed[~result[crossed]]
         if len(near):
             _, _, distance = nearest_boundary_points(local[near], self._prepared.vertices, self.faces,

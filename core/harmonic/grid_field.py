@@ -10,15 +10,16 @@ import numpy as np
 from ..base.errors import CageError
 from ..base.grid import fit_grid, inside_nodes, node_positions, surface_cells
 from ..base.inputs import checked
+from ..construction.quad_cage import fan_split, validate_polygons
 from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 from . import field
-from .boundary_values import nearest_boundary_points
+from .boundary_values import between_split_and_patch, nearest_boundary_points
 from .field import CUT_SUPPORT, DEFAULT_RESOLUTION, HarmonicField, _WIDENING, _nearest_exact_nodes
 from .interpolation import CORNERS
 from .reproduction import placing_largest, reproduce_points
 from .solve import NEAREST_CROSSING, SOLVER_TOLERANCE, boundary_rhs, solve_nodes
 
-__all__ = ["harmonic_field", "harmonic_coordinates"]
+__all__ = ["harmonic_field", "harmonic_quad_field", "harmonic_coordinates"]
 
 # Newton steps for widened Dirichlet nodes: those that can be reached are within a dozen;
 # the others (beyond a convex part of the cage) would spend the full count for nothing.
@@ -43,9 +44,15 @@ def _cells_with_a_corner(nodes):
     return cells
 
 
-def _grid_nodes(grid, corners, tolerance):
-    """The kept nodes and what is known of them before the solve: dict of arrays."""
+def _grid_nodes(grid, corners, tolerance, vertices, polygons=None):
+    """The kept nodes and what is known of them before the solve: dict of arrays. With
+    ``polygons`` (``corners`` their :func:`fan_split`'s) a node between a quad's two
+    triangles and its patch is inside or outside as the patch has it."""
     inside = inside_nodes(grid, corners)
+    if polygons is not None:
+        every = np.argwhere(np.ones(grid.shape, dtype=bool))
+        inside ^= between_split_and_patch(node_positions(grid, every), vertices, polygons).reshape(grid.shape)
+        corners = vertices[np.where(polygons >= 0, polygons, polygons[:, :1])]  # a quad's box, not its halves'
     surface = surface_cells(grid, corners, tolerance)
     kept = _cell_corners_any(surface | _cells_with_a_corner(inside))
     ids = np.full(grid.shape, -1, dtype=np.int64)
@@ -67,8 +74,8 @@ def _boundary_nodes(grid, parts, vertices, faces):
     -------
     measured : (b,) int
         The nodes measured: those outside and those at cells the surface may cross.
-    columns, values : (b, 3) int, (b, 3) float
-        Their nearest boundary point's hat values.
+    columns, values : (b, w) int, (b, w) float
+        Their nearest boundary point's hat values (w: the faces' width).
     solved : (g,) bool
     """
     measured = np.flatnonzero(~parts["inside"] | parts["near_surface"])
@@ -166,27 +173,76 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     >>> field.node_coordinates.shape[1], bool(field.node_coordinates.min() >= 0.0)
     (42, True)
     """
-    resolution = field.DEFAULT_RESOLUTION if resolution is None else resolution
     prepared = validate_cage(vertices, faces, convex=False, tolerance=tolerance)
     if prepared.dimension != 3:
         raise CageError("bad_faces", f"harmonic coordinates need a 3D triangle cage, got a "
                                      f"{prepared.dimension}D one")
+    return _solved_field(prepared, vertices, faces, None, resolution, progress, workers, solver_tolerance, tolerance)
+
+
+@checked
+def harmonic_quad_field(vertices, polygons, resolution=DEFAULT_RESOLUTION, tolerance=DEFAULT_TOLERANCE,
+                        progress=None, workers=None, solver_tolerance=SOLVER_TOLERANCE):
+    """:func:`harmonic_field` of a cage of quads and triangles, each quad its bilinear
+    patch: on it the boundary values are its bilinear hats, so the field does not depend
+    on how a quad would be split, nor on which corner it lists first (docs/MATH.md,
+    "Harmonic coordinates on quads").
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+    polygons : (m, 4) int, or a list of 3- and 4-index lists
+        Triangles and quads, counter-clockwise seen from outside; a triangle's fourth -1.
+    resolution, tolerance, progress, workers, solver_tolerance
+        As :func:`harmonic_field`.
+
+    Returns
+    -------
+    field : HarmonicField
+        Its ``faces`` the (m, 4) polygons.
+
+    Raises
+    ------
+    CageError
+        Not closed, manifold and outward, or a quad folded over itself (named).
+
+    Examples
+    --------
+    >>> import numpy as np, gencoords
+    >>> vertices, quads = gencoords.cages.shapes.block_cage(np.ones((1, 1, 1), dtype=bool))
+    >>> field = gencoords.harmonic_quad_field(vertices, quads, resolution=8)
+    >>> print(field.coordinates([[0.5, 0.5, 0.5]]).round(3))  # the cube's centre
+    [[0.125 0.125 0.125 0.125 0.125 0.125 0.125 0.125]]
+    """
+    validate_polygons(vertices, polygons, tolerance)
+    triangles = fan_split(polygons)[0]
+    prepared = validate_cage(vertices, triangles, convex=False, tolerance=tolerance)
+    return _solved_field(prepared, vertices, triangles, polygons, resolution, progress, workers, solver_tolerance,
+                         tolerance)
+
+
+def _solved_field(prepared, vertices, triangles, polygons, resolution, progress, workers, solver_tolerance,
+                  tolerance):
+    """The field of a validated cage: its ``triangles`` (the inside nodes, the workers'
+    cage) and the faces boundary values are taken on, ``polygons`` where given."""
+    resolution = field.DEFAULT_RESOLUTION if resolution is None else resolution
+    faces = triangles if polygons is None else polygons
     grid = fit_grid(prepared.vertices, resolution)
     local = prepared.vertices
-    parts = _grid_nodes(grid, local[faces], tolerance * prepared.size)
+    parts = _grid_nodes(grid, local[triangles], tolerance * prepared.size, local, polygons)
     measured, columns, values, solved = _boundary_nodes(grid, parts, local, faces)
     hat_ids = np.full(grid.shape, -1, dtype=np.int64)
     hat_ids[tuple(parts["indices"][measured].T)] = np.arange(len(measured))
     unknowns = np.zeros(grid.shape, dtype=bool)
     unknowns[tuple(parts["indices"][solved].T)] = True
     rhs = boundary_rhs(unknowns, grid, local, faces, hat_ids, columns, values)
-    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, faces), solver_tolerance,
+    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, triangles), solver_tolerance,
                                                progress=progress, workers=workers)
     coordinates = np.zeros((len(parts["indices"]), len(local)))
     coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
     del result
     fixed = np.flatnonzero(~solved[measured])
-    coordinates[measured[fixed, None], columns[fixed]] = values[fixed]
+    np.add.at(coordinates, (measured[fixed, None], columns[fixed]), values[fixed])  # a padding column adds 0
     parts["coordinates"], parts["inside"] = coordinates, solved
     parts["exact_within"] = _EXACT * np.linalg.norm(np.ptp(local, axis=0))
     parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, grid,

@@ -64,10 +64,11 @@ def boundary_rhs(inside, grid, vertices, triangles, node_ids, hat_columns, hat_v
         The unknowns (row order: ``np.argwhere(inside)``).
     grid : Grid
     vertices : (n, 3) float
-    triangles : (m, 3) int
+    triangles : (m, w) int
+        Triangles (w = 3) or polygons (w = 4: :mod:`.boundary_values`).
     node_ids, hat_columns, hat_values
         Each Dirichlet node's row (-1 where none) in its nearest boundary point's hat
-        values (b, 3): used, with theta 1, where the edge to it does not cross the cage
+        values (b, w): used, with theta 1, where the edge to it does not cross the cage
         (an inside Dirichlet node, on the cage to within ``NEAREST_CROSSING``).
 
     Returns
@@ -96,7 +97,7 @@ def boundary_rhs(inside, grid, vertices, triangles, node_ids, hat_columns, hat_v
     weight = 1.0 / np.where(found, np.maximum(fraction, NEAREST_CROSSING), 1.0)
     diagonal = np.full(len(nodes), 6.0)
     np.add.at(diagonal, rows, weight - 1.0)
-    return (np.repeat(rows, 3), columns.reshape(-1), (weight[:, None] * values).reshape(-1)), diagonal
+    return (np.repeat(rows, columns.shape[1]), columns.reshape(-1), (weight[:, None] * values).reshape(-1)), diagonal
 
 
 def worker_count(workers, unknowns, column_count):

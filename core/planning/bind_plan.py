@@ -28,7 +28,7 @@ from ..base.tolerances import LINEAR_PRECISION, ROUNDING_AMPLIFICATION, TRANSLAT
 from ..construction.boundary import OUTSIDE
 from ..construction.green import GreenOutsideError
 from ..evaluation.cage import Cage
-from ..harmonic import harmonic_field
+from ..harmonic import harmonic_field, harmonic_quad_field
 from ..storage import Storage, two_level
 from ..storage.codecs import plan_codec
 from ..storage.pair_deviations import interpolated
@@ -167,8 +167,11 @@ def _plan(points, cage, request):
     field = None
     if request.harmonic:  # solved once, on the grid; the points look it up
         def solve(progress):
-            return request.run(lambda count: harmonic_field(
-                cage.vertices, cage.faces, resolution=request.resolution, tolerance=request.tolerance,
+            # Given the cage's polygons, each quad is its bilinear patch (harmonic_quad_field).
+            solver, faces = ((harmonic_field, cage.faces) if request.polygons is None
+                             else (harmonic_quad_field, request.polygons))
+            return request.run(lambda count: solver(
+                cage.vertices, faces, resolution=request.resolution, tolerance=request.tolerance,
                 progress=progress, workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers)
 
         nodes = int(np.prod(fit_grid(cage.vertices, request.resolution).shape))

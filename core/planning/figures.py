@@ -8,6 +8,8 @@ and how the kind behaves in the cage (:func:`kind_report`).
 import numpy as np
 
 from ..construction.boundary import INSIDE, OUTSIDE
+from ..construction.quad_cage import MEAN_VALUE_QUADS
+from ..evaluation.quad_coordinates import mean_value_quad_coordinates
 from ..reports.fields import coordinate_summary, linear_precision
 from ..reports.report import coordinate_report
 from ..storage import Storage
@@ -30,6 +32,9 @@ def solve_points(request, cage, points, workers, locations=None, field=None):
     def compute(count):
         if field is not None:
             return field.coordinates(points, outside=request.outside)
+        if request.kind == MEAN_VALUE_QUADS:  # the quads' own integrals
+            return mean_value_quad_coordinates(points, cage.vertices, request.polygons, outside=request.outside,
+                                               tolerance=request.tolerance, locations=locations, workers=count)
         if request.green:  # phi and psi side by side: the slots' n + m rows
             return np.hstack(cage.green_coordinates(points, outside=request.outside, locations=locations,
                                                     workers=count))
@@ -135,8 +140,11 @@ def kind_report(request, cage, field=None):
     cover those): positivity and well-definedness on a sample."""
     if request.green:
         return "Green: similarity invariant, shape-preserving; any closed cage"
+    if request.kind == MEAN_VALUE_QUADS:
+        return "Mean value on quads: each quad its bilinear patch, whichever corner it starts from; any closed cage"
     if field is not None:
-        return (f"Harmonic: local, never negative; any closed cage (resolution {field.resolution}: "
+        patches = ", each quad its bilinear patch" if field.faces.shape[1] == 4 else ""
+        return (f"Harmonic: local, never negative; any closed cage{patches} (resolution {field.resolution}: "
                 f"{len(field.node_coordinates)} grid nodes solved)")
     return coordinate_report(cage.vertices, cage.faces, request.kind, gamma=request.gamma,
                              samples=REPORT_SAMPLES, tolerance=request.tolerance).headline

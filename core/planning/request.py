@@ -94,6 +94,9 @@ class BindRequest:
     # ``run(compute, workers)`` calls ``compute(workers)``: a front end's hook to fall
     # back to its own process where workers fail (it then passes 1 on later calls).
     run: Callable = _in_this_process
+    # (m, 4) int: the cage's faces, a triangle's fourth index -1: mean value on quads
+    # (MEAN_VALUE_QUADS) and, given them, harmonic coordinates read them, not the triangles.
+    polygons: Optional[np.ndarray] = None
 
     @property
     def green(self):

@@ -16,10 +16,11 @@ from typing import Optional
 import numpy as np
 
 from ... import core
+from ...core.construction.quad_cage import validate_polygons
 from ...core.planning import bind_plan, bind_steps
 from .. import messages, preferences, storage
 from ..bind_layout import FORMAT, BindData
-from ..enums import is_green
+from ..enums import is_green, reads_quads
 from ..errors import BindError
 from ..steps import run_to_end
 from . import commit
@@ -86,7 +87,8 @@ class BindJob:
             kind=settings.kind, outside=settings.outside, gamma=settings.gamma, storage=settings.storage,
             compact_size=settings.compact_size, sparse_size=settings.sparse_size,
             resolution=settings.resolution, workers=self.workers,
-            tolerance=FLOAT32_TOLERANCE, origins=self.input.origins, run=run)
+            tolerance=FLOAT32_TOLERANCE, origins=self.input.origins, run=run,
+            polygons=self.input.polygons if reads_quads(settings.kind) else None)
 
     def record(self, plan):
         """What the plan writes (``self.result``): the arrays and the bind data."""
@@ -105,6 +107,8 @@ class BindJob:
         early (a cancel) stops the core's worker processes and leaves nothing behind.
         """
         try:
+            if reads_quads(self.settings.kind):  # named as the cage's faces, before the split is checked
+                validate_polygons(self.input.cage_vertices, self.input.polygons, FLOAT32_TOLERANCE)
             yield from bind_steps.plan_steps(self, self.fallback)
         except core.OutsideCageError:
             raise BindError(self._outside_message()) from None
@@ -123,8 +127,8 @@ class BindJob:
         if isinstance(error, core.CageError) and error.problem == "non_convex":
             dented = np.unique(scene.triangle_faces[core.advanced.concave_facets(
                 scene.cage_vertices, scene.triangles, FLOAT32_TOLERANCE)])
-        return messages.core_error(self.cage.name, error, self.kind_label, len(scene.points),
-                                   scene.triangle_faces, dented)
+        faces = scene.polygon_faces if self.request.polygons is not None else scene.triangle_faces
+        return messages.core_error(self.cage.name, error, self.kind_label, len(scene.points), faces, dented)
 
     def _imprecise_message(self, error):
         settings, error_size = self.settings, bind_plan.short_number(error.error)

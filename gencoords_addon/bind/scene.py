@@ -15,7 +15,7 @@ from ...core.planning import bind_steps
 from .. import messages
 from ..blender_io import compat, mesh_io
 from ..blender_io.mesh_io import zero_scale_axes
-from ..enums import core_name, is_green, is_harmonic, kind_label, kind_parameter
+from ..enums import core_name, is_green, is_harmonic, kind_label, kind_parameter, reads_quads
 from ..errors import BindError
 from ..graph import deformer, helpers
 from .bindings import drives, is_deleted
@@ -65,7 +65,9 @@ class BindInput:
     rest_cage: np.ndarray  # (n, 3) float32, mesh-local, as Object Info gives it
     origins: np.ndarray  # (2, 3) float64: the mesh's and the cage's origins, in that space
     faces_hash: str  # mesh_io.faces_hash of the cage
-    non_triangles: int  # the cage's quads and n-gons
+    non_triangles: int  # the cage's faces split into triangles: quads and n-gons (quad kinds: n-gons)
+    polygons: np.ndarray  # (p, 4) int: the cage's triangles and quads (mesh_io.read_polygons)
+    polygon_faces: np.ndarray  # (p,) int: the cage face each polygon comes from
 
 
 def check_inputs(obj):
@@ -165,5 +167,8 @@ def read_bind_input(obj, settings, context):
         if settings.outside == 'extrapolate':
             raise BindError(messages.no_extrapolation(settings.kind_label))
         points, cage_vertices, triangles, origins = bind_steps.computing_frame(*frame, local=True)
+    # Kinds reading quads split only the faces of more corners (each gives several polygons).
+    split = (int(np.count_nonzero(np.bincount(geometry.polygon_faces) > 1)) if reads_quads(settings.kind)
+             else geometry.non_triangles)
     return BindInput(points, cage_vertices, triangles, geometry.triangle_faces, rest_cage, origins,
-                     geometry.faces_hash, geometry.non_triangles)
+                     geometry.faces_hash, split, geometry.polygons, geometry.polygon_faces)

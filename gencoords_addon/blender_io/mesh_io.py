@@ -35,6 +35,29 @@ def read_triangles(mesh, positions):
     return triangles, np.concatenate([blender_faces[keep], np.repeat(quads, 2)])
 
 
+def read_polygons(mesh):
+    """The faces of ``mesh`` as triangles and quads, unsplit; faces of more corners in
+    Blender's triangulation (``loop_triangles``).
+
+    Returns
+    -------
+    polygons : (p, 4) int64
+        A triangle's fourth index is -1.
+    faces : (p,) int64
+        Index of the mesh face of each polygon.
+    """
+    starts, sizes, corners = read_faces(mesh)
+    small = np.flatnonzero(sizes <= 4)
+    polygons = np.full((len(small), 4), -1, dtype=np.int64)
+    for size in (3, 4):
+        chosen = sizes[small] == size
+        polygons[chosen, :size] = corners[starts[small[chosen], None] + np.arange(size)]
+    blender, blender_faces = read_loop_triangle_faces(mesh)
+    large = sizes[blender_faces] > 4
+    split = np.column_stack([blender[large], np.full(int(large.sum()), -1, dtype=np.int64)])
+    return np.concatenate([polygons, split]), np.concatenate([small, blender_faces[large]])
+
+
 def count_non_triangles(mesh):
     """Number of faces of ``mesh`` with more than three corners (quads and n-gons)."""
     return int(np.count_nonzero(read_face_sizes(mesh) != 3))
@@ -58,6 +81,8 @@ class CageGeometry:
     triangle_faces: np.ndarray  # (m,) int64: the mesh face each triangle comes from
     non_triangles: int  # quads and n-gons that were triangulated
     faces_hash: str  # ``faces_hash`` of the cage's faces
+    polygons: np.ndarray  # (p, 4) int64: ``read_polygons``, for the kinds that read quads
+    polygon_faces: np.ndarray  # (p,) int64: the mesh face each polygon comes from
 
 
 @contextlib.contextmanager
@@ -79,7 +104,7 @@ def read_evaluated_cage(cage, depsgraph):
     with evaluated_mesh(cage, depsgraph) as mesh:
         positions = read_positions(mesh)
         return CageGeometry(positions, *read_triangles(mesh, positions),
-                            count_non_triangles(mesh), faces_hash(mesh))
+                            count_non_triangles(mesh), faces_hash(mesh), *read_polygons(mesh))
 
 
 def zero_scale_axes(matrix):

@@ -74,6 +74,17 @@ def set_color_attribute(obj, colors, name="Color"):
     return attribute
 
 
+def wireframe(cage):
+    """A render-only copy of ``cage`` as thin struts (Workbench draws no wireframes; a
+    Wireframe modifier on the cage itself would change what the deformers read)."""
+    copy = bpy.data.objects.new(f"{cage.name} wire", cage.data.copy())
+    copy.location = cage.location
+    bpy.context.scene.collection.objects.link(copy)
+    modifier = copy.modifiers.new("Wire", 'WIREFRAME')
+    modifier.thickness, modifier.use_replace = 0.008, True
+    return copy
+
+
 def render(path):
     """Render the scene's camera view to ``path`` (PNG)."""
     path = Path(path)

@@ -51,17 +51,6 @@ def bind(mesh, cage, method):
         raise RuntimeError(f"{method} did not bind")
 
 
-def wireframe(cage):
-    """A render-only copy of ``cage`` as thin struts (Workbench draws no wireframes; a
-    Wireframe modifier on the cage itself would change what the deformers read)."""
-    copy = bpy.data.objects.new(f"{cage.name} wire", cage.data.copy())
-    copy.location = cage.location
-    bpy.context.scene.collection.objects.link(copy)
-    modifier = copy.modifiers.new("Wire", 'WIREFRAME')
-    modifier.thickness, modifier.use_replace = 0.008, True
-    return copy
-
-
 def arm_angle_change(rest, bent, triangles, labels):
     """The left arm's triangle angle changes: (mean, 99th percentile) in degrees."""
     arm = triangles[(labels[triangles] == "left_arm").all(axis=1)]
@@ -106,7 +95,7 @@ def main():
         print(f"{name:15s} left arm angle change: mean {mean:.2f}, 99th percentile {p99:.1f} degrees; "
               f"other limbs moved {moved:.1e} of the cage's diagonal")
         pictures.set_color_attribute(mesh, BODY)
-        pictures.set_color_attribute(wireframe(cage), CAGE)
+        pictures.set_color_attribute(pictures.wireframe(cage), CAGE)
         shown.append(name)
     scene = bpy.context.scene
     pictures.setup_workbench(scene, 1500, 560, lighting="STUDIO", color_type="VERTEX")

@@ -54,7 +54,8 @@ def test_installed_extension_is_enabled_with_its_api(gc):
         assert not properties[name].is_animatable, name  # read at bind time only
     assert properties["kind"].default == 'MEAN_VALUE'
     assert {item.identifier for item in properties["kind"].enum_items} == {
-        'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN', 'HARMONIC'}
+        'WACHSPRESS', 'MEAN_VALUE', 'DISCRETE_HARMONIC', 'VORONOI', 'POWER', 'GREEN', 'HARMONIC', 'MEAN_VALUE_QUADS'}
+    assert properties["kind"].enum_items['MEAN_VALUE_QUADS'].name == "Quad Mean Value"
     assert properties["kind"].enum_items['HARMONIC'].name == "Harmonic"
     assert properties["kind"].enum_items['HARMONIC'].description.startswith("Local, positive: ")
     assert {item.identifier for item in properties["storage"].enum_items} == {'AUTO', 'EXACT', 'COMPACT', 'SPARSE'}

@@ -227,6 +227,9 @@ def good_calls():
         "stretch_factors": dict(vertices=vertices, cage_positions=vertices, faces=faces),
         "harmonic_coordinates": dict(cage, resolution=8),
         "harmonic_field": dict(vertices=vertices, faces=faces, resolution=8),
+        "mean_value_quad_coordinates": dict(points=np.array([[0.5, 0.5, 0.5], [0.3, 0.4, 0.6]]), vertices=cube,
+                                            polygons=quads),
+        "harmonic_quad_field": dict(vertices=cube, polygons=quads, resolution=8),
     }
 
 
@@ -247,7 +250,7 @@ def bad_versions(array):
 NAMED_AS = {"vertices": "vert", "faces": "face", "facets": "facet", "quads": "quad", "points": "point",
             "point": "point", "c": "c must", "d": "d must", "w": "w must", "coordinates": "coordinates",
             "cage_positions": "cage_positions", "out": "out must", "values": "values", "phi": "phi",
-            "psi": "psi"}
+            "psi": "psi", "polygons": "polygon"}
 
 
 def test_every_public_function_checks_its_inputs():
