@@ -8,7 +8,9 @@ from ..base.inputs import checked
 from ..construction.quad_cage import (boundary_rows, fan_split, integrated_weights, restore_linear_precision,
                                       validate_polygons)
 from ..construction.validation import DEFAULT_TOLERANCE
-from .parallel import SharedArrays, WorkerPool, available_cores, dispatch_units, python_executable
+from .interpreters import available_cores, python_executable
+from .parallel import WorkerPool, dispatch_units
+from .shared_memory import SharedArrays
 
 __all__ = ["mean_value_quad_coordinates", "worker_count", "integrated_weights_task"]
 

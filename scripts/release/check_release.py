@@ -157,13 +157,13 @@ def workers_inside_blender(report):
     import numpy as np
 
     gencoords = importlib.import_module(f"{PACKAGE}.core")  # the extension's bundled copy
-    parallel = importlib.import_module(f"{PACKAGE}.core.evaluation.parallel")
+    interpreters = importlib.import_module(f"{PACKAGE}.core.evaluation.interpreters")
     shapes = importlib.import_module(f"{PACKAGE}.core.cages.shapes")
     vertices, faces = shapes.icosphere(2)
     points = np.random.default_rng(0).uniform(-0.5, 0.5, (5000, 3))
     report["sys.executable"] = sys.executable
     try:
-        report["worker Python"] = parallel.python_executable()
+        report["worker Python"] = interpreters.python_executable()
         with gencoords.Cage(vertices, faces) as cage:
             alone = cage.coordinates(points, workers=1)  # the default kind, mean value
             spread = cage.coordinates(points, workers=2)
