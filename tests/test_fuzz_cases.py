@@ -17,7 +17,7 @@ def test_two_hundred_seeds_try_every_step_defect_shape_and_modifier():
     drawn = [cases.case_of(seed) for seed in range(200)]
     ops = {step["op"] for case in drawn for step in case["steps"]}
     assert ops == set(cases.STEP_WEIGHTS)
-    assert {case["story"] for case in drawn} == {None, "copies", "bake", "deleted cage", "small", "flat mesh"}
+    assert {case["story"] for case in drawn} == {None, "copies", "bake", "two bakes", "deleted cage", "small", "flat mesh"}
     scenes = [case["scene"] for case in drawn]
     assert {s["cage"]["defect"] for s in scenes} == set(cases.CAGE_DEFECTS) | {None}
     assert {s["cage"]["shape"] for s in scenes} == set(cases.CAGE_SHAPES)
@@ -25,9 +25,11 @@ def test_two_hundred_seeds_try_every_step_defect_shape_and_modifier():
     assert {s["mesh"]["shape"] for s in scenes} == set(cases.MESH_SHAPES)
     binds = [step for case in drawn for step in case["steps"] if step["op"] == "bind"]
     assert {step["kind"] for step in binds} == set(cases.KINDS) and "HARMONIC" in cases.KINDS
-    # Harmonic binds on coarse grids only (a case plays in seconds), each of them drawn.
-    assert {step["resolution"] for step in binds if step["kind"] == "HARMONIC"} == set(cases.HARMONIC_RESOLUTIONS)
-    assert max(cases.HARMONIC_RESOLUTIONS) <= 16
+    # Harmonic binds on coarse grids (a case plays in seconds), each of them drawn, and now
+    # and then on a finer one (HARMONIC_FINE: the most a case's time limit allows).
+    assert ({step["resolution"] for step in binds if step["kind"] == "HARMONIC"}
+            == set(cases.HARMONIC_RESOLUTIONS) | {cases.HARMONIC_FINE})
+    assert max(cases.HARMONIC_RESOLUTIONS) <= 16 and cases.HARMONIC_FINE <= 32
     scales = [s["placement"]["scale"] for s in scenes]
     assert min(scales) < 1e-4 and max(scales) > 1e4
 
