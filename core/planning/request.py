@@ -18,10 +18,11 @@ from ..surfaces.named import HARMONIC
 __all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "BIND_RESOLUTION", "SPARSE_SIZE"]
 
 # A Bind's grid for harmonic coordinates unless asked otherwise: on the character
-# (bench_local.py, 43k vertices, 196-vertex cage) 48 cells bind in 2.9x Mesh Deform p5's
-# time, play back in 1.1x its CPU time and bend a limb 1.7 / 16.2 degrees (mean / 99th
-# percentile, against 2.5 / 14.1); 64 took 1.8x as long to bind and 32 played back in
-# 1.6x (most of its vertices are in cells at the cage: nodes of their own).
+# (bench_local.py, 43k vertices, 196-vertex cage; docs/bench_local.md) 48 cells bind in
+# 1.15x Mesh Deform p5's time, play back in 0.80x to 1.06x its CPU time and bend a limb
+# 1.81 / 15.5 degrees (mean / 99th percentile, against 2.50 / 14.1); 64 took 1.8x as long
+# to bind and 32 played back in 1.6x (most of its vertices are in cells at the cage:
+# nodes of their own).
 BIND_RESOLUTION = 48
 # The harmonic solve's relative residual in a Bind: the weights are written as float32 and
 # sparse storage drops those below about 1e-4, so 1e-10 (the core's default) would buy

@@ -127,7 +127,7 @@ class BindJob:
         if isinstance(error, core.CageError) and error.problem == "non_convex":
             dented = np.unique(scene.triangle_faces[core.advanced.concave_facets(
                 scene.cage_vertices, scene.triangles, FLOAT32_TOLERANCE)])
-        faces = scene.polygon_faces if self.request.polygons is not None else scene.triangle_faces
+        faces = scene.polygon_faces if reads_quads(self.settings.kind) else scene.triangle_faces
         return messages.core_error(self.cage.name, error, self.kind_label, len(scene.points), faces, dented)
 
     def _imprecise_message(self, error):

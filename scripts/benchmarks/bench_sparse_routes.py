@@ -6,7 +6,7 @@ pairs summing to 1; the vertex moves to ``P + sum_k w_k (C_{i_k} - R_{i_k})``. R
   GN repeat    Geometry Nodes, a Repeat Zone of K iterations (Named Attribute index and
                weight, their names made from the iteration number, Sample Index of the
                cage's displacement, multiply-add): a group of constant size, the add-on's
-               builder (``gencoords_addon/sparse_graph.py``).
+               builder (``gencoords_addon/graph/gather.py``).
   GN lane      the same four nodes in a lane group instanced K times.
   GN plain     4 nodes per slot in the binding's own group.
   Armature     Blender's Armature modifier, one translation-only bone per cage vertex held
