@@ -37,7 +37,7 @@ from . import compact, sparse
 from .report import coordinate_report
 
 __all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "plan_bind",
-           "choose_storage", "plan_bytes"]
+           "choose_storage", "plan_bytes", "probe_similarity", "similarity_deviation"]
 
 # Automatic storage is exact without measuring while its per-evaluation cost and node
 # group stay moderate: k x n multiply-adds (about 1.5 ns each on two cores) and a node
@@ -269,6 +269,10 @@ class BindPlan:
     indices: Optional[np.ndarray] = None
     node_indices: Optional[np.ndarray] = None
     node_weights: Optional[np.ndarray] = None
+    # How far the mesh as written follows a similarity of the cage (:func:`similarity_deviation`
+    # under :func:`probe_similarity`), of the cage's size; None for Green coordinates
+    # (similarity invariant by their face terms).
+    similarity_deviation: Optional[float] = None
 
     @property
     def slot_count(self):
@@ -294,7 +298,7 @@ class BindPlan:
         """The measured figures by name (what a front end stores beside the slots)."""
         names = ("storage_choice", "report", "min_coordinate", "negative_points", "max_affine_error",
                  "linear_precision", "deviation_smooth", "deviation_drag", "deviation_drag_vertex", "points_outside",
-                 "points_on_boundary", "negative_entries", "node_count", "node_slot_count")
+                 "points_on_boundary", "negative_entries", "node_count", "node_slot_count", "similarity_deviation")
         return {name: getattr(self, name) for name in names}
 
 
@@ -327,6 +331,47 @@ def plan_bytes(plan):
         triples, per_column = -(-plan.node_slot_count // 3), count // plan.node_count
         nodes = 2 * -(-triples // per_column) * count * 12
     return count * plan.slot_count * 8 + nodes
+
+
+def probe_similarity(rest):
+    """The similarity Bind probes what it writes with: the cage ``rest`` ((n, 3)) turned
+    40 degrees about a skew axis, scaled by 1.5 and moved by its diagonal.
+
+    Returns
+    -------
+    rotation : (3, 3) float64
+    scale : float
+    shift : (3,) float64
+    """
+    axis = np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0)
+    cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    angle = np.radians(40.0)
+    rotation = np.eye(3) + np.sin(angle) * cross + (1.0 - np.cos(angle)) * cross @ cross
+    diagonal = float(np.linalg.norm(np.ptp(np.asarray(rest, dtype=np.float64), axis=0)))
+    return rotation, 1.5, diagonal * np.array([0.6, -0.8, 0.0])
+
+
+def similarity_deviation(places, sums, points, rest):
+    """How far points follow :func:`probe_similarity` of the cage, of its size after the
+    move, where their coordinates as written place them at ``places`` ((k, 3):
+    ``sum_j w_j R_j``) and sum to ``sums`` ((k,)): a vertex moves to ``sum_j w_j (s Q R_j
+    + t) = s Q places + sums t`` and should be at ``s Q x + t``. A float.
+
+    >>> import numpy as np
+    >>> from gencoords.tools.bind_plan import similarity_deviation
+    >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    >>> points = np.array([[0.5, 0.5, 0.5], [0.2, 0.3, 0.4]])
+    >>> similarity_deviation(points, np.ones(2), points, cube)
+    0.0
+    >>> round(similarity_deviation(points + [1e-3, 0, 0], np.ones(2), points, cube), 6)  # 1e-3 of 1.73
+    0.000577
+    """
+    rest = np.asarray(rest, dtype=np.float64)
+    rotation, scale, shift = probe_similarity(rest)
+    followed = scale * np.asarray(places, dtype=np.float64) @ rotation.T + np.asarray(sums)[:, None] * shift
+    wanted = scale * np.asarray(points, dtype=np.float64) @ rotation.T + shift
+    size = scale * float(np.linalg.norm(np.ptp(rest, axis=0)))
+    return float(np.linalg.norm(followed - wanted, axis=1).max(initial=0.0) / size)
 
 
 def short_number(value, digits=2):
@@ -566,7 +611,7 @@ def _slots(request, cage, points, choice, workers, field=None):
     locations = np.empty(count, dtype=np.int8)
     totals = {"min": np.inf, "negative_points": 0, "negative_entries": 0, "max_affine_error": 0.0,
               "weight_magnitude": 0.0}
-    precision = 0.0
+    precision = similarity = 0.0
     smooth, drag = 0.0, np.zeros(len(cage.vertices))
     faces = cage.faces if request.green else None
     chunk = max(1, CHUNK_ENTRIES * workers // rows)
@@ -588,6 +633,7 @@ def _slots(request, cage, points, choice, workers, field=None):
         magnitudes = np.abs(weights).sum(axis=1)  # what multiplies the cage's rounding
         totals["weight_magnitude"] = max(totals["weight_magnitude"], float(magnitudes.max(initial=0.0)))
         precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
+        similarity = max(similarity, similarity_deviation(weights @ cage.vertices, sums, points[part], cage.vertices))
         residual = np.subtract(coordinates, reproduced, out=reproduced)
         chunk_smooth, chunk_drag = compact.residual_deviations(residual, cage.vertices, faces=faces)
         smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
@@ -599,7 +645,7 @@ def _slots(request, cage, points, choice, workers, field=None):
         "negative_entries": totals["negative_entries"], "max_affine_error": float(totals["max_affine_error"]),
         "linear_precision": float(precision), "deviation_smooth": float(smooth),
         "deviation_drag": float(drag.max(initial=0.0)), "deviation_drag_vertex": int(np.argmax(drag)),
-        "weight_magnitude": totals["weight_magnitude"]}
+        "weight_magnitude": totals["weight_magnitude"], "similarity_deviation": None if request.green else similarity}
 
 
 def _placed(request, stored, cage_vertices, points, locations):
@@ -786,7 +832,8 @@ def _plan_two_level(points, cage, request, rows, report):
     locations = _locations(request, cage, points)
     # Where the stored weights place each point: the nodes' places, interpolated.
     node_places = np.einsum("nk,nkc->nc", layout.node_weights.astype(np.float64), cage.vertices[layout.node_indices])
-    miss = np.linalg.norm(sparse.interpolated(node_places, layout.corners, layout.corner_weights) - points, axis=1)
+    places = sparse.interpolated(node_places, layout.corners, layout.corner_weights)
+    miss = np.linalg.norm(places - points, axis=1)
     placed = miss if request.outside != 'project' else miss[locations != OUTSIDE]
     return BindPlan(
         'SPARSE', layout.corner_weights, None, locations, reason, report,
@@ -795,4 +842,5 @@ def _plan_two_level(points, cage, request, rows, report):
         linear_precision=float(placed.max(initial=0.0) / np.linalg.norm(np.ptp(cage.vertices, axis=0))),
         deviation_smooth=layout.deviation_smooth, deviation_drag=layout.deviation_drag,
         deviation_drag_vertex=layout.deviation_drag_vertex, indices=layout.corners,
-        node_indices=layout.node_indices, node_weights=layout.node_weights)
+        node_indices=layout.node_indices, node_weights=layout.node_weights,
+        similarity_deviation=similarity_deviation(places, point_sums, points, cage.vertices))

@@ -44,6 +44,10 @@ NODE_SLOT_COUNTS = (8, 16, 24, 32, 48, 64, 96, 128)
 # coordinates deep inside a convex cage are not local (a million points in a 642-vertex
 # icosphere: 128 pairs deviate 2e-2), and there the nodes are few beside the points.
 MORE_NODE_SLOT_COUNTS, NODE_COLUMN_BUDGET = (192, 256, 384, 512), 8
+# Of the cage's diagonal: rows placed further from where their coordinates place them
+# get other pairs (:func:`placed_pairs`).
+PLACED = 1e-9
+_ADDED_PRIOR = 1e-3  # the least prior weight of a vertex added to place a row
 SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
 SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
 # The worst drag's columns are computed this many at a time (reweighted pairs leave bounds
@@ -138,9 +142,60 @@ def placed_pairs(coordinates, count, rest):
     rest = np.asarray(rest, dtype=np.float64)
     positive = np.flatnonzero((weights >= 0.0).all(axis=1))
     if count < coordinates.shape[1] and len(positive):
-        weights[positive] = reproduce_points(indices[positive], weights[positive], rest,
-                                             (coordinates @ rest)[positive])[0]
+        places = (coordinates @ rest)[positive]
+        weights[positive], residual = reproduce_points(indices[positive], weights[positive], rest, places)
+        missing = residual > PLACED * np.linalg.norm(np.ptp(rest, axis=0))
+        if missing.any():
+            rows = positive[missing]
+            indices[rows], weights[rows] = _spanning_pairs(coordinates[rows], indices[rows], weights[rows], rest,
+                                                           places[missing])
     return indices, weights
+
+
+def _spanning_pairs(coordinates, indices, weights, rest, places):
+    """Pairs that place their rows where the K largest cannot (the place outside their
+    vertices' hull: a grid node of a coarse grid in an H's crossbar): each row keeps 4
+    vertices whose hull holds its place (:func:`_carrying_vertices`) and its K - 4
+    largest others, reweighted (:func:`reproduce_points`). Rows that this does not place
+    better keep the pairs they had. Shapes as :func:`placed_pairs`' (c rows, K >= 4)."""
+    count = indices.shape[1]
+    if count < 4:
+        return indices, weights
+    trial = np.empty_like(indices)
+    for row, coordinate_row in enumerate(coordinates):
+        carrying = _carrying_vertices(coordinate_row, rest)
+        others = np.argsort(-coordinate_row, kind="stable")
+        others = others[~np.isin(others, carrying)][:count - len(carrying)]
+        trial[row] = np.concatenate([carrying, others])
+    prior = np.take_along_axis(coordinates, trial.astype(np.int64), axis=1)
+    prior = np.maximum(prior, _ADDED_PRIOR * prior.max(axis=1, keepdims=True))
+    prior /= prior.sum(axis=1, keepdims=True)
+    values, residual = reproduce_points(trial, prior, rest, places)
+    before = np.linalg.norm(places - np.einsum("rk,rkd->rd", weights, rest[indices]), axis=1)
+    better = residual < before
+    indices, weights = indices.copy(), weights.copy()
+    indices[better], weights[better] = trial[better], values[better]
+    return indices, weights
+
+
+def _carrying_vertices(row, rest):
+    """At most 4 vertices whose hull holds the place ``row @ rest`` of a non-negative
+    ``row`` ((n,) summing to 1): Caratheodory's reduction, one vertex dropped a step
+    along an affine dependency of the others. Returns (<= 4,) int."""
+    weights = np.where(row > 0.0, row, 0.0)
+    active = np.flatnonzero(weights)
+    while len(active) > 4:
+        system = np.vstack([rest[active].T, np.ones(len(active))])  # (4, m)
+        dependency = np.linalg.svd(system)[2][-1]  # system @ dependency = 0
+        if dependency.max() <= 0.0:
+            dependency = -dependency
+        rising = dependency > 0.0
+        ratios = np.where(rising, weights[active] / np.where(rising, dependency, 1.0), np.inf)
+        dropped = int(np.argmin(ratios))
+        weights[active] -= ratios[dropped] * dependency
+        weights[active[dropped]] = 0.0
+        active = np.flatnonzero(weights > 0.0)
+    return active
 
 
 def dense_weights(indices, weights, column_count):
