@@ -33,10 +33,11 @@ from ..construction.validation import DEFAULT_TOLERANCE
 from ..evaluation.cage import Cage
 from ..evaluation.deformation import coordinate_summary, linear_precision
 from ..harmonic import harmonic_field
+from ..harmonic.memory import available_memory, field_bytes, fitting_resolution
 from . import compact, sparse
 from .report import coordinate_report
 
-__all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "plan_bind",
+__all__ = ["BindRequest", "BindPlan", "GridMemoryError", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "plan_bind",
            "choose_storage", "plan_bytes", "probe_similarity", "similarity_deviation"]
 
 # Automatic storage is exact without measuring while its per-evaluation cost and node
@@ -84,6 +85,18 @@ POLL_SECONDS = 0.05
 # 970,299 nodes: many seconds), hence both bounds.
 INLINE_FIELD_PAIRS, INLINE_FIELD_NODES = 1 << 23, 1 << 16
 SPARSE_SIZE = 16  # sparse storage's pairs per vertex when asked for
+
+
+class GridMemoryError(ValueError):
+    """The harmonic grid asked for would need more memory than is free: ``needed`` bytes
+    (estimated: ``harmonic.memory.field_bytes``) against ``available``; ``resolution`` is
+    the finest that fits (0: none)."""
+
+    def __init__(self, needed, available, resolution, asked):
+        fits = f"Resolution {resolution} fits" if resolution else "no Resolution fits"
+        super().__init__(f"the harmonic grid of Resolution {asked} would need about {needed / 2**30:.1f} GiB of "
+                         f"memory, {available / 2**30:.1f} GiB are free: {fits}")
+        self.needed, self.available, self.resolution, self.asked = needed, available, resolution, asked
 
 
 class UndefinedCoordinatesError(ValueError):
@@ -188,6 +201,9 @@ class BindRequest:
     # origins), in the points' space; None: the points' own origin. Their rounding grows
     # with the cage's distance from these.
     origins: Optional[np.ndarray] = None
+    # Bytes a harmonic solve may take (None: what the system says is free); a grid that
+    # would need more is refused before it is solved (GridMemoryError).
+    memory_budget: Optional[int] = None
     # ``run(compute, workers)`` calls ``compute(workers)``: a front end's hook to fall
     # back to its own process where workers fail (it then passes 1 on later calls).
     run: Callable = _in_this_process
@@ -696,12 +712,23 @@ def plan_bind(points, cage_vertices, triangles, request):
         cage.close()
 
 
+def check_grid_memory(cage_vertices, triangles, request):
+    """Refuse a harmonic grid that would not fit in memory, before it is solved:
+    GridMemoryError with the estimate and the finest resolution that fits."""
+    budget = available_memory() if request.memory_budget is None else request.memory_budget
+    needed = field_bytes(cage_vertices, triangles, request.resolution)
+    if needed > budget:
+        raise GridMemoryError(needed, budget, fitting_resolution(cage_vertices, triangles, request.resolution, budget),
+                              request.resolution)
+
+
 def _plan(points, cage, request):
     count = len(points)
     # Workers are chosen once for the whole plan; each call gives every one a chunk.
     workers = cage.suggested_workers(count) if request.workers is None else request.workers
     field = None
     if request.harmonic:  # solved once, on the grid; the points look it up
+        check_grid_memory(cage.vertices, cage.faces, request)
         def solve(progress):
             return request.run(lambda count: harmonic_field(
                 cage.vertices, cage.faces, resolution=request.resolution, tolerance=request.tolerance,
