@@ -32,7 +32,7 @@ from . import compact
 
 __all__ = ["largest_pairs", "placed_pairs", "dense_weights", "interpolated", "deviations", "fewest_slots", "used_nodes",
            "stacked_columns", "unstacked", "layout_coordinates", "two_level_layout", "TwoLevelLayout", "SLOT_COUNTS", "NODE_SLOT_COUNTS",
-           "filled_node_slot_counts", "automatic_node_slot_counts"]
+           "filled_node_slot_counts", "automatic_node_slot_counts", "carrying_vertices"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
@@ -155,18 +155,19 @@ def placed_pairs(coordinates, count, rest):
 def _spanning_pairs(coordinates, indices, weights, rest, places):
     """Pairs that place their rows where the K largest cannot (the place outside their
     vertices' hull: a grid node of a coarse grid in an H's crossbar): each row keeps 4
-    vertices whose hull holds its place (:func:`_carrying_vertices`) and its K - 4
+    vertices whose hull holds its place (:func:`carrying_vertices`) and its K - 4
     largest others, reweighted (:func:`reproduce_points`). Rows that this does not place
     better keep the pairs they had. Shapes as :func:`placed_pairs`' (c rows, K >= 4)."""
     count = indices.shape[1]
     if count < 4:
         return indices, weights
+    carrying = carrying_vertices(coordinates, rest)  # (c, 4), -1 where fewer
+    ranked = largest_columns(coordinates, count + 4)
+    taken = (ranked[:, :, None] == carrying[:, None, :]).any(axis=2)
     trial = np.empty_like(indices)
-    for row, coordinate_row in enumerate(coordinates):
-        carrying = _carrying_vertices(coordinate_row, rest)
-        others = np.argsort(-coordinate_row, kind="stable")
-        others = others[~np.isin(others, carrying)][:count - len(carrying)]
-        trial[row] = np.concatenate([carrying, others])
+    for row in range(len(indices)):  # a few rows (those the largest missed): fixed-width merges
+        own = carrying[row][carrying[row] >= 0]
+        trial[row] = np.concatenate([own, ranked[row][~taken[row]][:count - len(own)]])
     prior = np.take_along_axis(coordinates, trial.astype(np.int64), axis=1)
     prior = np.maximum(prior, _ADDED_PRIOR * prior.max(axis=1, keepdims=True))
     prior /= prior.sum(axis=1, keepdims=True)
@@ -178,24 +179,54 @@ def _spanning_pairs(coordinates, indices, weights, rest, places):
     return indices, weights
 
 
-def _carrying_vertices(row, rest):
-    """At most 4 vertices whose hull holds the place ``row @ rest`` of a non-negative
-    ``row`` ((n,) summing to 1): Caratheodory's reduction, one vertex dropped a step
-    along an affine dependency of the others. Returns (<= 4,) int."""
-    weights = np.where(row > 0.0, row, 0.0)
-    active = np.flatnonzero(weights)
-    while len(active) > 4:
-        system = np.vstack([rest[active].T, np.ones(len(active))])  # (4, m)
-        dependency = np.linalg.svd(system)[2][-1]  # system @ dependency = 0
-        if dependency.max() <= 0.0:
-            dependency = -dependency
+def carrying_vertices(rows, rest):
+    """At most 4 vertices per row whose hull holds its place ``row @ rest``
+    (Caratheodory's reduction, all rows at once): a step takes each row's 5 smallest
+    weights, moves along their affine dependency until one is 0 and drops it.
+
+    Parameters
+    ----------
+    rows : (c, n) float
+        Non-negative, summing to 1.
+    rest : (n, 3) float
+
+    Returns
+    -------
+    (c, 4) int
+        Columns, -1 where a row weighs fewer than 4.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.sparse import carrying_vertices
+    >>> square = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0.5, 0.5, 1], [0.5, 0.5, -1]])
+    >>> row = np.full((1, 6), 1 / 6)
+    >>> kept = carrying_vertices(row, square)[0]
+    >>> len(kept), bool(np.all(kept >= 0))
+    (4, True)
+    """
+    weights = np.where(rows > 0.0, rows, 0.0)
+    points = np.asarray(rest, dtype=np.float64)
+    while True:
+        pending = np.flatnonzero((weights > 0.0).sum(axis=1) > 4)
+        if not len(pending):
+            break
+        part = weights[pending]
+        key = np.where(part > 0.0, part, np.inf)
+        five = np.argpartition(key, 4, axis=1)[:, :5]
+        system = np.concatenate([points[five].transpose(0, 2, 1), np.ones((len(pending), 1, 5))], axis=1)  # (p, 4, 5)
+        dependency = np.linalg.svd(system)[2][:, -1, :]  # system @ dependency = 0
+        dependency *= np.where(dependency.max(axis=1, keepdims=True) > 0.0, 1.0, -1.0)
+        current = np.take_along_axis(part, five, axis=1)
         rising = dependency > 0.0
-        ratios = np.where(rising, weights[active] / np.where(rising, dependency, 1.0), np.inf)
-        dropped = int(np.argmin(ratios))
-        weights[active] -= ratios[dropped] * dependency
-        weights[active[dropped]] = 0.0
-        active = np.flatnonzero(weights > 0.0)
-    return active
+        ratios = np.where(rising, current / np.where(rising, dependency, 1.0), np.inf)
+        dropped = np.argmin(ratios, axis=1)
+        updated = np.maximum(current - ratios[np.arange(len(pending)), dropped][:, None] * dependency, 0.0)
+        updated[np.arange(len(pending)), dropped] = 0.0
+        np.put_along_axis(part, five, updated, axis=1)
+        weights[pending] = part
+    kept = np.argsort(-weights, axis=1, kind="stable")[:, :4]
+    return np.where(np.take_along_axis(weights, kept, axis=1) > 0.0, kept, -1)
 
 
 def dense_weights(indices, weights, column_count):
