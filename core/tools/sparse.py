@@ -48,6 +48,7 @@ MORE_NODE_SLOT_COUNTS, NODE_COLUMN_BUDGET = (192, 256, 384, 512), 8
 # get other pairs (:func:`placed_pairs`).
 PLACED = 1e-9
 _ADDED_PRIOR = 1e-3  # the least prior weight of a vertex added to place a row
+SPANNING_WIDTH = 4  # times K: the largest coordinates a row that K cannot place is placed with first
 SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
 SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
 # The worst drag's columns are computed this many at a time (reweighted pairs leave bounds
@@ -105,7 +106,7 @@ def largest_pairs(coordinates, count):
     return indices.astype(np.int32), weights
 
 
-def placed_pairs(coordinates, count, rest):
+def placed_pairs(coordinates, count, rest, span=False):
     """:func:`largest_pairs`, reweighted to place each row where its full coordinates do.
 
     Dropping the smaller weights moves the point a row places (``sum_j w_j R_j``); rows
@@ -120,6 +121,10 @@ def placed_pairs(coordinates, count, rest):
     count : int
     rest : (n, 3) float
         The cage the coordinates were computed in.
+    span : bool
+        Rows the K largest cannot place get pairs that can (:func:`_spanning_pairs`):
+        the grid nodes of two levels, few beside the points (for every row of a mesh, a
+        cost of 5x the Bind's on mean value coordinates).
 
     Returns
     -------
@@ -145,7 +150,7 @@ def placed_pairs(coordinates, count, rest):
         places = (coordinates @ rest)[positive]
         weights[positive], residual = reproduce_points(indices[positive], weights[positive], rest, places)
         missing = residual > PLACED * np.linalg.norm(np.ptp(rest, axis=0))
-        if missing.any():
+        if span and missing.any():
             rows = positive[missing]
             indices[rows], weights[rows] = _spanning_pairs(coordinates[rows], indices[rows], weights[rows], rest,
                                                            places[missing])
@@ -154,20 +159,23 @@ def placed_pairs(coordinates, count, rest):
 
 def _spanning_pairs(coordinates, indices, weights, rest, places):
     """Pairs that place their rows where the K largest cannot (the place outside their
-    vertices' hull: a grid node of a coarse grid in an H's crossbar): each row keeps 4
-    vertices whose hull holds its place (:func:`carrying_vertices`) and its K - 4
-    largest others, reweighted (:func:`reproduce_points`). Rows that this does not place
-    better keep the pairs they had. Shapes as :func:`placed_pairs`' (c rows, K >= 4)."""
+    vertices' hull: a grid node of a coarse grid in an H's crossbar): each row's 4K
+    largest reweighted to place it (:func:`reproduce_points`), 4 of them whose hull holds
+    it (:func:`carrying_vertices`) kept with the K - 4 largest others, reweighted again.
+    Rows that this does not place better keep the pairs they had. Shapes as
+    :func:`placed_pairs`' (c rows, K >= 4)."""
     count = indices.shape[1]
     if count < 4:
         return indices, weights
-    carrying = carrying_vertices(coordinates, rest)  # (c, 4), -1 where fewer
-    ranked = largest_columns(coordinates, count + 4)
-    taken = (ranked[:, :, None] == carrying[:, None, :]).any(axis=2)
+    wide = largest_columns(coordinates, SPANNING_WIDTH * count)
+    prior = np.take_along_axis(coordinates, wide, axis=1)
+    prior /= prior.sum(axis=1, keepdims=True)
+    spread, _ = reproduce_points(wide, prior, rest, places)
+    carrying = np.take_along_axis(wide, carrying_vertices(spread, rest[wide]), axis=1)  # (c, 4)
     trial = np.empty_like(indices)
-    for row in range(len(indices)):  # a few rows (those the largest missed): fixed-width merges
-        own = carrying[row][carrying[row] >= 0]
-        trial[row] = np.concatenate([own, ranked[row][~taken[row]][:count - len(own)]])
+    for row in range(len(indices)):  # fixed-width merges of 4 and K columns
+        others = wide[row][~np.isin(wide[row], carrying[row])]
+        trial[row] = np.concatenate([carrying[row], others[:count - 4]])
     prior = np.take_along_axis(coordinates, trial.astype(np.int64), axis=1)
     prior = np.maximum(prior, _ADDED_PRIOR * prior.max(axis=1, keepdims=True))
     prior /= prior.sum(axis=1, keepdims=True)
@@ -179,34 +187,35 @@ def _spanning_pairs(coordinates, indices, weights, rest, places):
     return indices, weights
 
 
-def carrying_vertices(rows, rest):
-    """At most 4 vertices per row whose hull holds its place ``row @ rest``
+def carrying_vertices(weights, points):
+    """4 of each row's points whose hull holds its place ``sum_j w_j points_j``
     (Caratheodory's reduction, all rows at once): a step takes each row's 5 smallest
-    weights, moves along their affine dependency until one is 0 and drops it.
+    positive weights, moves along their affine dependency until one is 0 and drops it.
 
     Parameters
     ----------
-    rows : (c, n) float
-        Non-negative, summing to 1.
-    rest : (n, 3) float
+    weights : (c, M) float
+        Non-negative, summing to 1; M >= 4.
+    points : (c, M, 3) float
+        Each row's points.
 
     Returns
     -------
     (c, 4) int
-        Columns, -1 where a row weighs fewer than 4.
+        Positions in the rows (the 4 largest remaining weights: where a row weighs fewer
+        than 4, some weigh 0).
 
     Examples
     --------
     >>> import numpy as np
     >>> from gencoords.tools.sparse import carrying_vertices
     >>> square = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0.5, 0.5, 1], [0.5, 0.5, -1]])
-    >>> row = np.full((1, 6), 1 / 6)
-    >>> kept = carrying_vertices(row, square)[0]
-    >>> len(kept), bool(np.all(kept >= 0))
-    (4, True)
+    >>> kept = carrying_vertices(np.full((1, 6), 1 / 6), square[None])[0]
+    >>> len(set(kept.tolist()))
+    4
     """
-    weights = np.where(rows > 0.0, rows, 0.0)
-    points = np.asarray(rest, dtype=np.float64)
+    weights = np.where(weights > 0.0, weights, 0.0)
+    points = np.asarray(points, dtype=np.float64)
     while True:
         pending = np.flatnonzero((weights > 0.0).sum(axis=1) > 4)
         if not len(pending):
@@ -214,7 +223,8 @@ def carrying_vertices(rows, rest):
         part = weights[pending]
         key = np.where(part > 0.0, part, np.inf)
         five = np.argpartition(key, 4, axis=1)[:, :5]
-        system = np.concatenate([points[five].transpose(0, 2, 1), np.ones((len(pending), 1, 5))], axis=1)  # (p, 4, 5)
+        corners = np.take_along_axis(points[pending], five[:, :, None], axis=1)  # (p, 5, 3)
+        system = np.concatenate([corners.transpose(0, 2, 1), np.ones((len(pending), 1, 5))], axis=1)  # (p, 4, 5)
         dependency = np.linalg.svd(system)[2][:, -1, :]  # system @ dependency = 0
         dependency *= np.where(dependency.max(axis=1, keepdims=True) > 0.0, 1.0, -1.0)
         current = np.take_along_axis(part, five, axis=1)
@@ -225,8 +235,7 @@ def carrying_vertices(rows, rest):
         updated[np.arange(len(pending)), dropped] = 0.0
         np.put_along_axis(part, five, updated, axis=1)
         weights[pending] = part
-    kept = np.argsort(-weights, axis=1, kind="stable")[:, :4]
-    return np.where(np.take_along_axis(weights, kept, axis=1) > 0.0, kept, -1)
+    return np.argsort(-weights, axis=1, kind="stable")[:, :4]
 
 
 def dense_weights(indices, weights, column_count):
@@ -422,7 +431,7 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     smooth = drag = np.inf
     columns = np.shape(coordinates)[1]
     for count in sorted({min(count, columns) for count in counts}):  # K beyond n keeps n
-        indices, weights = placed_pairs(coordinates, count, rest)
+        indices, weights = placed_pairs(coordinates, count, rest, span=interpolation is not None)
         smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
         if smooth < target and drag < target:
             return count, smooth, drag
@@ -694,7 +703,7 @@ def two_level_layout(node_coordinates, corners, corner_weights, rest, target, co
     reason = None
     if count is None:
         count = counts[-1]
-    indices, weights = placed_pairs(nodes, count, rest)
+    indices, weights = placed_pairs(nodes, count, rest, span=True)
     weights = weights.astype(np.float32)
     smooth, drag, vertex = deviations(nodes, indices, weights, rest, (corners, corner_weights))
     if max(smooth, drag) >= target:

@@ -68,7 +68,7 @@ def test_two_level_residual_is_the_interpolated_node_residual(cage_and_coordinat
     for count in (4, 12):
         _, smooth, drag = sparse.fewest_slots(node_coordinates, vertices, 0.0, counts=(count,),
                                              interpolation=(corners, corner_weights))
-        indices, weights = sparse.placed_pairs(node_coordinates, count, vertices)
+        indices, weights = sparse.placed_pairs(node_coordinates, count, vertices, span=True)  # as nodes are
         stored = sparse.dense_weights(indices, weights.astype(np.float32), len(vertices))
         residual = points - sparse.interpolated(stored, corners, corner_weights)
         expected_smooth, expected_drag = compact.residual_deviations(residual, vertices)
@@ -146,7 +146,7 @@ def test_placed_pairs_place_their_points_with_non_negative_weights(cage_and_coor
     vertices, points, coordinates = cage_and_coordinates
     for count in (6, 16):
         largest = sparse.largest_pairs(coordinates, count)
-        indices, weights = sparse.placed_pairs(coordinates, count, vertices)
+        indices, weights = sparse.placed_pairs(coordinates, count, vertices, span=True)
         assert (weights > 0).all()
         np.testing.assert_allclose(weights.sum(axis=1), 1.0, atol=1e-12)
         miss = np.linalg.norm(np.einsum("pk,pkc->pc", weights, vertices[indices]) - points, axis=1)
