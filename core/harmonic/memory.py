@@ -89,7 +89,14 @@ def fitting_resolution(vertices, triangles, resolution, budget):
 
 def available_memory():
     """Bytes of memory the system says are free for a new allocation (Linux's
-    MemAvailable, else half the physical memory), or UNKNOWN_AVAILABLE: int."""
+    MemAvailable, else half the physical memory), or UNKNOWN_AVAILABLE: int.
+
+    Examples
+    --------
+    >>> from gencoords.harmonic.memory import available_memory
+    >>> available_memory() > 0
+    True
+    """
     try:
         with open("/proc/meminfo") as info:
             for line in info:

@@ -358,6 +358,14 @@ def probe_similarity(rest):
     rotation : (3, 3) float64
     scale : float
     shift : (3,) float64
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.tools.bind_plan import probe_similarity
+    >>> rotation, scale, shift = probe_similarity(np.array([[0.0, 0, 0], [3, 4, 0]]))
+    >>> bool(np.allclose(rotation @ rotation.T, np.eye(3))), scale, shift.round(6).tolist()
+    (True, 1.5, [3.0, -4.0, 0.0])
     """
     axis = np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0)
     cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
@@ -373,6 +381,8 @@ def similarity_deviation(places, sums, points, rest):
     ``sum_j w_j R_j``) and sum to ``sums`` ((k,)): a vertex moves to ``sum_j w_j (s Q R_j
     + t) = s Q places + sums t`` and should be at ``s Q x + t``. A float.
 
+    Examples
+    --------
     >>> import numpy as np
     >>> from gencoords.tools.bind_plan import similarity_deviation
     >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
@@ -714,7 +724,20 @@ def plan_bind(points, cage_vertices, triangles, request):
 
 def check_grid_memory(cage_vertices, triangles, request):
     """Refuse a harmonic grid that would not fit in memory, before it is solved:
-    GridMemoryError with the estimate and the finest resolution that fits."""
+    GridMemoryError with the estimate and the finest resolution that fits.
+
+    Examples
+    --------
+    >>> from gencoords.tools.bind_plan import BindRequest, GridMemoryError, check_grid_memory
+    >>> from gencoords.tools.shapes import icosphere
+    >>> vertices, faces = icosphere(2)
+    >>> check_grid_memory(vertices, faces, BindRequest("harmonic", resolution=16, memory_budget=1 << 30))
+    >>> try:
+    ...     check_grid_memory(vertices, faces, BindRequest("harmonic", resolution=512, memory_budget=1 << 30))
+    ... except GridMemoryError as error:
+    ...     error.resolution
+    71
+    """
     budget = available_memory() if request.memory_budget is None else request.memory_budget
     needed = field_bytes(cage_vertices, triangles, request.resolution)
     if needed > budget:
