@@ -119,6 +119,7 @@ bench: $(STAMP) build
 	$(PY) scripts/benchmarks/bench_artist.py
 	$(PY) scripts/benchmarks/bench_local.py
 	$(PY) scripts/benchmarks/bench_quads.py
+	$(PY) scripts/benchmarks/bench_fixtures.py
 
 ## The core's speed table alone (no Blender).
 bench-core: $(STAMP)

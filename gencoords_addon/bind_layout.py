@@ -78,6 +78,7 @@ class BindData:
     resolution: Optional[int] = None  # harmonic coordinates: grid cells along the longest side
     node_count: Optional[int] = None  # sparse storage in two levels: grid nodes N (else 0)
     node_slot_count: Optional[int] = None  # ... and pairs per node K'
+    similarity_deviation: Optional[float] = None  # the mesh as written under a similarity of the cage
     # Stored keys this version does not know (a later version's), kept as they are.
     unknown: Mapping = field(default_factory=lambda: MappingProxyType({}), compare=False, repr=False)
 

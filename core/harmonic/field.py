@@ -10,7 +10,7 @@ import numpy as np
 from ..base.errors import OutsideCageError
 from ..base.inputs import checked
 from ..construction.boundary import inside_by_grid
-from .boundary_values import between_split_and_patch, nearest_boundary_points
+from .boundary_values import between_split_and_patch, nearest_boundary_points, segment_crossings
 from ..base.grid import node_positions
 from .interpolation import tetrahedron
 from .reproduction import placing_largest
@@ -245,7 +245,16 @@ class HarmonicField:
             short, rows = short[shorter], rows[shorter]
             nearest, _ = _nearest_exact_nodes(self._grid, self._ids, self.node_exact, local[short])
             rows += _WIDENING * self.node_coordinates[nearest]
-            columns[short], values[short], _ = placing_largest(rows, count, self._prepared.vertices, local[short])
+            columns[short], values[short], residual[short] = placing_largest(rows, count, self._prepared.vertices,
+                                                                             local[short])
+        shortest = residual[short] > self._exact
+        if shortest.any():  # a thin wall or a thin part's tip: no exact node within reach
+            short = short[shortest]
+            prior = _across_the_part(local[short], self._prepared.vertices, self.faces, self._grid.spacing)
+            across, across_values, across_residual = placing_largest(prior, count, self._prepared.vertices,
+                                                                     local[short])
+            better = (across_residual < residual[short]) & (prior.sum(axis=1) > 0.5)
+            columns[short[better]], values[short[better]] = across[better], across_values[better]
         return columns, values
 
     def _mixed(self, nodes, weights):
@@ -294,6 +303,25 @@ class HarmonicField:
                                                      self._tolerance)
             result[near] = distance <= self._tolerance
         return result
+
+
+def _across_the_part(local, vertices, faces, spacing):
+    """Priors that place points near the cage ((c, 3), frame units) exactly: the mix of
+    the hat values at the nearest boundary point p and at the first crossing q of the ray
+    from p through the point, ``(|q - x| hat(p) + |x - p| hat(q)) / |q - p|``, non-negative
+    and held by the part's own walls (a thin wall, a thin part's tip: their cells hold no
+    node placing itself). Returns (c, n) float (rows where no crossing is found: 0)."""
+    columns, barycentric, distance = nearest_boundary_points(local, vertices, faces, 2.0 * spacing)
+    nearest = np.einsum("bc,bcN->bN", barycentric, vertices[columns])
+    direction = (local - nearest) / np.where(distance > 0.0, distance, 1.0)[:, None]
+    reach = 2.0 * float(np.linalg.norm(np.ptp(vertices, axis=0)))
+    fraction, far_columns, far_barycentric = segment_crossings(local, reach * direction, vertices, faces)
+    found = np.isfinite(fraction) & (distance > 0.0)
+    t = np.where(found, distance / np.where(found, distance + fraction * reach, 1.0), 0.0)[:, None]
+    rows = np.zeros((len(local), len(vertices)))
+    np.add.at(rows, (np.arange(len(local))[:, None], columns), np.where(found[:, None], (1.0 - t) * barycentric, 0.0))
+    np.add.at(rows, (np.arange(len(local))[:, None], far_columns), np.where(found[:, None], t * far_barycentric, 0.0))
+    return rows
 
 
 def _nearest_exact_nodes(grid, ids, exact, local):

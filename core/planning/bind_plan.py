@@ -29,11 +29,13 @@ from ..construction.boundary import OUTSIDE
 from ..construction.green import GreenOutsideError
 from ..evaluation.cage import Cage
 from ..harmonic import harmonic_field, harmonic_quad_field
+from ..harmonic.memory import available_memory, field_bytes, fitting_resolution
 from ..storage import Storage, two_level
 from ..storage.codecs import plan_codec
 from ..storage.pair_deviations import interpolated
 from . import figures
-from .request import (BIND_SOLVER_TOLERANCE, BindPlan, ImpreciseCoordinatesError,
+from .similarity import similarity_deviation
+from .request import (BIND_SOLVER_TOLERANCE, BindPlan, GridMemoryError, ImpreciseCoordinatesError,
                       BindRequest, UndefinedCoordinatesError)  # noqa: F401  (the add-on's names for them)
 from .storage_choice import (AUTO_DEVIATION, choose_by_estimate, choose_by_measuring, confirm_compact,
                              coordinate_rows, first_choice, short_number)
@@ -156,6 +158,30 @@ def plan_bind(points, cage_vertices, triangles, request):
         cage.close()
 
 
+def check_grid_memory(cage_vertices, triangles, request):
+    """Refuse a harmonic grid that would not fit in memory, before it is solved:
+    GridMemoryError with the estimate and the finest resolution that fits.
+
+    Examples
+    --------
+    >>> from gencoords.planning.bind_plan import check_grid_memory
+    >>> from gencoords.planning.request import BindRequest, GridMemoryError
+    >>> from gencoords.cages.shapes import icosphere
+    >>> vertices, faces = icosphere(2)
+    >>> check_grid_memory(vertices, faces, BindRequest("harmonic", resolution=16, memory_budget=1 << 30))
+    >>> try:
+    ...     check_grid_memory(vertices, faces, BindRequest("harmonic", resolution=512, memory_budget=1 << 30))
+    ... except GridMemoryError as error:
+    ...     error.resolution
+    71
+    """
+    budget = available_memory() if request.memory_budget is None else request.memory_budget
+    needed = field_bytes(cage_vertices, triangles, request.resolution)
+    if needed > budget:
+        raise GridMemoryError(needed, budget, fitting_resolution(cage_vertices, triangles, request.resolution, budget),
+                              request.resolution)
+
+
 def _plan(points, cage, request):
     count = len(points)
     if request.outside == "raise":  # refused before any coordinates, at a small part of their cost
@@ -166,6 +192,7 @@ def _plan(points, cage, request):
     workers = cage.suggested_workers(count) if request.workers is None else request.workers
     field = None
     if request.harmonic:  # solved once, on the grid; the points look it up
+        check_grid_memory(cage.vertices, cage.faces, request)
         def solve(progress):
             # Given the cage's polygons, each quad is its bilinear patch (harmonic_quad_field).
             solver, faces = ((harmonic_field, cage.faces) if request.polygons is None
@@ -270,7 +297,8 @@ def _plan_two_level(points, cage, request, rows, report):
     locations = figures.point_locations(request, cage, points)
     # Where the stored weights place each point: the nodes' places, interpolated.
     node_places = np.einsum("nk,nkc->nc", layout.node_weights.astype(np.float64), cage.vertices[layout.node_indices])
-    miss = np.linalg.norm(interpolated(node_places, layout.corners, layout.corner_weights) - points, axis=1)
+    places = interpolated(node_places, layout.corners, layout.corner_weights)
+    miss = np.linalg.norm(places - points, axis=1)
     placed = miss if request.outside != "project" else miss[locations != OUTSIDE]
     return BindPlan(
         Storage.SPARSE.value, layout.corner_weights, None, locations, reason, report,
@@ -279,5 +307,6 @@ def _plan_two_level(points, cage, request, rows, report):
         linear_precision=float(placed.max(initial=0.0) / np.linalg.norm(np.ptp(cage.vertices, axis=0))),
         deviation_smooth=layout.deviation_smooth, deviation_drag=layout.deviation_drag,
         deviation_drag_vertex=layout.deviation_drag_vertex, indices=layout.corners,
-        node_indices=layout.node_indices, node_weights=layout.node_weights)
+        node_indices=layout.node_indices, node_weights=layout.node_weights,
+        similarity_deviation=similarity_deviation(places, point_sums, points, cage.vertices))
 

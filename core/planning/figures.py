@@ -16,6 +16,7 @@ from ..storage import Storage
 from ..storage.codecs import codec
 from ..storage.deviations import residual_deviations
 from .request import UndefinedCoordinatesError
+from .similarity import similarity_deviation
 from .storage_choice import coordinate_rows
 
 __all__ = ["origin_distance"]
@@ -69,7 +70,7 @@ def written_slots(request, cage, points, choice, workers, field=None):
     locations = np.empty(count, dtype=np.int8)
     totals = {"min": np.inf, "negative_points": 0, "negative_entries": 0, "max_affine_error": 0.0,
               "weight_magnitude": 0.0}
-    precision = 0.0
+    precision = similarity = 0.0
     smooth, drag = 0.0, np.zeros(len(cage.vertices))
     faces = cage.faces if request.green else None
     chunk = max(1, CHUNK_ENTRIES * workers // rows)
@@ -92,6 +93,7 @@ def written_slots(request, cage, points, choice, workers, field=None):
         magnitudes = np.abs(weights).sum(axis=1)  # what multiplies the cage's rounding
         totals["weight_magnitude"] = max(totals["weight_magnitude"], float(magnitudes.max(initial=0.0)))
         precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
+        similarity = max(similarity, similarity_deviation(weights @ cage.vertices, sums, points[part], cage.vertices))
         residual = np.subtract(coordinates, reproduced, out=reproduced)
         chunk_smooth, chunk_drag = residual_deviations(residual, cage.vertices, faces=faces)
         smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
@@ -103,7 +105,7 @@ def written_slots(request, cage, points, choice, workers, field=None):
         "negative_entries": totals["negative_entries"], "max_affine_error": float(totals["max_affine_error"]),
         "linear_precision": float(precision), "deviation_smooth": float(smooth),
         "deviation_drag": float(drag.max(initial=0.0)), "deviation_drag_vertex": int(np.argmax(drag)),
-        "weight_magnitude": totals["weight_magnitude"]}
+        "weight_magnitude": totals["weight_magnitude"], "similarity_deviation": None if request.green else similarity}
 
 
 def _placed(request, stored, cage_vertices, points, locations):

@@ -15,7 +15,7 @@ from ..construction.validation import DEFAULT_TOLERANCE
 from ..storage import Storage
 from ..surfaces.named import HARMONIC
 
-__all__ = ["BindRequest", "BindPlan", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "BIND_RESOLUTION", "SPARSE_SIZE"]
+__all__ = ["BindRequest", "BindPlan", "GridMemoryError", "UndefinedCoordinatesError", "ImpreciseCoordinatesError", "BIND_RESOLUTION", "SPARSE_SIZE"]
 
 # A Bind's grid for harmonic coordinates unless asked otherwise: on the character
 # (bench_local.py, 43k vertices, 196-vertex cage; docs/bench_local.md) 48 cells bind in
@@ -29,6 +29,18 @@ BIND_RESOLUTION = 48
 # nothing; this takes 7 conjugate-gradient iterations on the character against 12.
 BIND_SOLVER_TOLERANCE = 1e-6
 SPARSE_SIZE = 16  # sparse storage's pairs per vertex when asked for
+
+
+class GridMemoryError(ValueError):
+    """The harmonic grid asked for would need more memory than is free: ``needed`` bytes
+    (estimated: ``harmonic.memory.field_bytes``) against ``available``; ``resolution`` is
+    the finest that fits (0: none)."""
+
+    def __init__(self, needed, available, resolution, asked):
+        fits = f"Resolution {resolution} fits" if resolution else "no Resolution fits"
+        super().__init__(f"the harmonic grid of Resolution {asked} would need about {needed / 2**30:.1f} GiB of "
+                         f"memory, {available / 2**30:.1f} GiB are free: {fits}")
+        self.needed, self.available, self.resolution, self.asked = needed, available, resolution, asked
 
 
 class UndefinedCoordinatesError(ValueError):
@@ -94,6 +106,9 @@ class BindRequest:
     origins: Optional[np.ndarray] = None
     # ``run(compute, workers)`` calls ``compute(workers)``: a front end's hook to fall
     # back to its own process where workers fail (it then passes 1 on later calls).
+    # Bytes a harmonic solve may take (None: what the system says is free); a grid that
+    # would need more is refused before it is solved (GridMemoryError).
+    memory_budget: Optional[int] = None
     run: Callable = _in_this_process
     # (m, 4) int: the cage's faces, a triangle's fourth index -1: mean value on quads
     # (MEAN_VALUE_QUADS) and, given them, harmonic coordinates read them, not the triangles.
@@ -177,6 +192,9 @@ class BindPlan:
     indices: Optional[np.ndarray] = None
     node_indices: Optional[np.ndarray] = None
     node_weights: Optional[np.ndarray] = None
+    # How far the mesh as written follows a similarity of the cage (``similarity``), of the
+    # cage's size; None for Green coordinates (similarity invariant by their face terms).
+    similarity_deviation: Optional[float] = None
 
     @property
     def slot_count(self):
@@ -202,6 +220,6 @@ class BindPlan:
         """The measured figures by name (what a front end stores beside the slots)."""
         names = ("storage_choice", "report", "min_coordinate", "negative_points", "max_affine_error",
                  "linear_precision", "deviation_smooth", "deviation_drag", "deviation_drag_vertex", "points_outside",
-                 "points_on_boundary", "negative_entries", "node_count", "node_slot_count")
+                 "points_on_boundary", "negative_entries", "node_count", "node_slot_count", "similarity_deviation")
         return {name: getattr(self, name) for name in names}
 

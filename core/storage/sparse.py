@@ -21,10 +21,14 @@ import numpy as np
 
 from ..harmonic.reproduction import largest_entries, reproduce_points
 from .pair_deviations import deviations, interpolated
+from .spanning import spanning_pairs
 
 __all__ = ["largest_pairs", "placed_pairs", "dense_weights", "fewest_slots", "stacked_columns", "unstacked", "layout_coordinates", "SLOT_COUNTS"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
+# Of the cage's diagonal: rows placed further from where their coordinates place them
+# get other pairs (:func:`placed_pairs` with ``span``).
+PLACED = 1e-9
 
 
 def largest_pairs(coordinates, count):
@@ -60,7 +64,7 @@ def largest_pairs(coordinates, count):
     return indices.astype(np.int32), weights
 
 
-def placed_pairs(coordinates, count, rest):
+def placed_pairs(coordinates, count, rest, span=False):
     """:func:`largest_pairs`, reweighted to place each row where its full coordinates do.
 
     Dropping the smaller weights moves the point a row places (``sum_j w_j R_j``); rows
@@ -75,6 +79,10 @@ def placed_pairs(coordinates, count, rest):
     count : int
     rest : (n, 3) float
         The cage the coordinates were computed in.
+    span : bool
+        Rows the K largest cannot place get pairs that can (``spanning``): the grid
+        nodes of two levels, few beside the points (for every row of a mesh, a cost of 5x
+        the Bind's on mean value coordinates).
 
     Returns
     -------
@@ -97,8 +105,13 @@ def placed_pairs(coordinates, count, rest):
     rest = np.asarray(rest, dtype=np.float64)
     positive = np.flatnonzero((weights >= 0.0).all(axis=1))
     if count < coordinates.shape[1] and len(positive):
-        weights[positive] = reproduce_points(indices[positive], weights[positive], rest,
-                                             (coordinates @ rest)[positive])[0]
+        places = (coordinates @ rest)[positive]
+        weights[positive], residual = reproduce_points(indices[positive], weights[positive], rest, places)
+        missing = residual > PLACED * np.linalg.norm(np.ptp(rest, axis=0))
+        if span and missing.any():
+            rows = positive[missing]
+            indices[rows], weights[rows] = spanning_pairs(coordinates[rows], indices[rows], weights[rows], rest,
+                                                          places[missing])
     return indices, weights
 
 
@@ -157,7 +170,7 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     smooth = drag = np.inf
     columns = np.shape(coordinates)[1]
     for count in sorted({min(count, columns) for count in counts}):  # K beyond n keeps n
-        indices, weights = placed_pairs(coordinates, count, rest)
+        indices, weights = placed_pairs(coordinates, count, rest, span=interpolation is not None)
         smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
         if smooth < target and drag < target:
             return count, smooth, drag

@@ -213,7 +213,7 @@ def two_level_layout(node_coordinates, corners, corner_weights, rest, target, co
     reason = None
     if count is None:
         count = counts[-1]
-    indices, weights = placed_pairs(nodes, count, rest)
+    indices, weights = placed_pairs(nodes, count, rest, span=True)
     weights = weights.astype(np.float32)
     smooth, drag, vertex = deviations(nodes, indices, weights, rest, (corners, corner_weights))
     if max(smooth, drag) >= target:

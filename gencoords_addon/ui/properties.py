@@ -40,7 +40,8 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
         options=set(),
         description="Harmonic coordinates: grid cells along the cage's longest side (cubes, so "
                     "a thin limb gets the cells its thickness allows). Finer follows the cage "
-                    "more closely and binds slower (the time grows as its cube)",
+                    "more closely and binds slower (the time and memory grow as its cube; Bind refuses a grid "
+                    "that would not fit in the free memory and names a Resolution that does)",
     )
     outside: bpy.props.EnumProperty(
         name="Outside", items=OUTSIDE_ITEMS, default="RAISE", options=set(),

@@ -77,6 +77,9 @@ def binding_lines(obj, found, depsgraph=None):
         drag = "vertex drag" if worst is None else f"drag of cage vertex {worst}"
         lines.append((f"Deviation: {data.deviation_smooth:.1e} (smooth), "
                       f"{data.deviation_drag:.1e} ({drag}) of the cage diagonal", 'INFO'))
+    if data.similarity_deviation is not None:  # measured on what was written
+        lines.append((f"Similarity: the mesh follows a turned, scaled cage to {data.similarity_deviation:.1e} "
+                      "of its size", 'INFO'))
     lines.append((f"Bind time: {data.bind_seconds:.2f} s", 'TIME'))
     if data.negative_points:
         lines.extend(messages.negative_weights(data, kind_label(data.kind)))

@@ -16,8 +16,8 @@ figures (how far the other limbs move when one limb's cage vertices move).
 
 import numpy as np
 
-__all__ = ["ELBOW", "LIMBS", "bent_forearm", "body_mesh", "body_points", "cage_limb_vertices", "character_cage",
-           "character_capsules", "limb_labels"]
+__all__ = ["ELBOW", "LIMBS", "bent_forearm", "body_mesh", "body_points", "boundary_quads", "cage_limb_vertices",
+           "capsule_surface", "capsules_mesh", "character_cage", "character_capsules", "limb_labels"]
 
 # The cage's grid planes. x: hands at +-0.95, the torso and hips within +-0.2, a gap
 # between the legs within +-0.07 (below the hips), the neck within +-0.07.
@@ -63,8 +63,8 @@ def _occupied_cells():
     return filled
 
 
-def _boundary_quads(filled):
-    """Outward quads of the cells' union, as grid-corner index triples: (f, 4, 3) int."""
+def boundary_quads(filled):
+    """Outward quads of the cells' union (of a rectilinear grid's cells), as grid-corner index triples: (f, 4, 3) int."""
     padded = np.pad(filled, 1)
     quads = []
     for axis in range(3):
@@ -94,7 +94,7 @@ def character_cage():
     quads : (f, 4) int64
         Outward oriented (counter-clockwise seen from outside), closed, manifold.
     """
-    corners = _boundary_quads(_occupied_cells())
+    corners = boundary_quads(_occupied_cells())
     unique, inverse = np.unique(corners.reshape(-1, 3), axis=0, return_inverse=True)
     vertices = np.stack([X_PLANES[unique[:, 0]], Y_PLANES[unique[:, 1]], Z_PLANES[unique[:, 2]]], axis=1)
     return vertices.astype(np.float64), inverse.reshape(-1, 4).astype(np.int64)
@@ -132,7 +132,7 @@ def body_points(count, seed=0):
     return found[:count]
 
 
-def _capsule_surface(a, b, radius, cap_rings, length_rings, segments):
+def capsule_surface(a, b, radius, cap_rings, length_rings, segments):
     """A closed capsule surface along a -> b: (vertices (p, 3), triangles (t, 3)), outward."""
     axis = (b - a) / np.linalg.norm(b - a)
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
@@ -158,12 +158,19 @@ def _capsule_surface(a, b, radius, cap_rings, length_rings, segments):
 
 
 def body_mesh(detail=1.0):
-    """The character's body as overlapping closed capsule surfaces, triangles.
+    """The character's body as overlapping closed capsule surfaces (:func:`capsules_mesh`
+    of :func:`character_capsules`): about 45,000 vertices at ``detail`` 1.0."""
+    return capsules_mesh(character_capsules(), detail)
+
+
+def capsules_mesh(capsules, detail=1.0):
+    """Overlapping closed capsule surfaces, triangles, with square-ish quads.
 
     Parameters
     ----------
+    capsules : list of (part str, a (3,), b (3,), radius float)
     detail : float
-        Scales the rings and segments: 1.0 gives about 45,000 vertices.
+        Scales the rings and segments: 860 x radius segments around each capsule at 1.0.
 
     Returns
     -------
@@ -171,16 +178,17 @@ def body_mesh(detail=1.0):
     triangles : (t, 3) int64
         Outward oriented.
     labels : (p,) str
-        The part (from LIMBS) each vertex belongs to.
+        The part each vertex belongs to.
     """
     parts, offset = [], 0
-    for part, a, b, radius in character_capsules():
+    for part, a, b, radius in capsules:
+        a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
         # Square-ish quads: a ring every 2 pi r / segments along the capsule.
         segments = max(8, int(round(detail * 860 * radius)))
         spacing = 2 * np.pi * radius / segments
         cap_rings = max(2, int(round(np.pi / 2 * radius / spacing)))
         length_rings = max(1, int(round(np.linalg.norm(b - a) / spacing)))
-        vertices, triangles = _capsule_surface(a, b, radius, cap_rings, length_rings, segments)
+        vertices, triangles = capsule_surface(a, b, radius, cap_rings, length_rings, segments)
         parts.append((vertices, triangles + offset, np.full(len(vertices), part)))
         offset += len(vertices)
     vertices, triangles, labels = (np.concatenate(column) for column in zip(*parts))

@@ -317,3 +317,13 @@ def test_scripts_bind_through_the_service_and_catch_one_error_family(gc):
     assert gc.binding.binding(obj, cage).data.mesh_vertex_count == len(obj.data.vertices)
     for error in (gc.errors.BindError, gc.errors.BakeError, gc.errors.CageError):
         assert issubclass(error, gc.errors.GenCoordsError)
+
+
+def test_a_harmonic_grid_too_large_for_memory_is_refused_before_solving(gc):
+    """Resolution 512 in a 162-vertex cage would need hundreds of GiB: Bind says so and
+    offers a Resolution that fits, instead of failing inside the solve (issue 35)."""
+    cage = add_icosphere_cage(subdivisions=3)
+    obj = add_sphere()
+    obj.gencoords.resolution = 512
+    assert_bind_refused(obj, cage, r"Resolution 512 would need about [\d.]+ GiB.* GiB are free: Resolution \d+ fits",
+                        kind="HARMONIC")

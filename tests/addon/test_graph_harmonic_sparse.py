@@ -11,7 +11,7 @@ import bpy
 import numpy as np
 import pytest
 
-from scene_helpers import (add_icosphere_cage, add_sphere, evaluated_positions, read_positions,
+from scene_helpers import (add_icosphere_cage, add_sphere, evaluated_positions, read_positions, update,
                            write_positions)
 from scripts.common import character
 
@@ -262,3 +262,26 @@ def test_a_hidden_cage_drives_and_auto_rebind_binds_harmonic_again(gc):
     cage.hide_viewport = cage.hide_render = True  # hidden, it still drives the mesh
     write_positions(cage.data, read_positions(cage.data) + np.float32(0.2))
     np.testing.assert_allclose(evaluated_positions(obj), rest + 0.2, atol=1e-5)
+
+
+@pytest.mark.parametrize("name,resolution", [("needle", 48), ("quadruped", 48)])
+def test_the_deformer_follows_a_similarity_and_the_panel_says_how_closely(gc, name, resolution):
+    """Issue 35: a needle and a quadruped's thin tail missed a turned, scaled cage by 1e-3
+    of its size while the panel said 5e-9; now Blender's own evaluation of what Bind wrote
+    follows it within 1e-5, and the panel's Similarity line is what a probe measures."""
+    from scripts.common import artist_cages
+    from gencoords.planning.similarity import probe_similarity
+    scene = artist_cages.fixture(name, detail=0.2)
+    obj = _mesh_object(name, scene.mesh_vertices, scene.mesh_faces)
+    cage = _mesh_object(name + "Cage", scene.cage_vertices, scene.cage_faces)
+    assert bind(obj, cage, resolution=resolution) == {'FINISHED'}
+    rest = evaluated_positions(obj).astype(np.float64)
+    rotation, scale, shift = probe_similarity(scene.cage_vertices)
+    write_positions(cage.data, scale * scene.cage_vertices @ rotation.T + shift)
+    update()
+    moved = evaluated_positions(obj).astype(np.float64)
+    error = np.linalg.norm(moved - (scale * rest @ rotation.T + shift), axis=1).max() / (scale * scene.diagonal)
+    assert error < 1e-5
+    reported = result_of(gc, obj).metadata["similarity_deviation"]
+    assert reported < 1e-5 and error == pytest.approx(reported, abs=2e-6)  # float32 evaluation beside float64
+    assert any(text.startswith("Similarity: ") for text, _ in gc.status.status_lines(obj))
