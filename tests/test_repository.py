@@ -92,3 +92,16 @@ def test_scripts_read_kind_ids_from_the_kind_table():
              for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
              if isinstance(node, ast.Constant) and node.value in spellings]
     assert not found
+
+
+def test_the_readme_stays_short_and_every_link_in_it_and_the_docs_resolves():
+    """Issue 37 item 13: the README is the newcomer's page (at most 250 lines: figures and
+    lore live in docs/), and no relative link of it or of docs/ points at nothing."""
+    readme = REPO / "README.md"
+    assert len(readme.read_text(encoding="utf-8").splitlines()) <= 250
+    broken = []
+    for page in [readme, *sorted((REPO / "docs").glob("*.md"))]:
+        for target in re.findall(r"\]\(([^)#\s]+)", page.read_text(encoding="utf-8")):
+            if "://" not in target and not (page.parent / target).exists():
+                broken.append(f"{page.relative_to(REPO)} -> {target}")
+    assert not broken, broken
