@@ -145,7 +145,7 @@ def kind_report(request, cage, field=None):
     if request.kind == MEAN_VALUE_QUADS:
         return "Mean value on quads: each quad its bilinear patch, whichever corner it starts from; any closed cage"
     if field is not None:
-        patches = ", each quad its bilinear patch" if field.faces.shape[1] == 4 else ""
+        patches = ", each quad its bilinear patch" if (field.faces.shape[1] == 4 and (field.faces[:, 3] >= 0).any()) else ""
         return (f"Harmonic: local, never negative; any closed cage{patches} (resolution {field.resolution}: "
                 f"{len(field.node_coordinates)} grid nodes solved)")
     return coordinate_report(cage.vertices, cage.faces, request.kind, gamma=request.gamma,

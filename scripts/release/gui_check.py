@@ -11,7 +11,8 @@ cage is back and drives the mesh), rebinds through the Replace Binding confirmat
 then, with Auto Rebind on, deletes a vertex in Edit Mode (Tab, a click on the vertex, X >
 Vertices, Tab): the Bind operator's invoke path binds again; last, Type Green, Bind
 through the window (Return to replace) and a 1.6x stretch of the cage; then Type Harmonic,
-Bind through the window, a move of the cage, then a turn and scale of it. Each check
+Bind through the window, a move of the cage, then a turn and scale of it; last, the cage keyed,
+Tab and Tab on it, Delete and Ctrl+Z (the binding has its cage back). Each check
 prints ``PASS``/``FAIL`` with what was measured, screenshots go to the output folder,
 and Blender exits non-zero when a check failed.
 """
@@ -353,11 +354,58 @@ def after_harmonic_turn():
     shots.shoot('VIEW_3D', "harmonic_turned")
 
 
+def key_the_cage_and_tab():
+    """Issue 37 item 1: an animated cage, Tab and Tab on it (Edit Mode and back), then
+    Delete and Ctrl+Z must give the binding its cage back."""
+    mesh, cage = mesh_and_cage()
+    cage.keyframe_insert("location", frame=bpy.context.scene.frame_current)
+    bpy.ops.ed.undo_push(message="Insert keyframe")
+    select_only(cage)
+    keys("Tab")
+
+
+def tab_back():
+    _, cage = mesh_and_cage()
+    check("Tab puts the cage in Edit Mode", cage.mode == 'EDIT', f"mode {cage.mode}")
+    keys("Tab")
+
+
+def delete_edited_cage():
+    _, cage = mesh_and_cage()
+    check("Tab again leaves Edit Mode", cage.mode == 'OBJECT', f"mode {cage.mode}")
+    GUI_STATE["moved before delete"] = moved_by(mesh_and_cage()[0])
+    select_only(cage)
+    keys("Delete")
+
+
+def undo_edited_cage_delete():
+    mesh, cage = mesh_and_cage()
+    in_scene = cage is not None and bpy.context.scene.objects.get(cage.name) is not None
+    check("Delete after Tab, Tab removes the cage", not in_scene and moved_by(mesh) < 1e-6,
+          f"in scene {in_scene}, max move {moved_by(mesh):.2e}")
+    keys("ctrl+z")
+
+
+def after_edited_cage_undo():
+    mesh, cage = mesh_and_cage()
+    in_scene = cage is not None and bpy.context.scene.objects.get(cage.name) is not None
+    before, now = GUI_STATE["moved before delete"], moved_by(mesh)
+    check("Ctrl+Z after Tab, Tab, Delete: the cage drives the mesh again", in_scene and abs(now - before) < 1e-5,
+          f"in scene {in_scene}, max move {now:.3f} (before Delete {before:.3f})")
+    text = status_text(mesh)
+    check("the panel no longer says the cage was deleted", "delete" not in text.lower(), text)
+    shots.shoot('PROPERTIES', "cage_undone_after_edit_mode")
+
+
+GUI_STATE = {}
+
+
 STEPS = [open_bound, edit_cage, delete_cage, after_delete, after_undo, after_rebind,
          search_bake, run_bake, confirm_bake, after_bake, after_bake_undo,
          edit_vertices, click_vertex, delete_vertex, pick_vertices, leave_edit_mode,
          after_auto_rebind, green_rebind, after_green_bind, after_green_stretch,
-         harmonic_rebind, after_harmonic_bind, after_harmonic_move, after_harmonic_turn]
+         harmonic_rebind, after_harmonic_bind, after_harmonic_move, after_harmonic_turn,
+         key_the_cage_and_tab, tab_back, delete_edited_cage, undo_edited_cage_delete, after_edited_cage_undo]
 
 
 def run_next_step():
