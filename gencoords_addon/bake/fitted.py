@@ -66,16 +66,11 @@ def alone(obj, modifier):
             other.show_viewport = True
 
 
-def sample_deformation(obj, context, frames, modifier):
+def sampling_steps(obj, context, frames, modifier):
     """The mesh's vertices in world space at each of ``frames``, deformed by ``modifier``
     alone (the binding's: its deformation is what is baked, and the Armature modifier
-    that replaces it sees what it saw): (F, n, 3) float64."""
-    return steps.run_to_end(sampling_steps(obj, context, frames, modifier))
-
-
-def sampling_steps(obj, context, frames, modifier):
-    """:func:`sample_deformation` in steps (``steps``): a frame a step, the scene's frame
-    and the modifiers put back when it ends or is closed (Esc)."""
+    that replaces it sees what it saw): (F, n, 3) float64, in steps (``steps``): a frame
+    a step, the scene's frame and the modifiers put back when it ends or is closed (Esc)."""
     scene = context.scene
     current = scene.frame_current, scene.frame_subframe
     count = len(obj.data.vertices)
@@ -105,27 +100,38 @@ class Cancelled(Exception):
 
 
 class FittedBakeJob:
-    """A fitted bake in three steps: sample the deformation (at creation, in Blender; or,
-    made with ``sample=False``, in the steps of ``sampling``), fit (``run``, or ``start``
-    in a thread so that the window stays live; numpy only), ``commit`` (in Blender:
-    write, measure, replace the binding)."""
+    """A fitted bake in four steps: check and read the mesh (``preparing``), sample the
+    deformation (``sampling``; both at creation, in Blender, unless made with
+    ``sample=False``), fit (``run``, or ``start`` in a thread so that the window stays
+    live; numpy only), write (``committing``, in Blender: write, measure, replace the
+    binding). Those in Blender are steps (``steps``) a modal operator takes a timer event
+    each; closed early (Esc), they leave the file as it was."""
 
     def __init__(self, obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENCES,
                  frames=None, iterations=12, seed=0, sample=True):
-        self.obj, self.found = obj, bindings_module.binding(obj)
+        self.obj, self.found, self.rest, self.sampled = obj, bindings_module.binding(obj), None, None
+        self.frames = frame_range(context.scene) if frames is None else np.asarray(frames)
+        self.options = {"bones": bone_count, "max_influences": max_influences,
+                        "iterations": iterations, "seed": seed}
+        self.bone_count, self.fraction, self.fit, self.error = int(bone_count), 0.0, None, None
+        self.fit_seconds, self._cancel, self._thread = 0.0, threading.Event(), None
+        if sample:
+            steps.run_to_end(self.preparing())
+            steps.run_to_end(self.sampling(context))
+
+    def preparing(self):
+        """Refuse a binding that does not deform, then read the mesh at rest: steps."""
+        obj = self.obj
         # A binding that does not deform (its cage deleted, its mesh edited since Bind)
         # would be fitted as a still mesh: refused, as Follow is.
         problem = bindings_module.deformation_problem(obj, self.found)
         if problem is not None:
             raise BakeError(f"Cannot bake '{obj.name}' to fitted bones: {problem}")
-        self.frames = frame_range(context.scene) if frames is None else np.asarray(frames)
+        yield 0.5
         world = np.array(obj.matrix_world, dtype=np.float64)
         self.rest = mesh_io.read_positions(obj.data).astype(np.float64) @ world[:3, :3].T + world[:3, 3]
-        self.sampled = steps.run_to_end(self.sampling(context)) if sample else None
-        self.options = {"bones": min(bone_count, len(self.rest)), "max_influences": max_influences,
-                        "iterations": iterations, "seed": seed}
-        self.bone_count, self.fraction, self.fit, self.error = int(bone_count), 0.0, None, None
-        self.fit_seconds, self._cancel, self._thread = 0.0, threading.Event(), None
+        self.options["bones"] = min(self.bone_count, len(self.rest))
+        yield 1.0
 
     def sampling(self, context):
         """Sample the deformation in steps (``steps``: a frame a step); sets ``sampled``."""
@@ -164,13 +170,36 @@ class FittedBakeJob:
         if self._thread is not None:
             self._thread.join()
 
-    def commit(self, context):
-        """Write the rig (see ``bake``): returns (rig, figures)."""
-        rig, figures = _write(self.obj, context, self.found, self.fit, self.rest, self.sampled,
-                              self.frames)
+    def committing(self, context):
+        """Write the rig (see ``bake``), in steps: returns (rig, figures); closed early,
+        nothing written stays."""
+        rig, figures = yield from _writing(self.obj, context, self.found, self.fit, self.rest,
+                                           self.sampled, self.frames)
         figures.update({"fit_seconds": self.fit_seconds, "seeded_bones": self.bone_count})
         rig.data[bones.BAKE_INFO] = figures
         return rig, figures
+
+    def commit(self, context):
+        """:meth:`committing` to the end."""
+        return steps.run_to_end(self.committing(context))
+
+
+def baking_steps(job, context):
+    """The whole bake of ``job`` (made with ``sample=False``) in steps, for a modal
+    operator: preparing and sampling (a tenth of the progress), the fit in a thread (a
+    step while it runs), the writing (the last tenth); returns (rig, figures). Closed
+    early (Esc), the fit is stopped and nothing is changed."""
+    yield from steps.scaled(job.preparing(), 0.0, 0.02)
+    yield from steps.scaled(job.sampling(context), 0.02, 0.08)
+    job.start()
+    try:
+        while not job.done:
+            yield 0.1 + 0.8 * job.fraction
+    finally:
+        job.cancel()
+    if job.error is not None:
+        raise job.error
+    return (yield from steps.scaled(job.committing(context), 0.9, 0.1))
 
 
 def bake(obj, context, bone_count=DEFAULT_BONES, max_influences=DEFAULT_INFLUENCES,
@@ -202,9 +231,10 @@ def bone_names(obj, count):
             return names
 
 
-def _write(obj, context, found, fit, rest, sampled, frames):
+def _writing(obj, context, found, fit, rest, sampled, frames):
     """Write the rig, the vertex groups and the Armature modifier, measure, then remove
-    the binding; on any failure everything written is removed and the binding stays."""
+    the binding, in steps; on any failure, or closed early, everything written is removed
+    and the binding stays."""
     names = bone_names(obj, fit.transforms.shape[1])
     had_groups = {g.name for g in obj.vertex_groups}
     parent, shown = obj.parent, found.modifier.show_viewport
@@ -216,7 +246,8 @@ def _write(obj, context, found, fit, rest, sampled, frames):
             collection.objects.link(rig)
         diagonal = float(np.linalg.norm(np.ptp(rest, axis=0)))
         bones.add_bones(rig, names, fit.rest_matrices[:, :3, 3], diagonal)
-        _keyframe_fit(rig, names, frames, fit)
+        yield 0.05
+        yield from steps.scaled(_keyframing(rig, names, frames, fit), 0.05, 0.15)
         dense = np.zeros((len(rest), len(names)))
         np.add.at(dense, (np.arange(len(rest))[:, None], fit.indices), fit.weights)
         mesh_arrays.write_weights(obj, names, dense)
@@ -226,13 +257,14 @@ def _write(obj, context, found, fit, rest, sampled, frames):
         if obj.parent is None:  # exporters (glTF) expect a skinned mesh under its armature
             obj.parent = rig  # the rig sits at the world origin: the mesh does not move
         found.modifier.show_viewport = False  # measure the rig alone
-        played = sample_deformation(obj, context, frames, skin)
+        yield 0.3
+        played = yield from steps.scaled(sampling_steps(obj, context, frames, skin), 0.3, 0.65)
         gaps = np.linalg.norm(played - sampled, axis=2) / max(diagonal, 1e-300)
         figures = {"mode": "FITTED", "cage": found.cage.name, "worst": float(gaps.max()),
                    "rms": float(np.sqrt(np.mean(gaps ** 2))), "frames": [int(frames[0]), int(frames[-1])],
                    "bones": len(names), "max_influences": int(fit.indices.shape[1])}
         bindings_module.remove(obj, [found])
-    except BaseException:
+    except BaseException:  # GeneratorExit (closed: Esc) among them
         found.modifier.show_viewport = shown
         obj.parent = parent
         if skin is not None:
@@ -241,13 +273,18 @@ def _write(obj, context, found, fit, rest, sampled, frames):
         for group in [g for g in obj.vertex_groups if g.name in names and g.name not in had_groups]:
             obj.vertex_groups.remove(group)
         raise
+    yield 1.0
     return rig, figures
 
 
-def _keyframe_fit(rig, names, frames, fit):
+KEYED_BONES_A_STEP = 16
+
+
+def _keyframing(rig, names, frames, fit):
     """Key each bone's location and rotation (quaternion) at ``frames`` so that its
     skinning matrix is the fit's: pose basis = rest^-1 @ transform @ rest, in the bone's
-    own rest frame (Blender's bones point along their Y axis)."""
+    own rest frame (Blender's bones point along their Y axis); in steps of
+    ``KEYED_BONES_A_STEP`` bones."""
     for name in names:  # creates the action and its curves, in all versions
         pose = rig.pose.bones[name]
         pose.rotation_mode = 'QUATERNION'
@@ -268,7 +305,10 @@ def _keyframe_fit(rig, names, frames, fit):
         for path, values in (("location", locations), ("rotation_quaternion", rotations)):
             for axis, column in enumerate(np.array(values).T):
                 bones.key_linearly(curves[(f'pose.bones["{name}"].{path}', axis)], frames, column)
+        if (j + 1) % KEYED_BONES_A_STEP == 0:
+            yield (j + 1) / len(names)
     bones.first_in_exports(rig)
+    yield 1.0
 
 
 def summary(obj, rig, figures):

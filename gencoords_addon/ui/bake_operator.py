@@ -145,10 +145,11 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
                 sample=sample)
 
     def _commit_fitted(self, context, job):
-        if job.error is not None:
-            raise job.error
         with object_mode(context, job.obj):
             rig, figures = job.commit(context)
+        return self._finished(job, rig, figures)
+
+    def _finished(self, job, rig, figures):
         self.report({'INFO'}, fitted.summary(job.obj, rig, figures))
         return {'FINISHED'}
 
@@ -165,12 +166,13 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             context.window_manager.progress_end()
 
     def _start_fitted(self, context):
-        """The modal bake: the frames sampled a frame a timer event, then the fit in a
-        thread; progress shown and Esc taken throughout."""
+        """The modal bake (``fitted.baking_steps``): the checks, the frames sampled and
+        the rig written a step a timer event, the fit in a thread between; progress
+        shown and Esc taken throughout."""
         self._job = self._guarded(self._fitted_job, context, False)
         if isinstance(self._job, set):
             return self._job
-        self._sampling = self._job.sampling(context)
+        self._baking = fitted.baking_steps(self._job, context)
         window_manager = context.window_manager
         self._timer = window_manager.event_timer_add(0.1, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
@@ -178,39 +180,35 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         return {'RUNNING_MODAL'}
 
     def _step(self, context):
-        """One timer event's work: a frame sampled (the fit started after the last), or
-        nothing while the fit runs; the fraction done (sampling counts for a tenth)."""
+        """One timer event's work (a step of the bake): the fraction done, or the
+        operator's result once the rig is written."""
         job = self._job
-        if self._sampling is None:
-            return 0.1 + 0.9 * job.fraction
         try:
             with object_mode(context, job.obj):
-                return 0.1 * next(self._sampling)
-        except StopIteration:
-            self._sampling = None
-            job.start()
-            return 0.1
+                return next(self._baking)
+        except StopIteration as done:
+            return self._finished(job, *done.value)
+
+    def _cancel(self, context):
+        """Esc: the bake closed (the fit stopped, whatever was written removed)."""
+        with object_mode(context, self._job.obj):
+            self._baking.close()
+        raise fitted.Cancelled
 
     def modal(self, context, event):
-        job = self._job
         if event.type == 'ESC':
-            if self._sampling is not None:
-                self._sampling.close()  # the frame and the modifiers put back
-            job.cancel()
-            job.error = fitted.Cancelled()
-        elif event.type != 'TIMER':
-            return {'RUNNING_MODAL'}  # nothing else is edited while the fit runs
-        elif not job.done:
-            fraction = self._guarded(self._step, context)
-            if isinstance(fraction, set):  # the sampling failed (reported)
-                self._end_modal(context)
-                return fraction
-            context.window_manager.progress_update(fraction)
-            context.workspace.status_text_set(f"GenCoords: fitting bones to '{job.obj.name}' "
-                                              f"{fraction:.0%} (Esc to cancel)")
-            return {'RUNNING_MODAL'}
-        self._end_modal(context)
-        return self._guarded(self._commit_fitted, context, job)
+            self._end_modal(context)
+            return self._guarded(self._cancel, context)
+        if event.type != 'TIMER':
+            return {'RUNNING_MODAL'}  # nothing else is edited while the bake runs
+        fraction = self._guarded(self._step, context)
+        if isinstance(fraction, set):  # finished, or failed (reported)
+            self._end_modal(context)
+            return fraction
+        context.window_manager.progress_update(fraction)
+        context.workspace.status_text_set(f"GenCoords: fitting bones to '{self._job.obj.name}' "
+                                          f"{fraction:.0%} (Esc to cancel)")
+        return {'RUNNING_MODAL'}
 
     def _end_modal(self, context):
         context.window_manager.event_timer_remove(self._timer)

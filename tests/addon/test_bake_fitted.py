@@ -185,7 +185,7 @@ def fitted_operator_stand_in(operators, **options):
     cls = operators.OBJECT_OT_gencoords_bake_bones
     methods = {name: vars(cls)[name] for name in (
         "execute", "invoke", "modal", "_fitted_options", "_guarded", "_fitted_job", "_commit_fitted",
-        "_bake_fitted", "_start_fitted", "_step", "_end_modal")}
+        "_bake_fitted", "_start_fitted", "_step", "_end_modal", "_finished", "_cancel")}
     stand_in = type("BakeStandIn", (), methods)()
     defaults = {"mode": 'FITTED', "bones": 8, "max_influences": 0, "use_scene_range": True,
                 "frame_start": 1, "frame_end": 250, "fitted_confirmed": False}
@@ -241,9 +241,9 @@ def test_in_a_window_the_fit_runs_modal_with_progress_and_esc(gc, monkeypatch):
     sampling = fitted_operator_stand_in(operators, fitted_confirmed=True)
     assert sampling.invoke(context, None) == {'RUNNING_MODAL'}
     updates = window_manager.calls.count("progress_update")
-    for _ in range(3):
+    for _ in range(2 + 3):  # the checks and the mesh read (2 steps), then 3 frames
         assert sampling.modal(context, SimpleNamespace(type='TIMER')) == {'RUNNING_MODAL'}
-    assert window_manager.calls.count("progress_update") == updates + 3 and scene.frame_current == 3
+    assert window_manager.calls.count("progress_update") == updates + 5 and scene.frame_current == 3
     assert sampling.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
     assert scene.frame_current == frame and [m.show_viewport for m in obj.modifiers] == shown
     assert sampling.reports == ["Bake to Bones cancelled: nothing was changed"] and obj.parent is None
@@ -257,6 +257,68 @@ def test_in_a_window_the_fit_runs_modal_with_progress_and_esc(gc, monkeypatch):
     assert running.reports[-1].startswith("Baked 'Mesh' to 'Mesh fitted rig' (")
     worst, _ = deviations(obj, expected, mesh_diagonal(obj))
     assert worst < WORST
+
+
+def file_state(obj):
+    """What a cancelled bake must leave as it was: the data-blocks, the mesh's modifiers,
+    vertex groups, attributes and parent, and the scene's frame."""
+    return {"objects": sorted(bpy.data.objects.keys()), "armatures": sorted(bpy.data.armatures.keys()),
+            "actions": sorted(bpy.data.actions.keys()), "parent": obj.parent,
+            "modifiers": [(m.name, m.type, m.show_viewport) for m in obj.modifiers],
+            "groups": obj.vertex_groups.keys(), "attributes": sorted(obj.data.attributes.keys()),
+            "frame": bpy.context.scene.frame_current}
+
+
+def test_in_a_window_the_writing_shows_progress_and_esc_leaves_the_file_as_it_was(gc, monkeypatch):
+    """Issue 37 item 7: the checks at the start and the writing and measuring of the rig at
+    the end are steps of the modal bake too: the progress rises through them, and Esc while
+    the rig is being measured (armature, keys, vertex groups and Armature modifier written)
+    removes all of it at once; the binding deforms as before. A script's call (the other
+    tests) still runs to the end."""
+    from types import SimpleNamespace
+
+    from test_ui_artist import ContextStandIn, WindowStandIn
+    operators = importlib.import_module(f"{PACKAGE}.gencoords_addon.ui.bake_operator")
+    obj, expected = bound_animated_scene(gc)
+    make_active(obj)
+    monkeypatch.setattr(operators, "interactive", lambda context: True)
+    before = file_state(obj)
+
+    class ProgressStandIn(WindowStandIn):
+        def __init__(self):
+            super().__init__()
+            self.fractions = []
+
+        def progress_update(self, fraction):
+            self.fractions.append(fraction)
+    window_manager = ProgressStandIn()
+    context = ContextStandIn(window_manager)
+    timer = SimpleNamespace(type='TIMER')
+
+    escaped = fitted_operator_stand_in(operators, fitted_confirmed=True)
+    assert escaped.invoke(context, None) == {'RUNNING_MODAL'}
+    while not (obj.vertex_groups and obj.modifiers[0].type == 'ARMATURE'):  # into the measuring
+        time.sleep(0.02)
+        assert escaped.modal(context, timer) == {'RUNNING_MODAL'}
+    assert obj.parent is not None and len(bpy.data.armatures) == len(before["armatures"]) + 1
+    assert 0.9 < window_manager.fractions[-1] < 1.0
+    start = time.perf_counter()
+    assert escaped.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
+    assert time.perf_counter() - start < 1.0
+    assert escaped.reports == ["Bake to Bones cancelled: nothing was changed"]
+    assert file_state(obj) == before and gc.binding.binding(obj) is not None
+    played = binding_motion(obj, list(expected))
+    assert all(np.array_equal(played[frame], expected[frame]) for frame in expected)
+
+    window_manager.fractions.clear()
+    running = fitted_operator_stand_in(operators, fitted_confirmed=True)
+    assert running.invoke(context, None) == {'RUNNING_MODAL'}
+    assert run_modal(running, context, timer) == {'FINISHED'}
+    fractions = np.array(window_manager.fractions)
+    assert (np.diff(fractions) >= 0.0).all() and fractions[0] < 0.02
+    writing = fractions[fractions > 0.9]  # the rig written, keyed, then measured a frame a step
+    assert len(writing) >= 2 + len(FRAMES) and (np.diff(writing) > 0.0).all() and writing[-1] == 1.0
+    assert obj.parent.type == 'ARMATURE' and running.reports[-1].startswith("Baked 'Mesh' to ")
 
 
 def test_other_modifiers_stay_and_the_fit_is_of_the_binding_alone(gc):
