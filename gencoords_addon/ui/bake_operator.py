@@ -206,7 +206,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             self._end_modal(context)
             return fraction
         context.window_manager.progress_update(fraction)
-        context.workspace.status_text_set(f"GenCoords: fitting bones to '{self._job.obj.name}' "
+        context.workspace.status_text_set(f"GenCoords: baking '{self._job.obj.name}' to fitted bones "
                                           f"{fraction:.0%} (Esc to cancel)")
         return {'RUNNING_MODAL'}
 
