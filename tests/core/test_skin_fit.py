@@ -239,9 +239,9 @@ def brute_force_simplex(gram, width):
             g = gram[:, subset][:, :, subset]
             system = np.zeros((len(gram), size + 1, size + 1))
             system[:, :size, :size], system[:, size, :size], system[:, :size, size] = g, 1.0, 1.0
-            right = np.zeros((len(gram), size + 1))
-            right[:, size] = 1.0
-            w = np.linalg.solve(system, right)[:, :size]
+            right = np.zeros((len(gram), size + 1, 1))  # stacked columns: numpy 1 and 2 read them alike
+            right[:, size, 0] = 1.0
+            w = np.linalg.solve(system, right)[:, :size, 0]
             value = np.einsum("ci,cij,cj->c", w, g, w)
             best = np.where((w >= 0.0).all(axis=1) & (value < best), value, best)
     return best
