@@ -316,6 +316,10 @@ def apply(state, step):
     obj = state.get(step["target"])
     if not obj.modifiers:
         raise Skipped("no modifier")
+    if obj.data.shape_keys is not None:
+        # Blender's own refusal ("cannot be applied to a mesh with shape keys"), in which
+        # 4.2 rewrites the mesh's UV map (seeds 19 and 31): none of the add-on's to check.
+        raise Skipped("Blender refuses Apply on a mesh with shape keys")
     modifier = obj.modifiers[0 if step["which"] == "first" else -1]
     # Blender applies a modifier to the mesh data as it is, without those above it ("Applied
     # modifier was not first, result may not be as expected"): only the first keeps the
