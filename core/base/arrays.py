@@ -116,4 +116,4 @@ class _Context:
     def __init__(self, function):
         self.function = function
         self.dimension = self.vertex_count = self.point_count = None
-        self.vertices = self.faces = self.points = None
+        self.vertices = self.faces = self.points = self.kind = None

@@ -9,12 +9,15 @@ import numpy as np
 
 from .errors import CageError
 from .topology import cage_topology
-from ..surfaces.named import EVERY_KIND
+from ..surfaces.named import EVERY_KIND, MEAN_VALUE_QUADS
 from .arrays import _as_array, _finite, _first_bad_row, _solver_tolerance, check_tolerance, real_array
 
-__all__ = ["CHECKS", "OUTSIDE_MODES", "GAMMA_LIMIT", "RESOLUTION_LIMIT"]
+__all__ = ["CHECKS", "OUTSIDE_MODES", "GAMMA_LIMIT", "RESOLUTION_LIMIT", "QUAD_KIND_FUNCTIONS"]
 
 OUTSIDE_MODES = ("raise", "extrapolate", "project")
+# The functions that take kind MEAN_VALUE_QUADS: coordinates and weights check their
+# ``faces`` as ``polygons`` then (triangles and quads, mixed); the others refuse that kind.
+QUAD_KIND_FUNCTIONS = ("coordinates", "weights", "needs_convex")
 _RESULT_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
 
 
@@ -39,6 +42,8 @@ def _vertices(value, context, name="vertices"):
 
 
 def _faces(value, context, name="faces", width=None):
+    if name == "faces" and context.kind == MEAN_VALUE_QUADS:  # quads and triangles
+        return _polygons(value, context)
     array = _as_array(value, name)
     width = width or context.dimension
     if array.size == 0 and name == "quads":  # no quads to split (any empty list)
@@ -119,6 +124,12 @@ def _point(value, context):
 def _kind(value, context):
     if not isinstance(value, str) or value not in EVERY_KIND:
         raise ValueError(f"unknown kind {value!r}; expected one of {', '.join(EVERY_KIND)}")
+    name = context.function.__qualname__
+    if value == MEAN_VALUE_QUADS and name not in QUAD_KIND_FUNCTIONS:
+        raise ValueError(f"kind {value!r} (each quad a bilinear patch) is computed by "
+                         f"gencoords.coordinates and gencoords.weights with the cage's polygons, "
+                         f"not by {name}()")
+    context.kind = value
     return value
 
 
@@ -316,6 +327,7 @@ def _point_count(value, context):
 # learnt: faces need the vertex count, points the dimension...).
 CHECKS = {
     "self": _cage_self,
+    "kind": _kind,  # before the faces: kind MEAN_VALUE_QUADS takes quads
     "vertices": _vertices,
     "coordinates": _coordinates,
     "cage_positions": _cage_positions,
@@ -329,7 +341,6 @@ CHECKS = {
     "point": _point,
     "values": _values,
     "out": _out,
-    "kind": _kind,
     "outside": _outside,
     "tolerance": lambda value, context: check_tolerance(value),
     "dtype": _dtype,

@@ -12,13 +12,13 @@ import numpy as np
 
 from ..base.errors import CageError
 from ..base.simplex import closest_points_on_simplices
+from ..surfaces.named import MEAN_VALUE_QUADS
 from .quad_integrals import bilinear_hats, corner_normals, quad_weights, triangle_weights
 from .validation import DEFAULT_TOLERANCE, validate_cage
 
 __all__ = ["MEAN_VALUE_QUADS", "fan_split", "validate_polygons", "boundary_rows",
            "bilinear_parameters", "integrated_weights", "restore_linear_precision"]
 
-MEAN_VALUE_QUADS = "mean_value_quads"
 # (point, quad, Gauss node) entries per chunk of points: temporaries of a few tens of MB.
 _CHUNK_ENTRIES = 1 << 20
 # A quad corner whose normal has less than this share of the largest corner normal along

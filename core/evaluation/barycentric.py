@@ -8,11 +8,12 @@ with its worker processes); callers with several batches of points keep one inst
 import numpy as np
 
 from .cage import Cage, needs_convex
+from .quad_coordinates import quad_kind_coordinates
 from ..base.inputs import checked
 from ..base.parameters import OUTSIDE_MODES
 from ..surfaces.numerical import DEFAULT_LEVELS, geodesic_pieces, simplex_rule, surface_ridge_scalars
 from ..base.topology import cage_topology
-from ..surfaces.named import MEAN_VALUE
+from ..surfaces.named import MEAN_VALUE, MEAN_VALUE_QUADS
 from ..construction.general import construct_weights, point_frame
 from ..construction.units import to_world
 from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
@@ -37,14 +38,17 @@ def coordinates(points, vertices, faces, kind=MEAN_VALUE, outside="raise",
         Cage vertices.
     faces : (m, N) int
         Simplicial facets, outward oriented (2D: counter-clockwise polygon edges;
-        3D: triangles counter-clockwise seen from outside).
+        3D: triangles counter-clockwise seen from outside); for ``"mean_value_quads"``
+        triangles and quads as :func:`gencoords.mean_value_quad_coordinates`' polygons.
     kind : str
         ``"wachspress"``, ``"mean_value"``, ``"discrete_harmonic"``, ``"voronoi"`` or
-        ``"power"`` (with ``gamma``), or ``"harmonic"`` (with ``resolution``). Mean value
+        ``"power"`` (with ``gamma``), ``"harmonic"`` (with ``resolution``) or
+        ``"mean_value_quads"`` (:data:`gencoords.MEAN_VALUE_QUADS`). Mean value
         coordinates accept any closed, consistently oriented 2D/3D cage; harmonic
         coordinates any closed 3D triangle cage (solved on a grid:
-        :func:`gencoords.harmonic_field`; non-negative, local); the others need a convex
-        one.
+        :func:`gencoords.harmonic_field`; non-negative, local); quad mean value any closed
+        3D cage of triangles and quads, each quad a bilinear patch (bitwise
+        :func:`gencoords.mean_value_quad_coordinates`); the others need a convex one.
     outside : str
         What to do with points outside the cage: ``"raise"`` (OutsideCageError naming
         them), ``"extrapolate"`` (the formula, smooth for mean value; on a facet's
@@ -116,7 +120,15 @@ def coordinates(points, vertices, faces, kind=MEAN_VALUE, outside="raise",
     >>> h = gencoords.coordinates([[0.1, 0.2, 0.3]], corners, triangles, kind="harmonic", resolution=24)
     >>> print(h.round(6))  # in a tetrahedron: its barycentric coordinates
     [[0.4 0.1 0.2 0.3]]
+    >>> from gencoords.cages.shapes import block_cage
+    >>> cube, quads = block_cage(np.ones((1, 1, 1), dtype=bool))   # a unit cube, six quads
+    >>> q = gencoords.coordinates([[0.5, 0.5, 0.5]], cube, quads, kind=gencoords.MEAN_VALUE_QUADS)
+    >>> print(np.round(q, 6))
+    [[0.125 0.125 0.125 0.125 0.125 0.125 0.125 0.125]]
     """
+    if kind == MEAN_VALUE_QUADS:  # faces are polygons: no Cage of simplices
+        return quad_kind_coordinates(points, vertices, faces, outside, tolerance, progress, locations, workers,
+                                     gamma, resolution).astype(dtype, copy=False)
     with Cage(vertices, faces, tolerance) as cage:
         return cage.coordinates(points, kind=kind, outside=outside, progress=progress, dtype=dtype,
                                 locations=locations, workers=workers, gamma=gamma, resolution=resolution)
@@ -185,7 +197,8 @@ def weights(points, vertices, faces, kind=MEAN_VALUE, tolerance=DEFAULT_TOLERANC
     homogeneous weights) are returned; outside points get the formula's value, or on a
     facet's hyperplane (a pole, for a convex-only kind) the limit coordinates there.
     Harmonic coordinates (``kind="harmonic"``, ``resolution`` as :func:`coordinates`) have
-    no formula: their weights are their coordinates, inside and on the cage only.
+    no formula: their weights are their coordinates, inside and on the cage only; those
+    of ``kind="mean_value_quads"`` their coordinates, extrapolated outside.
 
     Returns
     -------
@@ -202,6 +215,9 @@ def weights(points, vertices, faces, kind=MEAN_VALUE, tolerance=DEFAULT_TOLERANC
     >>> bool(np.allclose(w @ (square - [0.5, 0.5]), 0.0))  # sum_i w_i (v_i - x) = 0
     True
     """
+    if kind == MEAN_VALUE_QUADS:
+        return quad_kind_coordinates(points, vertices, faces, "extrapolate", tolerance, None, None, workers,
+                                     gamma, resolution)
     with Cage(vertices, faces, tolerance) as cage:
         return cage.weights(points, kind=kind, workers=workers, gamma=gamma, resolution=resolution)
 

@@ -8,11 +8,12 @@ from ..base.inputs import checked
 from ..construction.quad_cage import (boundary_rows, fan_split, integrated_weights, restore_linear_precision,
                                       validate_polygons)
 from ..construction.validation import DEFAULT_TOLERANCE
+from ..surfaces.named import HARMONIC, MEAN_VALUE_QUADS, kind_parameter
 from .interpreters import available_cores, python_executable
 from .parallel import WorkerPool, dispatch_units
 from .shared_memory import SharedArrays
 
-__all__ = ["mean_value_quad_coordinates", "worker_count", "integrated_weights_task"]
+__all__ = ["mean_value_quad_coordinates", "quad_kind_coordinates", "worker_count", "integrated_weights_task"]
 
 # (point, quad) pairs worth a worker: about half a second of integrals.
 _PAIRS_PER_WORKER = 1 << 18
@@ -133,3 +134,14 @@ def mean_value_quad_coordinates(points, vertices, polygons, outside="raise", tol
         locations[:] = 1
         locations[on_face], locations[away] = 0, -1
     return result
+
+
+def quad_kind_coordinates(points, vertices, polygons, outside, tolerance, progress, locations, workers, gamma,
+                          resolution):
+    """:func:`gencoords.coordinates` of kind MEAN_VALUE_QUADS, arguments checked there ((k, n)
+    float): :func:`mean_value_quad_coordinates`'s, which take neither parameter of a kind."""
+    if resolution is not None:
+        raise ValueError(f"resolution applies to kind={HARMONIC!r} only, not {MEAN_VALUE_QUADS!r}")
+    kind_parameter(MEAN_VALUE_QUADS, gamma)  # refuses a gamma
+    return mean_value_quad_coordinates(points, vertices, polygons, outside=outside, tolerance=tolerance,
+                                       locations=locations, workers=workers, progress=progress)

@@ -19,7 +19,7 @@ import numpy as np
 
 from .numerical import unit_sphere_ridge_scalars
 
-__all__ = ["Kind", "KIND_TABLE", "HARMONIC", "EVERY_KIND", "WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI", "POWER", "KINDS", "CONVEX_ONLY_KINDS",
+__all__ = ["Kind", "KIND_TABLE", "HARMONIC", "MEAN_VALUE_QUADS", "EVERY_KIND", "WACHSPRESS", "MEAN_VALUE", "DISCRETE_HARMONIC", "VORONOI", "POWER", "KINDS", "CONVEX_ONLY_KINDS",
            "named_ridge_scalars", "named_scaled_ridge_scalars",
            "kind_parameter", "mean_value", "discrete_harmonic_scaled", "wachspress_scaled",
            "voronoi_scaled", "power_scaled",
@@ -192,7 +192,11 @@ CONVEX_ONLY_KINDS = tuple(kind.name for kind in KIND_TABLE if kind.convex_only)
 # (gencoords.harmonic), so they are not in KIND_TABLE, but every function computing
 # coordinates or weights takes them by this name (3D cages; ``resolution`` its grid).
 HARMONIC = "harmonic"
-EVERY_KIND = KINDS + (HARMONIC,)  # what ``kind`` may name
+# Mean value coordinates of cages of quads and triangles, each quad a bilinear patch
+# (gencoords.mean_value_quad_coordinates): integrated, not from a generating surface;
+# gencoords.coordinates and gencoords.weights take them by this name, faces quads too.
+MEAN_VALUE_QUADS = "mean_value_quads"
+EVERY_KIND = KINDS + (HARMONIC, MEAN_VALUE_QUADS)  # what ``kind`` may name
 
 
 def _named(kind):
@@ -210,7 +214,7 @@ def kind_parameter(kind, value):
 
     Raises ValueError for a value given to a kind without a parameter.
     """
-    entry = None if kind == HARMONIC else _named(kind)
+    entry = None if kind in (HARMONIC, MEAN_VALUE_QUADS) else _named(kind)
     if entry is None or entry.parameter is None:
         if value is not None:
             with_parameter = [k.name for k in KIND_TABLE if k.parameter == "gamma"]

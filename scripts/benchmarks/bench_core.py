@@ -140,7 +140,7 @@ def workers_table(vertices, faces, points, repeats):
 def numerical_surfaces_table(repeats):
     """ns per (point x ridge) of ridge scalars: closed forms beside numerical integration."""
     from gencoords.cages.shapes import cross_polytope
-    from scripts.common.polytopes import random_convex_polytope
+    from tests.fixtures.polytopes import random_convex_polytope
 
     print("\nridge scalars, ns per point x ridge: closed form beside the numerical integral "
           "(ridge_scalars_from_surface with the unit sphere, default levels)\n")

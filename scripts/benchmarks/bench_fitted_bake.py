@@ -1,5 +1,5 @@
 """Bake to Bones, Fitted, on the character (issue 37 item 7): the ~43k-vertex body of
-scripts/common/character.py bound to its cage (mean value, the default storage), the cage
+tests/fixtures/character.py bound to its cage (mean value, the default storage), the cage
 animated over 40 frames (arms, legs and head, as bench_skin_fit.py moves them: a shape
 key a frame), then the operator as a pipeline script calls it, defaults but the
 influences. Printed: the bake's wall and CPU seconds, the fit's share, and the figures

@@ -1,7 +1,7 @@
 """Harmonic coordinates on the scenes an artist builds, against Mesh Deform p5 and p6 in the
 same run (part of ``make bench``; issue 35).
 
-The fixtures are ``scripts/common/artist_cages.py``'s: a hand with close fingers, a
+The fixtures are ``tests/fixtures/artist_cages.py``'s: a hand with close fingers, a
 quadruped with close legs and a thin tail, a thin-walled cup, an open cape in a thin box
 cage, and the character. Each method binds each fixture in a fresh scene, at default
 settings (Mesh Deform at precision 5 and 6; GenCoords Harmonic, Automatic storage).
@@ -32,7 +32,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: scripts.common
 from scripts.benchmarks import bench_local  # noqa: E402 (prepares the session, imports bpy)
-from scripts.common import artist_cages, playback, scenes, session  # noqa: E402
+from scripts.common import playback, scenes, session  # noqa: E402
+from tests.fixtures import artist_cages  # noqa: E402
 import bpy  # noqa: E402
 from scripts.common.memory import PeakMemory  # noqa: E402
 from scripts.common.playback import settle  # noqa: E402

@@ -1,6 +1,6 @@
 """Harmonic coordinates (core/harmonic): cost and quality against the grid's resolution.
 
-On the artist's character (scripts/common/character.py: a box-modelled, non-convex T-pose
+On the artist's character (tests/fixtures/character.py: a box-modelled, non-convex T-pose
 quad cage, 196 vertices, arms 0.15 thick across 1.9) and points inside its body, for each
 resolution: the bind's time (one process) and peak memory, the unknowns, the solver's
 iterations and mean residual reduction per iteration, negative coordinates, linear
@@ -30,7 +30,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir))  # the repository
 import gencoords  # noqa: E402
-from scripts.common.character import (bent_forearm, body_mesh, body_points, cage_limb_vertices,  # noqa: E402
+from tests.fixtures.character import (bent_forearm, body_mesh, body_points, cage_limb_vertices,  # noqa: E402
                                       character_cage, limb_labels)
 from scripts.common.measures import angle_changes  # noqa: E402
 from gencoords.skinning.skinning import reproduce_points, top_k  # noqa: E402

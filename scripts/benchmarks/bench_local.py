@@ -1,6 +1,6 @@
 """Local coordinates on the artist's character, against Mesh Deform (part of ``make bench``).
 
-The character (``scripts/common/character.py``): a 43k-vertex body of capsules in its
+The character (``tests/fixtures/character.py``): a 43k-vertex body of capsules in its
 box-modelled, non-convex T-pose quad cage (196 vertices). Methods, each bound in a fresh
 scene: Mesh Deform at precision 5 and 6, GenCoords mean value and GenCoords harmonic
 (local, positive; sparse storage), both with Automatic storage.
@@ -49,7 +49,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository: 
 from scripts.common import session  # noqa: E402
 
 session.prepare()  # before bpy is imported
-from scripts.common import character, measures, scenes  # noqa: E402
+from scripts.common import measures, scenes  # noqa: E402
+from tests.fixtures import character  # noqa: E402
 import bpy  # noqa: E402
 from scripts.common import playback  # noqa: E402
 from scripts.common.memory import PeakMemory, blend_size  # noqa: E402

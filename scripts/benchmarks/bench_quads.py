@@ -1,7 +1,7 @@
 """Quad-native mean value coordinates (core/construction/quad_cage.py) beside mean value on
 the split cage: cost, the quadrature's error, and the dependence on each quad's first corner.
 
-On the character's box-modelled quad cage (scripts/common/character.py: 196 vertices, 194
+On the character's box-modelled quad cage (tests/fixtures/character.py: 196 vertices, 194
 quads), points inside its body; one process, BLAS on one thread, the two kinds timed in
 turn (CPU time, best of ``--repeats``: steadier on a shared machine), the cost per (point, quad) (mean value's on the 388 triangles
 of the split counted per quad too). Then how far the linear-precision correction moved the
@@ -26,7 +26,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.p
 import gencoords  # noqa: E402
 from gencoords.construction import quad_cage  # noqa: E402
 from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
-from scripts.common.character import body_points, character_cage  # noqa: E402
+from tests.fixtures.character import body_points, character_cage  # noqa: E402
 
 
 def _best_times(calls, repeats):

@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 
 import gencoords  # noqa: E402
 from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
-from scripts.common.character import body_points, character_cage  # noqa: E402
+from tests.fixtures.character import body_points, character_cage  # noqa: E402
 
 
 def timed(call):

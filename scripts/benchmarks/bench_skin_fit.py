@@ -9,7 +9,7 @@ bone transforms solved with the weights fixed, as a rig replays poses it was not
 on). Printed: worst and RMS distance to GenCoords' positions as fractions of the mesh's
 bounding-box diagonal, and the fit's time (noisy on a shared machine).
 
-The same on the character (scripts/common/character.py: a non-convex, box-modelled T-pose
+The same on the character (tests/fixtures/character.py: a non-convex, box-modelled T-pose
 cage of 196 vertices, mean value coordinates partly negative there) around its capsule
 body at about 8,000 vertices, the cage animated over 24 frames: the arms bend up from the
 shoulders (up to 60 degrees at the hands), the legs swing forward and back from the hips
@@ -105,7 +105,7 @@ def character_scene():
     import gencoords
     from gencoords.surfaces.named import MEAN_VALUE
     from gencoords.cages import triangulate_quads
-    from scripts.common import character
+    from tests.fixtures import character
     rest, _, _ = character.body_mesh(detail=0.42)
     cage, quads = character.character_cage()
     coordinates = gencoords.coordinates(rest, cage, triangulate_quads(cage, quads), kind=MEAN_VALUE)

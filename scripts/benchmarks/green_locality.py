@@ -17,7 +17,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 import gencoords  # noqa: E402
 from gencoords.storage.deviations import residual_deviations  # noqa: E402
-from scripts.common.character import body_mesh, character_cage  # noqa: E402
+from tests.fixtures.character import body_mesh, character_cage  # noqa: E402
 
 COUNTS = (16, 32, 64, 128, 192, 256, 320)
 

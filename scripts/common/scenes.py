@@ -119,9 +119,9 @@ def add_demo_mesh_and_cage():
 
 
 def add_character(detail=1.0):
-    """The artist's character (``scripts.common.character``): a ~45k-vertex body of capsules
+    """The artist's character (``tests.fixtures.character``): a ~45k-vertex body of capsules
     in its box-modelled, non-convex quad cage (196 vertices). Returns (mesh, cage)."""
-    from . import character
+    from tests.fixtures import character
     body_vertices, body_triangles, _ = character.body_mesh(detail)
     cage_vertices, cage_quads = character.character_cage()
     return (add_mesh_object("Character", body_vertices, body_triangles),

@@ -9,7 +9,7 @@ import bmesh
 import bpy
 import numpy as np
 
-from scripts.common import character
+from tests.fixtures import character
 from scripts.common.blender_objects import arrays, make_active
 
 NAN = float("nan")

@@ -1,7 +1,7 @@
 """The README's character picture: Mesh Deform, mean value and harmonic coordinates side by
 side under the same bend of the left forearm's cage (60 degrees about the elbow).
 
-The artist's character (``scripts/common/character.py``: a 43k-vertex body in a
+The artist's character (``tests/fixtures/character.py``: a 43k-vertex body in a
 box-modelled, non-convex quad cage of 196 vertices) three times, each bound by one method
 through its own operator (Mesh Deform at precision 5; GenCoords mean value and harmonic,
 Automatic storage), each cage's forearm bent the same way, rendered from the front with
@@ -23,7 +23,8 @@ from scripts.common import session  # noqa: E402
 session.prepare()  # before bpy is imported: Blender reads its user folder then
 import bpy  # noqa: E402
 
-from scripts.common import character, pictures, scenes  # noqa: E402
+from scripts.common import pictures, scenes  # noqa: E402
+from tests.fixtures import character  # noqa: E402
 from scripts.common.scenes import arrays  # noqa: E402
 from gencoords.surfaces.named import MEAN_VALUE  # noqa: E402
 from gencoords.surfaces.named import HARMONIC  # noqa: E402

@@ -20,7 +20,7 @@ from gencoords.cages.shapes import (cross_polytope, icosphere, irregular_octahed
                                     regular_polygon)
 from gencoords.surfaces.named import POWER  # noqa: E402
 from scripts.common.png import write_png  # noqa: E402
-from scripts.common.polytopes import random_convex_polytope  # noqa: E402
+from tests.fixtures.polytopes import random_convex_polytope  # noqa: E402
 
 
 def polytopes():

@@ -339,7 +339,7 @@ def test_a_cage_made_with_margin_0_binds(gc, target):
 
 def test_negative_mean_value_weights_in_a_non_convex_cage_are_explained_not_an_error(gc):
     """The artist's character: a box-modelled T-pose cage, points of the body inside."""
-    from scripts.common.character import body_points, character_cage
+    from tests.fixtures.character import body_points, character_cage
 
     vertices, quads = character_cage()
     mesh = bpy.data.meshes.new("Cage")

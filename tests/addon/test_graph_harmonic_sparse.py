@@ -13,7 +13,7 @@ import pytest
 
 from scene_helpers import (add_icosphere_cage, add_sphere, evaluated_positions, read_positions, update,
                            write_positions)
-from scripts.common import character
+from tests.fixtures import character
 
 RESOLUTION = 24  # cells along the cage's longest side: quick, and still local
 
@@ -269,7 +269,7 @@ def test_the_deformer_follows_a_similarity_and_the_panel_says_how_closely(gc, na
     """Issue 35: a needle and a quadruped's thin tail missed a turned, scaled cage by 1e-3
     of its size while the panel said 5e-9; now Blender's own evaluation of what Bind wrote
     follows it within 1e-5, and the panel's Similarity line is what a probe measures."""
-    from scripts.common import artist_cages
+    from tests.fixtures import artist_cages
     from gencoords.planning.similarity import probe_similarity
     scene = artist_cages.fixture(name, detail=0.2)
     obj = _mesh_object(name, scene.mesh_vertices, scene.mesh_faces)

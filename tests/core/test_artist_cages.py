@@ -1,4 +1,4 @@
-"""The reference scenes (scripts/common/artist_cages.py): each cage closed, consistently
+"""The reference scenes (tests/fixtures/artist_cages.py): each cage closed, consistently
 and outward oriented, around its whole mesh; the edits move only what they name; the hand
 and the quadruped as close and thin as issue 35 asks."""
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from scripts.common import artist_cages
+from tests.fixtures import artist_cages
 
 
 @pytest.fixture(scope="module", params=sorted(artist_cages.FIXTURES))

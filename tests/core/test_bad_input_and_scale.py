@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from polytopes import icosphere, octahedron, random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import icosphere, octahedron, random_convex_polytope, random_interior_points
 
 
 def octahedron_point_and_weights():

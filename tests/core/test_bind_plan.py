@@ -13,7 +13,7 @@ from gencoords.planning.bind_plan import plan_bind
 from gencoords.planning.request import BindRequest
 from gencoords.planning.storage_choice import choose_storage
 from gencoords.cages.shapes import icosphere
-from polytopes import random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import random_convex_polytope, random_interior_points
 
 
 def run(generator):
@@ -266,7 +266,7 @@ def test_sparse_plan_keeps_the_largest_pairs_and_measures_them(irregular):
 
 
 def test_harmonic_plans_two_levels_by_default_positive_and_local():
-    from scripts.common import character
+    from tests.fixtures import character
     cage_vertices, quads = character.character_cage()
     triangles = gencoords.cages.triangulate_quads(cage_vertices, quads)
     points, _, labels = character.body_mesh(0.2)

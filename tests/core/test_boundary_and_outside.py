@@ -6,7 +6,7 @@ import pytest
 import gencoords
 import gencoords.evaluation.rows
 import gencoords.evaluation.barycentric
-from polytopes import icosphere, octahedron, random_convex_polytope, random_interior_points, regular_polygon
+from tests.fixtures.polytopes import icosphere, octahedron, random_convex_polytope, random_interior_points, regular_polygon
 from reference_formulas import mean_value_3d_ju, normalise
 
 TETRA_LIKE = octahedron((1.0, 1.3, 0.8))

@@ -4,7 +4,7 @@ neighbours on the cage and the thinnest part, from the cage alone, on the artist
 import pytest
 
 from gencoords.harmonic.cage_features import narrowest_gap_and_thinnest_part, resolving_resolution
-from scripts.common import artist_cages
+from tests.fixtures import artist_cages
 
 
 @pytest.mark.parametrize("name,gap,thickness", [

@@ -1,4 +1,4 @@
-"""The artist's character fixture (scripts/common/character.py): a closed, outward,
+"""The artist's character fixture (tests/fixtures/character.py): a closed, outward,
 non-convex quad cage with every body vertex strictly inside it."""
 
 from collections import Counter
@@ -6,7 +6,7 @@ from collections import Counter
 import numpy as np
 
 import gencoords
-from scripts.common import character
+from tests.fixtures import character
 
 
 def _triangles():

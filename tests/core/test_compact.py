@@ -7,7 +7,7 @@ import pytest
 import gencoords
 from gencoords.storage import compact, deviations
 from gencoords.cages.shapes import icosphere
-from polytopes import random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import random_convex_polytope, random_interior_points
 
 
 @pytest.fixture(scope="module")

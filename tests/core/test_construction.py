@@ -8,8 +8,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import gencoords
-from polytopes import (EXAMPLES, SEEDS, SHAPES, cross_polytope, homogeneity_residual, octahedron,
-                       polytope_and_points, random_convex_polytope, random_interior_points, regular_polygon)
+from tests.fixtures.polytopes import (cross_polytope, homogeneity_residual, octahedron, polytope_and_points,
+                                      random_convex_polytope, random_interior_points, regular_polygon)
+from tests.fixtures.strategies import EXAMPLES, SEEDS, SHAPES
 
 
 @pytest.mark.parametrize("kind", gencoords.advanced.KINDS)

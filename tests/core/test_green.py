@@ -12,7 +12,7 @@ from gencoords.construction.green_deform import stretch_factors
 from gencoords.base.orientation import orient_facets_outward
 from gencoords.cages.shapes import irregular_octahedron
 from gencoords.construction.validation import validate_cage
-from polytopes import dented_icosphere, icosphere
+from tests.fixtures.polytopes import dented_icosphere, icosphere
 
 
 def l_prism():

@@ -324,7 +324,7 @@ def test_workers_give_what_one_process_gives():
 
 
 def test_on_the_artists_character_a_hand_moves_nothing_elsewhere_and_sparse_weights_are_exact():
-    from scripts.common.character import body_points, cage_limb_vertices, character_cage, limb_labels
+    from tests.fixtures.character import body_points, cage_limb_vertices, character_cage, limb_labels
     vertices, quads = character_cage()
     triangles = gencoords.cages.triangulate_quads(vertices, quads)
     points = body_points(3000, seed=1)

@@ -11,7 +11,7 @@ from gencoords.planning.bind_plan import plan_bind
 from gencoords.planning.request import BindRequest
 from gencoords.planning.similarity import probe_similarity
 from gencoords.surfaces.named import HARMONIC
-from scripts.common import artist_cages
+from tests.fixtures import artist_cages
 
 # (fixture, settings): each missed a similarity by 1e-3 to 2e-2 of the cage's size before.
 CASES = {

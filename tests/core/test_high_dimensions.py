@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from polytopes import random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import random_convex_polytope, random_interior_points
 
 POLYTOPES = [(4, 9), (5, 9)]
 

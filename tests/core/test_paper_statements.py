@@ -12,8 +12,9 @@ from hypothesis import given
 
 import gencoords
 from gencoords.cages.shapes import cross_polytope, icosphere, irregular_octahedron, octahedron
-from polytopes import (EXAMPLES, SEEDS, SHAPES, convex_hull_facets, homogeneity_residual, polytope_and_points,
-                       random_convex_polytope, random_interior_points, regular_polygon)
+from tests.fixtures.polytopes import (convex_hull_facets, homogeneity_residual, polytope_and_points,
+                                      random_convex_polytope, random_interior_points, regular_polygon)
+from tests.fixtures.strategies import EXAMPLES, SEEDS, SHAPES
 
 DIMENSIONS = [2, 3, 4]
 VERTEX_COUNTS = {2: 8, 3: 12, 4: 9}
@@ -157,7 +158,7 @@ def test_figure_10_voronoi_differs_from_wachspress_in_an_irregular_octahedron():
 
 
 def test_figure_11_voronoi_goes_negative_in_this_convex_polyhedron():
-    # Found by searching random 7-vertex hulls (seed 3 of scripts.common.polytopes.random_convex_polytope),
+    # Found by searching random 7-vertex hulls (seed 3 of tests.fixtures.polytopes.random_convex_polytope),
     # rounded and kept: Voronoi reaches about -0.06 where Wachspress stays positive.
     vertices = np.array([[-2.72, 0.531, -2.229], [-1.946, 1.614, 0.14], [-1.415, 1.668, 0.358],
                          [-2.048, 0.301, -3.077], [-1.956, 1.777, -1.014], [-0.797, 1.233, -0.319],

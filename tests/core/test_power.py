@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from polytopes import random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import random_convex_polytope, random_interior_points
 
 SHAPES = [(2, 8), (3, 14), (4, 9)]
 

@@ -236,3 +236,45 @@ def test_workers_compute_the_same_rows():
     spread = gencoords.mean_value_quad_coordinates(points, vertices, polygons, workers=2, progress=fractions.append)
     assert np.array_equal(here, spread)
     assert fractions and fractions[-1] == 1.0
+
+
+def test_a_kind_of_coordinates_and_weights_with_the_same_arguments():
+    """``kind=MEAN_VALUE_QUADS`` of the public functions: the quads' own coordinates,
+    bitwise, for a mixed list, an (m, 4) and an (m, 3) array of faces."""
+    vertices, polygons = _roofed_box()
+    on_a_quad = vertices[polygons[0]].mean(axis=0)  # its bilinear patch's middle
+    points = np.vstack([_inside(vertices, 40), on_a_quad, [3.0, 0.5, 0.5]])  # inside, on a face, outside
+    kind = gencoords.MEAN_VALUE_QUADS
+    expected = gencoords.mean_value_quad_coordinates(points, vertices, polygons, outside="project")
+    locations = np.empty(len(points), dtype=np.int8)
+    got = gencoords.coordinates(points, vertices, polygons, kind=kind, outside="project", locations=locations)
+    assert got.dtype == np.float64 and np.array_equal(got, expected)
+    assert list(locations[-2:]) == [0, -1] and (locations[:-2] == 1).all()
+    single = gencoords.coordinates(points[:40], vertices, polygons, kind=kind, dtype=np.float32)
+    assert single.dtype == np.float32 and np.array_equal(single, expected[:40].astype(np.float32))
+    weights = gencoords.weights(points, vertices, polygons, kind=kind)
+    assert np.array_equal(weights, gencoords.mean_value_quad_coordinates(points, vertices, polygons,
+                                                                        outside="extrapolate"))
+    cube, quads = _bent_box()
+    assert np.array_equal(gencoords.coordinates(_inside(cube, 5), cube, quads, kind=kind),
+                          gencoords.mean_value_quad_coordinates(_inside(cube, 5), cube, quads))
+    tetrahedron = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    assert np.array_equal(gencoords.coordinates([[0.1, 0.2, 0.3]], tetrahedron, triangles, kind=kind),
+                          gencoords.mean_value_quad_coordinates([[0.1, 0.2, 0.3]], tetrahedron, triangles))
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda v, p: gencoords.coordinates(v.mean(0), v, p, kind="mean_value_quads", gamma=1.0), "gamma applies"),
+    (lambda v, p: gencoords.weights(v.mean(0), v, p, kind="mean_value_quads", resolution=8), "resolution applies"),
+    (lambda v, p: gencoords.coordinates(v.mean(0), v, p + [[0, 1, 2, 3, 4]], kind="mean_value_quads"),
+     "has 5 corners"),
+    (lambda v, p: gencoords.coordinates(v.mean(0), v, p), "faces must be"),  # quads, of another kind
+    (lambda v, p: gencoords.advanced.ridge_scalars(v.mean(0), v, p, "mean_value_quads"), "not by ridge_scalars"),
+    (lambda v, p: gencoords.Cage(*icosphere(1)).coordinates(v.mean(0), kind="mean_value_quads"),
+     "not by Cage.coordinates"),
+])
+def test_the_kind_is_refused_where_it_does_not_apply(call, message):
+    vertices, polygons = _roofed_box()
+    with pytest.raises(ValueError, match=message):
+        call(vertices, polygons)

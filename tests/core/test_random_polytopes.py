@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from polytopes import random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import random_convex_polytope, random_interior_points
 
 FUZZ_CASES = [(2, 8), (3, 10), (4, 8), (5, 8)]
 

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 import gencoords
 from gencoords.construction.general import point_frame, prepare_cage
 from gencoords.surfaces.named import power_dual, power_dual_by_subsets
-from polytopes import cross_polytope, octahedron, random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import cross_polytope, octahedron, random_convex_polytope, random_interior_points
 from reference_formulas import (discrete_harmonic_2d_cotangent, discrete_harmonic_3d_cotangent,
                                 discrete_harmonic_by_stiffness,
                                 floater_2d, mean_value_2d_trigonometric, mean_value_3d_ju,

@@ -273,7 +273,7 @@ def test_progress_comes_often_enough_for_esc_to_stop_a_large_fit_within_a_second
     """Issue 37 item 7: Esc waited 193 s for a fitting round on a 43k character. The fit
     calls ``progress`` (where a cancel raises) between small steps: on the character's
     body at 11,000 vertices over 40 frames, never 0.5 s of CPU apart."""
-    from scripts.common import character
+    from tests.fixtures import character
     rest, _, labels = character.body_mesh(detail=0.5)
     turns = np.linspace(0.0, 1.0, 40)[:, None] * np.where(np.char.endswith(labels.astype(str), "arm"), 1.0, 0.0)
     frames = rest + np.stack([np.zeros_like(turns), np.zeros_like(turns), 0.2 * np.sin(turns) * rest[:, 0]], axis=2)

@@ -6,7 +6,7 @@ import pytest
 import gencoords
 from gencoords.skinning import skinning
 from gencoords.storage import deviations
-from polytopes import random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import random_convex_polytope, random_interior_points
 
 
 @pytest.fixture

@@ -7,7 +7,7 @@ import pytest
 
 import gencoords
 from gencoords.storage import deviations, pair_deviations, sparse, two_level
-from polytopes import random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import random_convex_polytope, random_interior_points
 
 
 @pytest.fixture(scope="module")

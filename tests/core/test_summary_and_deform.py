@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from polytopes import octahedron, random_interior_points
+from tests.fixtures.polytopes import octahedron, random_interior_points
 
 
 def test_coordinate_summary_counts_points_with_a_coordinate_below_minus_the_threshold():

@@ -8,7 +8,7 @@ import pytest
 import gencoords
 from gencoords.construction.general import point_frame
 from gencoords.surfaces.numerical import geodesic_pieces, simplex_rule, unit_sphere_ridge_scalars
-from polytopes import random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import random_convex_polytope, random_interior_points
 
 
 def unit_sphere(points, directions):

@@ -8,7 +8,7 @@ import pytest
 import gencoords
 from gencoords.cages import enclosing, self_intersection, surface, tight_cage, volumes
 from gencoords.cages.shapes import icosphere, octahedron
-from scripts.common import character
+from tests.fixtures import character
 
 FLAT = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]]
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import gencoords
-from polytopes import (dented_icosphere, icosphere, l_shape, octahedron, random_convex_polytope,
+from tests.fixtures.polytopes import (dented_icosphere, icosphere, l_shape, octahedron, random_convex_polytope,
                        random_interior_points)
 from reference_formulas import mean_value_3d_ju, normalise
 

@@ -12,7 +12,7 @@ import gencoords.evaluation.parallel
 import gencoords.evaluation.interpreters
 import gencoords.evaluation.shared_memory
 import simulated_os
-from polytopes import icosphere, random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import icosphere, random_convex_polytope, random_interior_points
 
 
 def shared_files():

@@ -18,7 +18,7 @@ import gencoords.evaluation.rows
 import gencoords.evaluation.interpreters
 import gencoords.evaluation.shared_memory
 import simulated_os
-from polytopes import random_convex_polytope, random_interior_points
+from tests.fixtures.polytopes import random_convex_polytope, random_interior_points
 
 
 def shared_files():
