@@ -27,6 +27,7 @@ from ..base.grid import fit_grid
 from ..base.tolerances import LINEAR_PRECISION, ROUNDING_AMPLIFICATION, TRANSLATION_PRECISION
 from ..construction.boundary import OUTSIDE
 from ..construction.green import GreenOutsideError
+from ..construction.quad_cage import validate_polygons
 from ..evaluation.cage import Cage
 from ..harmonic import harmonic_field, harmonic_quad_field
 from ..harmonic.memory import available_memory, field_bytes, fitting_resolution
@@ -151,6 +152,8 @@ def plan_bind(points, cage_vertices, triangles, request):
     >>> fraction = next(steps)  # the first chunk: the cage is checked, the storage chosen
     >>> steps.close()  # a cancel: nothing more is computed
     """
+    if request.polygons is not None:  # a folded quad named as the cage's face, before its split is checked
+        validate_polygons(cage_vertices, request.polygons, request.tolerance)
     cage = Cage(cage_vertices, triangles, tolerance=request.tolerance)
     try:
         return (yield from _plan(points, cage, request))

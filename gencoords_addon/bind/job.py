@@ -16,7 +16,6 @@ from typing import Optional
 import numpy as np
 
 from ... import core
-from ...core.construction.quad_cage import validate_polygons
 from ...core.planning import bind_plan, bind_steps
 from .. import messages, preferences, storage
 from ..bind_layout import FORMAT, BindData
@@ -107,8 +106,6 @@ class BindJob:
         early (a cancel) stops the core's worker processes and leaves nothing behind.
         """
         try:
-            if reads_quads(self.settings.kind):  # named as the cage's faces, before the split is checked
-                validate_polygons(self.input.cage_vertices, self.input.polygons, FLOAT32_TOLERANCE)
             yield from bind_steps.plan_steps(self, self.fallback)
         except core.OutsideCageError:
             raise BindError(self._outside_message()) from None
