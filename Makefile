@@ -90,10 +90,11 @@ test-core: $(STAMP)
 lint: $(STAMP)
 	$(PY) -m ruff check .
 
-## The whole suite on every Blender of MATRIX, one after the other, each in its own
-## virtual environment; prints pass/fail counts and wall time per version at the end.
+## The whole suite on every Blender of MATRIX, each in its own virtual environment: set
+## up one after another, tested side by side (as many at once as CPUs, MATRIX_JOBS
+## overrides); prints pass/fail counts and wall time per version at the end.
 test-blender-matrix: $(TOOLS_STAMP)
-	$(PYTHON) scripts/release/test_matrix.py $(MATRIX)
+	$(PYTHON) scripts/release/test_matrix.py $(if $(MATRIX_JOBS),--jobs $(MATRIX_JOBS)) $(MATRIX)
 
 ## Only set up the virtual environments of every Blender of MATRIX.
 setup-blender-matrix:
