@@ -10,6 +10,8 @@ Properties, on every object as ``obj.gencoords`` (read when binding):
     gamma         float    power coordinates' exponent, -16 to 16 (default -0.5)
     outside       enum     vertices outside the cage: 'RAISE' (default: refuse to bind),
                            'PROJECT' (nearest cage surface point), 'EXTRAPOLATE'
+    automatic_resolution bool  harmonic coordinates: the grid as fine as the cage's narrowest
+                           gap asks (default True; setting ``resolution`` turns it off)
     resolution    int      harmonic coordinates: grid cells along the cage's longest side (48)
     storage       enum     'AUTO' (default), 'EXACT', 'COMPACT', 'SPARSE' (see the README)
     compact_size  int      numbers per vertex in compact storage (default 36)

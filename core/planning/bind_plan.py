@@ -30,6 +30,7 @@ from ..construction.green import GreenOutsideError
 from ..construction.quad_cage import validate_polygons
 from ..evaluation.cage import Cage
 from ..harmonic import harmonic_field, harmonic_quad_field
+from ..harmonic.cage_features import AUTOMATIC_CEILING, automatic_resolution
 from ..harmonic.memory import available_memory, field_bytes, fitting_resolution
 from ..storage import Storage, two_level
 from ..storage.codecs import plan_codec
@@ -156,9 +157,38 @@ def plan_bind(points, cage_vertices, triangles, request):
         validate_polygons(cage_vertices, request.polygons, request.tolerance)
     cage = Cage(cage_vertices, triangles, tolerance=request.tolerance)
     try:
+        if request.harmonic:
+            request = with_grid(cage.vertices, cage.faces, request)
+            plan = yield from _plan(points, cage, request)
+            return replace(plan, resolution=request.resolution)
         return (yield from _plan(points, cage, request))
     finally:
         cage.close()
+
+
+def with_grid(cage_vertices, triangles, request):
+    """``request`` with its harmonic grid chosen: an automatic one (``resolution`` None)
+    as fine as the cage's narrowest gap asks and the memory allows, and for either what
+    the grid resolves (``grid``, a ``GridChoice``).
+
+    Examples
+    --------
+    >>> from gencoords.planning.bind_plan import with_grid
+    >>> from gencoords.planning.request import BindRequest
+    >>> from gencoords.cages.shapes import icosphere
+    >>> with_grid(*icosphere(1), BindRequest("harmonic")).resolution  # nothing narrow: the floor
+    48
+    >>> with_grid(*icosphere(1), BindRequest("harmonic", resolution=20)).grid.resolution
+    20
+    """
+    if request.resolution is None:
+        budget = available_memory() if request.memory_budget is None else request.memory_budget
+        # A budget no grid fits leaves the floor, which check_grid_memory then refuses.
+        ceiling = fitting_resolution(cage_vertices, triangles, AUTOMATIC_CEILING, budget) or AUTOMATIC_CEILING
+        grid = automatic_resolution(cage_vertices, triangles, ceiling=ceiling)
+    else:
+        grid = automatic_resolution(cage_vertices, triangles, ceiling=request.resolution, floor=request.resolution)
+    return replace(request, resolution=grid.resolution, grid=grid)
 
 
 def check_grid_memory(cage_vertices, triangles, request):

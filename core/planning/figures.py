@@ -146,8 +146,9 @@ def kind_report(request, cage, field=None):
         return "Mean value on quads: each quad its bilinear patch, whichever corner it starts from; any closed cage"
     if field is not None:
         patches = ", each quad its bilinear patch" if (field.faces.shape[1] == 4 and (field.faces[:, 3] >= 0).any()) else ""
+        resolved = "" if request.grid is None else f"; {request.grid.words()}"
         return (f"Harmonic: local, never negative; any closed cage{patches} (resolution {field.resolution}: "
-                f"{len(field.node_coordinates)} grid nodes solved)")
+                f"{len(field.node_coordinates)} grid nodes solved{resolved})")
     return coordinate_report(cage.vertices, cage.faces, request.kind, gamma=request.gamma,
                              samples=REPORT_SAMPLES, tolerance=request.tolerance).headline
 

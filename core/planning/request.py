@@ -97,7 +97,9 @@ class BindRequest:
     storage: Storage = Storage.AUTO  # a Storage (or its value: 'AUTO', 'EXACT', 'COMPACT', 'SPARSE')
     compact_size: int = 36  # compact storage's slots when asked for
     sparse_size: int = SPARSE_SIZE  # sparse storage's pairs per vertex (per grid node: two levels)
-    resolution: int = BIND_RESOLUTION  # harmonic coordinates: cells along the cage's longest side
+    # Harmonic coordinates: cells along the cage's longest side; None: automatic, enough
+    # for the cage's narrowest gap (``harmonic.cage_features.automatic_resolution``).
+    resolution: Optional[int] = None
     workers: Optional[int] = None  # worker processes (None: the core's choice; 1: none)
     tolerance: float = DEFAULT_TOLERANCE  # relative to the cage's size
     # (o, 3) float: where the deformer's float32 positions are measured from (the objects'
@@ -113,6 +115,10 @@ class BindRequest:
     # (m, 4) int: the cage's faces, a triangle's fourth index -1: mean value on quads
     # (MEAN_VALUE_QUADS) and, given them, harmonic coordinates read them, not the triangles.
     polygons: Optional[np.ndarray] = None
+
+    # What the harmonic grid resolves (a ``harmonic.cage_features.GridChoice``): set by
+    # the planner, with ``resolution``, before the solve.
+    grid: Optional[object] = None
 
     @property
     def green(self):
@@ -195,6 +201,7 @@ class BindPlan:
     # How far the mesh as written follows a similarity of the cage (``similarity``), of the
     # cage's size; None for Green coordinates (similarity invariant by their face terms).
     similarity_deviation: Optional[float] = None
+    resolution: Optional[int] = None  # harmonic coordinates: the grid's cells along the longest side
 
     @property
     def slot_count(self):
@@ -220,6 +227,7 @@ class BindPlan:
         """The measured figures by name (what a front end stores beside the slots)."""
         names = ("storage_choice", "report", "min_coordinate", "negative_points", "max_affine_error",
                  "linear_precision", "deviation_smooth", "deviation_drag", "deviation_drag_vertex", "points_outside",
-                 "points_on_boundary", "negative_entries", "node_count", "node_slot_count", "similarity_deviation")
+                 "points_on_boundary", "negative_entries", "node_count", "node_slot_count", "similarity_deviation",
+                 "resolution")
         return {name: getattr(self, name) for name in names}
 

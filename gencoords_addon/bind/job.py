@@ -63,8 +63,7 @@ class BindJob:
             format=FORMAT, kind=settings.kind, gamma=settings.gamma, outside=settings.outside,
             cage_vertex_count=len(scene.cage_vertices), mesh_vertex_count=len(scene.points),
             cage_faces_hash=scene.faces_hash, cage_non_triangles=scene.non_triangles,
-            cage_name=self.cage.name, cage_face_count=len(scene.triangles) if self.green else None,
-            resolution=settings.resolution)
+            cage_name=self.cage.name, cage_face_count=len(scene.triangles) if self.green else None)
         self.started = started
         self.result = None
         self.writing = False  # set while the plan is being written (commit_steps)

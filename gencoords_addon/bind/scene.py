@@ -38,7 +38,7 @@ class BindSettings:
     storage: str  # the Storage setting: 'AUTO', 'EXACT', 'COMPACT' or 'SPARSE'
     compact_size: int
     sparse_size: int
-    resolution: Optional[int]  # harmonic coordinates' grid; None for the other kinds
+    resolution: Optional[int]  # harmonic coordinates' grid; None: automatic, and for the other kinds
     kind_label: str  # the kind's user-facing name, for messages
 
     @classmethod
@@ -50,7 +50,8 @@ class BindSettings:
                    gamma=float(settings.gamma) if has_gamma else None,
                    outside=core_name(settings.outside), storage=settings.storage,
                    compact_size=int(settings.compact_size), sparse_size=int(settings.sparse_size),
-                   resolution=int(settings.resolution) if is_harmonic(settings.kind) else None,
+                   resolution=(None if settings.automatic_resolution else int(settings.resolution))
+                   if is_harmonic(settings.kind) else None,
                    kind_label=kind_label(settings.kind))
 
 

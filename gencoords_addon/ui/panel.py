@@ -29,7 +29,11 @@ def draw_type(column, settings, width=None):
     if kind_parameter(settings.kind) == "gamma":
         column.prop(settings, "gamma")
     if is_harmonic(settings.kind):
-        column.prop(settings, "resolution")
+        row = column.row(align=True)
+        row.prop(settings, "automatic_resolution", text="Auto", toggle=True)
+        field = row.row(align=True)
+        field.active = not settings.automatic_resolution  # greyed, still editable: typing turns Auto off
+        field.prop(settings, "resolution")
     # Green: the one type that is not affine invariant; Harmonic: the local one.
     explanation = ("Keeps details' shape when the cage stretches" if is_green(settings.kind) else
                    "Local, never negative: a limb's cage moves that limb alone"

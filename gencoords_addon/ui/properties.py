@@ -4,6 +4,7 @@ import bpy
 
 from ...core.base.parameters import GAMMA_LIMIT
 from ...core.storage import Storage
+from ...core.harmonic.cage_features import AUTOMATIC_CEILING, AUTOMATIC_FLOOR, CELLS_ACROSS_GAP
 from ...core.planning.request import BIND_RESOLUTION, SPARSE_SIZE
 from ..enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 from . import visualise
@@ -11,6 +12,11 @@ from . import visualise
 
 def _is_cage_candidate(settings, obj):
     return obj.type == 'MESH' and obj != settings.id_data
+
+
+def _resolution_set(settings, context):
+    # A Resolution typed or set from a script is the one wanted: not automatic any more.
+    settings.automatic_resolution = False
 
 
 def _field_vertex_changed(settings, context):
@@ -35,13 +41,22 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
                     "cages, up to 1 on regular ones (docs/POWER.md). Bind refuses coordinates too large "
                     "to store precisely (large |gamma| in irregular cages)",
     )
+    automatic_resolution: bpy.props.BoolProperty(
+        name="Automatic", default=True, options=set(),
+        description="Harmonic coordinates: the grid as fine as the cage's narrowest gap between "
+                    f"parts asks ({CELLS_ACROSS_GAP:g} cells across it, so that close fingers or legs do "
+                    f"not pull each other), at least {AUTOMATIC_FLOOR} and at most {AUTOMATIC_CEILING} "
+                    "cells along the longest side, and what the memory allows. Setting Resolution "
+                    "turns this off",
+    )
     resolution: bpy.props.IntProperty(
         name="Resolution", default=BIND_RESOLUTION, min=4, soft_min=8, soft_max=128, max=512,
-        options=set(),
-        description="Harmonic coordinates: grid cells along the cage's longest side (cubes, so "
-                    "a thin limb gets the cells its thickness allows). Finer follows the cage "
-                    "more closely and binds slower (the time and memory grow as its cube; Bind refuses a grid "
-                    "that would not fit in the free memory and names a Resolution that does)",
+        options=set(), update=_resolution_set,
+        description="Harmonic coordinates: grid cells along the cage's longest side, instead of "
+                    "Automatic's (cubes, so a thin limb gets the cells its thickness allows). Finer "
+                    "follows the cage more closely and binds slower (the time and memory grow as its "
+                    "cube; Bind refuses a grid that would not fit in the free memory and names a "
+                    "Resolution that does)",
     )
     outside: bpy.props.EnumProperty(
         name="Outside", items=OUTSIDE_ITEMS, default="RAISE", options=set(),

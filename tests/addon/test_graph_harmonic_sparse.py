@@ -285,3 +285,37 @@ def test_the_deformer_follows_a_similarity_and_the_panel_says_how_closely(gc, na
     reported = result_of(gc, obj).metadata["similarity_deviation"]
     assert reported < 1e-5 and error == pytest.approx(reported, abs=2e-6)  # float32 evaluation beside float64
     assert any(text.startswith("Similarity: ") for text, _ in gc.status.status_lines(obj))
+
+
+def test_automatic_resolution_separates_close_fingers_and_a_set_resolution_is_kept(gc):
+    """Issue 35, item 1: by default the grid is as fine as the cage's narrowest gap asks
+    (1.25 cells across the hand's closest fingers: 59 cells where the old fixed 48 put 1.03),
+    the panel says what it resolved, and bending one finger leaves the others still. A
+    Resolution set from a script turns Automatic off, binds at that Resolution and says
+    that its cells are too wide for the gap."""
+    from tests.fixtures import artist_cages
+    scene = artist_cages.fixture("hand", detail=0.1)
+    obj = _mesh_object("Hand", scene.mesh_vertices, scene.mesh_faces)
+    cage = _mesh_object("HandCage", scene.cage_vertices, scene.cage_faces)
+    obj.gencoords.cage, obj.gencoords.kind = cage, "HARMONIC"
+    assert obj.gencoords.automatic_resolution
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+    data = gc.binding.binding(obj).data
+    assert data.resolution == 59 and result_of(gc, obj).resolution == 59
+    status = " ".join(text for text, _ in gc.status.status_lines(obj))
+    assert "narrowest gap 1.3 cells across" in status and "pull each other" not in status
+    rest = evaluated_positions(obj).astype(np.float64)
+    edit = scene.edits["bend finger"]
+    write_positions(cage.data, edit.cage_vertices)
+    update()
+    moved = evaluated_positions(obj).astype(np.float64)
+    assert np.linalg.norm(moved[edit.still] - rest[edit.still], axis=1).max() < 1e-5 * scene.diagonal
+    write_positions(cage.data, scene.cage_vertices)
+    obj.gencoords.resolution = 32  # as a pipeline script sets it
+    assert not obj.gencoords.automatic_resolution
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj]):
+        assert bpy.ops.object.gencoords_bind() == {'FINISHED'}
+    assert gc.binding.binding(obj).data.resolution == 32
+    status = " ".join(text for text, _ in gc.status.status_lines(obj))
+    assert "narrowest gap 0.7 cells across (under 1.25: parts this close may pull each other)" in status
