@@ -56,6 +56,9 @@ class BindingResult:
     resolution: int | None = None  # harmonic coordinates' grid: cells along the longest side
     node_count: int | None = None  # sparse storage in two levels: grid nodes (else 0)
     node_slot_count: int | None = None  # ... and pairs per grid node
+    # How far the mesh as written follows a turned, scaled and moved cage, of its size
+    # (None for Green, similarity invariant, and for binds before it was measured).
+    similarity_deviation: float | None = None
     metadata: Mapping = field(default_factory=dict, compare=False, repr=False)
 
     @property

@@ -29,7 +29,7 @@ Metrics:
              y axis through the middle of the arm): per triangle of the left arm, the
              change of its three angles; mean and 99th percentile (degrees), and triangles
              flipped (normal against both its rest normal and its rest normal turned 60
-             degrees).
+             degrees), and triangles with a corner changing by more than 30 degrees.
   negative   share of the (mesh vertex, cage vertex) coordinates below 0, and the
              smallest (GenCoords; Mesh Deform has none).
 
@@ -62,6 +62,7 @@ from gencoords.surfaces.named import HARMONIC  # noqa: E402
 MOVED_LIMBS = ("left_arm", "right_arm", "left_leg", "right_leg", "head")
 LOCALITY_MOVE = 0.2  # of the cage's diagonal
 BEND_DEGREES = 60.0
+CREASE_DEGREES = 30  # a corner changing by more than this reads as a crease (issue 35, item 5)
 
 
 def bind(mesh, cage, method):
@@ -110,7 +111,8 @@ def normals(points, triangles):
 def bend(mesh, cage, rest_cage, labels, triangles):
     """The left forearm's cage vertices turned BEND_DEGREES about the elbow
     (``character.bent_forearm``): the left arm's triangle angle changes (mean, 99th
-    percentile, degrees) and flipped triangles."""
+    percentile, degrees), flipped triangles and triangles with a corner changing by more
+    than CREASE_DEGREES (issue 35's count of creases)."""
     rest = settle(mesh).astype(np.float64)
     moved, rotation = character.bent_forearm(rest_cage, BEND_DEGREES)
     arrays.write_positions(cage.data, moved)
@@ -121,7 +123,8 @@ def bend(mesh, cage, rest_cage, labels, triangles):
     change = measures.angle_changes(rest, now, arm)
     before, after = normals(rest, arm), normals(now, arm)
     flipped = ((after * before).sum(1) < 0) & ((after * (before @ rotation.T)).sum(1) < 0)
-    return float(change.mean()), float(np.percentile(change, 99)), int(flipped.sum())
+    creased = int((change.reshape(-1, 3) > CREASE_DEGREES).any(axis=1).sum())
+    return float(change.mean()), float(np.percentile(change, 99)), int(flipped.sum()), creased
 
 
 def measure_apart(method, kinds):
@@ -166,7 +169,7 @@ def measure(method, empty_blend, rows):
     moves = locality(mesh, cage, rest_cage, labels, size)
     row["locality"] = max(moves[limb] for limb in MOVED_LIMBS if limb != "head")
     row["locality_head"] = moves["head"]
-    row["bend_mean"], row["bend_99"], row["flipped"] = bend(mesh, cage, rest_cage, labels, triangles)
+    row["bend_mean"], row["bend_99"], row["flipped"], row["creased"] = bend(mesh, cage, rest_cage, labels, triangles)
     row["storage"], row["negative"] = stored(mesh) if method[0] == "gencoords" else ("-", "0")
     rows[method] = row
     print(f"  {label(method)}: bind {seconds:.2f} s, peak {memory.peak / 2**20:.0f} MB, "
@@ -216,8 +219,8 @@ def table(rows):
     reference = rows.get(("md", 5))
     lines = ["| method | storage | bind | bind / MD p5 | peak MB | .blend MB added | update median / min "
              "| CPU / MD p5 | arms and legs: other limbs' largest move | head: other limbs' largest move "
-             "| bend: mean / 99th pct angle change | flipped | negative |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+             f"| bend: mean / 99th pct angle change | over {CREASE_DEGREES} deg | flipped | negative |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
     for method, row in rows.items():
         ratio = (f"{row['bind'] / reference['bind']:.2f}", f"{row['cpu'] / reference['cpu']:.2f}") \
             if reference else ("-", "-")
@@ -226,7 +229,7 @@ def table(rows):
             f"| {row['peak'] / 2**20:.0f} | {row['blend'] / 2**20:.1f} "
             f"| {row['update'] * 1e3:.1f} / {row['update_min'] * 1e3:.1f} ms | {ratio[1]} "
             f"| {row['locality']:.1e} | {row['locality_head']:.1e} "
-            f"| {row['bend_mean']:.2f} / {row['bend_99']:.1f} deg | {row['flipped']} | {row['negative']} |")
+            f"| {row['bend_mean']:.2f} / {row['bend_99']:.1f} deg | {row['creased']} | {row['flipped']} | {row['negative']} |")
     return "\n".join(lines)
 
 

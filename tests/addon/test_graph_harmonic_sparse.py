@@ -282,7 +282,8 @@ def test_the_deformer_follows_a_similarity_and_the_panel_says_how_closely(gc, na
     moved = evaluated_positions(obj).astype(np.float64)
     error = np.linalg.norm(moved - (scale * rest @ rotation.T + shift), axis=1).max() / (scale * scene.diagonal)
     assert error < 1e-5
-    reported = result_of(gc, obj).metadata["similarity_deviation"]
+    reported = result_of(gc, obj).similarity_deviation  # as a script reads it
+    assert reported == result_of(gc, obj).metadata["similarity_deviation"]
     assert reported < 1e-5 and error == pytest.approx(reported, abs=2e-6)  # float32 evaluation beside float64
     assert any(text.startswith("Similarity: ") for text, _ in gc.status.status_lines(obj))
 
