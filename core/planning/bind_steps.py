@@ -9,6 +9,7 @@ Steps are generators yielding the fraction done (0 to 1) and returning their res
 closing one early (Esc) cancels it and what it runs.
 """
 
+import time
 import warnings
 from typing import Protocol
 
@@ -18,7 +19,7 @@ from ..base.errors import WorkerError, WorkerWarning
 from . import bind_plan
 
 __all__ = ["BindTool", "COMPUTING", "PlanTool", "WorkerFallback", "bind", "bind_report", "bind_steps",
-           "computing_frame", "in_workers_or_here", "plan_steps", "run_to_end", "scaled", "zero_scale_axes"]
+           "computing_frame", "advance", "in_workers_or_here", "plan_steps", "run_to_end", "scaled", "zero_scale_axes"]
 
 COMPUTING = 0.9  # of a Bind's progress, the computing's share; the writing takes the rest
 
@@ -56,7 +57,7 @@ def scaled(steps, start, span):
     """``steps``' fractions as ``start + span * fraction`` (one part of a longer job);
     returns ``steps``' result. Closing it closes ``steps``.
 
-    >>> list(scaled(iter([0.0, 0.5, 1.0]), 0.5, 0.5))
+    >>> list(scaled((fraction for fraction in (0.0, 0.5, 1.0)), 0.5, 0.5))
     [0.5, 0.75, 1.0]
     """
     try:
@@ -87,6 +88,37 @@ def run_to_end(steps, report=None):
             return done.value
         if report is not None:
             report(fraction)
+
+
+# Work a window does between two of its redraws (progress, Esc): 10 per second. A step
+# per timer event instead left the window idle for the timer's interval after each short
+# step, and redrew (the mesh, in the viewport) as often.
+SLICE_SECONDS = 0.1
+
+
+def advance(steps, seconds=None):
+    """Run ``steps`` for about ``seconds`` (default ``SLICE_SECONDS``; at least one step,
+    then until one ends past that time): the last fraction yielded. Raises StopIteration
+    (with the result) at the end.
+
+    >>> def steps():
+    ...     yield from (0.25, 0.5, 0.75)
+    ...     return "done"
+    >>> running = steps()
+    >>> advance(running, seconds=0.0)  # one step
+    0.25
+    >>> try:
+    ...     advance(running, seconds=60.0)  # the rest, to the end
+    ... except StopIteration as done:
+    ...     done.value
+    'done'
+    """
+    clock = time.perf_counter
+    deadline = clock() + (SLICE_SECONDS if seconds is None else seconds)
+    while True:
+        fraction = next(steps)
+        if clock() >= deadline:
+            return fraction
 
 
 def zero_scale_axes(matrix, tolerance):

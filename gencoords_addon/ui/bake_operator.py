@@ -4,6 +4,7 @@ deformation (``bake.fitted``: modal in a window, its fit in a thread)."""
 
 import bpy
 
+from ...core.planning import bind_steps
 from ..bake import bones, fitted
 from ..bind import bindings
 from ..bind.service import object_mode
@@ -174,7 +175,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
             return self._job
         self._baking = fitted.baking_steps(self._job, context)
         window_manager = context.window_manager
-        self._timer = window_manager.event_timer_add(0.1, window=context.window)
+        self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
         return {'RUNNING_MODAL'}
@@ -185,7 +186,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         job = self._job
         try:
             with object_mode(context, job.obj):
-                return next(self._baking)
+                return bind_steps.advance(self._baking)
         except StopIteration as done:
             return self._finished(job, *done.value)
 

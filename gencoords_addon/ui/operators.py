@@ -9,6 +9,7 @@ import traceback
 
 import bpy
 
+from ...core.planning import bind_steps
 from ..bind import bindings, cage_maker, service
 from ..bind.service import object_mode
 from ..errors import BindError, CageError
@@ -132,10 +133,10 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         if event.type != 'TIMER':  # while writing, nothing else may change the mesh
             return {'RUNNING_MODAL'} if self._job.writing else {'PASS_THROUGH'}
         try:
-            fraction = next(self._steps, None)
-            if fraction is None:
-                self._stop(context)
-                return self._finish(context)
+            fraction = bind_steps.advance(self._steps)
+        except StopIteration:
+            self._stop(context)
+            return self._finish(context)
         except BindError as error:
             self._stop(context)
             self.report({'ERROR'}, str(error))
@@ -350,7 +351,7 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         if event.type != 'TIMER':
             return {'RUNNING_MODAL'}  # the mesh was read: nothing else changes it meanwhile
         try:
-            fraction = next(self._steps)
+            fraction = bind_steps.advance(self._steps)
         except StopIteration as done:
             self._stop(context)
             return self._made(self._obj, *done.value)

@@ -115,3 +115,25 @@ def test_esc_during_the_harmonic_solve_stops_it_and_changes_nothing(gc, monkeypa
     assert running.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
     assert not any(thread.name == "gencoords-bind" for thread in threading.enumerate())
     assert gc.binding.binding(obj).key == key and sorted(a.name for a in obj.data.attributes) == attributes
+
+
+def test_a_timer_event_runs_a_tenth_of_a_second_of_steps_not_one(gc, monkeypatch):
+    """Issue 35, item 6: a Bind from the panel took 2.3 times a script's, one short step
+    per timer event (the window idle for the timer's interval after each, and redrawn as
+    often). Now each timer event runs steps for about a tenth of a second: many short
+    steps take few events, and the window still hears of the progress after each."""
+    obj, _ = bound(gc)
+    monkeypatch.setattr(gc.attributes, "STEP_ATTRIBUTES", 1)  # the writing in many short steps
+    running, context = modal_rebind(gc, obj, monkeypatch)
+    steps = []
+    running._steps = (steps.append(fraction) or fraction for fraction in running._steps)
+    progress = []
+    monkeypatch.setattr(context.window_manager, "progress_update", progress.append, raising=False)
+    events, result, started = 0, {'RUNNING_MODAL'}, time.perf_counter()
+    while result == {'RUNNING_MODAL'}:
+        result = running.modal(context, SimpleNamespace(type='TIMER'))
+        events += 1
+    waited = time.perf_counter() - started
+    assert result == {'FINISHED'} and len(steps) >= 6
+    assert events <= waited / gc.core.planning.bind_steps.SLICE_SECONDS + 2 and events < len(steps) / 2
+    assert len(progress) == events - 1  # every event but the last (finished) shows its fraction
