@@ -14,6 +14,7 @@ Usage: python scripts/release/build_extension.py [--output-dir DIR]
 
 import argparse
 import importlib.util
+import os
 import shutil
 import subprocess
 import sys
@@ -67,13 +68,19 @@ def main():
     manifest = tomllib.loads((REPO / "blender_manifest.toml").read_text(encoding="utf-8"))
     package = output_dir / f"{manifest['id']}-{manifest['version']}.zip"
     output_dir.mkdir(parents=True, exist_ok=True)
-    package.unlink(missing_ok=True)  # never validate a stale zip
 
     blender_ext = find_blender_ext()
     with tempfile.TemporaryDirectory(prefix="gencoords-build-") as staging:
-        stage_sources(Path(staging))
-        run_blender_ext(blender_ext, "build", "--source-dir", staging, "--output-filepath", str(package))
-    run_blender_ext(blender_ext, "validate", str(package))
+        sources, built = Path(staging) / "sources", Path(staging) / package.name
+        sources.mkdir()
+        stage_sources(sources)
+        run_blender_ext(blender_ext, "build", "--source-dir", str(sources), "--output-filepath", str(built))
+        run_blender_ext(blender_ext, "validate", str(built))
+        # Into place in one rename: a fuzz or a test installing the previous zip meanwhile
+        # reads it whole, never a half-written one (a fuzz case once did).
+        partial = package.with_name(f".{package.name}.{os.getpid()}.partial")
+        shutil.copyfile(built, partial)
+        os.replace(partial, package)
     print(f"built and validated {package}")
 
 
