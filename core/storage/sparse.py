@@ -29,9 +29,13 @@ SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Of the cage's diagonal: rows placed further from where their coordinates place them
 # get other pairs (:func:`placed_pairs` with ``span``).
 PLACED = 1e-9
-# The deformer's time per evaluation (Geometry Nodes, docs/bench_fixtures.md): about this
-# per gathered (vertex, slot), and per Repeat Zone iteration whatever the mesh.
-GATHER_SECONDS, ITERATION_SECONDS = 4.4e-9, 35e-6
+# The deformer's time per evaluation (Geometry Nodes, Blender 5.0 on two cores): about
+# this per gathered (vertex, slot), and per Repeat Zone iteration whatever the mesh. Sparse
+# storage on the cape (4,320 vertices) took 0.61, 0.96 and 1.97 ms at 1, 4 and 12 pairs,
+# on the character (43,236) 8 to 32 pairs added 7.7 ms (docs/bench_sparse_routes.md), exact
+# storage on the cup 13 ms for 8,706 x 322 multiply-adds: on small meshes the iterations
+# cost most.
+GATHER_SECONDS, ITERATION_SECONDS = 5e-9, 90e-6
 
 
 def largest_pairs(coordinates, count):
@@ -273,7 +277,7 @@ def playback_seconds(gathers, iterations):
     --------
     >>> from gencoords.storage.sparse import playback_seconds
     >>> round(playback_seconds(10_000 * 8, 8) * 1e3, 2)  # 10,000 vertices, 8 pairs each: ms
-    0.63
+    1.12
     """
     return GATHER_SECONDS * gathers + ITERATION_SECONDS * iterations
 

@@ -232,7 +232,7 @@ def playback_seconds(point_count, node_count, node_slot_count, corner_count=4, p
     --------
     >>> from gencoords.storage.two_level import playback_seconds
     >>> round(playback_seconds(4320, 3506, 18) * 1e3, 2)  # the cape: 6 columns of 3 slots
-    0.75
+    1.41
     """
     per_column = _slots_per_column(point_count, node_count, per_vector)
     columns = -(-node_slot_count // per_column)
