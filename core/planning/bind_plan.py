@@ -203,23 +203,36 @@ def _solved_field(cage, request):
     return solve(None) if short else (yield from _beside(solve, 0.5))
 
 
-def _harmonic_sparse(points, cage, request, field):
+def _harmonic_sparse(points, cage, request, solved):
     """Harmonic coordinates in sparse storage: the two-level plan (None where there would
-    be more nodes than points), and Automatic's per-vertex pairs where they play back
-    faster than that plan, or than exact storage without one (``choose_by_playback``;
-    else None)."""
+    be more nodes than points), Automatic's per-vertex pairs where they play back faster
+    than that plan, or than exact storage without one (``choose_by_playback``; else None),
+    and the field where those pairs need it (else None).
+
+    The field comes in the list ``solved`` (taken out of it), so that it is freed before
+    the layout where no pairs are chosen: the rows hold what the layout needs (the hand's
+    and the quadruped's Bind peaked 7 and 14 MB higher with the field kept)."""
+    field, count = solved.pop(), len(points)
     rows = _two_level_rows(points, request, field)
-    plan = None if rows is None else _plan_two_level(points, cage, request, rows,
-                                                     figures.kind_report(request, cage, field))
-    if request.storage != Storage.AUTO:
-        return plan, None
-    count = len(points)
-    # Exact storage: about a gather's time per (vertex, cage vertex) multiply-add (the cup).
-    budget = (sparse.playback_seconds(count * len(cage.vertices), 0) if plan is None else
-              two_level.playback_seconds(count, *plan.node_indices.shape))
-    sample = points[::max(1, count // DEVIATION_SAMPLES)]
-    coordinates = figures.solve_points(request, cage, sample, None, field=field)
-    return plan, choose_by_playback(coordinates, cage.vertices, count, budget)
+    report = figures.kind_report(request, cage, field)
+    pairs = None
+    if request.storage == Storage.AUTO:
+        # What two levels cost with their most pairs per node, or exact storage (about a
+        # gather's time per multiply-add: the cup) without them, bounds what pairs must beat.
+        budget = (sparse.playback_seconds(count * len(cage.vertices), 0) if rows is None else two_level.playback_seconds(
+            count, len(rows[2]), two_level.automatic_node_slot_counts(count, len(rows[2]), len(cage.vertices))[-1]))
+        sample = points[::max(1, count // DEVIATION_SAMPLES)]
+        pairs = choose_by_playback(figures.solve_points(request, cage, sample, None, field=field), cage.vertices,
+                                   count, budget)
+    if rows is None:  # the field gives every point's coordinates (pairs, or exact storage)
+        return None, pairs, field
+    if pairs is None:
+        del field  # its grid's coordinates are copied into the rows: memory for the layout
+        return _plan_two_level(points, cage, request, rows, report), None, None
+    plan = _plan_two_level(points, cage, request, rows, report)
+    if sparse.playback_seconds(count * pairs.pairs, pairs.pairs) >= two_level.playback_seconds(count, *plan.node_indices.shape):
+        return plan, None, None
+    return plan, pairs, field
 
 
 def _plan(points, cage, request):
@@ -235,7 +248,9 @@ def _plan(points, cage, request):
         field = yield from _solved_field(cage, request)
         yield 0.5
         if request.storage in (Storage.AUTO, Storage.SPARSE):
-            fallback, choice = _harmonic_sparse(points, cage, request, field)
+            solved = [field]  # handed over, to be freed before the layout
+            del field
+            fallback, choice, field = _harmonic_sparse(points, cage, request, solved)
             if choice is None and fallback is not None:
                 return fallback
     choice = choice or first_choice(request, count, cage.vertices, cage.faces)
