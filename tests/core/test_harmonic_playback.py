@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from gencoords.harmonic import harmonic_field, harmonic_quad_field
+from gencoords.planning import bind_plan
 from gencoords.planning.bind_plan import plan_bind
 from gencoords.planning.request import BIND_RESOLUTION, BIND_SOLVER_TOLERANCE, BindRequest
 from gencoords.planning.similarity import probe_similarity
@@ -103,3 +104,14 @@ def test_two_levels_estimate_counts_the_stacked_columns():
     assert two_level.playback_seconds(4320, 3506, 18) > sparse.playback_seconds(4320 * 12, 12)
     # The hand: 7,236 nodes of 36 pairs beside 31,670 vertices, 3 columns.
     assert two_level.playback_seconds(31670, 7236, 36) < sparse.playback_seconds(31670 * 16, 16)
+
+
+def test_pairs_that_miss_on_the_whole_mesh_give_way_to_two_levels(monkeypatch):
+    """Per-vertex pairs are chosen on a sample; where the whole mesh then deviates more than
+    the target, the two levels are written (within it), not exact storage."""
+    monkeypatch.setattr(bind_plan, "DEVIATION_SAMPLES", 1)  # one point: few pairs pass there
+    scene = artist_cages.fixture("cape", detail=0.6)
+    plan = _run(plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles,
+                          BindRequest(HARMONIC, workers=1, polygons=scene.cage_faces)))
+    assert plan.node_indices is not None, plan.storage_choice
+    assert max(plan.deviation_smooth, plan.deviation_drag) < 1e-3 and "two levels" in plan.storage_choice
