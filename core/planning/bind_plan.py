@@ -11,10 +11,11 @@ each storage's encoding and byte count from its module in ``gencoords.storage``.
 Harmonic coordinates are solved once on a grid (``gencoords.harmonic_field``) and looked
 up (``figures.solve_points``); in sparse storage, their default, they are written in two
 levels (:func:`_plan_two_level`: each vertex its 4 interpolating grid nodes, each node its
-own pairs over the cage, ``storage.two_level.two_level_layout``). Sparse storage of any
-other kind keeps each vertex's K largest coordinates (``storage.sparse``): Automatic
-chooses it, with the fewest K whose deviations stay under ``AUTO_DEVIATION``, before
-compact storage.
+own pairs over the cage, ``storage.two_level.two_level_layout``), or, where Automatic
+estimates them faster to play back (:func:`_harmonic_sparse`), each vertex its own pairs.
+Sparse storage of any other kind keeps each vertex's K largest coordinates
+(``storage.sparse``): Automatic chooses it, with the fewest K whose deviations stay under
+``AUTO_DEVIATION``, before compact storage.
 """
 
 import threading
