@@ -11,10 +11,11 @@ each storage's encoding and byte count from its module in ``gencoords.storage``.
 Harmonic coordinates are solved once on a grid (``gencoords.harmonic_field``) and looked
 up (``figures.solve_points``); in sparse storage, their default, they are written in two
 levels (:func:`_plan_two_level`: each vertex its 4 interpolating grid nodes, each node its
-own pairs over the cage, ``storage.two_level.two_level_layout``). Sparse storage of any
-other kind keeps each vertex's K largest coordinates (``storage.sparse``): Automatic
-chooses it, with the fewest K whose deviations stay under ``AUTO_DEVIATION``, before
-compact storage.
+own pairs over the cage, ``storage.two_level.two_level_layout``), or, where Automatic
+estimates them faster to play back (:func:`_harmonic_sparse`), each vertex its own pairs.
+Sparse storage of any other kind keeps each vertex's K largest coordinates
+(``storage.sparse``): Automatic chooses it, with the fewest K whose deviations stay under
+``AUTO_DEVIATION``, before compact storage.
 """
 
 import threading
@@ -32,15 +33,15 @@ from ..evaluation.cage import Cage
 from ..harmonic import harmonic_field, harmonic_quad_field
 from ..harmonic.cage_features import AUTOMATIC_CEILING, automatic_resolution
 from ..harmonic.memory import available_memory, field_bytes, fitting_resolution
-from ..storage import Storage, two_level
+from ..storage import Storage, sparse, two_level
 from ..storage.codecs import plan_codec
 from ..storage.pair_deviations import interpolated
 from . import figures
 from .similarity import similarity_deviation
 from .request import (BIND_SOLVER_TOLERANCE, BindPlan, GridMemoryError, ImpreciseCoordinatesError,
                       BindRequest, UndefinedCoordinatesError)  # noqa: F401  (the add-on's names for them)
-from .storage_choice import (AUTO_DEVIATION, choose_by_estimate, choose_by_measuring, confirm_compact,
-                             coordinate_rows, first_choice, short_number)
+from .storage_choice import (AUTO_DEVIATION, choose_by_estimate, choose_by_measuring, choose_by_playback,
+                             confirm_compact, coordinate_rows, first_choice, short_number)
 
 __all__ = ["plan_bind", "plan_bytes"]
 
@@ -215,6 +216,56 @@ def check_grid_memory(cage_vertices, triangles, request):
                               request.resolution)
 
 
+def _solved_field(cage, request):
+    """The cage's harmonic field (a generator, as :func:`_beside`): solved in the caller's
+    thread when short, else beside it with progress."""
+    check_grid_memory(cage.vertices, cage.faces, request)
+
+    def solve(progress):
+        # Given the cage's polygons, each quad is its bilinear patch (harmonic_quad_field).
+        solver, faces = ((harmonic_field, cage.faces) if request.polygons is None
+                         else (harmonic_quad_field, request.polygons))
+        return request.run(lambda count: solver(
+            cage.vertices, faces, resolution=request.resolution, tolerance=request.tolerance,
+            progress=progress, workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers)
+
+    nodes = int(np.prod(fit_grid(cage.vertices, request.resolution).shape))
+    short = nodes < INLINE_FIELD_NODES and nodes * len(cage.vertices) < INLINE_FIELD_PAIRS
+    return solve(None) if short else (yield from _beside(solve, 0.5))
+
+
+def _harmonic_sparse(points, cage, request, solved):
+    """Harmonic coordinates in sparse storage: the two-level plan (None where there would
+    be more nodes than points), Automatic's per-vertex pairs where they play back faster
+    than that plan, or than exact storage without one (``choose_by_playback``; else None),
+    and the field where those pairs need it (else None).
+
+    The field comes in the list ``solved`` (taken out of it), so that it is freed before
+    the layout where no pairs are chosen: the rows hold what the layout needs (the hand's
+    and the quadruped's Bind peaked 7 and 14 MB higher with the field kept)."""
+    field, count = solved.pop(), len(points)
+    rows = _two_level_rows(points, request, field)
+    report = figures.kind_report(request, cage, field)
+    pairs = None
+    if request.storage == Storage.AUTO:
+        # What two levels cost with their most pairs per node, or exact storage (about a
+        # gather's time per multiply-add: the cup) without them, bounds what pairs must beat.
+        budget = (sparse.playback_seconds(count * len(cage.vertices), 0) if rows is None else two_level.playback_seconds(
+            count, len(rows[2]), two_level.automatic_node_slot_counts(count, len(rows[2]), len(cage.vertices))[-1]))
+        sample = points[::max(1, count // DEVIATION_SAMPLES)]
+        pairs = choose_by_playback(figures.solve_points(request, cage, sample, None, field=field), cage.vertices,
+                                   count, budget)
+    if rows is None:  # the field gives every point's coordinates (pairs, or exact storage)
+        return None, pairs, field
+    if pairs is None:
+        del field  # its grid's coordinates are copied into the rows: memory for the layout
+        return _plan_two_level(points, cage, request, rows, report), None, None
+    plan = _plan_two_level(points, cage, request, rows, report)
+    if sparse.playback_seconds(count * pairs.pairs, pairs.pairs) >= two_level.playback_seconds(count, *plan.node_indices.shape):
+        return plan, None, None
+    return plan, pairs, field
+
+
 def _plan(points, cage, request):
     count = len(points)
     if request.outside == "raise":  # refused before any coordinates, at a small part of their cost
@@ -223,28 +274,17 @@ def _plan(points, cage, request):
             raise (GreenOutsideError if request.green else OutsideCageError)(outside, count)
     # Workers are chosen once for the whole plan; each call gives every one a chunk.
     workers = cage.suggested_workers(count) if request.workers is None else request.workers
-    field = None
+    field = fallback = choice = None
     if request.harmonic:  # solved once, on the grid; the points look it up
-        check_grid_memory(cage.vertices, cage.faces, request)
-        def solve(progress):
-            # Given the cage's polygons, each quad is its bilinear patch (harmonic_quad_field).
-            solver, faces = ((harmonic_field, cage.faces) if request.polygons is None
-                             else (harmonic_quad_field, request.polygons))
-            return request.run(lambda count: solver(
-                cage.vertices, faces, resolution=request.resolution, tolerance=request.tolerance,
-                progress=progress, workers=count, solver_tolerance=BIND_SOLVER_TOLERANCE), request.workers)
-
-        nodes = int(np.prod(fit_grid(cage.vertices, request.resolution).shape))
-        short = nodes < INLINE_FIELD_NODES and nodes * len(cage.vertices) < INLINE_FIELD_PAIRS
-        field = solve(None) if short else (yield from _beside(solve, 0.5))
+        field = yield from _solved_field(cage, request)
         yield 0.5
         if request.storage in (Storage.AUTO, Storage.SPARSE):
-            rows = _two_level_rows(points, request, field)
-            if rows is not None:
-                report = figures.kind_report(request, cage, field)
-                del field  # its grid's coordinates are copied into the rows: memory for the layout
-                return _plan_two_level(points, cage, request, rows, report)
-    choice = first_choice(request, count, cage.vertices, cage.faces)
+            solved = [field]  # handed over, to be freed before the layout
+            del field
+            fallback, choice, field = _harmonic_sparse(points, cage, request, solved)
+            if choice is None and fallback is not None:
+                return fallback
+    choice = choice or first_choice(request, count, cage.vertices, cage.faces)
     if field is not None and request.storage == Storage.AUTO and choice.storage == Storage.EXACT:
         choice = replace(choice, reason=f"Automatic: exact ({count} vertices, fewer than the grid nodes their "
                                         "cells use: two levels would save nothing)")
@@ -260,6 +300,8 @@ def _plan(points, cage, request):
     if choice.measured and choice.storage in (Storage.COMPACT, Storage.SPARSE):
         choice = confirm_compact(choice, max(measured["deviation_smooth"], measured["deviation_drag"]), count,
                                  coordinate_rows(request.kind, len(cage.vertices), len(cage.faces)))
+        if choice.storage == Storage.EXACT and fallback is not None:  # per-vertex pairs missed: two levels
+            return fallback
         if choice.storage == Storage.EXACT:
             slots, indices, locations, measured = yield from figures.written_slots(request, cage, points, choice, workers, field)
     # On what will be written; sparse storage and harmonic coordinates place points only

@@ -134,13 +134,15 @@ class StorageChoice:
     """A storage decision: ``storage`` (a :class:`Storage`; ``AUTO``: measure),
     for compact storage its ``basis`` ((rows, s) float64), for sparse storage its ``pairs``
     per vertex, ``reason`` (why, in the panel's words; None where there is nothing to
-    say) and whether Automatic ``measured``."""
+    say), whether Automatic ``measured``, and whether sparse pairs ``span`` their points
+    (harmonic coordinates: ``gencoords.storage.sparse.placed_pairs``)."""
 
     storage: Storage
     basis: Optional[np.ndarray] = None
     reason: Optional[str] = None
     measured: bool = False
     pairs: Optional[int] = None
+    span: bool = False
 
     @property
     def slot_count(self):

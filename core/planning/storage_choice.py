@@ -2,16 +2,19 @@
 (:class:`StorageChoice`): :func:`choose_storage` (from the sizes alone),
 :func:`first_choice` (with its basis), :func:`choose_by_estimate` (Automatic's cheap
 first look, on a few points), :func:`choose_by_measuring` (Automatic beyond the cheap
-sizes: on a sample of the mesh) and :func:`confirm_compact` (after the deviations were
-measured on every vertex).
+sizes: on a sample of the mesh), :func:`choose_by_playback` (harmonic coordinates:
+per-vertex pairs where they play back faster) and :func:`confirm_compact` (after the
+deviations were measured on every vertex).
 """
+
+from dataclasses import replace
 
 from ..construction.green import GREEN
 from ..storage import Storage, compact, sparse
 from ..storage.exact import attribute_bytes
 from .request import StorageChoice
 
-__all__ = ["choose_storage", "AUTO_DEVIATION"]
+__all__ = ["choose_storage", "choose_by_playback", "AUTO_DEVIATION"]
 
 # Automatic storage is exact without measuring while its per-evaluation cost and node
 # group stay moderate: k x n multiply-adds (about 1.5 ns each on two cores) and a node
@@ -28,6 +31,8 @@ AUTO_SAMPLE_MARGIN = 0.8
 # Exact storage Automatic still chooses when compact deviates more: attribute bytes (a
 # million vertices x 642 cage vertices, 2.6 GB, stay compact and the panel says so).
 AUTO_EXACT_MAX_BYTES = 2**31
+# Points of the sample :func:`choose_by_playback` first tries its most pairs on.
+PLAYBACK_FEW_POINTS = 128
 
 
 def short_number(value, digits=2):
@@ -84,7 +89,8 @@ def first_choice(request, mesh_vertices, cage_vertices, triangles):
     storage = choose_storage(setting, mesh_vertices, rows, size)
     if storage == Storage.SPARSE:
         pairs = min(request.sparse_size, rows)
-        return StorageChoice(Storage.SPARSE, reason=f"Sparse: each vertex's {pairs} largest coordinates", pairs=pairs)
+        return StorageChoice(Storage.SPARSE, reason=f"Sparse: each vertex's {pairs} largest coordinates", pairs=pairs,
+                             span=request.harmonic)
     reason = None
     if request.storage != Storage.EXACT and storage == Storage.EXACT:
         small = mesh_vertices < rows or rows <= request.compact_size
@@ -185,6 +191,37 @@ def choose_by_measuring(request, coordinates, cage_vertices, triangles, mesh_ver
     return StorageChoice(Storage.COMPACT, basis[:, :size], measured=True)
 
 
+def choose_by_playback(coordinates, cage_vertices, mesh_vertices, budget):
+    """Automatic's per-vertex pairs for harmonic coordinates where they play back faster
+    than ``budget`` (seconds per evaluation: two levels', or exact storage's): the fewest
+    of ``sparse.SLOT_COUNTS`` whose estimate (``sparse.playback_seconds``: k K gathers in
+    K iterations) is under it and whose deviations keep the target on the sample
+    ``coordinates`` ((j, n) float64), spanning each point (placed to the float32 rounding,
+    so similarities stay exact); None where none does. Its reason waits for the
+    deviations on every vertex (:func:`confirm_compact`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.planning.storage_choice import choose_by_playback
+    >>> from gencoords.cages.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> rows = np.eye(6)[[0, 1, 2]]  # each point on a cage vertex: one pair does
+    >>> choose_by_playback(rows, vertices, 1000, 1e-3).pairs, choose_by_playback(rows, vertices, 1000, 1e-5)
+    (4, None)
+    """
+    cheaper = [pairs for pairs in sparse.SLOT_COUNTS
+               if sparse.playback_seconds(mesh_vertices * pairs, pairs) < budget]
+    target = AUTO_DEVIATION * AUTO_SAMPLE_MARGIN
+    # Deviations are maxima over points and fall as pairs are added: where the most pairs
+    # miss on a few points, none pass (most two-level Binds: 0.05 s, not 0.3 s).
+    few = coordinates[::max(1, len(coordinates) // PLAYBACK_FEW_POINTS)]
+    if not cheaper or sparse.fewest_slots(few, cage_vertices, target, cheaper[-1:])[0] is None:
+        return None
+    pairs, _, _ = sparse.fewest_slots(coordinates, cage_vertices, target, cheaper)
+    return None if pairs is None else StorageChoice(Storage.SPARSE, measured=True, pairs=pairs, span=True)
+
+
 def confirm_compact(choice, deviation, mesh_vertices, rows):
     """Automatic's compact or sparse ``choice`` once its ``deviation`` (the worse of the
     two) was measured on every vertex: kept with its reason, or exact when the sample
@@ -200,5 +237,5 @@ def confirm_compact(choice, deviation, mesh_vertices, rows):
     else:
         reason = (f"Automatic: {label} (deviation {short_number(deviation)} > {target}; "
                   f"exact would take {exact_bytes / 1e9:.1f} GB: choose Exact for it)")
-    return StorageChoice(choice.storage, choice.basis, reason, measured=True, pairs=choice.pairs)
+    return replace(choice, reason=reason, measured=True)
 

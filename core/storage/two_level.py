@@ -15,9 +15,9 @@ from typing import Optional
 import numpy as np
 
 from .pair_deviations import deviations
-from .sparse import fewest_slots, placed_pairs
+from .sparse import fewest_slots, placed_pairs, playback_seconds as gather_seconds
 
-__all__ = ["used_nodes", "automatic_node_slot_counts", "filled_node_slot_counts", "two_level_layout", "TwoLevelLayout", "NODE_SLOT_COUNTS"]
+__all__ = ["used_nodes", "playback_seconds", "automatic_node_slot_counts", "filled_node_slot_counts", "two_level_layout", "TwoLevelLayout", "NODE_SLOT_COUNTS"]
 
 # Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
 # cheap (bench_sparse_routes.py: 48 pairs on 1,286 nodes play back in 0.8x Mesh Deform's time).
@@ -221,6 +221,25 @@ def two_level_layout(node_coordinates, corners, corner_weights, rest, target, co
                   f"diagonal (more than {target:.0e})")
     return TwoLevelLayout(corners, corner_weights, indices, weights, smooth, drag, vertex, reason)
 
+
+
+def playback_seconds(point_count, node_count, node_slot_count, corner_count=4, per_vector=3):
+    """The deformer's estimated time per evaluation (``sparse.playback_seconds``) for k
+    points over N nodes of K' pairs: the stored columns' weighted gathers, three a column
+    in each of the rows holding pairs; each node's sum of its rows; each point's corners.
+
+    Examples
+    --------
+    >>> from gencoords.storage.two_level import playback_seconds
+    >>> round(playback_seconds(4320, 3506, 18) * 1e3, 2)  # the cape: 6 columns of 3 slots
+    1.41
+    """
+    per_column = _slots_per_column(point_count, node_count, per_vector)
+    columns = -(-node_slot_count // per_column)
+    blocks = min(per_column // per_vector, -(-node_slot_count // per_vector))  # rows a node sums
+    holding = min(point_count, node_count * blocks)
+    gathers = per_vector * columns * holding + blocks * node_count + corner_count * point_count
+    return gather_seconds(gathers, columns + blocks + corner_count)
 
 
 def plan_bytes(plan):

@@ -7,6 +7,8 @@
 #   scripts/chroot/panel_screenshots.sh           # as root: writes docs/pictures/*.png
 #   scripts/chroot/panel_screenshots.sh --check   # as root: an artist's session driven by real
 #                                          # keys (scripts/release/gui_check.py): out/gui_check/
+#   scripts/chroot/panel_screenshots.sh --timing  # as root: Bind from the window against a
+#                                          # script's (scripts/release/gui_bind_timing.py)
 # The chroot is Debian unstable (sid) with its Blender package, from the mirror this
 # machine's apt uses (scripts/chroot/debian_mirror.sh); GENCOORDS_CHROOT picks another folder.
 set -eu
@@ -19,6 +21,9 @@ SCRIPT=pictures/panel_screenshots.py
 if [ "${1:-}" = "--check" ]; then  # the same window, driven by keys instead of photographed
     SCRIPT=release/gui_check.py
     PICTURES="$REPO/out/gui_check"
+elif [ "${1:-}" = "--timing" ]; then
+    SCRIPT=release/gui_bind_timing.py
+    PICTURES="$REPO/out/gui_bind_timing"
 fi
 APT="apt-get -o Acquire::Check-Valid-Until=false"  # the mirror's dates may trail the clock
 
@@ -50,6 +55,7 @@ mkdir -p "$CHROOT$STAGE/shots"
 "$REPO/.venv/bin/python" "$REPO/scripts/release/build_extension.py" >/dev/null  # the zip of this tree
 ZIP=$(ls -t "$REPO"/dist/gencoords-*.zip | head -n 1)
 cp -r "$REPO/scripts" "$REPO/gencoords_addon" "$CHROOT$STAGE/"  # scripts.common loads blender_io/mesh_arrays.py by path
+mkdir -p "$CHROOT$STAGE/tests" && cp -r "$REPO/tests/fixtures" "$CHROOT$STAGE/tests/"  # the timing's character
 cp "$ZIP" "$CHROOT$STAGE/gencoords.zip"
 
 # A throw-away user folder: the extension installed and enabled, no splash screen.
