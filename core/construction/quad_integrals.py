@@ -122,6 +122,14 @@ _RULES = [_pair_rule(order) for _, order in BANDS]
 _MIDPOINTS = np.array([[1, 0, 0, 0], [.5, .5, 0, 0], [0, 1, 0, 0], [0, .5, .5, 0], [0, 0, 1, 0],
                        [0, 0, .5, .5], [0, 0, 0, 1], [.5, 0, 0, .5], [.25, .25, .25, .25]])
 _CHILDREN = _MIDPOINTS[[[0, 1, 8, 7], [1, 2, 3, 8], [8, 3, 4, 5], [7, 8, 5, 6]]]  # (4, 4, 4)
+# An elongated sub-patch (its sides along one parameter this many times the other's) is
+# halved across its length only, so that its children tend to squares: a 1:10 quad halved
+# both ways stays 1:10 and needs ten times the children along a near point. Not a round
+# number: a grid cage's quads are 1:2 and 1:3, exactly, and rounding must not decide.
+_ELONGATED = 2.3
+# Halving v, then halving u: (kind of split, children, the parent's normal's scale).
+_SPLITS = ((_MIDPOINTS[[[0, 2, 3, 7], [7, 3, 4, 6]]], 0.5), (_MIDPOINTS[[[0, 1, 5, 6], [1, 2, 4, 5]]], 0.5),
+           (_CHILDREN, 0.25))
 
 
 def _bands(points, patches):
@@ -212,13 +220,23 @@ def _whole_quads(points, corners):
 
 
 def _subdivide(patches):
-    """The 4 children of each sub-patch: (4, 10, p) -> (4, 10, 4p), child c of pair i at
-    ``c p + i``; by corner, a sub-patch's corners, its corner normals in its own
-    parameters (the normal is bilinear; halving both parameters quarters it) and its
-    corners' hats of the quad's corners."""
-    children = (_CHILDREN.reshape(16, 4) @ patches.reshape(4, -1)).reshape(4, 4, 10, -1)
-    children[:, :, 3:6] *= 0.25
-    return children.transpose(1, 2, 0, 3).reshape(4, 10, -1)
+    """The children of each sub-patch: (4, 10, p) -> (4, 10, c) and (c,) the parent of
+    each; 2 children across an elongated patch's length, else 4. By corner, a sub-patch's
+    corners, its corner normals in its own parameters (the normal is bilinear; halving a
+    parameter halves it) and its corners' hats of the quad's corners. Whether a patch is
+    elongated compares sums of opposite sides, the same whichever corner is listed first."""
+    corners = patches[:, :3]
+    sides = np.sqrt(_dot(np.roll(corners, -1, axis=0) - corners, np.roll(corners, -1, axis=0) - corners, axis=1))
+    along_u, along_v = sides[0] + sides[2], sides[1] + sides[3]
+    split = np.where(along_u > _ELONGATED * along_v, 1, np.where(along_v > _ELONGATED * along_u, 0, 2))
+    parts, parents = [], []
+    for kind, (mixes, scale) in enumerate(_SPLITS):
+        which = np.flatnonzero(split == kind)
+        children = (mixes.reshape(-1, 4) @ patches[:, :, which].reshape(4, -1)).reshape(len(mixes), 4, 10, -1)
+        children[:, :, 3:6] *= scale
+        parts.append(children.transpose(1, 2, 0, 3).reshape(4, 10, -1))
+        parents.append(np.tile(which, len(mixes)))
+    return np.concatenate(parts, axis=2), np.concatenate(parents)
 
 
 def quad_weights(points, corners):
@@ -264,8 +282,8 @@ def _refine(points, weights, solid, point_index, quad_index, patches, band):
     flat_weights = weights.reshape(-1, 4)
     for level in range(DEEPEST_LEVEL + 1):
         if level:
-            patches = _subdivide(patches)
-            point_index, quad_index = np.tile(point_index, 4), np.tile(quad_index, 4)
+            patches, parents = _subdivide(patches)
+            point_index, quad_index = point_index[parents], quad_index[parents]
             band = np.full(len(point_index), -1) if level == DEEPEST_LEVEL else _bands(points[point_index], patches)
             order = np.argsort(band, kind="stable")  # each rule's pairs together
             point_index, quad_index, patches, band = point_index[order], quad_index[order], patches[:, :, order], \
