@@ -23,7 +23,7 @@ __all__ = ["triangle_weights", "corner_normals", "bilinear_hats", "patch_rule", 
 # relative error on a pair falls like rho ** (-2 * order), rho growing with the ratio;
 # each band's worst is about 1e-4 of the pair's share on a skewed or 1:4 quad, the pair's
 # share falling like ratio ** -3 (measured against a 14 x 14 rule on a fine quadtree).
-BANDS = ((4.0, 3), (3.0, 4), (2.0, 5), (1.5, 8))
+BANDS = ((4.0, 3), (3.0, 4), (2.0, 5), (1.5, 8), (1.25, 10))
 NEAR_RATIO = BANDS[-1][0]
 # Sub-patches this many halvings deep are flat to float64 rounding: fan of 4 triangles.
 DEEPEST_LEVEL = 40
@@ -203,13 +203,11 @@ def _whole_quads(points, corners):
     """
     hats, _, node_weights = _RULES[0]
     nodes = np.matmul(hats, corners).reshape(-1, 3)
-    normals = np.matmul(hats, corner_normals(corners)).reshape(-1, 3)
-    kernel = points @ normals.T
-    np.subtract(_dot(nodes, normals), kernel, out=kernel)
-    np.multiply(kernel, np.tile(node_weights, len(corners)), out=kernel)
-    squared = points @ (-2.0 * nodes.T)
-    squared += (nodes ** 2).sum(axis=1)
-    squared += (points ** 2).sum(axis=1)[:, None]
+    normals = np.matmul(hats, corner_normals(corners)).reshape(-1, 3) * np.tile(node_weights, len(corners))[:, None]
+    # w (y - x).n and |y - x|^2, each one matrix product with the points lifted to [x, 1, |x|^2].
+    lifted = np.column_stack([points, np.ones(len(points)), _dot(points, points)])
+    kernel = lifted[:, :4] @ np.vstack([-normals.T, _dot(nodes, normals)])
+    squared = lifted @ np.vstack([-2.0 * nodes.T, _dot(nodes, nodes), np.ones(len(nodes))])
     distance = np.sqrt(squared)
     np.multiply(squared, squared, out=squared)
     np.divide(kernel, squared, out=kernel)
@@ -261,7 +259,7 @@ def quad_weights(points, corners):
         *[_whole_quads(points[start:start + block], corners) for start in range(0, max(len(points), 1), block)]))
     centre = corners.mean(axis=1)
     radius = ((corners - centre[:, None]) ** 2).sum(axis=2).max(axis=1)
-    distance = ((points[:, None] - centre[None]) ** 2).sum(axis=2)
+    distance = _dot(points, points)[:, None] - 2.0 * points @ centre.T + _dot(centre, centre)  # squared
     point_index, quad_index = np.nonzero(distance < BANDS[0][0] ** 2 * radius[None])
     weights[point_index, quad_index] = 0.0
     solid[point_index, quad_index] = 0.0
