@@ -7,7 +7,7 @@ the bilinear hat on a quad ``p(u, v) = (1-u)(1-v) c0 + u(1-v) c1 + uv c2 + (1-u)
 On a triangle the integral has a closed form (:func:`triangle_weights`). On a quad it is
 integrated numerically (:func:`quad_weights`): a quadtree over (u, v) refined where a
 sub-patch is close to x for its size, each accepted sub-patch by a tensor Gauss-Legendre
-rule; at the deepest level a sub-patch is flat to rounding and its fan of 4 triangles
+rule of as few nodes as its distance allows (``BANDS``); at the deepest level a sub-patch is flat to rounding and its fan of 4 triangles
 around its centre takes the closed form. Every choice depends only on the sub-patches'
 corners as a set, so the result does not depend on which corner a quad lists first.
 """
