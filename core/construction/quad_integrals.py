@@ -112,9 +112,10 @@ def patch_rule(order):
 
 def _pair_rule(order):
     """:func:`patch_rule` with the nodes' products of hats, ``hats_i hats_j`` at column
-    ``4 i + j``: (n, 4), (n, 16), (n,)."""
+    ``4 i + j``, then the same times the node's weight: (n, 4), (2, n, 16), (n,)."""
     hats, weights = patch_rule(order)
-    return hats, (hats[:, :, None] * hats[:, None]).reshape(len(hats), 16), weights
+    products = (hats[:, :, None] * hats[:, None]).reshape(len(hats), 16)
+    return hats, np.stack([products, weights[:, None] * products]), weights
 
 
 _RULES = [_pair_rule(order) for _, order in BANDS]
@@ -166,11 +167,12 @@ def _gauss(points, patches, rule):
         relative[:3] -= points[rows].T[:, None]
         # (2, 4, 4, b): r_i.r_j, then r_i.n_j (the products of hats are symmetric in i, j).
         forms = _dot(relative[None, :3, :, None], relative.reshape(2, 3, 1, 4, -1), axis=1)
-        squared, kernel = products @ forms.reshape(2, 16, -1)
-        kernel *= node_weights[:, None]
-        kernel /= squared * squared
+        squared, kernel = products @ forms.reshape(2, 16, -1)  # |y - x|^2, w (y - x).n
+        distance = np.sqrt(squared)
+        np.multiply(squared, squared, out=squared)
+        np.divide(kernel, squared, out=kernel)
         weights[:, rows] = hats.T @ kernel
-        solid[rows] = (kernel * np.sqrt(squared)).sum(axis=0)
+        solid[rows] = np.multiply(distance, kernel, out=distance).sum(axis=0)
     return weights, solid
 
 
