@@ -296,8 +296,10 @@ def _refine(points, weights, solid, point_index, quad_index, patches, band):
                 continue
             local, angle = (_fan(points[point_index[done]], patches[:, :3, done].transpose(2, 0, 1)) if rule < 0
                             else _gauss(points[point_index[done]], patches[:, :, done], _RULES[rule]))
-            corner_weights = (local[:, None] * patches[:, 6:, done]).sum(axis=0)
-            np.add.at(flat_weights, flat[done], corner_weights.T)
+            if level:
+                np.add.at(flat_weights, flat[done], (local[:, None] * patches[:, 6:, done]).sum(axis=0).T)
+            else:  # the whole quads, each pair once
+                flat_weights[flat[done]] += local.T
             np.add.at(solid, point_index[done], angle)
         near = slice(bounds[-1], None)
         point_index, quad_index, patches = point_index[near], quad_index[near], patches[:, :, near]
