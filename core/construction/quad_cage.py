@@ -160,13 +160,8 @@ def _straddling(points, corners, centre, reach, normal, absolute, offset):
 
 def _scatter(values, faces, vertex_count):
     """Sum face-corner values into vertex columns: (c, f, s), (f, s) int -> (c, n)."""
-    flat = faces.ravel()
-    order = np.argsort(flat, kind="stable")
-    columns, starts = np.unique(flat[order], return_index=True)
-    result = np.zeros((len(values), vertex_count))
-    if len(flat):
-        result[:, columns] = np.add.reduceat(values.reshape(len(values), -1)[:, order], starts, axis=1)
-    return result
+    cells = (np.arange(len(values))[:, None] * vertex_count + faces.ravel()[None]).ravel()
+    return np.bincount(cells, values.ravel(), len(values) * vertex_count).reshape(len(values), vertex_count)
 
 
 def integrated_weights(points, vertices, polygons):
