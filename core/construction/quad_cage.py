@@ -149,7 +149,9 @@ def _straddling(points, corners, centre, reach, normal, absolute, offset):
     """(point, face) pairs of faces possibly within ``absolute`` of the points: in reach of
     the face's centre, and (a patch lies in the convex hull of its corners) the face's
     corners on both sides of the point along the face's mean normal, to ``absolute``."""
-    point, face = np.nonzero(np.linalg.norm(points[:, None] - centre[None], axis=2) <= reach)
+    # Squared distances as one matrix product: a filter, with a sliver of slack for rounding.
+    squared = (points ** 2).sum(axis=1)[:, None] - 2.0 * points @ centre.T + (centre ** 2).sum(axis=1)
+    point, face = np.nonzero(squared <= reach ** 2 * (1.0 + 1e-9) + 1e-18)
     heights = np.einsum("pij,pj->pi", corners[face] - points[point, None], normal[face])
     slack = absolute * np.linalg.norm(normal[face], axis=1)
     straddle = (heights.min(axis=1) <= slack) & (heights.max(axis=1) >= -slack)
@@ -158,13 +160,8 @@ def _straddling(points, corners, centre, reach, normal, absolute, offset):
 
 def _scatter(values, faces, vertex_count):
     """Sum face-corner values into vertex columns: (c, f, s), (f, s) int -> (c, n)."""
-    flat = faces.ravel()
-    order = np.argsort(flat, kind="stable")
-    columns, starts = np.unique(flat[order], return_index=True)
-    result = np.zeros((len(values), vertex_count))
-    if len(flat):
-        result[:, columns] = np.add.reduceat(values.reshape(len(values), -1)[:, order], starts, axis=1)
-    return result
+    cells = (np.arange(len(values))[:, None] * vertex_count + faces.ravel()[None]).ravel()
+    return np.bincount(cells, values.ravel(), len(values) * vertex_count).reshape(len(values), vertex_count)
 
 
 def integrated_weights(points, vertices, polygons):

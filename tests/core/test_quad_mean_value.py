@@ -16,6 +16,14 @@ def _bent_box(seed=0, bend=0.15):
     return vertices + rng.uniform(-bend, bend, vertices.shape), quads
 
 
+def _thin_box(seed=2, bend=0.01):
+    """A bent box 1 x 0.12 x 0.12, corners moved: four 1:8 side quads, halved along their
+    length only near a point (quad_integrals._subdivide), (8, 3), (6, 4)."""
+    vertices, quads = block_cage(np.ones((1, 1, 1), dtype=bool))
+    vertices = vertices * [1.0, 0.12, 0.12]
+    return vertices + np.random.default_rng(seed).uniform(-bend, bend, vertices.shape), quads
+
+
 def _roofed_box():
     """A bent cube whose top quad is a pyramid of 4 triangles: a mixed cage, polygons list."""
     vertices, quads = block_cage(np.ones((1, 1, 1), dtype=bool))
@@ -63,7 +71,7 @@ def _dense_weights(points, vertices, polygons, nodes=160):
     return weights
 
 
-@pytest.mark.parametrize("cage", [_bent_box, _roofed_box])
+@pytest.mark.parametrize("cage", [_bent_box, _roofed_box, _thin_box])
 def test_agrees_with_a_dense_quadrature_of_the_integral(cage):
     vertices, polygons = cage()
     polygons = [list(p) for p in polygons]
@@ -80,7 +88,7 @@ def _relabelled(polygons, seed=5):
     return [list(np.roll(p, rng.integers(1, 4))) if len(p) == 4 else list(p) for p in polygons]
 
 
-@pytest.mark.parametrize("cage", [_bent_box, _roofed_box])
+@pytest.mark.parametrize("cage", [_bent_box, _roofed_box, _thin_box])
 def test_independent_of_each_quads_first_corner(cage):
     vertices, polygons = cage()
     points = _inside(vertices, 50)
@@ -278,3 +286,21 @@ def test_the_kind_is_refused_where_it_does_not_apply(call, message):
     vertices, polygons = _roofed_box()
     with pytest.raises(ValueError, match=message):
         call(vertices, polygons)
+
+
+def test_an_elongated_patch_is_halved_across_its_length_only():
+    corners = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.125, 0.0], [0.0, 0.125, 0.0]])
+    for shift in range(4):  # whichever corner is listed first
+        listed = np.roll(corners, shift, axis=0)
+        table = np.concatenate([listed, quad_integrals.corner_normals(listed), np.eye(4)], axis=1)
+        children, parents = quad_integrals._subdivide(table[:, :, None])
+        assert children.shape == (4, 10, 2) and (parents == 0).all()
+        lengths = sorted(np.ptp(children[:, 0, c]) for c in range(2))
+        assert np.allclose(lengths, [0.5, 0.5])  # both halves of the long side, the full width
+        assert np.allclose(sorted(np.ptp(children[:, 1, c]) for c in range(2)), [0.125, 0.125])
+        # Each child's corners are its hats' mixes of the quad's, its normals half the parent's.
+        assert np.allclose(children[:, 6:, 0] @ listed, children[:, :3, 0])
+        assert np.allclose(children[:, 3:6, 0], 0.5 * children[:, 6:, 0] @ quad_integrals.corner_normals(listed))
+    square = corners * [1.0, 8.0, 1.0]
+    table = np.concatenate([square, quad_integrals.corner_normals(square), np.eye(4)], axis=1)
+    assert quad_integrals._subdivide(table[:, :, None])[0].shape == (4, 10, 4)  # a square: 4 children
