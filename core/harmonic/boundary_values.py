@@ -21,6 +21,7 @@ __all__ = ["closest_on_triangles", "nearest_boundary_points", "hat_values", "seg
            "patch_crossings", "between_split_and_patch"]
 
 _PAIR_CHUNK = 1 << 16  # (node, facet) pairs measured at a time: bounded memory
+_RANGE_CHUNK = 1 << 20  # (node, facet) pairs in x tested at a time: bounded memory
 _SLACK = 1e-12  # an edge or vertex crossed belongs to both sides: no miss between them
 
 
@@ -66,19 +67,33 @@ def closest_on_triangles(points, corners):
 
 
 def _candidate_pairs(positions, corners, reach):
-    """(node, facet) pairs whose facet's box, grown by ``reach``, holds the node."""
+    """(node, facet) pairs whose facet's box, grown by ``reach``, holds the node: (p,) int
+    each, by facet, each facet's nodes in the order of their x (a node's pairs thus by
+    facet). The nodes sorted by x, each facet's range of them is cut out of one sorted
+    array, a batch of facets at a time (bounded memory, no loop over the facets)."""
     low, high = corners.min(axis=1) - reach, corners.max(axis=1) + reach
     order = np.argsort(positions[:, 0], kind="stable")
-    sorted_x = positions[order, 0]
-    nodes, facets = [], []
+    sorted_x, sorted_yz = positions[order, 0], np.ascontiguousarray(positions[order, 1:].T)
     starts = np.searchsorted(sorted_x, low[:, 0], side="left")
-    stops = np.searchsorted(sorted_x, high[:, 0], side="right")
-    for facet, (start, stop) in enumerate(zip(starts.tolist(), stops.tolist())):
-        candidates = order[start:stop]
-        inside = ((positions[candidates, 1:] >= low[facet, 1:]) & (positions[candidates, 1:] <= high[facet, 1:])).all(1)
-        nodes.append(candidates[inside])
-        facets.append(np.full(np.count_nonzero(inside), facet))
-    return np.concatenate(nodes), np.concatenate(facets)
+    counts = np.maximum(np.searchsorted(sorted_x, high[:, 0], side="right") - starts, 0)
+    ends = np.cumsum(counts)
+    nodes, facets = [], []
+    first = 0
+    while first < len(counts):  # facets whose x ranges hold about _RANGE_CHUNK nodes together
+        last = max(first + 1, int(np.searchsorted(ends, ends[first] - counts[first] + _RANGE_CHUNK, side="right")))
+        facet = np.repeat(np.arange(first, last), counts[first:last])
+        offset = np.arange(len(facet)) - np.repeat(ends[first:last] - counts[first:last] - (ends[first] - counts[first]),
+                                                   counts[first:last])
+        rank = starts[facet] + offset
+        inside = np.ones(len(rank), dtype=bool)
+        for axis in (1, 2):
+            coordinate = sorted_yz[axis - 1, rank]
+            inside &= (coordinate >= low[facet, axis]) & (coordinate <= high[facet, axis])
+        nodes.append(order[rank[inside]])
+        facets.append(facet[inside])
+        first = last
+    return (np.concatenate(nodes) if nodes else np.empty(0, dtype=np.int64),
+            np.concatenate(facets) if facets else np.empty(0, dtype=np.int64))
 
 
 def _padded(faces):

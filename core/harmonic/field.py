@@ -3,6 +3,7 @@ points by piecewise-linear interpolation (docs/MATH.md, "Harmonic coordinates");
 by :func:`gencoords.harmonic.grid_field.harmonic_field`."""
 
 
+import hashlib
 import itertools
 
 import numpy as np
@@ -99,6 +100,7 @@ class HarmonicField:
         self.node_exact = parts["exact"]
         self._exact = parts["exact_within"]  # frame units
         self.convergence = parts["convergence"]
+        self._last_rows = None  # (key, rows): sparse_rows' last answer
 
     def __repr__(self):
         return (f"HarmonicField({len(self.vertices)} cage vertices, resolution {self.resolution}, "
@@ -198,6 +200,14 @@ class HarmonicField:
         columns, values : (c, K) int and float
             Those c points' pairs (:meth:`cut_pairs`).
         """
+        # A Bind asks twice for the same points (two levels' rows, then exact storage's
+        # coordinates where two levels would save nothing): located and placed once.
+        key = (outside, points.shape, hashlib.blake2b(np.ascontiguousarray(points).tobytes(), digest_size=16).digest())
+        if self._last_rows is None or self._last_rows[0] != key:
+            self._last_rows = (key, self._located_rows(points, outside))
+        return tuple(part.copy() for part in self._last_rows[1])
+
+    def _located_rows(self, points, outside):
         local = self._located(points, outside)
         nodes, weights = self._interpolation(local)
         cut = self.cut(nodes)
