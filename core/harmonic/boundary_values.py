@@ -68,27 +68,35 @@ def closest_on_triangles(points, corners):
 
 def _candidate_pairs(positions, corners, reach):
     """(node, facet) pairs whose facet's box, grown by ``reach``, holds the node: (p,) int
-    each, by facet, each facet's nodes in the order of their x (a node's pairs thus by
-    facet). The nodes sorted by x, each facet's range of them is cut out of one sorted
-    array, a batch of facets at a time (bounded memory, no loop over the facets)."""
+    each, by facet (a node's pairs thus in facet order).
+
+    The nodes sorted along one axis, each facet's range of them along it is cut out of the
+    sorted array, a batch of facets at a time (bounded memory, no loop over the facets),
+    and tested on the other two axes. The axis is the one whose ranges hold the fewest
+    (node, facet) pairs (a cup revolved about z: not z)."""
     low, high = corners.min(axis=1) - reach, corners.max(axis=1) + reach
-    order = np.argsort(positions[:, 0], kind="stable")
-    sorted_x, sorted_yz = positions[order, 0], np.ascontiguousarray(positions[order, 1:].T)
-    starts = np.searchsorted(sorted_x, low[:, 0], side="left")
-    counts = np.maximum(np.searchsorted(sorted_x, high[:, 0], side="right") - starts, 0)
+    ranges = []
+    for axis in range(3):
+        order = np.argsort(positions[:, axis], kind="stable")
+        sorted_axis = positions[order, axis]
+        starts = np.searchsorted(sorted_axis, low[:, axis], side="left")
+        counts = np.maximum(np.searchsorted(sorted_axis, high[:, axis], side="right") - starts, 0)
+        ranges.append((int(counts.sum()), axis, order, starts, counts))
+    _, axis, order, starts, counts = min(ranges, key=lambda found: found[:2])
+    others = [other for other in range(3) if other != axis]
+    sorted_others = np.ascontiguousarray(positions[order][:, others].T)
     ends = np.cumsum(counts)
+    begins = ends - counts
     nodes, facets = [], []
     first = 0
-    while first < len(counts):  # facets whose x ranges hold about _RANGE_CHUNK nodes together
-        last = max(first + 1, int(np.searchsorted(ends, ends[first] - counts[first] + _RANGE_CHUNK, side="right")))
+    while first < len(counts):  # facets whose ranges hold about _RANGE_CHUNK nodes together
+        last = max(first + 1, int(np.searchsorted(ends, begins[first] + _RANGE_CHUNK, side="right")))
         facet = np.repeat(np.arange(first, last), counts[first:last])
-        offset = np.arange(len(facet)) - np.repeat(ends[first:last] - counts[first:last] - (ends[first] - counts[first]),
-                                                   counts[first:last])
-        rank = starts[facet] + offset
+        rank = starts[facet] + np.arange(len(facet)) - (begins[facet] - begins[first])
         inside = np.ones(len(rank), dtype=bool)
-        for axis in (1, 2):
-            coordinate = sorted_yz[axis - 1, rank]
-            inside &= (coordinate >= low[facet, axis]) & (coordinate <= high[facet, axis])
+        for row, other in enumerate(others):
+            coordinate = sorted_others[row, rank]
+            inside &= (coordinate >= low[facet, other]) & (coordinate <= high[facet, other])
         nodes.append(order[rank[inside]])
         facets.append(facet[inside])
         first = last
