@@ -22,6 +22,7 @@ __all__ = ["closest_on_triangles", "nearest_boundary_points", "hat_values", "seg
 
 _PAIR_CHUNK = 1 << 16  # (node, facet) pairs measured at a time: bounded memory
 _RANGE_CHUNK = 1 << 20  # (node, facet) pairs in x tested at a time: bounded memory
+_SLAB_ROUNDING = 1e-6  # of the reach: a facet's slab grown by this against rounding
 _SLACK = 1e-12  # an edge or vertex crossed belongs to both sides: no miss between them
 
 
@@ -102,6 +103,22 @@ def _candidate_pairs(positions, corners, reach):
         first = last
     return (np.concatenate(nodes) if nodes else np.empty(0, dtype=np.int64),
             np.concatenate(facets) if facets else np.empty(0, dtype=np.int64))
+
+
+def _near_the_slab(positions, corners, node, facet, reach):
+    """The (node, facet) pairs whose node is within ``reach`` of the facet's slab (the
+    band between its corners' extreme heights along its normal, which holds a quad's
+    patch too): a facet slanted across its box is farther than ``reach`` from most of the
+    box's nodes. Conservative: a facet within ``reach`` of its node is kept."""
+    normals = np.cross(corners[:, 2] - corners[:, 0], corners[:, -1] - corners[:, 1])  # a triangle's: its last is its first
+    lengths = np.linalg.norm(normals, axis=1)
+    normals /= np.where(lengths > 0.0, lengths, 1.0)[:, None]
+    heights = np.einsum("mcN,mN->mc", corners, normals)
+    slack = reach * (1.0 + _SLAB_ROUNDING)
+    bottom, top = heights.min(axis=1) - slack, heights.max(axis=1) + slack
+    height = np.einsum("pN,pN->p", positions[node], normals[facet])
+    near = (height >= bottom[facet]) & (height <= top[facet])
+    return node[near], facet[near]
 
 
 def _padded(faces):
@@ -188,11 +205,15 @@ def nearest_boundary_points(positions, vertices, faces, reach):
     """
     corners = vertices[_padded(faces)]
     quad = faces[:, -1] >= 0 if faces.shape[1] == 4 else np.zeros(len(faces), dtype=bool)
-    facet, barycentric, distance = _nearest(positions, corners, quad, *_candidate_pairs(positions, corners, reach))
+    # A facet within ``reach`` is among the candidates: wider for the others. The pairs
+    # farther than ``reach`` are left out (the nearest of those left is the same).
+    pairs = _near_the_slab(positions, corners, *_candidate_pairs(positions, corners, reach), reach)
+    facet, barycentric, distance = _nearest(positions, corners, quad, *pairs)
     far = np.flatnonzero(distance > reach)
-    while len(far):  # a facet within ``reach`` is among the candidates: wider for the others
+    while len(far):
         reach *= 4.0
-        found = _nearest(positions[far], corners, quad, *_candidate_pairs(positions[far], corners, reach))
+        pairs = _near_the_slab(positions[far], corners, *_candidate_pairs(positions[far], corners, reach), reach)
+        found = _nearest(positions[far], corners, quad, *pairs)
         facet[far], barycentric[far], distance[far] = found
         far = far[found[2] > reach]
     return _padded(faces)[facet], barycentric, distance
