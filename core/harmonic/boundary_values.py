@@ -203,8 +203,11 @@ def nearest_boundary_points(positions, vertices, faces, reach):
         non-negative, each row summing to 1.
     distance : (b,) float
     """
-    corners = vertices[_padded(faces)]
     quad = faces[:, -1] >= 0 if faces.shape[1] == 4 else np.zeros(len(faces), dtype=bool)
+    if faces.shape[1] == 4 and not quad.any():  # polygons all triangles (the cup): no patch to bound
+        columns, barycentric, distance = nearest_boundary_points(positions, vertices, faces[:, :3], reach)
+        return np.column_stack([columns, columns[:, 0]]), np.pad(barycentric, ((0, 0), (0, 1))), distance
+    corners = vertices[_padded(faces)]
     # A facet within ``reach`` is among the candidates: wider for the others. The pairs
     # farther than ``reach`` are left out (the nearest of those left is the same).
     pairs = _near_the_slab(positions, corners, *_candidate_pairs(positions, corners, reach), reach)

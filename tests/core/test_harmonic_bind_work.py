@@ -87,9 +87,11 @@ def test_the_field_keeps_the_same_coordinates_for_the_nodes_of_cells_at_the_cage
     np.testing.assert_allclose(field.coordinates(points), boxed.coordinates(points), rtol=0.0, atol=1e-12)
 
 
-def test_nearest_boundary_points_are_those_a_search_of_every_face_finds(cup):
+@pytest.mark.parametrize("name", ["cup", "hand"])  # triangles only; quads, each its patch
+def test_nearest_boundary_points_are_those_a_search_of_every_face_finds(name):
     rng = np.random.default_rng(5)
-    vertices, faces = cup.cage_vertices, _polygons(cup)
+    scene = artist_cages.fixture(name, 0.1)
+    vertices, faces = scene.cage_vertices, _polygons(scene)
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     positions = rng.uniform(low - 0.05, high + 0.05, (600, 3))
     reach = 0.02 * float(np.linalg.norm(high - low))
