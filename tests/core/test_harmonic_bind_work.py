@@ -7,6 +7,8 @@ and each shortcut leaves the coordinates as they were.
 - Nearest boundary points: the (node, facet) pairs cut out along one axis, and those
   farther than the reach from the facet's slab left out, find what a search of every
   facet finds.
+- Dirichlet nodes beyond the cage's convex hull (no non-negative weights reach them) are
+  not tried: they keep what trying them gave.
 - The Bind locates and places its points once (two levels' rows, then exact storage's
   coordinates where two levels save nothing: the cup).
 """
@@ -18,6 +20,7 @@ from gencoords.base import grid as grid_module
 from gencoords.base.grid import fit_grid, surface_cells
 from gencoords.base.tolerances import FLOAT32
 from gencoords.harmonic import field as field_module
+from gencoords.harmonic import grid_field
 from gencoords.harmonic import harmonic_quad_field
 from gencoords.harmonic.boundary_values import _closest, _padded, nearest_boundary_points
 from gencoords.planning import bind_plan
@@ -85,6 +88,24 @@ def test_the_field_keeps_the_same_coordinates_for_the_nodes_of_cells_at_the_cage
     # The mesh's coordinates, looked up in either.
     points = cup.mesh_vertices[::3]
     np.testing.assert_allclose(field.coordinates(points), boxed.coordinates(points), rtol=0.0, atol=1e-12)
+
+
+def test_dirichlet_nodes_beyond_the_hull_left_untried_keep_what_trying_them_gives(cup, monkeypatch):
+    polygons = _polygons(cup)
+    skipped = []
+    beyond = grid_field._beyond_the_hull
+
+    def counted(*args):
+        skipped.append(beyond(*args))
+        return skipped[-1]
+
+    monkeypatch.setattr(grid_field, "_beyond_the_hull", counted)
+    field = harmonic_quad_field(cup.cage_vertices, polygons, resolution=20, tolerance=FLOAT32)
+    assert skipped[0].mean() > 0.3  # the cup's outer wall: most of its Dirichlet nodes
+    monkeypatch.setattr(grid_field, "_beyond_the_hull", lambda positions, *_: np.zeros(len(positions), dtype=bool))
+    tried = harmonic_quad_field(cup.cage_vertices, polygons, resolution=20, tolerance=FLOAT32)
+    np.testing.assert_array_equal(field.node_exact, tried.node_exact)
+    np.testing.assert_array_equal(field.node_coordinates, tried.node_coordinates)
 
 
 @pytest.mark.parametrize("name", ["cup", "hand"])  # triangles only; quads, each its patch
