@@ -181,7 +181,7 @@ def _nearest(positions, corners, quad, node, facet):
     return best_facet, best_barycentric, best_distance
 
 
-def nearest_boundary_points(positions, vertices, faces, reach):
+def nearest_boundary_points(positions, vertices, faces, reach, widen=True):
     """Each position's nearest point on the cage.
 
     Parameters
@@ -193,6 +193,9 @@ def nearest_boundary_points(positions, vertices, faces, reach):
     reach : float
         A distance within which most positions have their nearest boundary point (for
         speed only: positions farther away are measured again with a wider reach).
+    widen : bool
+        False: positions farther than ``reach`` are not measured again (distance inf,
+        hat values 0, columns 0): where only the positions within it are asked for.
 
     Returns
     -------
@@ -205,7 +208,7 @@ def nearest_boundary_points(positions, vertices, faces, reach):
     """
     quad = faces[:, -1] >= 0 if faces.shape[1] == 4 else np.zeros(len(faces), dtype=bool)
     if faces.shape[1] == 4 and not quad.any():  # polygons all triangles (the cup): no patch to bound
-        columns, barycentric, distance = nearest_boundary_points(positions, vertices, faces[:, :3], reach)
+        columns, barycentric, distance = nearest_boundary_points(positions, vertices, faces[:, :3], reach, widen)
         return np.column_stack([columns, columns[:, 0]]), np.pad(barycentric, ((0, 0), (0, 1))), distance
     corners = vertices[_padded(faces)]
     # A facet within ``reach`` is among the candidates: wider for the others. The pairs
@@ -213,6 +216,9 @@ def nearest_boundary_points(positions, vertices, faces, reach):
     pairs = _near_the_slab(positions, corners, *_candidate_pairs(positions, corners, reach), reach)
     facet, barycentric, distance = _nearest(positions, corners, quad, *pairs)
     far = np.flatnonzero(distance > reach)
+    if not widen:
+        facet[far], barycentric[far], distance[far] = -1, 0.0, np.inf
+        return np.where(facet[:, None] >= 0, _padded(faces)[facet], 0), barycentric, distance
     while len(far):
         reach *= 4.0
         pairs = _near_the_slab(positions[far], corners, *_candidate_pairs(positions[far], corners, reach), reach)

@@ -77,14 +77,23 @@ def _boundary_nodes(grid, parts, vertices, faces):
     measured : (b,) int
         The nodes measured: those outside and those at cells the surface may cross.
     columns, values : (b, w) int, (b, w) float
-        Their nearest boundary point's hat values (w: the faces' width).
+        Their nearest boundary point's hat values (w: the faces' width; an inside node
+        farther than ``NEAREST_CROSSING``, solved: zeros, never read).
     solved : (g,) bool
     """
     measured = np.flatnonzero(~parts["inside"] | parts["near_surface"])
-    columns, values, distance = nearest_boundary_points(
-        node_positions(grid, parts["indices"][measured]), vertices, faces, 1.75 * grid.spacing)
+    positions = node_positions(grid, parts["indices"][measured])
+    inside, near = parts["inside"][measured], NEAREST_CROSSING * grid.spacing
+    columns = np.zeros((len(measured), faces.shape[1]), dtype=np.int64)
+    values, distance = np.zeros(columns.shape), np.empty(len(measured))
+    columns[~inside], values[~inside], distance[~inside] = nearest_boundary_points(
+        positions[~inside], vertices, faces, 1.75 * grid.spacing)
+    # An inside node is a Dirichlet node only nearer than ``near``: looked for no farther
+    # (the others are solved; their hat values are never read).
+    columns[inside], values[inside], distance[inside] = nearest_boundary_points(
+        positions[inside], vertices, faces, near, widen=False)
     solved = parts["inside"].copy()
-    solved[measured[distance < NEAREST_CROSSING * grid.spacing]] = False
+    solved[measured[distance < near]] = False
     return measured, columns, values, solved
 
 

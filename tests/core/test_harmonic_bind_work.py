@@ -6,7 +6,8 @@ and each shortcut leaves the coordinates as they were.
   is still marked, and the field keeps the same nodes' coordinates as with whole boxes.
 - Nearest boundary points: the (node, facet) pairs cut out along one axis, and those
   farther than the reach from the facet's slab left out, find what a search of every
-  facet finds.
+  facet finds; asked within a reach only (an inside node is a Dirichlet node only that
+  near), the same for the positions within it.
 - Dirichlet nodes beyond the cage's convex hull (no non-negative weights reach them) are
   not tried: they keep what trying them gave.
 - The Bind locates and places its points once (two levels' rows, then exact storage's
@@ -124,6 +125,16 @@ def test_nearest_boundary_points_are_those_a_search_of_every_face_finds(name):
     np.testing.assert_allclose(distance, every.min(axis=1), rtol=0.0, atol=1e-12)
     placed = np.einsum("pc,pcN->pN", values, vertices[columns])  # the hat values place the nearest point
     np.testing.assert_allclose(np.linalg.norm(placed - positions, axis=1), distance, rtol=0.0, atol=1e-9)
+    # Asked only within a reach (the inside nodes that may be Dirichlet nodes): the same
+    # nearest points for the positions within it, none for the others.
+    within = np.quantile(distance, 0.3)
+    near_columns, near_values, near_distance = nearest_boundary_points(positions, vertices, faces, within, widen=False)
+    found = distance <= within
+    assert 0 < found.sum() < len(found)
+    np.testing.assert_array_equal(near_distance[found], distance[found])
+    np.testing.assert_array_equal(near_values[found], values[found])
+    np.testing.assert_array_equal(near_columns[found], columns[found])
+    assert np.isinf(near_distance[~found]).all() and not near_values[~found].any()
 
 
 def test_the_cups_bind_locates_and_places_its_points_once_and_writes_what_the_field_gives(monkeypatch):
