@@ -174,5 +174,9 @@ def test_the_rows_given_twice_are_copies(cup):
     first[1][:] = -1.0  # a caller writing into what it was given (two levels' rows do)
     second = field.sparse_rows(points)
     assert (second[1] >= 0.0).all() and np.allclose(second[1].sum(axis=1), 1.0)
+    third = field.sparse_rows(points)  # handed over once: located again, the same
+    for part, again in zip(second, third):
+        np.testing.assert_array_equal(part, again)
     other = field.sparse_rows(points[::2])
     np.testing.assert_array_equal(other[0], second[0][::2])
+    assert field._last_rows[0][1] == points[::2].shape  # only the last set's rows are kept
