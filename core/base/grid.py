@@ -18,6 +18,7 @@ __all__ = ["Grid", "fit_grid", "inside_nodes", "column_pairs", "surface_cells", 
 # cage edge of a box-modelled cage shares, so a ray never grazes an edge or a vertex.
 _RAY_OFFSET = (2.0 ** -20 * np.sqrt(2.0), 2.0 ** -20 * np.sqrt(3.0) / 2.0)
 _BATCH_PAIRS = 1 << 20  # (facet, column) pairs tested at a time: bounded memory
+_SLAB_ROUNDING = 1e-6  # of a cell: a facet's slab grown by this against rounding
 
 
 @dataclass(frozen=True)
@@ -126,12 +127,38 @@ def inside_nodes(grid, corners):
 
 
 def surface_cells(grid, corners, reach):
-    """Cells that the cage's surface may cross (its facets' boxes grown by ``reach``):
-    (x, y, z) bool array over cells. Conservative: every cell the surface meets is in."""
+    """Cells that the cage's surface may cross: (x, y, z) bool array over cells.
+    Conservative: every cell within ``reach`` of a facet is in.
+
+    A facet marks the cells of its box, grown by ``reach``, that also meet its slab (the
+    band between its corners' extreme heights along its normal, grown by ``reach``):
+    a facet slanted across its box (a revolved cup's wall) marks the cells along it, not
+    the whole box. The slab holds the facet whatever its normal (a quad's bilinear patch
+    too: it lies in its corners' convex hull), so a rounded normal costs only tightness.
+
+    Parameters
+    ----------
+    grid : Grid
+    corners : (m, c, 3) float
+        Each facet's corners (a triangle's 3, a quad's 4).
+    reach : float
+        In the grid's units.
+    """
     cells = np.zeros(grid.cells, dtype=bool)
-    low = np.floor((corners.min(axis=1) - reach - grid.origin) / grid.spacing).astype(np.int64)
-    high = np.floor((corners.max(axis=1) + reach - grid.origin) / grid.spacing).astype(np.int64)
-    low, high = low.clip(0, np.array(grid.cells) - 1), high.clip(0, np.array(grid.cells) - 1)
-    for (i0, j0, k0), (i1, j1, k1) in zip(low.tolist(), high.tolist()):
-        cells[i0:i1 + 1, j0:j1 + 1, k0:k1 + 1] = True
+    last = np.array(grid.cells) - 1
+    low = np.floor((corners.min(axis=1) - reach - grid.origin) / grid.spacing).astype(np.int64).clip(0, last)
+    high = np.floor((corners.max(axis=1) + reach - grid.origin) / grid.spacing).astype(np.int64).clip(0, last)
+    normals = np.cross(corners[:, 2] - corners[:, 0], corners[:, -1] - corners[:, 1])  # a triangle's: its last is its first
+    lengths = np.linalg.norm(normals, axis=1)
+    normals = normals / np.where(lengths > 0.0, lengths, 1.0)[:, None]
+    heights = np.einsum("mcN,mN->mc", corners - grid.origin, normals)
+    # A cell's centre within half its extent along the normal, reach and rounding of the slab.
+    margin = 0.5 * grid.spacing * np.abs(normals).sum(axis=1) + reach + _SLAB_ROUNDING * grid.spacing
+    bottom, top = heights.min(axis=1) - margin, heights.max(axis=1) + margin
+    for facet, ((i0, j0, k0), (i1, j1, k1)) in enumerate(zip(low.tolist(), high.tolist())):
+        x, y, z = ((np.arange(start, stop + 1) + 0.5) * grid.spacing
+                   for start, stop in ((i0, i1), (j0, j1), (k0, k1)))
+        normal = normals[facet]
+        height = (normal[0] * x)[:, None, None] + (normal[1] * y)[None, :, None] + (normal[2] * z)[None, None, :]
+        cells[i0:i1 + 1, j0:j1 + 1, k0:k1 + 1] |= (height >= bottom[facet]) & (height <= top[facet])
     return cells

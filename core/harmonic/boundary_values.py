@@ -21,6 +21,8 @@ __all__ = ["closest_on_triangles", "nearest_boundary_points", "hat_values", "seg
            "patch_crossings", "between_split_and_patch"]
 
 _PAIR_CHUNK = 1 << 16  # (node, facet) pairs measured at a time: bounded memory
+_RANGE_CHUNK = 1 << 20  # (node, facet) pairs in x tested at a time: bounded memory
+_SLAB_ROUNDING = 1e-6  # of the reach: a facet's slab grown by this against rounding
 _SLACK = 1e-12  # an edge or vertex crossed belongs to both sides: no miss between them
 
 
@@ -66,19 +68,57 @@ def closest_on_triangles(points, corners):
 
 
 def _candidate_pairs(positions, corners, reach):
-    """(node, facet) pairs whose facet's box, grown by ``reach``, holds the node."""
+    """(node, facet) pairs whose facet's box, grown by ``reach``, holds the node: (p,) int
+    each, by facet (a node's pairs thus in facet order).
+
+    The nodes sorted along one axis, each facet's range of them along it is cut out of the
+    sorted array, a batch of facets at a time (bounded memory, no loop over the facets),
+    and tested on the other two axes. The axis is the one whose ranges hold the fewest
+    (node, facet) pairs (a cup revolved about z: not z)."""
     low, high = corners.min(axis=1) - reach, corners.max(axis=1) + reach
-    order = np.argsort(positions[:, 0], kind="stable")
-    sorted_x = positions[order, 0]
+    ranges = []
+    for axis in range(3):
+        order = np.argsort(positions[:, axis], kind="stable")
+        sorted_axis = positions[order, axis]
+        starts = np.searchsorted(sorted_axis, low[:, axis], side="left")
+        counts = np.maximum(np.searchsorted(sorted_axis, high[:, axis], side="right") - starts, 0)
+        ranges.append((int(counts.sum()), axis, order, starts, counts))
+    _, axis, order, starts, counts = min(ranges, key=lambda found: found[:2])
+    others = [other for other in range(3) if other != axis]
+    sorted_others = np.ascontiguousarray(positions[order][:, others].T)
+    ends = np.cumsum(counts)
+    begins = ends - counts
     nodes, facets = [], []
-    starts = np.searchsorted(sorted_x, low[:, 0], side="left")
-    stops = np.searchsorted(sorted_x, high[:, 0], side="right")
-    for facet, (start, stop) in enumerate(zip(starts.tolist(), stops.tolist())):
-        candidates = order[start:stop]
-        inside = ((positions[candidates, 1:] >= low[facet, 1:]) & (positions[candidates, 1:] <= high[facet, 1:])).all(1)
-        nodes.append(candidates[inside])
-        facets.append(np.full(np.count_nonzero(inside), facet))
-    return np.concatenate(nodes), np.concatenate(facets)
+    first = 0
+    while first < len(counts):  # facets whose ranges hold about _RANGE_CHUNK nodes together
+        last = max(first + 1, int(np.searchsorted(ends, begins[first] + _RANGE_CHUNK, side="right")))
+        facet = np.repeat(np.arange(first, last), counts[first:last])
+        rank = starts[facet] + np.arange(len(facet)) - (begins[facet] - begins[first])
+        inside = np.ones(len(rank), dtype=bool)
+        for row, other in enumerate(others):
+            coordinate = sorted_others[row, rank]
+            inside &= (coordinate >= low[facet, other]) & (coordinate <= high[facet, other])
+        nodes.append(order[rank[inside]])
+        facets.append(facet[inside])
+        first = last
+    return (np.concatenate(nodes) if nodes else np.empty(0, dtype=np.int64),
+            np.concatenate(facets) if facets else np.empty(0, dtype=np.int64))
+
+
+def _near_the_slab(positions, corners, node, facet, reach):
+    """The (node, facet) pairs whose node is within ``reach`` of the facet's slab (the
+    band between its corners' extreme heights along its normal, which holds a quad's
+    patch too): a facet slanted across its box is farther than ``reach`` from most of the
+    box's nodes. Conservative: a facet within ``reach`` of its node is kept."""
+    normals = np.cross(corners[:, 2] - corners[:, 0], corners[:, -1] - corners[:, 1])  # a triangle's: its last is its first
+    lengths = np.linalg.norm(normals, axis=1)
+    normals /= np.where(lengths > 0.0, lengths, 1.0)[:, None]
+    heights = np.einsum("mcN,mN->mc", corners, normals)
+    slack = reach * (1.0 + _SLAB_ROUNDING)
+    bottom, top = heights.min(axis=1) - slack, heights.max(axis=1) + slack
+    height = np.einsum("pN,pN->p", positions[node], normals[facet])
+    near = (height >= bottom[facet]) & (height <= top[facet])
+    return node[near], facet[near]
 
 
 def _padded(faces):
@@ -141,7 +181,7 @@ def _nearest(positions, corners, quad, node, facet):
     return best_facet, best_barycentric, best_distance
 
 
-def nearest_boundary_points(positions, vertices, faces, reach):
+def nearest_boundary_points(positions, vertices, faces, reach, widen=True):
     """Each position's nearest point on the cage.
 
     Parameters
@@ -153,6 +193,9 @@ def nearest_boundary_points(positions, vertices, faces, reach):
     reach : float
         A distance within which most positions have their nearest boundary point (for
         speed only: positions farther away are measured again with a wider reach).
+    widen : bool
+        False: positions farther than ``reach`` are not measured again (distance inf,
+        hat values 0, columns 0): where only the positions within it are asked for.
 
     Returns
     -------
@@ -163,13 +206,23 @@ def nearest_boundary_points(positions, vertices, faces, reach):
         non-negative, each row summing to 1.
     distance : (b,) float
     """
-    corners = vertices[_padded(faces)]
     quad = faces[:, -1] >= 0 if faces.shape[1] == 4 else np.zeros(len(faces), dtype=bool)
-    facet, barycentric, distance = _nearest(positions, corners, quad, *_candidate_pairs(positions, corners, reach))
+    if faces.shape[1] == 4 and not quad.any():  # polygons all triangles (the cup): no patch to bound
+        columns, barycentric, distance = nearest_boundary_points(positions, vertices, faces[:, :3], reach, widen)
+        return np.column_stack([columns, columns[:, 0]]), np.pad(barycentric, ((0, 0), (0, 1))), distance
+    corners = vertices[_padded(faces)]
+    # A facet within ``reach`` is among the candidates: wider for the others. The pairs
+    # farther than ``reach`` are left out (the nearest of those left is the same).
+    pairs = _near_the_slab(positions, corners, *_candidate_pairs(positions, corners, reach), reach)
+    facet, barycentric, distance = _nearest(positions, corners, quad, *pairs)
     far = np.flatnonzero(distance > reach)
-    while len(far):  # a facet within ``reach`` is among the candidates: wider for the others
+    if not widen:
+        facet[far], barycentric[far], distance[far] = -1, 0.0, np.inf
+        return np.where(facet[:, None] >= 0, _padded(faces)[facet], 0), barycentric, distance
+    while len(far):
         reach *= 4.0
-        found = _nearest(positions[far], corners, quad, *_candidate_pairs(positions[far], corners, reach))
+        pairs = _near_the_slab(positions[far], corners, *_candidate_pairs(positions[far], corners, reach), reach)
+        found = _nearest(positions[far], corners, quad, *pairs)
         facet[far], barycentric[far], distance[far] = found
         far = far[found[2] > reach]
     return _padded(faces)[facet], barycentric, distance

@@ -3,6 +3,7 @@ points by piecewise-linear interpolation (docs/MATH.md, "Harmonic coordinates");
 by :func:`gencoords.harmonic.grid_field.harmonic_field`."""
 
 
+import hashlib
 import itertools
 
 import numpy as np
@@ -99,6 +100,7 @@ class HarmonicField:
         self.node_exact = parts["exact"]
         self._exact = parts["exact_within"]  # frame units
         self.convergence = parts["convergence"]
+        self._last_rows = None  # (key, rows): sparse_rows' last answer, until asked again
 
     def __repr__(self):
         return (f"HarmonicField({len(self.vertices)} cage vertices, resolution {self.resolution}, "
@@ -198,6 +200,19 @@ class HarmonicField:
         columns, values : (c, K) int and float
             Those c points' pairs (:meth:`cut_pairs`).
         """
+        # A Bind asks twice for the same points (two levels' rows, then exact storage's
+        # coordinates where two levels would save nothing): located and placed once, the
+        # rows kept (the caller gets copies to write into) until asked again, then handed
+        # over and forgotten.
+        key = (outside, points.shape, hashlib.blake2b(np.ascontiguousarray(points).tobytes(), digest_size=16).digest())
+        if self._last_rows is not None and self._last_rows[0] == key:
+            rows, self._last_rows = self._last_rows[1], None
+            return rows
+        rows = self._located_rows(points, outside)
+        self._last_rows = (key, rows)
+        return tuple(part.copy() for part in rows)
+
+    def _located_rows(self, points, outside):
         local = self._located(points, outside)
         nodes, weights = self._interpolation(local)
         cut = self.cut(nodes)

@@ -25,6 +25,8 @@ __all__ = ["harmonic_field", "harmonic_quad_field", "harmonic_coordinates"]
 # the others (beyond a convex part of the cage) would spend the full count for nothing.
 _WIDENED_ITERATIONS = 12
 _EXACT = 1e-12  # of the cage's size: a node's reweighted coordinates place it exactly
+_HULL_ROUNDING = 1e-6  # of a cell: a node beyond the hull by less is still tried
+_PRIOR_ENTRIES = 1 << 20  # (node, cage vertex) entries of the Dirichlet nodes' priors at a time
 
 
 def _cell_corners_any(cells):
@@ -75,18 +77,44 @@ def _boundary_nodes(grid, parts, vertices, faces):
     measured : (b,) int
         The nodes measured: those outside and those at cells the surface may cross.
     columns, values : (b, w) int, (b, w) float
-        Their nearest boundary point's hat values (w: the faces' width).
+        Their nearest boundary point's hat values (w: the faces' width; an inside node
+        farther than ``NEAREST_CROSSING``, solved: zeros, never read).
     solved : (g,) bool
     """
     measured = np.flatnonzero(~parts["inside"] | parts["near_surface"])
-    columns, values, distance = nearest_boundary_points(
-        node_positions(grid, parts["indices"][measured]), vertices, faces, 1.75 * grid.spacing)
+    positions = node_positions(grid, parts["indices"][measured])
+    inside, near = parts["inside"][measured], NEAREST_CROSSING * grid.spacing
+    columns = np.zeros((len(measured), faces.shape[1]), dtype=np.int64)
+    values, distance = np.zeros(columns.shape), np.empty(len(measured))
+    columns[~inside], values[~inside], distance[~inside] = nearest_boundary_points(
+        positions[~inside], vertices, faces, 1.75 * grid.spacing)
+    # An inside node is a Dirichlet node only nearer than ``near``: looked for no farther
+    # (the others are solved; their hat values are never read).
+    columns[inside], values[inside], distance[inside] = nearest_boundary_points(
+        positions[inside], vertices, faces, near, widen=False)
     solved = parts["inside"].copy()
-    solved[measured[distance < NEAREST_CROSSING * grid.spacing]] = False
+    solved[measured[distance < near]] = False
     return measured, columns, values, solved
 
 
-def _placing_exactly(coordinates, solved, positions, vertices, grid, ids, within):
+def _beyond_the_hull(positions, vertices, triangles, margin):
+    """Whether each position ((p, 3)) lies farther than ``margin`` beyond the convex hull
+    of ``vertices`` along one of the triangles' normals: (p,) bool. No non-negative
+    weights of the vertices place such a position to within ``margin`` (the hull's
+    support along a normal bounds every point they place), so it need not be tried."""
+    normals = np.cross(vertices[triangles[:, 1]] - vertices[triangles[:, 0]],
+                       vertices[triangles[:, 2]] - vertices[triangles[:, 0]])
+    lengths = np.linalg.norm(normals, axis=1)
+    normals = normals[lengths > 0.0] / lengths[lengths > 0.0, None]
+    support = (vertices @ normals.T).max(axis=0, initial=-np.inf)
+    beyond = np.zeros(len(positions), dtype=bool)
+    step = max(1, _PRIOR_ENTRIES // max(1, len(normals)))
+    for start in range(0, len(positions), step):
+        beyond[start:start + step] = (positions[start:start + step] @ normals.T > support + margin).any(axis=1)
+    return beyond
+
+
+def _placing_exactly(coordinates, solved, positions, vertices, triangles, grid, ids, within):
     """The nodes' coordinates ((g, n)) reweighted to place their ``positions`` ((g, 3))
     exactly (:mod:`.reproduction`), and which now do: (g,) bool.
 
@@ -96,23 +124,31 @@ def _placing_exactly(coordinates, solved, positions, vertices, grid, ids, within
     reweighting reaches it. A Dirichlet node's hat values weigh one triangle: widened by
     the nearest solved node's coordinates (their CUT_SUPPORT largest: local), they reach
     it where it is inside the cage or in a hollow of it; elsewhere (beyond a convex part
-    of the cage no non-negative weights reach) it keeps its hat values."""
+    of the cage no non-negative weights reach) it keeps its hat values: one beyond the
+    cage's convex hull is not tried (the cup's outer wall: half its Dirichlet nodes)."""
     coordinates[solved], residual = reproduce_points(None, coordinates[solved], vertices, positions[solved])
     exact = solved.copy()
     exact[solved] = residual <= within
     others = np.flatnonzero(~solved)
+    # Beyond the hull by more than ``within`` and rounding: never reached, whatever the prior.
+    others = others[~_beyond_the_hull(positions[others], vertices, triangles, within + _HULL_ROUNDING * grid.spacing)]
     nearest, found = _nearest_exact_nodes(grid, ids, exact, positions[others])
     others, nearest = others[found], nearest[found]
-    prior = coordinates[nearest]
-    prior *= _WIDENING
-    prior += coordinates[others]
-    columns, values, residual = placing_largest(prior, CUT_SUPPORT, vertices, positions[others], _WIDENED_ITERATIONS)
-    del prior
-    reached = residual <= within
-    rows = np.zeros((int(reached.sum()), len(vertices)))
-    np.put_along_axis(rows, columns[reached], values[reached], axis=1)
-    coordinates[others[reached]] = rows
-    exact[others[reached]] = True
+    # A batch of dense priors at a time (the cup: 25,000 nodes x 322 vertices were 64 MB,
+    # twice); a prior reads solved nodes and its own, which no other batch writes.
+    step = max(1, _PRIOR_ENTRIES // len(vertices))
+    for start in range(0, len(others), step):
+        batch, widening = others[start:start + step], nearest[start:start + step]
+        prior = coordinates[widening]
+        prior *= _WIDENING
+        prior += coordinates[batch]
+        columns, values, residual = placing_largest(prior, CUT_SUPPORT, vertices, positions[batch], _WIDENED_ITERATIONS)
+        del prior
+        reached = residual <= within
+        rows = np.zeros((int(reached.sum()), len(vertices)))
+        np.put_along_axis(rows, columns[reached], values[reached], axis=1)
+        coordinates[batch[reached]] = rows
+        exact[batch[reached]] = True
     return exact
 
 
@@ -245,7 +281,7 @@ def _solved_field(prepared, vertices, triangles, polygons, resolution, progress,
     np.add.at(coordinates, (measured[fixed, None], columns[fixed]), values[fixed])  # a padding column adds 0
     parts["coordinates"], parts["inside"] = coordinates, solved
     parts["exact_within"] = _EXACT * np.linalg.norm(np.ptp(local, axis=0))
-    parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, grid,
+    parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, triangles, grid,
                                       parts["ids"], parts["exact_within"])
     return HarmonicField(prepared, np.array(vertices), np.array(faces), resolution, grid, parts)
 

@@ -1,0 +1,182 @@
+"""Issue 35, item 3: a Harmonic Bind's work follows the cells at the cage, not its box,
+and each shortcut leaves the coordinates as they were.
+
+- Surface cells: a facet marks the cells of its box that meet its slab, not the whole box
+  (the revolved cup's slanted walls marked most of the box): every cell the surface meets
+  is still marked, and the field keeps the same nodes' coordinates as with whole boxes.
+- Nearest boundary points: the (node, facet) pairs cut out along one axis, and those
+  farther than the reach from the facet's slab left out, find what a search of every
+  facet finds; asked within a reach only (an inside node is a Dirichlet node only that
+  near), the same for the positions within it.
+- Dirichlet nodes beyond the cage's convex hull (no non-negative weights reach them) are
+  not tried: they keep what trying them gave.
+- The Bind locates and places its points once (two levels' rows, then exact storage's
+  coordinates where two levels save nothing: the cup).
+"""
+
+import numpy as np
+import pytest
+
+from gencoords.base import grid as grid_module
+from gencoords.base.grid import fit_grid, surface_cells
+from gencoords.base.tolerances import FLOAT32
+from gencoords.harmonic import field as field_module
+from gencoords.harmonic import grid_field
+from gencoords.harmonic import harmonic_quad_field
+from gencoords.harmonic.boundary_values import _closest, _padded, nearest_boundary_points
+from gencoords.planning import bind_plan
+from gencoords.planning.bind_plan import plan_bind
+from gencoords.planning.request import BindRequest
+from tests.fixtures import artist_cages
+
+
+def _box_cells(grid, corners, reach):
+    """The former surface cells: every cell of each facet's box grown by ``reach``."""
+    cells = np.zeros(grid.cells, dtype=bool)
+    last = np.array(grid.cells) - 1
+    low = np.floor((corners.min(axis=1) - reach - grid.origin) / grid.spacing).astype(np.int64).clip(0, last)
+    high = np.floor((corners.max(axis=1) + reach - grid.origin) / grid.spacing).astype(np.int64).clip(0, last)
+    for (i0, j0, k0), (i1, j1, k1) in zip(low.tolist(), high.tolist()):
+        cells[i0:i1 + 1, j0:j1 + 1, k0:k1 + 1] = True
+    return cells
+
+
+def _polygons(scene):
+    faces = scene.cage_faces
+    return faces if faces.shape[1] == 4 else np.column_stack([faces, np.full(len(faces), -1)])
+
+
+@pytest.fixture(scope="module")
+def cup():
+    return artist_cages.cup(0.3)
+
+
+def test_a_slanted_facet_marks_the_cells_along_it_every_cell_it_meets_and_few_of_its_box():
+    rng = np.random.default_rng(3)
+    corners = np.array([[[0.0, 0.0, 0.0], [1.0, 0.9, 0.1], [0.2, 1.0, 0.95]],  # slanted across its box
+                        [[0.1, 0.1, 0.5], [0.9, 0.1, 0.5], [0.5, 0.9, 0.5]]])  # flat: one layer
+    grid = fit_grid(corners.reshape(-1, 3), 24)
+    reach = 0.1 * grid.spacing
+    marked = surface_cells(grid, corners, reach)
+    # Points on the facets and within the reach of them: their cells are all marked.
+    weights = rng.dirichlet(np.ones(3), 20000)
+    on = np.einsum("pc,mcN->mpN", weights, corners).reshape(-1, 3)
+    on += rng.uniform(-reach, reach, on.shape) / np.sqrt(3.0)
+    cells = np.floor((on - grid.origin) / grid.spacing).astype(np.int64).clip(0, np.array(grid.cells) - 1)
+    assert marked[tuple(cells.T)].all()
+    # The slanted facet's box is most of the grid; the cells along it a thin sheet of it.
+    boxes = _box_cells(grid, corners, reach)
+    assert marked.sum() < 0.3 * boxes.sum()
+    assert not (marked & ~boxes).any()
+
+
+def test_the_field_keeps_the_same_coordinates_for_the_nodes_of_cells_at_the_cage(cup, monkeypatch):
+    polygons = _polygons(cup)
+    field = harmonic_quad_field(cup.cage_vertices, polygons, resolution=20, tolerance=FLOAT32)
+    with monkeypatch.context() as patch:
+        patch.setattr(grid_module, "surface_cells", _box_cells)
+        patch.setattr("gencoords.harmonic.grid_field.surface_cells", _box_cells)
+        boxed = harmonic_quad_field(cup.cage_vertices, polygons, resolution=20, tolerance=FLOAT32)
+    # Fewer nodes kept (outside the cup's slanted walls), each one of the boxed field's...
+    assert len(field.node_indices) < 0.9 * len(boxed.node_indices)
+    rows = boxed._ids[tuple(field.node_indices.T)]
+    assert (rows >= 0).all()
+    # ... with the same coordinates, the same solved and exact nodes, the same solve.
+    np.testing.assert_array_equal(field.node_inside, boxed.node_inside[rows])
+    np.testing.assert_array_equal(field.node_exact, boxed.node_exact[rows])
+    np.testing.assert_allclose(field.node_coordinates, boxed.node_coordinates[rows], rtol=0.0, atol=1e-12)
+    assert field.node_inside.sum() == boxed.node_inside.sum()
+    # The mesh's coordinates, looked up in either.
+    points = cup.mesh_vertices[::3]
+    np.testing.assert_allclose(field.coordinates(points), boxed.coordinates(points), rtol=0.0, atol=1e-12)
+
+
+def test_dirichlet_nodes_beyond_the_hull_left_untried_keep_what_trying_them_gives(cup, monkeypatch):
+    polygons = _polygons(cup)
+    skipped = []
+    beyond = grid_field._beyond_the_hull
+
+    def counted(*args):
+        skipped.append(beyond(*args))
+        return skipped[-1]
+
+    monkeypatch.setattr(grid_field, "_beyond_the_hull", counted)
+    field = harmonic_quad_field(cup.cage_vertices, polygons, resolution=20, tolerance=FLOAT32)
+    assert skipped[0].mean() > 0.3  # the cup's outer wall: most of its Dirichlet nodes
+    monkeypatch.setattr(grid_field, "_beyond_the_hull", lambda positions, *_: np.zeros(len(positions), dtype=bool))
+    tried = harmonic_quad_field(cup.cage_vertices, polygons, resolution=20, tolerance=FLOAT32)
+    np.testing.assert_array_equal(field.node_exact, tried.node_exact)
+    np.testing.assert_array_equal(field.node_coordinates, tried.node_coordinates)
+
+
+@pytest.mark.parametrize("name", ["cup", "hand"])  # triangles only; quads, each its patch
+def test_nearest_boundary_points_are_those_a_search_of_every_face_finds(name):
+    rng = np.random.default_rng(5)
+    scene = artist_cages.fixture(name, 0.1)
+    vertices, faces = scene.cage_vertices, _polygons(scene)
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    positions = rng.uniform(low - 0.05, high + 0.05, (600, 3))
+    reach = 0.02 * float(np.linalg.norm(high - low))
+    columns, values, distance = nearest_boundary_points(positions, vertices, faces, reach)
+    corners = vertices[_padded(faces)]
+    quad = faces[:, -1] >= 0
+    every = _closest(np.repeat(positions, len(faces), axis=0), np.tile(corners, (len(positions), 1, 1)),
+                     np.tile(quad, len(positions)))[1].reshape(len(positions), len(faces))
+    np.testing.assert_allclose(distance, every.min(axis=1), rtol=0.0, atol=1e-12)
+    placed = np.einsum("pc,pcN->pN", values, vertices[columns])  # the hat values place the nearest point
+    np.testing.assert_allclose(np.linalg.norm(placed - positions, axis=1), distance, rtol=0.0, atol=1e-9)
+    # Asked only within a reach (the inside nodes that may be Dirichlet nodes): the same
+    # nearest points for the positions within it, none for the others.
+    within = np.quantile(distance, 0.3)
+    near_columns, near_values, near_distance = nearest_boundary_points(positions, vertices, faces, within, widen=False)
+    found = distance <= within
+    assert 0 < found.sum() < len(found)
+    np.testing.assert_array_equal(near_distance[found], distance[found])
+    np.testing.assert_array_equal(near_values[found], values[found])
+    np.testing.assert_array_equal(near_columns[found], columns[found])
+    assert np.isinf(near_distance[~found]).all() and not near_values[~found].any()
+
+
+def test_the_cups_bind_locates_and_places_its_points_once_and_writes_what_the_field_gives(monkeypatch):
+    scene = artist_cages.cup(0.2)  # fewer vertices than the grid nodes their cells use: exact storage
+    calls, fields = [], []
+    located, solved = field_module.HarmonicField._located, bind_plan.harmonic_quad_field
+
+    def counted(self, points, outside):
+        calls.append(len(points))
+        return located(self, points, outside)
+
+    def kept(*args, **kwargs):
+        fields.append(solved(*args, **kwargs))
+        return fields[-1]
+
+    monkeypatch.setattr(field_module.HarmonicField, "_located", counted)
+    monkeypatch.setattr(bind_plan, "harmonic_quad_field", kept)
+    request = BindRequest("harmonic", tolerance=FLOAT32, polygons=_polygons(scene), workers=1)
+    steps = plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles, request)
+    try:
+        while True:
+            next(steps)
+    except StopIteration as done:
+        plan = done.value
+    assert plan.storage == "EXACT"  # after two levels' rows: the exact path asks again
+    assert calls.count(len(scene.mesh_vertices)) == 1
+    field, = fields
+    field._last_rows = None  # located and placed afresh
+    np.testing.assert_array_equal(plan.slots, field.coordinates(scene.mesh_vertices).astype(np.float32))
+    assert calls.count(len(scene.mesh_vertices)) == 2
+
+
+def test_the_rows_given_twice_are_copies(cup):
+    field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=12, tolerance=FLOAT32)
+    points = cup.mesh_vertices[::8]
+    first = field.sparse_rows(points)
+    first[1][:] = -1.0  # a caller writing into what it was given (two levels' rows do)
+    second = field.sparse_rows(points)
+    assert (second[1] >= 0.0).all() and np.allclose(second[1].sum(axis=1), 1.0)
+    third = field.sparse_rows(points)  # handed over once: located again, the same
+    for part, again in zip(second, third):
+        np.testing.assert_array_equal(part, again)
+    other = field.sparse_rows(points[::2])
+    np.testing.assert_array_equal(other[0], second[0][::2])
+    assert field._last_rows[0][1] == points[::2].shape  # only the last set's rows are kept
