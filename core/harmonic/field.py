@@ -200,17 +200,14 @@ class HarmonicField:
         columns, values : (c, K) int and float
             Those c points' pairs (:meth:`cut_pairs`).
         """
-        # A Bind asks twice for the same points (two levels' rows, then exact storage's
-        # coordinates where two levels would save nothing): located and placed once, the
-        # rows kept (the caller gets copies to write into) until asked again, then handed
-        # over and forgotten.
+        # A Bind asks up to three times for the same points (Automatic's sample, which is
+        # every point of a small mesh; two levels' rows; then the pairs' or exact storage's
+        # coordinates where two levels would not do): located and placed once, the rows of
+        # the last set asked for kept (each caller gets copies to write into).
         key = (outside, points.shape, hashlib.blake2b(np.ascontiguousarray(points).tobytes(), digest_size=16).digest())
-        if self._last_rows is not None and self._last_rows[0] == key:
-            rows, self._last_rows = self._last_rows[1], None
-            return rows
-        rows = self._located_rows(points, outside)
-        self._last_rows = (key, rows)
-        return tuple(part.copy() for part in rows)
+        if self._last_rows is None or self._last_rows[0] != key:
+            self._last_rows = (key, self._located_rows(points, outside))
+        return tuple(part.copy() for part in self._last_rows[1])
 
     def _located_rows(self, points, outside):
         local = self._located(points, outside)

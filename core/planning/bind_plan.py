@@ -244,17 +244,20 @@ def _harmonic_sparse(points, cage, request, solved):
     the layout where no pairs are chosen: the rows hold what the layout needs (the hand's
     and the quadruped's Bind peaked 7 and 14 MB higher with the field kept)."""
     field, count = solved.pop(), len(points)
+    automatic = request.storage == Storage.AUTO
+    # The sample first: the field keeps the last point set it located (every point, by
+    # the rows), which the pairs' or exact storage's writing then takes without locating again.
+    sampled = (figures.solve_points(request, cage, points[::max(1, count // DEVIATION_SAMPLES)], None, field=field)
+               if automatic else None)
     rows = _two_level_rows(points, request, field)
     report = figures.kind_report(request, cage, field)
     pairs = None
-    if request.storage == Storage.AUTO:
+    if automatic:
         # What two levels cost with their most pairs per node, or exact storage (about a
         # gather's time per multiply-add: the cup) without them, bounds what pairs must beat.
         budget = (sparse.playback_seconds(count * len(cage.vertices), 0) if rows is None else two_level.playback_seconds(
             count, len(rows[2]), two_level.automatic_node_slot_counts(count, len(rows[2]), len(cage.vertices))[-1]))
-        sample = points[::max(1, count // DEVIATION_SAMPLES)]
-        pairs = choose_by_playback(figures.solve_points(request, cage, sample, None, field=field), cage.vertices,
-                                   count, budget)
+        pairs = choose_by_playback(sampled, cage.vertices, count, budget)
     if rows is None:  # the field gives every point's coordinates (pairs, or exact storage)
         return None, pairs, field
     if pairs is None:
