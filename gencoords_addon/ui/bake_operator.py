@@ -9,7 +9,7 @@ from ..bake import bones, fitted
 from ..bind import bindings
 from ..bind.service import object_mode
 from ..errors import BakeError
-from .operators import MeshOperator, interactive, internal_error
+from .operators import TIMER_HANDLED, MeshOperator, interactive, internal_error
 
 ALL_INFLUENCES = "0: All influences, every weight kept (exact)"
 FITTED_DEFAULT_INFLUENCES = f"0: {fitted.DEFAULT_INFLUENCES} influences per vertex, as game engines read"
@@ -209,7 +209,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         context.window_manager.progress_update(fraction)
         context.workspace.status_text_set(f"GenCoords: baking '{self._job.obj.name}' to fitted bones "
                                           f"{fraction:.0%} (Esc to cancel)")
-        return {'RUNNING_MODAL'}
+        return TIMER_HANDLED
 
     def _end_modal(self, context):
         context.window_manager.event_timer_remove(self._timer)

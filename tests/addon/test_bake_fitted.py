@@ -197,8 +197,8 @@ def fitted_operator_stand_in(operators, **options):
 
 
 def run_modal(operator, context, timer):
-    result = {'RUNNING_MODAL'}
-    while result == {'RUNNING_MODAL'}:
+    result = {'PASS_THROUGH'}  # a timer event passed on: still running
+    while result == {'PASS_THROUGH'}:
         time.sleep(0.02)
         result = operator.modal(context, timer)
     return result
@@ -244,7 +244,7 @@ def test_in_a_window_the_fit_runs_modal_with_progress_and_esc(gc, monkeypatch):
     assert sampling.invoke(context, None) == {'RUNNING_MODAL'}
     updates = window_manager.calls.count("progress_update")
     for _ in range(2 + 3):  # the checks and the mesh read (2 steps), then 3 frames
-        assert sampling.modal(context, SimpleNamespace(type='TIMER')) == {'RUNNING_MODAL'}
+        assert sampling.modal(context, SimpleNamespace(type='TIMER')) == {'PASS_THROUGH'}
     assert window_manager.calls.count("progress_update") == updates + 5 and scene.frame_current == 3
     assert sampling.modal(context, SimpleNamespace(type='ESC')) == {'CANCELLED'}
     assert scene.frame_current == frame and [m.show_viewport for m in obj.modifiers] == shown
@@ -302,7 +302,7 @@ def test_in_a_window_the_writing_shows_progress_and_esc_leaves_the_file_as_it_wa
     assert escaped.invoke(context, None) == {'RUNNING_MODAL'}
     while not (obj.vertex_groups and obj.modifiers[0].type == 'ARMATURE'):  # into the measuring
         time.sleep(0.02)
-        assert escaped.modal(context, timer) == {'RUNNING_MODAL'}
+        assert escaped.modal(context, timer) == {'PASS_THROUGH'}
     assert obj.parent is not None and len(bpy.data.armatures) == len(before["armatures"]) + 1
     assert 0.9 < window_manager.fractions[-1] < 1.0
     start = time.perf_counter()

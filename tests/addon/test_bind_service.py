@@ -52,8 +52,8 @@ def test_the_bind_time_reported_is_the_wait_writing_included(gc, monkeypatch):
 
     running, context = modal_rebind(gc, obj, monkeypatch)  # the window: between events
     started = time.perf_counter()  # invoke started the clock just before: it waited less
-    result = {'RUNNING_MODAL'}
-    while result == {'RUNNING_MODAL'}:
+    result = {'PASS_THROUGH'}  # a timer event passed on: still running
+    while result == {'PASS_THROUGH'}:
         result = running.modal(context, SimpleNamespace(type='TIMER'))
     waited = time.perf_counter() - started
     assert result == {'FINISHED'}
@@ -75,7 +75,7 @@ def test_esc_while_writing_leaves_everything_as_it_was(gc, monkeypatch):
     running, context = modal_rebind(gc, obj, monkeypatch)
     prefix = None
     while prefix is None or not any(a.name.startswith(prefix) for a in obj.data.attributes):
-        assert running.modal(context, SimpleNamespace(type='TIMER')) == {'RUNNING_MODAL'}
+        assert running.modal(context, SimpleNamespace(type='TIMER')) == {'PASS_THROUGH'}
         if running._job.writing:
             prefix = gc.bind_layout.attribute_prefix(running._job.result.data.key)
     assert len(bpy.data.node_groups) > len(groups)  # half written: the new group is there
@@ -108,7 +108,7 @@ def test_esc_during_the_harmonic_solve_stops_it_and_changes_nothing(gc, monkeypa
     progress = []
     monkeypatch.setattr(context.window_manager, "progress_update", progress.append, raising=False)
     while not any(fraction > 0.0 for fraction in progress):  # timer events: the solve reports
-        assert running.modal(context, SimpleNamespace(type='TIMER')) == {'RUNNING_MODAL'}
+        assert running.modal(context, SimpleNamespace(type='TIMER')) == {'PASS_THROUGH'}
         assert not running._job.writing
     # Reported from inside the solve: below what the grid's end reports (half the plan).
     assert 0.0 < max(progress) < 0.5 * gc.service.COMPUTING
@@ -129,8 +129,8 @@ def test_a_timer_event_runs_a_tenth_of_a_second_of_steps_not_one(gc, monkeypatch
     running._steps = (steps.append(fraction) or fraction for fraction in running._steps)
     progress = []
     monkeypatch.setattr(context.window_manager, "progress_update", progress.append, raising=False)
-    events, result, started = 0, {'RUNNING_MODAL'}, time.perf_counter()
-    while result == {'RUNNING_MODAL'}:
+    events, result, started = 0, {'PASS_THROUGH'}, time.perf_counter()
+    while result == {'PASS_THROUGH'}:
         result = running.modal(context, SimpleNamespace(type='TIMER'))
         events += 1
     waited = time.perf_counter() - started

@@ -422,6 +422,7 @@ def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkey
     assert handed_over == [(('INVOKE_DEFAULT',), {"replace_confirmed": True})]
     assert gc.binding.binding(obj).key == earlier
 
+    monkeypatch.setattr(gc.core.planning.bind_steps, "SLICE_SECONDS", 0.0)  # a step an event: progress shown
     running = bind_operator_stand_in(operators)
     running.replace_confirmed = True  # as the handed-over call is made
     assert running.invoke(context, None) == {'RUNNING_MODAL'}  # no second question
@@ -429,8 +430,8 @@ def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkey
     assert {"event_timer_add", "progress_begin", "modal_handler_add"} <= set(window_manager.calls)
     assert gc.binding.binding(obj).key == earlier  # nothing written before the job ends
     timer = SimpleNamespace(type='TIMER')
-    result = {'RUNNING_MODAL'}
-    while result == {'RUNNING_MODAL'}:
+    result = {'PASS_THROUGH'}  # a timer event passed on: still running
+    while result == {'PASS_THROUGH'}:
         result = running.modal(context, timer)
     assert result == {'FINISHED'}
     assert "progress_update" in window_manager.calls and "progress_end" in window_manager.calls
@@ -467,8 +468,8 @@ def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeyp
     assert running.invoke(context, None) == {'RUNNING_MODAL'}
     settings.cage, settings.kind, settings.gamma = other, 'POWER', 0.5
     settings.outside, settings.storage, settings.compact_size = 'PROJECT', 'COMPACT', 6
-    result = {'RUNNING_MODAL'}
-    while result == {'RUNNING_MODAL'}:
+    result = {'PASS_THROUGH'}  # a timer event passed on: still running
+    while result == {'PASS_THROUGH'}:
         result = running.modal(context, SimpleNamespace(type='TIMER'))
     assert result == {'FINISHED'}
     (found,) = gc.binding.bindings(obj)
