@@ -19,7 +19,7 @@ from ..base.errors import WorkerError, WorkerWarning
 from . import bind_plan
 
 __all__ = ["BindTool", "COMPUTING", "PlanTool", "WorkerFallback", "bind", "bind_report", "bind_steps",
-           "computing_frame", "advance", "in_workers_or_here", "plan_steps", "run_to_end", "scaled", "zero_scale_axes"]
+           "computing_frame", "advance", "slice_seconds", "in_workers_or_here", "plan_steps", "run_to_end", "scaled", "zero_scale_axes"]
 
 COMPUTING = 0.9  # of a Bind's progress, the computing's share; the writing takes the rest
 
@@ -90,10 +90,23 @@ def run_to_end(steps, report=None):
             report(fraction)
 
 
-# Work a window does between two of its redraws (progress, Esc): 10 per second. A step
-# per timer event instead left the window idle for the timer's interval after each short
-# step, and redrew (the mesh, in the viewport) as often.
-SLICE_SECONDS = 0.1
+# Work a window does between two of its redraws (progress, Esc): at least a tenth of a
+# second (a step per timer event left the window idle for the timer's interval after each
+# short step), and 9 times what the window took between two slices, so that the window's
+# share stays under a tenth, but never over a second (Esc takes effect within about that).
+# In a software-rendered window a 43k-vertex character's viewport took 0.2 to 0.45 s to
+# redraw (scripts/release/gui_bind_timing.py).
+SLICE_SECONDS, MAX_SLICE_SECONDS, WINDOW_SHARE = 0.1, 1.0, 0.1
+
+
+def slice_seconds(between):
+    """How long the next slice of steps runs, after the window took ``between`` seconds
+    since the last one: float.
+
+    >>> slice_seconds(0.005), slice_seconds(0.05), slice_seconds(0.4)
+    (0.1, 0.45, 1.0)
+    """
+    return min(MAX_SLICE_SECONDS, max(SLICE_SECONDS, between * (1.0 - WINDOW_SHARE) / WINDOW_SHARE))
 
 
 def advance(steps, seconds=None):

@@ -4,12 +4,11 @@ deformation (``bake.fitted``: modal in a window, its fit in a thread)."""
 
 import bpy
 
-from ...core.planning import bind_steps
 from ..bake import bones, fitted
 from ..bind import bindings
 from ..bind.service import object_mode
 from ..errors import BakeError
-from .operators import TIMER_HANDLED, MeshOperator, interactive, internal_error
+from .operators import TIMER_HANDLED, MeshOperator, SlicedSteps, interactive, internal_error
 
 ALL_INFLUENCES = "0: All influences, every weight kept (exact)"
 FITTED_DEFAULT_INFLUENCES = f"0: {fitted.DEFAULT_INFLUENCES} influences per vertex, as game engines read"
@@ -173,7 +172,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         self._job = self._guarded(self._fitted_job, context, False)
         if isinstance(self._job, set):
             return self._job
-        self._baking = fitted.baking_steps(self._job, context)
+        self._baking = SlicedSteps(fitted.baking_steps(self._job, context))
         window_manager = context.window_manager
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
@@ -186,7 +185,7 @@ class OBJECT_OT_gencoords_bake_bones(MeshOperator, bpy.types.Operator):
         job = self._job
         try:
             with object_mode(context, job.obj):
-                return bind_steps.advance(self._baking)
+                return self._baking.advance()
         except StopIteration as done:
             return self._finished(job, *done.value)
 

@@ -5,6 +5,7 @@ Every operator either finishes or leaves the file as it found it: errors become 
 report saying what to do (in scripts, ``bpy.ops`` raises RuntimeError with it).
 """
 
+import time
 import traceback
 
 import bpy
@@ -36,6 +37,25 @@ class MeshOperator:
 # 43k-vertex character took 0.15 to 0.45 s in a software-rendered window: a Bind from the
 # panel took 1.7 to 2.4 times a script's (scripts/release/gui_bind_timing.py).
 TIMER_HANDLED = {'PASS_THROUGH'}
+
+
+class SlicedSteps:
+    """A modal operator's steps run a slice a timer event, each slice as long as
+    ``bind_steps.slice_seconds`` says after what the window took since the last."""
+
+    def __init__(self, steps):
+        self.steps, self.returned = steps, time.perf_counter()
+
+    def advance(self):
+        """The next slice: its last fraction; StopIteration (with the result) at the end."""
+        seconds = bind_steps.slice_seconds(time.perf_counter() - self.returned)
+        try:
+            return bind_steps.advance(self.steps, seconds)
+        finally:
+            self.returned = time.perf_counter()
+
+    def close(self):
+        self.steps.close()
 
 
 def interactive(context):
@@ -116,7 +136,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
                 return {'CANCELLED'}
         except Exception as error:
             return internal_error(self, error)
-        self._steps = service.steps(self._job, context)
+        self._steps = SlicedSteps(service.steps(self._job, context))
         window_manager = context.window_manager
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
@@ -141,7 +161,7 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         if event.type != 'TIMER':  # while writing, nothing else may change the mesh
             return {'RUNNING_MODAL'} if self._job.writing else {'PASS_THROUGH'}
         try:
-            fraction = bind_steps.advance(self._steps)
+            fraction = self._steps.advance()
         except StopIteration:
             self._stop(context)
             return self._finish(context)
@@ -338,7 +358,7 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
 
     def _start(self, context):
         self._obj = context.active_object
-        self._steps, window_manager = cage_maker.make_cage_steps(*self._arguments(context)), context.window_manager
+        self._steps, window_manager = SlicedSteps(cage_maker.make_cage_steps(*self._arguments(context))), context.window_manager
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
@@ -359,7 +379,7 @@ class OBJECT_OT_gencoords_make_cage(MeshOperator, bpy.types.Operator):
         if event.type != 'TIMER':
             return {'RUNNING_MODAL'}  # the mesh was read: nothing else changes it meanwhile
         try:
-            fraction = bind_steps.advance(self._steps)
+            fraction = self._steps.advance()
         except StopIteration as done:
             self._stop(context)
             return self._made(self._obj, *done.value)

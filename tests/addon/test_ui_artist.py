@@ -422,7 +422,7 @@ def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkey
     assert handed_over == [(('INVOKE_DEFAULT',), {"replace_confirmed": True})]
     assert gc.binding.binding(obj).key == earlier
 
-    monkeypatch.setattr(gc.core.planning.bind_steps, "SLICE_SECONDS", 0.0)  # a step an event: progress shown
+    monkeypatch.setattr(gc.core.planning.bind_steps, "MAX_SLICE_SECONDS", 0.0)  # a step an event: progress shown
     running = bind_operator_stand_in(operators)
     running.replace_confirmed = True  # as the handed-over call is made
     assert running.invoke(context, None) == {'RUNNING_MODAL'}  # no second question
