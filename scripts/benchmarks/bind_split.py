@@ -22,6 +22,7 @@ from gencoords.base.tolerances import FLOAT32  # noqa: E402
 from gencoords.evaluation.cage import Cage  # noqa: E402
 from gencoords.harmonic import field, grid_field  # noqa: E402
 from gencoords.planning import bind_plan, figures  # noqa: E402
+from gencoords.surfaces.named import HARMONIC  # noqa: E402
 from gencoords.planning.request import BindRequest  # noqa: E402
 from gencoords.storage import two_level  # noqa: E402
 
@@ -97,7 +98,7 @@ def install(timers):
 def bind(scene):
     faces = scene.cage_faces
     polygons = faces if faces.shape[1] == 4 else np.column_stack([faces, np.full(len(faces), -1)])
-    request = BindRequest("harmonic", tolerance=FLOAT32, polygons=polygons)
+    request = BindRequest(HARMONIC, tolerance=FLOAT32, polygons=polygons)
     steps = bind_plan.plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles, request)
     try:
         while True:

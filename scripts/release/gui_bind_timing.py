@@ -60,7 +60,7 @@ def set_up():
     cage.select_set(False)
     body.select_set(True)
     bpy.context.view_layer.objects.active = body
-    body.gencoords.cage, body.gencoords.kind = cage, 'HARMONIC'
+    body.gencoords.cage, body.gencoords.kind = cage, addon("enums").HARMONIC.upper()
     print(f"gui_bind_timing: {len(body.data.vertices)} vertices in a {len(cage.data.vertices)}-vertex cage",
           flush=True)
 
