@@ -8,7 +8,8 @@ from ..bake import bones, fitted
 from ..bind import bindings
 from ..bind.service import object_mode
 from ..errors import BakeError
-from .operators import TIMER_HANDLED, MeshOperator, SlicedSteps, interactive, internal_error
+from .modal import TIMER_HANDLED, SlicedSteps
+from .operators import MeshOperator, interactive, internal_error
 
 ALL_INFLUENCES = "0: All influences, every weight kept (exact)"
 FITTED_DEFAULT_INFLUENCES = f"0: {fitted.DEFAULT_INFLUENCES} influences per vertex, as game engines read"
