@@ -5,6 +5,7 @@ import importlib.util
 from pathlib import Path
 
 import bpy
+import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -21,6 +22,18 @@ def _load_mesh_arrays():
 
 # read_positions, write_positions, evaluated_positions, read_loop_triangles...
 arrays = _load_mesh_arrays()
+
+
+def add_mesh_object(name, vertices, faces=(), edges=(), collection=None):
+    """A mesh object from arrays, linked to ``collection`` (the scene's by default)."""
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(np.asarray(vertices, dtype=float).tolist(),
+                     [tuple(e) for e in np.asarray(edges, dtype=int).reshape(-1, 2)],
+                     [tuple(f) for f in faces])
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    (collection or bpy.context.scene.collection).objects.link(obj)
+    return obj
 
 
 def make_active(obj):

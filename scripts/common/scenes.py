@@ -14,7 +14,7 @@ import gencoords
 from gencoords.construction.general import prepare_cage
 from gencoords.construction.green import GREEN_LABEL
 from gencoords.surfaces.named import HARMONIC
-from .blender_objects import arrays, bind, make_active  # noqa: F401 (scripts use them from here)
+from .blender_objects import add_mesh_object, arrays, bind, make_active  # noqa: F401 (scripts use them from here)
 from mathutils import Euler
 
 
@@ -126,18 +126,6 @@ def add_character(detail=1.0):
     cage_vertices, cage_quads = character.character_cage()
     return (add_mesh_object("Character", body_vertices, body_triangles),
             add_mesh_object("CharacterCage", cage_vertices, cage_quads))
-
-
-def add_mesh_object(name, vertices, faces=(), edges=(), collection=None):
-    """A mesh object from arrays, linked to ``collection`` (the scene's by default)."""
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(np.asarray(vertices, dtype=float).tolist(),
-                     [tuple(e) for e in np.asarray(edges, dtype=int).reshape(-1, 2)],
-                     [tuple(f) for f in faces])
-    mesh.update()
-    obj = bpy.data.objects.new(name, mesh)
-    (collection or bpy.context.scene.collection).objects.link(obj)
-    return obj
 
 
 def cage_size(points):

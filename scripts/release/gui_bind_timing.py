@@ -26,6 +26,7 @@ import bpy
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))  # the repository (or its staged copy): tests.fixtures
+from scripts.common.blender_objects import add_mesh_object  # noqa: E402
 from scripts.pictures import panel_screenshots as shots  # noqa: E402
 from tests.fixtures import character  # noqa: E402
 
@@ -40,21 +41,12 @@ def addon(name):
     return sys.modules[f"{EXTENSION}.gencoords_addon.{name}"]
 
 
-def mesh_object(name, vertices, faces):
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(vertices.tolist(), [], faces.tolist())
-    mesh.update()
-    obj = bpy.data.objects.new(name, mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
-
-
 def set_up():
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
     vertices, triangles, _ = character.body_mesh(1.0)
-    body = mesh_object("Body", vertices, triangles)
-    cage = mesh_object("Cage", *character.character_cage())
+    body = add_mesh_object("Body", vertices, triangles)
+    cage = add_mesh_object("Cage", *character.character_cage())
     cage.display_type = 'WIRE'
     bpy.context.view_layer.update()
     cage.select_set(False)

@@ -11,6 +11,7 @@ import pytest
 from gencoords.harmonic import harmonic_field, harmonic_quad_field
 from gencoords.planning import bind_plan
 from gencoords.planning.bind_plan import plan_bind
+from gencoords.planning.bind_steps import run_to_end
 from gencoords.planning.request import BIND_RESOLUTION, BIND_SOLVER_TOLERANCE, BindRequest
 from gencoords.planning.similarity import probe_similarity
 from gencoords.storage import sparse, two_level
@@ -24,21 +25,13 @@ DETAILS = {"cup": 0.3, "cape": 0.6}  # the cape's sheet at 0.6: more vertices th
 GATHERS_PER_VERTEX = 16  # before: the cup 322 (exact), the cape 20 (two levels)
 
 
-def _run(steps):
-    while True:
-        try:
-            next(steps)
-        except StopIteration as done:
-            return done.value
-
-
 @pytest.fixture(scope="module", params=sorted(DETAILS))
 def bound(request):
     """The fixture, Automatic's plan of its mesh (a cage of quads: each its bilinear patch,
     as the add-on binds it), and the mesh's exact coordinates."""
     scene = artist_cages.fixture(request.param, detail=DETAILS[request.param])
     quads = scene.cage_faces if scene.cage_faces.shape[1] == 4 else None
-    plan = _run(plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles,
+    plan = run_to_end(plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles,
                           BindRequest(HARMONIC, workers=1, polygons=quads)))
     solve, faces = (harmonic_field, scene.cage_triangles) if quads is None else (harmonic_quad_field, quads)
     field = solve(scene.cage_vertices, faces, resolution=BIND_RESOLUTION, workers=1,
@@ -111,7 +104,7 @@ def test_pairs_that_miss_on_the_whole_mesh_give_way_to_two_levels(monkeypatch):
     the target, the two levels are written (within it), not exact storage."""
     monkeypatch.setattr(bind_plan, "DEVIATION_SAMPLES", 1)  # one point: few pairs pass there
     scene = artist_cages.fixture("cape", detail=0.6)
-    plan = _run(plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles,
+    plan = run_to_end(plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles,
                           BindRequest(HARMONIC, workers=1, polygons=scene.cage_faces)))
     assert plan.node_indices is not None, plan.storage_choice
     assert max(plan.deviation_smooth, plan.deviation_drag) < 1e-3 and "two levels" in plan.storage_choice

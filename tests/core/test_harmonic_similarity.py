@@ -8,6 +8,7 @@ import pytest
 
 import gencoords
 from gencoords.planning.bind_plan import plan_bind
+from gencoords.planning.bind_steps import run_to_end
 from gencoords.planning.request import BindRequest
 from gencoords.planning.similarity import probe_similarity
 from gencoords.surfaces.named import HARMONIC
@@ -31,14 +32,6 @@ def _points(scene, count, seed=0):
     return np.concatenate([scene.mesh_vertices, drawn[inside][:count]])
 
 
-def _run(steps):
-    while True:
-        try:
-            next(steps)
-        except StopIteration as done:
-            return done.value
-
-
 def _deformed(plan, moved, dtype):
     """The mesh as the deformer moves it: each grid node's pairs gather the moved cage,
     each vertex its nodes (two levels), or its own pairs or slots; in ``dtype``."""
@@ -56,7 +49,7 @@ def _deformed(plan, moved, dtype):
 def test_written_data_follows_a_similarity_and_bind_reports_the_probe(name):
     scene = artist_cages.fixture(name, detail=0.1)
     points, rest = _points(scene, 4000 if name == "needle" else 1000), scene.cage_vertices
-    plan = _run(plan_bind(points, rest, scene.cage_triangles,
+    plan = run_to_end(plan_bind(points, rest, scene.cage_triangles,
                           BindRequest(HARMONIC, outside="project", workers=1, **CASES[name])))
     size = scene.diagonal
     # Another similarity than Bind's probe, in the deformer's float32.
