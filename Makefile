@@ -36,7 +36,7 @@ endif
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: help setup test-tools demo test test-core lint build bench bench-core test-blender-matrix \
+.PHONY: help setup test-tools demo test test-core lint build bench bench-core test-blender-matrix environment \
         setup-blender-matrix check-release fuzz clean distclean
 
 ## This list: every target with what its `##` comment says.
@@ -92,9 +92,15 @@ lint: $(STAMP)
 
 ## The whole suite on every Blender of MATRIX, each in its own virtual environment: set
 ## up one after another, tested side by side (as many at once as CPUs, MATRIX_JOBS
-## overrides); prints pass/fail counts and wall time per version at the end.
+## overrides), the tests needing no Blender once per Python and numpy pair; prints
+## pass/fail counts and wall time per version at the end.
 test-blender-matrix: $(TOOLS_STAMP)
 	$(PYTHON) scripts/release/test_matrix.py $(if $(MATRIX_JOBS),--jobs $(MATRIX_JOBS)) $(MATRIX)
+
+## The Python and numpy versions of BLENDER's environment, on one line: the matrix runs
+## the tests that need no Blender once per pair (they cannot differ between Blenders).
+environment: $(STAMP)
+	@$(PY) -c "import sys, numpy; print('Python', sys.version.split()[0], 'numpy', numpy.__version__)"
 
 ## Only set up the virtual environments of every Blender of MATRIX.
 setup-blender-matrix:
