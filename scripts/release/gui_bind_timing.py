@@ -83,20 +83,19 @@ def script_bind():
 
 
 def timed_advance():
-    """The window's slices of steps timed (``bind_steps.advance``, as the Bind operator
-    calls it): where the window's wait goes, in the steps or between them."""
-    operators = addon("ui.operators")
-    advance = STATE.setdefault("advance", operators.bind_steps.advance)
+    """The window's slices of steps timed (``ui.modal.SlicedSteps.advance``, as the Bind
+    operator runs them): where the window's wait goes, in the steps or between them."""
+    sliced = addon("ui.modal").SlicedSteps
+    advance = STATE.setdefault("advance", sliced.advance)
     slices = STATE["slices"] = []
 
-    def timed(steps, seconds=None):
+    def timed(self):
         started = time.perf_counter()
         try:
-            return advance(steps, seconds)
+            return advance(self)
         finally:
             slices.append((started, time.perf_counter()))
-    operators.bind_steps = type(operators.bind_steps)("bind_steps_timed")
-    operators.bind_steps.__dict__.update(sys.modules[advance.__module__].__dict__, advance=timed)
+    sliced.advance = timed
 
 
 def count_viewport_draws():
