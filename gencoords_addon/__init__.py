@@ -61,11 +61,11 @@ import bpy
 
 from . import handlers
 from .api import BindingResult, binding_result, binding_results  # noqa: F401 (public)
-from .ui import bake_operator, operators, panel
+from .ui import bake_operator, field_operators, operators, panel
 from .preferences import GenCoordsPreferences
 from .ui.properties import GenCoordsSettings
 
-CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *bake_operator.CLASSES, *panel.CLASSES)
+CLASSES = (GenCoordsSettings, GenCoordsPreferences, *operators.CLASSES, *field_operators.CLASSES, *bake_operator.CLASSES, *panel.CLASSES)
 
 
 def register():

@@ -11,7 +11,6 @@ import bpy
 from ..bind import bindings, cage_maker, service
 from ..bind.service import object_mode
 from ..errors import BindError, CageError
-from . import visualise
 from .modal import TIMER_HANDLED, SlicedSteps
 
 
@@ -107,32 +106,33 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
                 return {'CANCELLED'}
         except Exception as error:
             return internal_error(self, error)
-        self._steps = SlicedSteps(service.steps(self._job, context))
+        self._steps, self._timer = SlicedSteps(service.steps(self._job, context)), None
+        self._mesh_uid = self._job.obj.session_uid
+        service.MODAL_BINDS.add(self._mesh_uid)
+        fraction = self._slice(context, first=True)
+        if isinstance(fraction, set):  # a short Bind: done before the window redrew
+            return fraction
         window_manager = context.window_manager
         self._timer = window_manager.event_timer_add(0.01, window=context.window)
         window_manager.progress_begin(0.0, 1.0)
         window_manager.modal_handler_add(self)
-        self._mesh_uid = self._job.obj.session_uid
-        service.MODAL_BINDS.add(self._mesh_uid)
+        self._show(context, fraction)
         return {'RUNNING_MODAL'}
 
     def _stop(self, context, text=None):
         service.MODAL_BINDS.discard(self._mesh_uid)
-        window_manager = context.window_manager
-        window_manager.event_timer_remove(self._timer)
-        window_manager.progress_end()
-        context.workspace.status_text_set(text)
+        if self._timer is not None:  # the window's progress shown: taken down
+            window_manager = context.window_manager
+            window_manager.event_timer_remove(self._timer)
+            window_manager.progress_end()
+            context.workspace.status_text_set(text)
         self._steps.close()
 
-    def modal(self, context, event):
-        if event.type == 'ESC':
-            self._stop(context)
-            self.report({'WARNING'}, "Bind cancelled: nothing was changed")
-            return {'CANCELLED'}
-        if event.type != 'TIMER':  # while writing, nothing else may change the mesh
-            return {'RUNNING_MODAL'} if self._job.writing else {'PASS_THROUGH'}
+    def _slice(self, context, first=False):
+        """A slice of the Bind's steps (``first``: invoke's): its last fraction, or the
+        operator's result once they end or fail (the window as it was)."""
         try:
-            fraction = self._steps.advance()
+            return self._steps.first() if first else self._steps.advance()
         except StopIteration:
             self._stop(context)
             return self._finish(context)
@@ -143,12 +143,26 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         except Exception as error:
             self._stop(context)
             return internal_error(self, error)
+
+    def modal(self, context, event):
+        if event.type == 'ESC':
+            self._stop(context)
+            self.report({'WARNING'}, "Bind cancelled: nothing was changed")
+            return {'CANCELLED'}
+        if event.type != 'TIMER':  # while writing, nothing else may change the mesh
+            return {'RUNNING_MODAL'} if self._job.writing else {'PASS_THROUGH'}
+        fraction = self._slice(context)
+        if isinstance(fraction, set):
+            return fraction
+        self._show(context, fraction)
+        return TIMER_HANDLED
+
+    def _show(self, context, fraction):
         context.window_manager.progress_update(fraction)
         in_blender = "" if self._job.worker_failure is None else ", in Blender: worker processes failed"
         doing = "writing" if self._job.writing else "binding"
         context.workspace.status_text_set(
             f"GenCoords: {doing} '{self._job.obj.name}' {fraction:.0%}{in_blender} (Esc to cancel)")
-        return TIMER_HANDLED
 
 
 class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
@@ -186,52 +200,6 @@ class OBJECT_OT_gencoords_unbind(MeshOperator, bpy.types.Operator):
                                                     "hidden data may remain")
             return internal_error(self, error, f"only {', '.join(removed)} was removed: Unbind "
                                                 "again to remove the rest")
-        return {'FINISHED'}
-
-
-class OBJECT_OT_gencoords_show_field(MeshOperator, bpy.types.Operator):
-    """Paint the coordinate field of the chosen cage vertex on the mesh (purple 0 to yellow
-    largest, pink to red negative) as the colour attribute "GenCoords Field", and mark the
-    vertex on the cage"""
-
-    bl_idname = "object.gencoords_show_field"
-    bl_label = "Show Coordinate"
-
-    def execute(self, context):
-        obj = context.active_object
-        problem = visualise.field_problem(obj)
-        if problem:
-            self.report({'ERROR'}, problem)
-            return {'CANCELLED'}
-        try:
-            with object_mode(context, obj):
-                painted = visualise.paint_field(obj)
-        except Exception as error:
-            return internal_error(self, error, "the field may be partly painted: Clear "
-                                                "Coordinate removes it")
-        if not painted:
-            self.report({'ERROR'}, f"The bind data of '{obj.name}' is missing: Bind again")
-            return {'CANCELLED'}
-        visualise.show_colors_in_viewports(context.screen)
-        return {'FINISHED'}
-
-
-class OBJECT_OT_gencoords_clear_field(MeshOperator, bpy.types.Operator):
-    """Remove the coordinate field colours from the mesh"""
-
-    bl_idname = "object.gencoords_clear_field"
-    bl_label = "Clear Coordinate"
-
-    def execute(self, context):
-        obj = context.active_object
-        try:
-            with object_mode(context, obj):
-                cleared = visualise.clear_field(obj)
-        except Exception as error:
-            return internal_error(self, error, "the field may be partly cleared: Clear "
-                                                "Coordinate again")
-        if not cleared:
-            self.report({'WARNING'}, "No coordinate field is shown")
         return {'FINISHED'}
 
 
@@ -394,7 +362,5 @@ CLASSES = (
     OBJECT_OT_gencoords_make_cage,
     OBJECT_OT_gencoords_bind,
     OBJECT_OT_gencoords_unbind,
-    OBJECT_OT_gencoords_show_field,
-    OBJECT_OT_gencoords_clear_field,
     MESH_OT_gencoords_select_dented_faces,
 )

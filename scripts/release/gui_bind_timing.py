@@ -89,10 +89,10 @@ def timed_advance():
     advance = STATE.setdefault("advance", sliced.advance)
     slices = STATE["slices"] = []
 
-    def timed(self):
+    def timed(self, seconds=None):
         started = time.perf_counter()
         try:
-            return advance(self)
+            return advance(self, seconds)
         finally:
             slices.append((started, time.perf_counter()))
     sliced.advance = timed
@@ -114,7 +114,8 @@ def window_bind(kind='PROPERTIES', region='WINDOW'):
     window, area = shots.window_and_area(kind)
     STATE["started"] = time.perf_counter()
     with bpy.context.temp_override(window=window, screen=window.screen, area=area, region=shots.region(area, region)):
-        assert bpy.ops.object.gencoords_bind('INVOKE_DEFAULT') == {'RUNNING_MODAL'}
+        # The first slice runs in invoke: a Bind shorter than that slice ends there.
+        assert bpy.ops.object.gencoords_bind('INVOKE_DEFAULT') in ({'RUNNING_MODAL'}, {'FINISHED'})
 
 
 def sidebar_bind():

@@ -32,6 +32,7 @@ def modal_rebind(gc, obj, monkeypatch):
     ``obj``: (operator, context), invoked."""
     operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.ui.operators")
     monkeypatch.setattr(operators, "interactive", lambda context: True)
+    monkeypatch.setattr(operators.SlicedSteps, "first", lambda sliced: sliced.advance(0.0))  # invoke: a step
     make_active(obj)
     context = ContextStandIn(WindowStandIn())
     running = bind_operator_stand_in(operators)

@@ -386,7 +386,7 @@ class ContextStandIn:
 def bind_operator_stand_in(operators):
     """The Bind operator's own methods on a plain object (Blender operators cannot be
     made outside a call), with its properties and reports."""
-    methods = ("execute", "invoke", "modal", "_start", "_finish", "_stop")
+    methods = ("execute", "invoke", "modal", "_start", "_finish", "_stop", "_slice", "_show")
     cls = operators.OBJECT_OT_gencoords_bind
     stand_in = type("BindStandIn", (), {name: cls.__dict__[name] for name in methods})()
     stand_in.replace_asked = stand_in.replace_confirmed = False
@@ -448,6 +448,40 @@ def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkey
     assert escaped.reports == ["Bind cancelled: nothing was changed"]
 
 
+def test_a_short_bind_from_the_panel_ends_in_invoke_without_progress_or_a_redraw(gc, monkeypatch):
+    """The panel's Bind runs its first slice (up to a second) before the window redraws:
+    a short Bind is done when invoke returns, with no timer, progress bar or modal
+    handler; a longer one goes on between events from where that slice ended."""
+    import importlib
+
+    from types import SimpleNamespace
+
+    operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.ui.operators")
+    cage = add_icosphere_cage(subdivisions=2)
+    obj = add_sphere()
+    obj.gencoords.cage = cage
+    make_active(obj)
+    monkeypatch.setattr(operators, "interactive", lambda context: True)
+    window_manager = WindowStandIn()
+    short = bind_operator_stand_in(operators)
+    assert short.invoke(ContextStandIn(window_manager), None) == {'FINISHED'}
+    assert window_manager.calls == []  # no timer, progress or modal handler
+    assert [m.name for m in obj.modifiers] == ["GenCoords"]
+    assert short.reports[-1].startswith(f"Bound '{obj.name}'")
+    assert obj.session_uid not in gc.service.MODAL_BINDS  # Auto Rebind may bind it again
+
+    # A first slice of one step: the rest between events, the progress shown from the start.
+    monkeypatch.setattr(gc.core.planning.bind_steps, "MAX_SLICE_SECONDS", 0.0)
+    longer = bind_operator_stand_in(operators)
+    longer.replace_confirmed = True
+    assert longer.invoke(ContextStandIn(window_manager), None) == {'RUNNING_MODAL'}
+    assert window_manager.calls[:3] == ["event_timer_add", "progress_begin", "modal_handler_add"]
+    assert "progress_update" in window_manager.calls and "status_text_set" in window_manager.calls
+    assert obj.session_uid in gc.service.MODAL_BINDS  # Auto Rebind waits for it
+    longer.modal(ContextStandIn(window_manager), SimpleNamespace(type='ESC'))
+    assert obj.session_uid not in gc.service.MODAL_BINDS
+
+
 def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeypatch):
     """The artist starts Bind (progress bar), then changes the settings before it ends:
     the binding is made with the settings of the moment Bind started."""
@@ -463,6 +497,7 @@ def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeyp
     settings.cage, settings.kind, settings.storage, settings.compact_size = cage, 'MEAN_VALUE', 'EXACT', 12
     make_active(obj)
     monkeypatch.setattr(operators, "interactive", lambda context: True)
+    monkeypatch.setattr(operators.SlicedSteps, "first", lambda sliced: sliced.advance(0.0))  # invoke: a step
     context = ContextStandIn(WindowStandIn())
     running = bind_operator_stand_in(operators)
     assert running.invoke(context, None) == {'RUNNING_MODAL'}
