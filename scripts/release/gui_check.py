@@ -224,6 +224,16 @@ def leave_edit_mode():
     count = len(bmesh.from_edit_mesh(mesh.data).verts)
     check("X > Vertices deletes the vertex", count == VERTEX_COUNT[0] - 1,
           f"{VERTEX_COUNT[0]} -> {count} vertices")
+    # The Bind operator's invoke path runs its first slice (``SlicedSteps.first``) before
+    # the window redraws; a rebind this short ends there, so it is counted, not looked up.
+    sliced = addon("ui.modal").SlicedSteps
+    first = GUI_STATE.setdefault("first slice", sliced.first)
+    GUI_STATE["first slices"] = 0
+
+    def counted(steps):
+        GUI_STATE["first slices"] += 1
+        return first(steps)
+    sliced.first = counted
     keys("Tab")
 
 
@@ -236,13 +246,9 @@ def after_auto_rebind():
           f"mode {mesh.mode}, bound {bound} of {len(mesh.data.vertices)} vertices")
     check("auto-rebound mesh at rest equals the mesh", moved_by(mesh) < 1e-5,
           f"max move {moved_by(mesh):.2e}")
-    # Only a modal operator finishing in the event loop is registered here (the handler's
-    # synchronous bind is none); replace_confirmed is what only Auto Rebind's timer passes.
-    last = bpy.context.window_manager.operators[-1]
-    confirmed = last.bl_idname == "OBJECT_OT_gencoords_bind" and last.properties.replace_confirmed
-    check("Auto Rebind went through the Bind operator's invoke path (progress, Esc)", confirmed,
-          f"last operator {last.bl_idname}, replace_confirmed "
-          f"{getattr(last.properties, 'replace_confirmed', None)}")
+    addon("ui.modal").SlicedSteps.first = GUI_STATE["first slice"]
+    check("Auto Rebind went through the Bind operator's invoke path (progress, Esc)",
+          GUI_STATE["first slices"] == 1, f"{GUI_STATE['first slices']} first slices run by invoke")
     shots.shoot('VIEW_3D', "auto_rebound")
 
 
