@@ -97,6 +97,10 @@ def run_to_end(steps, report=None):
 # In a software-rendered window a 43k-vertex character's viewport took 0.2 to 0.45 s to
 # redraw (scripts/release/gui_bind_timing.py).
 SLICE_SECONDS, MAX_SLICE_SECONDS, WINDOW_SHARE = 0.1, 1.0, 0.1
+# A slice goes on past its time while the rest looks this short at the slice's pace: the
+# character's Bind ended its first second a step before the end, then waited 0.5 to 1.3 s
+# for a redraw before a last step of 0.01 s.
+TAIL_SECONDS = 0.5
 
 
 def slice_seconds(between):
@@ -109,28 +113,41 @@ def slice_seconds(between):
     return min(MAX_SLICE_SECONDS, max(SLICE_SECONDS, between * (1.0 - WINDOW_SHARE) / WINDOW_SHARE))
 
 
-def advance(steps, seconds=None):
+def rest_seconds(seconds, start, fraction):
+    """How long the steps left after ``fraction`` take at the pace of a slice that went
+    from ``start`` to ``fraction`` in ``seconds``: float (inf where it made no progress).
+
+    >>> rest_seconds(1.0, 0.0, 0.5), rest_seconds(1.0, 0.5, 0.5)
+    (1.0, inf)
+    """
+    done = fraction - start
+    return seconds * max(0.0, 1.0 - fraction) / done if done > 0.0 else float("inf")
+
+
+def advance(steps, seconds=None, start=0.0, tail=0.0):
     """Run ``steps`` for about ``seconds`` (default ``SLICE_SECONDS``; at least one step,
-    then until one ends past that time): the last fraction yielded. Raises StopIteration
-    (with the result) at the end.
+    then until one ends past that time and the rest does not look shorter than ``tail`` seconds at
+    this slice's pace, :func:`rest_seconds` from ``start``, the fraction it began at): the
+    last fraction yielded. Raises StopIteration (with the result) at the end.
 
     >>> def steps():
-    ...     yield from (0.25, 0.5, 0.75)
+    ...     yield from (0.25, 0.5, 0.75, 0.99)
     ...     return "done"
     >>> running = steps()
     >>> advance(running, seconds=0.0)  # one step
     0.25
-    >>> try:
-    ...     advance(running, seconds=60.0)  # the rest, to the end
-    ... except StopIteration as done:
-    ...     done.value
-    'done'
+    >>> advance(running, seconds=0.0, start=0.25, tail=60.0)  # on: the rest looks short
+    Traceback (most recent call last):
+    ...
+    StopIteration: done
     """
     clock = time.perf_counter
-    deadline = clock() + (SLICE_SECONDS if seconds is None else seconds)
+    began = clock()
+    deadline = began + (SLICE_SECONDS if seconds is None else seconds)
     while True:
         fraction = next(steps)
-        if clock() >= deadline:
+        now = clock()
+        if now >= deadline and not rest_seconds(now - began, start, fraction) < tail:
             return fraction
 
 

@@ -18,7 +18,7 @@ class SlicedSteps:
     ``bind_steps.slice_seconds`` says after what the window took since the last."""
 
     def __init__(self, steps):
-        self.steps, self.returned = steps, time.perf_counter()
+        self.steps, self.returned, self.fraction = steps, time.perf_counter(), 0.0
 
     def advance(self, seconds=None):
         """The next slice (``seconds`` long, default from what the window took since the
@@ -26,7 +26,8 @@ class SlicedSteps:
         if seconds is None:
             seconds = bind_steps.slice_seconds(time.perf_counter() - self.returned)
         try:
-            return bind_steps.advance(self.steps, seconds)
+            self.fraction = bind_steps.advance(self.steps, seconds, self.fraction, bind_steps.TAIL_SECONDS)
+            return self.fraction
         finally:
             self.returned = time.perf_counter()
 

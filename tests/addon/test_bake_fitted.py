@@ -238,6 +238,7 @@ def test_in_a_window_the_fit_runs_modal_with_progress_and_esc(gc, monkeypatch):
     # them puts the scene's frame and the modifiers back (a step a timer event here: a
     # window runs a tenth of a second of steps an event).
     monkeypatch.setattr(gc.core.planning.bind_steps, "MAX_SLICE_SECONDS", 0.0)
+    monkeypatch.setattr(gc.core.planning.bind_steps, "TAIL_SECONDS", 0.0)  # no short rest run on
     scene, shown = bpy.context.scene, [m.show_viewport for m in obj.modifiers]
     frame = scene.frame_current
     sampling = fitted_operator_stand_in(operators, fitted_confirmed=True)
@@ -297,6 +298,7 @@ def test_in_a_window_the_writing_shows_progress_and_esc_leaves_the_file_as_it_wa
     context = ContextStandIn(window_manager)
     timer = SimpleNamespace(type='TIMER')
     monkeypatch.setattr(gc.core.planning.bind_steps, "MAX_SLICE_SECONDS", 0.0)  # a step an event
+    monkeypatch.setattr(gc.core.planning.bind_steps, "TAIL_SECONDS", 0.0)  # no short rest run on
 
     escaped = fitted_operator_stand_in(operators, fitted_confirmed=True)
     assert escaped.invoke(context, None) == {'RUNNING_MODAL'}

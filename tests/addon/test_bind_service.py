@@ -33,6 +33,7 @@ def modal_rebind(gc, obj, monkeypatch):
     operators = importlib.import_module("bl_ext.user_default.gencoords.gencoords_addon.ui.operators")
     monkeypatch.setattr(operators, "interactive", lambda context: True)
     monkeypatch.setattr(operators.SlicedSteps, "first", lambda sliced: sliced.advance(0.0))  # invoke: a step
+    monkeypatch.setattr(gc.core.planning.bind_steps, "TAIL_SECONDS", 0.0)  # no short rest run on
     make_active(obj)
     context = ContextStandIn(WindowStandIn())
     running = bind_operator_stand_in(operators)

@@ -423,6 +423,7 @@ def test_rebind_after_the_replace_binding_question_runs_the_modal_job(gc, monkey
     assert gc.binding.binding(obj).key == earlier
 
     monkeypatch.setattr(gc.core.planning.bind_steps, "MAX_SLICE_SECONDS", 0.0)  # a step an event: progress shown
+    monkeypatch.setattr(gc.core.planning.bind_steps, "TAIL_SECONDS", 0.0)  # no short rest run on
     running = bind_operator_stand_in(operators)
     running.replace_confirmed = True  # as the handed-over call is made
     assert running.invoke(context, None) == {'RUNNING_MODAL'}  # no second question
@@ -472,6 +473,7 @@ def test_a_short_bind_from_the_panel_ends_in_invoke_without_progress_or_a_redraw
 
     # A first slice of one step: the rest between events, the progress shown from the start.
     monkeypatch.setattr(gc.core.planning.bind_steps, "MAX_SLICE_SECONDS", 0.0)
+    monkeypatch.setattr(gc.core.planning.bind_steps, "TAIL_SECONDS", 0.0)  # no short rest run on
     longer = bind_operator_stand_in(operators)
     longer.replace_confirmed = True
     assert longer.invoke(ContextStandIn(window_manager), None) == {'RUNNING_MODAL'}
@@ -498,6 +500,7 @@ def test_editing_the_panel_during_a_modal_bind_changes_nothing_in_it(gc, monkeyp
     make_active(obj)
     monkeypatch.setattr(operators, "interactive", lambda context: True)
     monkeypatch.setattr(operators.SlicedSteps, "first", lambda sliced: sliced.advance(0.0))  # invoke: a step
+    monkeypatch.setattr(gc.core.planning.bind_steps, "TAIL_SECONDS", 0.0)  # no short rest run on
     context = ContextStandIn(WindowStandIn())
     running = bind_operator_stand_in(operators)
     assert running.invoke(context, None) == {'RUNNING_MODAL'}
