@@ -10,7 +10,8 @@ triangulated cage. Per pose: triangles near the joint (centroid within JOINT_RAD
 it) with a corner changing by more than CREASE_DEGREES, the 99th percentile and the mean
 of the corner changes (degrees).
 
-Usage: joint_creases.py [--detail 0.5] [--resolution N] [--forms stored field ...]
+Usage: joint_creases.py [--detail 0.5] [--resolution N] [--fatten 0.012]
+       [--forms stored field interpolated mean-value]
 """
 
 import argparse
@@ -25,6 +26,7 @@ import gencoords  # noqa: E402
 from gencoords.base.triangulation import triangulate_quads  # noqa: E402
 from gencoords.planning.bind_plan import plan_bind  # noqa: E402
 from gencoords.planning.request import BindRequest  # noqa: E402
+from gencoords.surfaces.named import HARMONIC, MEAN_VALUE  # noqa: E402
 from scripts.common.measures import joint_creases  # noqa: E402
 from tests.fixtures import character  # noqa: E402
 
@@ -39,28 +41,13 @@ def stored_deformer(plan, cage):
     return np.einsum("kc,kcd->kd", plan.slots.astype(np.float64), nodes[plan.indices])
 
 
-def trilinear_rows(field, points):
-    """The field's node coordinates interpolated trilinearly from the 8 corners of each
-    point's cell: (k, n) float."""
-    from gencoords.harmonic.interpolation import CORNERS, cell_of
-    local = field._prepared.local(points)
-    cell = cell_of(field._grid, local)
-    fraction = ((local - field._grid.origin) / field._grid.spacing - cell).clip(0.0, 1.0)
-    rows = np.zeros((len(points), len(field.vertices)))
-    for offset in CORNERS:
-        weight = np.prod(np.where(offset, fraction, 1.0 - fraction), axis=1)
-        nodes = field._ids[tuple((cell + offset).T)]
-        rows += weight[:, None] * field.node_coordinates[nodes]
-    return rows
-
-
-def forms(points, vertices, quads, resolution, wanted):  # noqa: C901
+def forms(points, vertices, quads, resolution, wanted):
     """{form name: function(cage (n, 3)) -> positions (k, 3)}."""
     triangles = triangulate_quads(vertices, quads)
     result = {}
     if "stored" in wanted:
         start = time.perf_counter()
-        request = BindRequest("harmonic", polygons=quads, resolution=resolution)
+        request = BindRequest(HARMONIC, polygons=quads, resolution=resolution)
         steps = plan_bind(points, vertices, triangles, request)
         try:
             while True:
@@ -71,7 +58,7 @@ def forms(points, vertices, quads, resolution, wanted):  # noqa: C901
               flush=True)
         result["stored"] = lambda cage, plan=plan: stored_deformer(plan, cage)
         resolution = resolution or plan.resolution
-    if {"field", "interpolated", "trilinear"} & set(wanted):
+    if {"field", "interpolated"} & set(wanted):
         start = time.perf_counter()
         field = gencoords.harmonic_quad_field(vertices, quads, resolution=resolution or 64)
         print(f"  field: {field} ({time.perf_counter() - start:.0f} s)", flush=True)
@@ -82,12 +69,9 @@ def forms(points, vertices, quads, resolution, wanted):  # noqa: C901
             nodes, weights = field.interpolation(points)
             mixed = np.einsum("kc,kcn->kn", weights, field.node_coordinates[nodes])
             result["interpolated"] = lambda cage, c=mixed: c @ cage
-        if "trilinear" in wanted:
-            mixed = trilinear_rows(field, points)
-            result["trilinear"] = lambda cage, c=mixed: c @ cage
-    if "mean_value" in wanted:
-        mean_value = gencoords.coordinates(points, vertices, triangles, kind="mean_value")
-        result["mean_value"] = lambda cage, c=mean_value: c @ cage
+    if "mean-value" in wanted:
+        mean_value = gencoords.coordinates(points, vertices, triangles, kind=MEAN_VALUE)
+        result["mean-value"] = lambda cage, c=mean_value: c @ cage
     return result
 
 
@@ -97,7 +81,7 @@ def main():
     parser.add_argument("--resolution", type=int, default=None, help="the grid's (default: Automatic's)")
     parser.add_argument("--fatten", type=float, default=0.0,
                         help="metres added to every capsule's radius: a body nearer its cage (legs: 0.015 away at 0)")
-    parser.add_argument("--forms", nargs="+", default=["stored", "field", "interpolated", "mean_value"])
+    parser.add_argument("--forms", nargs="+", default=["stored", "field", "interpolated", "mean-value"])
     args = parser.parse_args()
     capsules = [(part, a, b, radius + args.fatten) for part, a, b, radius in character.character_capsules()]
     points, triangles, _ = character.capsules_mesh(capsules, args.detail)
