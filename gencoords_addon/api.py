@@ -36,7 +36,7 @@ class BindingResult:
     outside: str  # 'RAISE', 'PROJECT', 'EXTRAPOLATE'
     storage: str  # the storage chosen: 'EXACT', 'COMPACT' or 'SPARSE' (Automatic decided)
     # Numbers stored per mesh vertex (exact: the cage's vertex count; sparse: pairs, in two
-    # levels the 4 grid nodes each vertex is interpolated from).
+    # levels the 8 grid nodes each vertex is interpolated from).
     slot_count: int
     cage_vertex_count: int
     mesh_vertex_count: int

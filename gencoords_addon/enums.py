@@ -49,7 +49,7 @@ STORAGE_ITEMS = (
     (Storage.SPARSE.value, "Sparse",
      "Each vertex's largest coordinates as (cage vertex, weight) pairs summing to 1: "
      "translations exact, fast for local coordinates (Harmonic: pairs per grid node, each "
-     "vertex interpolated from 4 grid nodes); the panel shows the deviation"),
+     "vertex interpolated from 8 grid nodes); the panel shows the deviation"),
 )
 
 

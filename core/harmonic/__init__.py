@@ -4,7 +4,7 @@ Modules, bottom up (on ``gencoords.base.grid``: cubic cells fitted to the cage's
 inside nodes): ``boundary_values`` (the cage's hat values at nodes outside it, and where
 grid edges cross it), ``elimination`` and ``multigrid`` (the Laplace solvers: direct by
 slabs, iterative), ``solve`` (every cage vertex's Shortley-Weller problem),
-``interpolation`` (piecewise-linear lookup, 4 nodes a point), ``reproduction`` (weights
+``interpolation`` (trilinear lookup, 8 nodes a point), ``reproduction`` (weights
 reweighted to place their points exactly), ``field`` (the public :class:`HarmonicField`),
 ``grid_field`` (solving one: :func:`harmonic_field`).
 """

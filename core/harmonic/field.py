@@ -1,5 +1,5 @@
 """Harmonic coordinates of a closed triangle cage, solved once on a grid, evaluated at any
-points by piecewise-linear interpolation (docs/MATH.md, "Harmonic coordinates"); solved
+points by trilinear interpolation (docs/MATH.md, "Harmonic coordinates"); solved
 by :func:`gencoords.harmonic.grid_field.harmonic_field`."""
 
 
@@ -13,7 +13,7 @@ from ..base.inputs import checked
 from ..construction.boundary import inside_by_grid
 from .boundary_values import between_split_and_patch, nearest_boundary_points, segment_crossings
 from ..base.grid import node_positions
-from .interpolation import tetrahedron
+from .interpolation import trilinear
 from .reproduction import placing_largest
 
 __all__ = ["DEFAULT_RESOLUTION", "HarmonicField"]
@@ -30,8 +30,7 @@ _WIDENING = 1e-2
 
 class HarmonicField:
     """Harmonic coordinates solved on a grid: the grid nodes' coordinates, and any
-    point's interpolated from 4 of its cell's nodes' (the tetrahedron of the cell's
-    Freudenthal triangulation that holds it: :mod:`.interpolation`).
+    point's interpolated trilinearly from its cell's 8 nodes' (:mod:`.interpolation`).
 
     Made by :func:`gencoords.harmonic_field`. The nodes kept are the corners of the
     cells that hold some of the cage's inside (every point inside or on the cage lies
@@ -66,7 +65,7 @@ class HarmonicField:
         Whether each node's coordinates place it exactly (``sum_j w_j R_j`` is the node):
         the solved nodes (the solve is exact for linear functions; a reweighting after it
         removes the solver's and the nearest crossings' rounding: :mod:`.reproduction`),
-        and the outside nodes the reweighting reaches. A point whose 4 interpolating
+        and the outside nodes the reweighting reaches. A point whose 8 interpolating
         nodes are all exact is placed exactly by their interpolation; the others are
         reweighted themselves (:meth:`cut_pairs`).
     convergence : list of float
@@ -80,7 +79,7 @@ class HarmonicField:
     >>> field = gencoords.harmonic_field(corners, triangles, resolution=16)
     >>> nodes, weights = field.interpolation([[0.2, 0.2, 0.2]])
     >>> nodes.shape, bool(np.isclose(weights.sum(), 1.0))
-    ((1, 4), True)
+    ((1, 8), True)
     >>> print(field.coordinates([[0.2, 0.2, 0.2]]).round(1))
     [[0.4 0.2 0.2 0.2]]
     """
@@ -108,7 +107,7 @@ class HarmonicField:
 
     @checked
     def interpolation(self, points, outside="raise"):
-        """Each point's 4 interpolating nodes (:func:`.interpolation.tetrahedron`) and
+        """Each point's 8 interpolating nodes (:func:`.interpolation.trilinear`) and
         their weights.
 
         Parameters
@@ -121,10 +120,10 @@ class HarmonicField:
 
         Returns
         -------
-        nodes : (k, 4) int
+        nodes : (k, 8) int
             Rows of :attr:`node_coordinates` / :attr:`node_positions`.
-        weights : (k, 4) float
-            Non-negative, each row summing to 1: ``coordinates = sum over the 4 of
+        weights : (k, 8) float
+            Non-negative, each row summing to 1: ``coordinates = sum over the 8 of
             weights * node_coordinates[nodes]``.
 
         Examples
@@ -150,7 +149,7 @@ class HarmonicField:
         return local
 
     def _interpolation(self, local):
-        corners, weights = tetrahedron(self._grid, local)
+        corners, weights = trilinear(self._grid, local)
         nodes = self._ids[tuple(corners.transpose(2, 0, 1))]
         if (nodes < 0).any():  # every cell holding a point inside or on the cage is kept
             raise RuntimeError("a point inside the cage fell in a cell without nodes")
@@ -182,7 +181,7 @@ class HarmonicField:
 
     @checked
     def sparse_rows(self, points, outside="raise"):
-        """Points' coordinates in two parts: interpolated from their 4 nodes where
+        """Points' coordinates in two parts: interpolated from their 8 nodes where
         those place themselves exactly, else their own sparse pairs (:meth:`cut_pairs`).
 
         Parameters
@@ -193,7 +192,7 @@ class HarmonicField:
 
         Returns
         -------
-        nodes, weights : (k, 4) int and float
+        nodes, weights : (k, 8) int and float
             :meth:`interpolation`.
         cut : (k,) bool
             The points whose coordinates are their own pairs, not the interpolation.
@@ -218,7 +217,7 @@ class HarmonicField:
 
     def cut(self, nodes):
         """Whether one of each point's interpolating nodes does not place itself exactly
-        (a cell at the cage): (k,) bool, from :meth:`interpolation`'s ``nodes`` (k, 4)."""
+        (a cell at the cage): (k,) bool, from :meth:`interpolation`'s ``nodes`` (k, 8)."""
         return ~self.node_exact[nodes].all(axis=1)
 
     def cut_pairs(self, points, nodes, weights, count=CUT_SUPPORT):
@@ -234,7 +233,7 @@ class HarmonicField:
         ----------
         points : (c, 3) float
             Inside or on the cage (world units).
-        nodes, weights : (c, 4) int and float
+        nodes, weights : (c, 8) int and float
             Their :meth:`interpolation`.
         count : int
 

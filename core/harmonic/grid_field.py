@@ -194,7 +194,7 @@ def harmonic_field(vertices, faces, resolution=DEFAULT_RESOLUTION, tolerance=DEF
     Returns
     -------
     field : HarmonicField
-        The grid nodes' coordinates, and any point's by piecewise-linear interpolation.
+        The grid nodes' coordinates, and any point's by trilinear interpolation.
 
     Raises
     ------

@@ -10,7 +10,7 @@ each storage's encoding and byte count from its module in ``gencoords.storage``.
 
 Harmonic coordinates are solved once on a grid (``gencoords.harmonic_field``) and looked
 up (``figures.solve_points``); in sparse storage, their default, they are written in two
-levels (:func:`_plan_two_level`: each vertex its 4 interpolating grid nodes, each node its
+levels (:func:`_plan_two_level`: each vertex its 8 interpolating grid nodes, each node its
 own pairs over the cage, ``storage.two_level.two_level_layout``), or, where Automatic
 estimates them faster to play back (:func:`_harmonic_sparse`), each vertex its own pairs.
 Sparse storage of any other kind keeps each vertex's K largest coordinates
@@ -328,7 +328,7 @@ def _plan(points, cage, request):
 
 
 def _two_level_rows(points, request, field):
-    """The two levels' rows: each point's 4 interpolating grid nodes and their weights,
+    """The two levels' rows: each point's 8 interpolating grid nodes and their weights,
     and those nodes' coordinates; a point in a cell at the cage (``field.cut``) is a
     node of its own, its corners all that node (its pairs place it exactly, which the
     grid's nodes cannot). None where there would be more nodes than points (per point
@@ -336,8 +336,8 @@ def _two_level_rows(points, request, field):
 
     Returns
     -------
-    corners : (k, 4) int32
-    corner_weights : (k, 4) float
+    corners : (k, 8) int32
+    corner_weights : (k, 8) float
     node_rows : (N, n) float
     """
     corners, corner_weights, cut, columns, values = field.sparse_rows(points, outside=request.outside)

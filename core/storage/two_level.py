@@ -1,6 +1,6 @@
 """Sparse storage in two levels (harmonic coordinates: interpolations of grid-node
 values): the grid nodes that interpolate the points carry their own (cage vertex,
-weight) pairs, and each point keeps its corner nodes (4:
+weight) pairs, and each point keeps its corner nodes (8:
 ``gencoords.harmonic.interpolation``) with their weights. The truncation then happens at
 the nodes only, and a node can keep many pairs cheaply: the N nodes are few beside the k
 points. Their pairs are stored stacked (:func:`gencoords.storage.sparse.stacked_columns`)
@@ -14,6 +14,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..harmonic.interpolation import CORNER_COUNT
 from .pair_deviations import deviations
 from .sparse import fewest_slots, placed_pairs, playback_seconds as gather_seconds
 
@@ -121,7 +122,7 @@ class TwoLevelLayout:
     Attributes
     ----------
     corners : (k, c) int32
-        Each point's corner nodes (c = 4: ``gencoords.harmonic.interpolation``), as
+        Each point's corner nodes (c = 8: ``gencoords.harmonic.interpolation``), as
         rows of the N nodes kept.
     corner_weights : (k, c) float32
         Their interpolation weights.
@@ -223,7 +224,7 @@ def two_level_layout(node_coordinates, corners, corner_weights, rest, target, co
 
 
 
-def playback_seconds(point_count, node_count, node_slot_count, corner_count=4, per_vector=3):
+def playback_seconds(point_count, node_count, node_slot_count, corner_count=CORNER_COUNT, per_vector=3):
     """The deformer's estimated time per evaluation (``sparse.playback_seconds``) for k
     points over N nodes of K' pairs: the stored columns' weighted gathers, three a column
     in each of the rows holding pairs; each node's sum of its rows; each point's corners.
@@ -232,7 +233,7 @@ def playback_seconds(point_count, node_count, node_slot_count, corner_count=4, p
     --------
     >>> from gencoords.storage.two_level import playback_seconds
     >>> round(playback_seconds(4320, 3506, 18) * 1e3, 2)  # the cape: 6 columns of 3 slots
-    1.41
+    1.86
     """
     per_column = _slots_per_column(point_count, node_count, per_vector)
     columns = -(-node_slot_count // per_column)

@@ -1,8 +1,8 @@
 """Two-level sparse storage (harmonic coordinates, which are interpolations of grid-node
 values): each mesh vertex its grid nodes, each grid node its pairs over the cage.
 
-Mesh vertex i keeps 4 pairs (grid node ``a_ik``, interpolation weight ``w_ik``) as sparse
-storage keeps its pairs (``storage.sparse``: K = 4 INT and FLOAT attributes, whatever the
+Mesh vertex i keeps 8 pairs (grid node ``a_ik``, interpolation weight ``w_ik``) as sparse
+storage keeps its pairs (``storage.sparse``: K = 8 INT and FLOAT attributes, whatever the
 cage; node indices into the group's cloud: ``gencoords.harmonic.interpolation``). The N
 grid nodes the mesh's cells touch carry their own K' pairs (cage vertex ``j_al``, weight
 ``w'_al``), three to a vector attribute (indices as floats), stacked in columns as long as
@@ -11,7 +11,7 @@ triples of node a): three to a vector cut the node stage's time by a fifth, wher
 vertices' own pairs are faster one to an attribute. The group (``graph.gather``) sums each
 mesh row's weighted gathers of the cage's displacement ``C - R``, makes a point cloud of
 the N nodes, stores on node a the sum of its rows, ``sum_l w'_al (C - R)_{j_al}``, then
-gathers each mesh vertex's 4 nodes with its interpolation weights.
+gathers each mesh vertex's 8 nodes with its interpolation weights.
 """
 
 import numpy as np

@@ -30,10 +30,16 @@ Metrics:
              change of its three angles; mean and 99th percentile (degrees), and triangles
              flipped (normal against both its rest normal and its rest normal turned 60
              degrees), and triangles with a corner changing by more than 30 degrees.
+  joints     (``--poses``: only these, every method bound in turn in one process) the
+             left knee bent and the left leg swung forward (``character.LEG_POSES``) and
+             the forearm bent: per pose, the body's triangles within JOINT_RADIUS of the
+             joint, those with a corner changing by more than 30 degrees, the 99th
+             percentile and the mean of the corner changes (issue 35, item 5).
   negative   share of the (mesh vertex, cage vertex) coordinates below 0, and the
              smallest (GenCoords; Mesh Deform has none).
 
 Usage: bench_local.py [--precisions 5 6] [--kinds mean_value harmonic] [--rounds 15]
+       bench_local.py --poses [--detail 0.5] [--kinds harmonic]
 """
 
 import argparse
@@ -63,6 +69,8 @@ MOVED_LIMBS = ("left_arm", "right_arm", "left_leg", "right_leg", "head")
 LOCALITY_MOVE = 0.2  # of the cage's diagonal
 BEND_DEGREES = 60.0
 CREASE_DEGREES = 30  # a corner changing by more than this reads as a crease (issue 35, item 5)
+JOINT_RADIUS = 0.15  # metres: the triangles a joint's figures count
+POSES = {**character.LEG_POSES, "bent forearm": (character.bent_forearm, character.ELBOW)}
 
 
 def bind(mesh, cage, method):
@@ -125,6 +133,42 @@ def bend(mesh, cage, rest_cage, labels, triangles):
     flipped = ((after * before).sum(1) < 0) & ((after * (before @ rotation.T)).sum(1) < 0)
     creased = int((change.reshape(-1, 3) > CREASE_DEGREES).any(axis=1).sum())
     return float(change.mean()), float(np.percentile(change, 99)), int(flipped.sum()), creased
+
+
+def joints(mesh, cage, rest_cage, triangles):
+    """Each of POSES applied to the cage: {pose: (creased, 99th percentile, mean,
+    triangles counted)} near its joint (``measures.joint_creases``)."""
+    rest = settle(mesh).astype(np.float64)
+    figures = {}
+    for pose, (function, joint) in POSES.items():
+        arrays.write_positions(cage.data, function(rest_cage)[0])
+        now = settle(mesh).astype(np.float64)
+        figures[pose] = measures.joint_creases(rest, now, triangles, joint, JOINT_RADIUS, CREASE_DEGREES)
+    arrays.write_positions(cage.data, rest_cage)
+    settle(mesh)
+    return figures
+
+
+def joints_table(methods, detail):
+    """Every method bound in turn in this process, on the body at ``detail``: the joints'
+    figures as a table."""
+    lines = [f"| pose | method | creased (> {CREASE_DEGREES} deg) | 99th pct | mean | triangles | bind |",
+             "|---|---|---:|---:|---:|---:|---:|"]
+    rows = {}
+    for method in methods:
+        scenes.reset_scene()
+        mesh, cage = scenes.add_character(detail=detail)
+        rest_cage = arrays.read_positions(cage.data).copy()
+        triangles = arrays.read_loop_triangles(mesh.data)
+        bpy.context.view_layer.update()
+        seconds = bind(mesh, cage, method)
+        rows[method] = (joints(mesh, cage, rest_cage, triangles), seconds)
+        print(f"  {label(method)}: {rows[method]}", flush=True)
+    for pose in POSES:
+        for method, (figures, seconds) in rows.items():
+            creased, p99, mean, count = figures[pose]
+            lines.append(f"| {pose} | {label(method)} | {creased} | {p99:.1f} | {mean:.2f} | {count} | {seconds:.1f} s |")
+    return "\n".join(lines)
 
 
 def measure_apart(method, kinds):
@@ -240,6 +284,8 @@ def main():
                         help="GenCoords kinds; harmonic:<resolution> for another grid")
     parser.add_argument("--rounds", type=int, default=15)
     parser.add_argument("--output", type=Path, default=session.OUT / "bench_local.md")
+    parser.add_argument("--poses", action="store_true", help="only the joints' creases under the poses")
+    parser.add_argument("--detail", type=float, default=1.0, help="the body's (--poses)")
     parser.add_argument("--measure", help=argparse.SUPPRESS)  # one method, in this process
     args = parser.parse_args()
     if args.measure:
@@ -248,11 +294,17 @@ def main():
     header = session.report_header("Local coordinates on the character, against Mesh Deform")
     print("\n".join(header), flush=True)
     session.install_extension()
+    methods = [("md", p) for p in args.precisions] + [("gencoords", kind) for kind in args.kinds]
+    if args.poses:
+        body = joints_table(methods, args.detail)
+        print("\n" + body, flush=True)
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        args.output.with_name("bench_local_joints.md").write_text("\n".join(header) + "\n\n" + body + "\n")
+        return
     scenes.reset_scene()
     mesh, cage = scenes.add_character()
     print(f"character: {len(mesh.data.vertices)} vertices, cage {len(cage.data.vertices)} vertices",
           flush=True)
-    methods = [("md", p) for p in args.precisions] + [("gencoords", kind) for kind in args.kinds]
     rows = {method: measure_apart(method, args.kinds) for method in methods}
     time_side_by_side(methods, rows, args.rounds)
     body = table(rows)

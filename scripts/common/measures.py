@@ -19,3 +19,14 @@ def angle_changes(rest, moved, triangles):
     """How much each corner angle of ``triangles`` changed from ``rest`` to ``moved``
     points: (t * 3,) degrees, non-negative (a bend's figures: mean, 99th percentile)."""
     return np.abs(triangle_angles(moved, triangles) - triangle_angles(rest, triangles)).ravel()
+
+
+def joint_creases(rest, moved, triangles, joint, radius, threshold):
+    """The angle changes of the triangles whose rest centroid lies within ``radius`` of
+    ``joint`` ((3,)): (creased: triangles with a corner changing by more than
+    ``threshold`` degrees, 99th percentile, mean (degrees), triangles counted)."""
+    centroids = np.asarray(rest, dtype=np.float64)[triangles].mean(axis=1)
+    near = triangles[np.linalg.norm(centroids - joint, axis=1) < radius]
+    change = angle_changes(rest, moved, near)
+    creased = int((change.reshape(-1, 3) > threshold).any(axis=1).sum())
+    return creased, float(np.percentile(change, 99)), float(change.mean()), len(near)

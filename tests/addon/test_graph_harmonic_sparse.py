@@ -108,7 +108,7 @@ def test_harmonic_binding_is_sparse_positive_bitwise_at_rest_and_translates_exac
     assert "Harmonic" in " ".join(texts)
     # Issue 37 item 8: the nodes stored and the grid nodes solved, each said as what it is.
     data = gc.binding.binding(obj).data
-    assert any(f"two levels, 4 nodes a vertex; {data.node_count} nodes stored, {data.node_slot_count} pairs each"
+    assert any(f"two levels, 8 nodes a vertex; {data.node_count} nodes stored, {data.node_slot_count} pairs each"
                in text for text in texts), texts
     # Issue 35 item 1: and what the grid resolved.
     assert any(re.search(r"In this cage: .*resolution \d+: \d+ grid nodes solved; (narrowest gap|thinnest part|no gap)"
@@ -117,7 +117,7 @@ def test_harmonic_binding_is_sparse_positive_bitwise_at_rest_and_translates_exac
 
 def test_automatic_keeps_every_pair_of_few_nodes_deep_in_a_convex_cage(gc):
     """A 39,600-vertex sphere deep inside a 162-vertex icosphere: harmonic coordinates are
-    not local there (128 pairs per node would deviate 3e-3), its 896 grid nodes are few, so
+    not local there (128 pairs per node would deviate 3e-3), its 1,180 grid nodes are few, so
     Automatic keeps all 162 pairs per node (2 stored columns); a dragged cage vertex then
     moves the mesh as the exact coordinates do."""
     cage = add_icosphere_cage(subdivisions=3)  # Blender's third: 162 vertices

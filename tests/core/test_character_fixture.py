@@ -4,6 +4,7 @@ non-convex quad cage with every body vertex strictly inside it."""
 from collections import Counter
 
 import numpy as np
+import pytest
 
 import gencoords
 from tests.fixtures import character
@@ -53,3 +54,22 @@ def test_the_bent_forearm_turns_only_the_forearm_rigidly_about_the_elbow():
     distances = np.linalg.norm(vertices[moved] - character.ELBOW, axis=1)
     assert np.allclose(np.linalg.norm(bent[moved] - character.ELBOW, axis=1), distances)
     assert (bent[moved, 2] > vertices[moved, 2]).all()  # the hand goes up
+
+
+@pytest.mark.parametrize("pose", ["bent knee", "swung leg"])
+def test_the_leg_poses_turn_the_lower_leg_rigidly_about_its_joint_on_float32_cages_too(pose):
+    """Issue 35's knee and groin: the left leg's vertices below the joint's plane (and the
+    knee's own plane) turn about the x axis through the joint, the rest stay; the same
+    vertices move when the cage is read back from Blender as float32."""
+    function, joint = character.LEG_POSES[pose]
+    vertices, _ = character.character_cage()
+    bent, rotation = function(vertices)
+    moved = np.flatnonzero(np.linalg.norm(bent - vertices, axis=1) > 1e-12)
+    assert set(moved) <= set(character.cage_limb_vertices(vertices, "left_leg", beyond=1.0))
+    assert len(moved) == (16 if pose == "bent knee" else 24)  # at and below z 0.4, and 0.6
+    assert np.allclose(rotation @ rotation.T, np.eye(3)) and np.allclose(rotation[0], [1.0, 0.0, 0.0])
+    np.testing.assert_allclose(bent[moved] - joint, (vertices[moved] - joint) @ rotation.T, atol=1e-12)
+    low = vertices[moved, 2] < joint[2] - 0.1
+    assert ((bent[moved, 1] > 0.1) if pose == "bent knee" else (bent[moved, 1] < -0.1))[low].all()  # foot back, leg forward
+    float32, _ = function(vertices.astype(np.float32).astype(np.float64))  # 0.6 reads back 2.4e-8 above
+    assert np.array_equal(np.flatnonzero(np.linalg.norm(float32 - vertices, axis=1) > 1e-6), moved)

@@ -57,7 +57,7 @@ def test_points_are_their_cells_trilinear_mix_of_node_coordinates_or_their_own_p
     occupied, vertices, _, field = t_pose
     points = points_in(occupied, 500, seed=1)
     nodes, weights = field.interpolation(points)
-    assert nodes.shape == weights.shape == (len(points), 4) and weights.min() >= 0.0
+    assert nodes.shape == weights.shape == (len(points), 8) and weights.min() >= 0.0
     # The nodes are the corners of the points' cells: trilinear weights reproduce the points.
     np.testing.assert_allclose(np.einsum("kc,kcN->kN", weights, field.node_positions[nodes]), points,
                                rtol=0, atol=1e-12)
@@ -340,25 +340,25 @@ def test_on_the_artists_character_a_hand_moves_nothing_elsewhere_and_sparse_weig
     assert residual.max() < 1e-12 and corrected.min() >= 0.0
 
 
-def test_the_four_node_interpolation_places_points_and_is_continuous_across_cells():
+def test_the_trilinear_interpolation_places_points_and_is_continuous_across_cells():
     from types import SimpleNamespace
-    from gencoords.harmonic.interpolation import tetrahedron
+    from gencoords.harmonic.interpolation import trilinear
 
     grid = SimpleNamespace(origin=np.array([0.5, -1.0, 2.0]), spacing=0.25, cells=(6, 5, 7))
     rng = np.random.default_rng(11)
     points = grid.origin + rng.uniform(0.0, 1.0, (3000, 3)) * np.array(grid.cells) * grid.spacing
-    corners, weights = tetrahedron(grid, points)
-    assert corners.shape == (3000, 4, 3) and weights.min() >= 0.0
+    corners, weights = trilinear(grid, points)
+    assert corners.shape == (3000, 8, 3) and weights.min() >= 0.0
     np.testing.assert_allclose(weights.sum(axis=1), 1.0, rtol=0, atol=1e-15)
     # Linear precision: the weights reproduce the point from the corners' positions.
     np.testing.assert_allclose(np.einsum("kc,kcN->kN", weights, grid.origin + grid.spacing * corners), points,
                                rtol=0, atol=1e-12)
     # Conforming: a function given at the nodes, interpolated just either side of the cells'
-    # faces (and of the tetrahedra's faces inside a cell), agrees to the step.
+    # faces, agrees to the step.
     values = rng.uniform(size=tuple(c + 1 for c in grid.cells))
 
     def interpolated(at):
-        corners, weights = tetrahedron(grid, at)
+        corners, weights = trilinear(grid, at)
         return (weights * values[tuple(corners.transpose(2, 0, 1))]).sum(axis=1)
 
     for axis in range(3):  # on a cell face: that coordinate a whole number of cells
@@ -366,12 +366,34 @@ def test_the_four_node_interpolation_places_points_and_is_continuous_across_cell
         across[:, axis] = grid.origin[axis] + grid.spacing * rng.integers(1, grid.cells[axis], len(points))
         step = np.eye(3)[axis] * 1e-9
         np.testing.assert_allclose(interpolated(across - step), interpolated(across + step), rtol=0, atol=1e-7)
-    diagonal = points.copy()  # on an inner face: two fractions equal
-    cell = np.floor((diagonal - grid.origin) / grid.spacing)
-    diagonal[:, 1] = grid.origin[1] + grid.spacing * (cell[:, 1] + (diagonal[:, 0] - grid.origin[0]) / grid.spacing
-                                                       - cell[:, 0])
-    step = np.array([1e-9, -1e-9, 0.0])
-    np.testing.assert_allclose(interpolated(diagonal - step), interpolated(diagonal + step), rtol=0, atol=1e-7)
+
+
+def test_the_interpolation_does_not_bend_along_the_cells_diagonals():
+    """Issue 35: posed characters creased along the grid cells' diagonals. Inside a cell
+    the interpolation's gradient is continuous: just either side of a plane through the
+    cell's diagonal (where two of a point's fractions are equal, the faces along which
+    piecewise-linear interpolation on Freudenthal's tetrahedra bends) it agrees to the
+    step, for any values at the nodes."""
+    from types import SimpleNamespace
+    from gencoords.harmonic.interpolation import trilinear
+
+    grid = SimpleNamespace(origin=np.array([0.5, -1.0, 2.0]), spacing=0.25, cells=(6, 5, 7))
+    rng = np.random.default_rng(12)
+    values = rng.uniform(size=tuple(c + 1 for c in grid.cells))  # gradients of about 1 / spacing
+
+    def gradient(at, h=1e-6):
+        def interpolated(x):
+            corners, weights = trilinear(grid, x)
+            return (weights * values[tuple(corners.transpose(2, 0, 1))]).sum(axis=1)
+        return np.stack([(interpolated(at + h * e) - interpolated(at - h * e)) / (2 * h) for e in np.eye(3)], axis=1)
+
+    cell = rng.integers(0, np.array(grid.cells), (2000, 3))
+    fraction = rng.uniform(0.05, 0.95, (2000, 3))
+    fraction[:, 1] = fraction[:, 0]  # on the plane f_x = f_y through the cell's diagonal
+    on = grid.origin + grid.spacing * (cell + fraction)
+    across = np.array([1.0, -1.0, 0.0]) * 1e-5
+    jump = np.linalg.norm(gradient(on + across) - gradient(on - across), axis=1)
+    assert jump.max() < 1e-2 * np.linalg.norm(gradient(on), axis=1).mean()
 
 
 def test_the_nearest_exact_node_search_finds_what_a_search_of_every_node_finds():
