@@ -204,19 +204,20 @@ def line_integrals(c_x, c_y, c_z, alpha, beta, delta, start_dot_end, gamma, s0, 
     squared = c_x * c_x + c_y * c_y + c_z * c_z
     seen = squared > _LINE_FLOOR
     squared = np.where(seen, squared, 1.0)
-    root, root_alpha, root_gamma = np.sqrt(squared), np.sqrt(alpha), np.sqrt(gamma)
-    # theta by its half-angle tangent: exact for small angles and for angles near pi.
-    phi = 2.0 * np.arctan(root / (root_alpha * root_gamma + start_dot_end)) / root
-    to_alpha, to_gamma, to_delta = 1.0 / alpha, 1.0 / gamma, 1.0 / delta
-    j0 = ((delta + beta) * to_gamma - beta * to_alpha + delta * phi) * (0.5 / squared)
-    j1 = (0.5 * (to_alpha - to_gamma) - beta * j0) * to_delta
-    j2 = (phi - 2.0 * beta * j1 - alpha * j0) * to_delta
-    second = s0 * j1 + s1 * j2
-    first = s0 * j0 + s1 * j1 - second
-    k0 = ((delta + beta) / root_gamma - beta / root_alpha) / squared
-    k1 = (1.0 / root_alpha - 1.0 / root_gamma - beta * k0) * to_delta
-    solid = s0 * k0 + s1 * k1
-    return np.where(seen, first, 0.0), np.where(seen, second, 0.0), np.where(seen, solid, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):  # only where not seen: x on the line
+        root, root_alpha, root_gamma = np.sqrt(squared), np.sqrt(alpha), np.sqrt(gamma)
+        # theta by its half-angle tangent: exact for small angles and for angles near pi.
+        phi = 2.0 * np.arctan(root / (root_alpha * root_gamma + start_dot_end)) / root
+        to_alpha, to_gamma, to_delta = 1.0 / alpha, 1.0 / gamma, 1.0 / delta
+        j0 = ((delta + beta) * to_gamma - beta * to_alpha + delta * phi) * (0.5 / squared)
+        j1 = (0.5 * (to_alpha - to_gamma) - beta * j0) * to_delta
+        j2 = (phi - 2.0 * beta * j1 - alpha * j0) * to_delta
+        second = s0 * j1 + s1 * j2
+        first = s0 * j0 + s1 * j1 - second
+        k0 = ((delta + beta) / root_gamma - beta / root_alpha) / squared
+        k1 = (1.0 / root_alpha - 1.0 / root_gamma - beta * k0) * to_delta
+        solid = s0 * k0 + s1 * k1
+        return np.where(seen, first, 0.0), np.where(seen, second, 0.0), np.where(seen, solid, 0.0)
 
 
 def _pair_quadratics(edges):
