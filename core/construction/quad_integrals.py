@@ -286,31 +286,45 @@ def _strip_bands(relative, start, width, reach):
 
 def _near_pairs(points, corners):
     """The mean value integrals of (point, quad) pairs strip by strip: points (p, 3),
-    corners (p, 4, 3) rolled -> (p, 4) corner weights, (p,) solid angles."""
+    corners (p, 4, 3) rolled -> (p, 4) corner weights, (p,) solid angles. The strips are
+    chosen level by level, then each rule runs once on all of its strips (a call's numpy
+    overhead is worth tens of strips)."""
     edges = _edges(points, corners)
-    quadratics, relative = _pair_quadratics(edges), np.ascontiguousarray(edges.transpose(2, 0, 1))  # (p, 4, 3)
-    reach = np.sqrt(np.maximum(_dot(edges[1], edges[1], 0), _dot(edges[1] + edges[3], edges[1] + edges[3], 0)))
-    pair, start, width = np.arange(len(points)), np.zeros(len(points)), np.ones(len(points))
+    quadratics = _pair_quadratics(edges)
+    accepted = _accepted_strips(np.ascontiguousarray(edges.transpose(2, 0, 1)), np.sqrt(np.maximum(
+        _dot(edges[1], edges[1], 0), _dot(edges[1] + edges[3], edges[1] + edges[3], 0))))
     owners, parts = [], []
+    for rule, (pair, start, width) in zip(_STRIP_RULES, accepted):
+        step = max(1, _STRIP_ENTRIES // len(rule[0]))
+        for block in range(0, len(pair), step):
+            taken = slice(block, block + step)
+            local, angle = _strips(quadratics[pair[taken]], start[taken], width[taken], rule)
+            owners.append(pair[taken])
+            parts.append(np.column_stack([local, angle]))
+    owner, part = (np.concatenate(x) if x else np.zeros((0,) * (1 + i)) for i, x in enumerate((owners, parts)))
+    sums = np.stack([np.bincount(owner.astype(int), part[:, i], len(points)) for i in range(5)], axis=1)
+    return sums[:, :4], sums[:, 4]
+
+
+def _accepted_strips(relative, reach):
+    """The strips of each pair and the rule each takes, halving those too near: relative
+    (p, 4, 3) (:func:`_edges`), reach (p,) the longer side along u -> for each of
+    ``STRIP_BANDS``, (s,) pairs, starts and widths."""
+    pair, start, width = np.arange(len(reach)), np.zeros(len(reach)), np.ones(len(reach))
+    accepted = [[] for _ in STRIP_BANDS]
     for level in range(DEEPEST_LEVEL + 1):
         band = _strip_bands(relative[pair], start, width, reach[pair])
         if level == DEEPEST_LEVEL:
             band = np.minimum(band, len(STRIP_BANDS) - 1)
-        for rule, (nodes, _, _) in enumerate(_STRIP_RULES):
-            chosen = np.flatnonzero(band == rule)
-            step = max(1, _STRIP_ENTRIES // len(nodes))
-            for taken in (chosen[block:block + step] for block in range(0, len(chosen), step)):
-                local, angle = _strips(quadratics[pair[taken]], start[taken], width[taken], _STRIP_RULES[rule])
-                owners.append(pair[taken])
-                parts.append(np.column_stack([local, angle]))
+        for rule, strips in enumerate(accepted):
+            chosen = band == rule
+            strips.append((pair[chosen], start[chosen], width[chosen]))
         halved = np.flatnonzero(band == len(STRIP_BANDS))
         if not len(halved):
             break
         pair, width = np.repeat(pair[halved], 2), np.repeat(0.5 * width[halved], 2)
         start = np.repeat(start[halved], 2) + np.tile([0.0, 1.0], len(halved)) * width
-    owner, part = (np.concatenate(x) if x else np.zeros((0,) * (1 + i)) for i, x in enumerate((owners, parts)))
-    sums = np.stack([np.bincount(owner.astype(int), part[:, i], len(points)) for i in range(5)], axis=1)
-    return sums[:, :4], sums[:, 4]
+    return [[np.concatenate(column) for column in zip(*strips)] for strips in accepted]
 
 
 def quad_weights(points, corners):
