@@ -17,8 +17,8 @@ def _bent_box(seed=0, bend=0.15):
 
 
 def _thin_box(seed=2, bend=0.01):
-    """A bent box 1 x 0.12 x 0.12, corners moved: four 1:8 side quads, halved along their
-    length only near a point (quad_integrals._subdivide), (8, 3), (6, 4)."""
+    """A bent box 1 x 0.12 x 0.12, corners moved: four 1:8 side quads, cut into strips
+    along their length (quad_integrals.canonical_rolls), (8, 3), (6, 4)."""
     vertices, quads = block_cage(np.ones((1, 1, 1), dtype=bool))
     vertices = vertices * [1.0, 0.12, 0.12]
     return vertices + np.random.default_rng(seed).uniform(-bend, bend, vertices.shape), quads
