@@ -12,6 +12,7 @@ character; the cup's cage is triangles), ``--points`` of each mesh's vertices ta
 along its vertex order, Quad Mean Value's time as a ratio of mean value's on the split.
 
     .venv/bin/python scripts/benchmarks/bench_quads.py [--points 2000] [--repeats 5]
+        [--fixtures hand quadruped cup cape character] [--no-fixtures]
 """
 
 import os
@@ -63,10 +64,10 @@ def _timed(points, vertices, quads, repeats):
                         lambda: gencoords.mean_value_quad_coordinates(points, vertices, quads, workers=1)], repeats)
 
 
-def _fixtures(count, repeats):
+def _fixtures(names, count, repeats):
     """The table over the artist fixtures with quads in their cages."""
     print(f"\nartist fixtures, {count} mesh vertices each: mean value on the split, Quad Mean Value, ratio")
-    for name in _FIXTURES:
+    for name in names:
         case = fixture(name)
         if case.cage_faces.shape[1] != 4:
             print(f"  {name:10s} cage of {len(case.cage_faces)} triangles: no quads")
@@ -82,6 +83,8 @@ def main():
     parser.add_argument("--points", type=int, default=2000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--no-fixtures", action="store_true", help="the character's figures only")
+    parser.add_argument("--fixtures", nargs="+", choices=_FIXTURES, default=list(_FIXTURES),
+                        help="the artist fixtures to time (default: all five)")
     arguments = parser.parse_args()
     vertices, quads = character_cage()
     triangles = gencoords.cages.triangulate_quads(vertices, quads)
@@ -101,7 +104,7 @@ def main():
     print(f"quads' corners listed from the next one, largest coordinate change: split {moved_split.max():.1e}, "
           f"quads {moved_quads.max():.1e}")
     if not arguments.no_fixtures:
-        _fixtures(arguments.points, arguments.repeats)
+        _fixtures(arguments.fixtures, arguments.points, arguments.repeats)
 
 
 if __name__ == "__main__":

@@ -17,8 +17,8 @@ def _bent_box(seed=0, bend=0.15):
 
 
 def _thin_box(seed=2, bend=0.01):
-    """A bent box 1 x 0.12 x 0.12, corners moved: four 1:8 side quads, halved along their
-    length only near a point (quad_integrals._subdivide), (8, 3), (6, 4)."""
+    """A bent box 1 x 0.12 x 0.12, corners moved: four 1:8 side quads, cut into strips
+    along their length (quad_integrals.canonical_rolls), (8, 3), (6, 4)."""
     vertices, quads = block_cage(np.ones((1, 1, 1), dtype=bool))
     vertices = vertices * [1.0, 0.12, 0.12]
     return vertices + np.random.default_rng(seed).uniform(-bend, bend, vertices.shape), quads
@@ -288,19 +288,34 @@ def test_the_kind_is_refused_where_it_does_not_apply(call, message):
         call(vertices, polygons)
 
 
-def test_an_elongated_patch_is_halved_across_its_length_only():
+def test_each_quad_is_integrated_from_the_same_corner_u_along_its_short_sides():
+    """quad_integrals.canonical_rolls: the strips run along a quad's long sides, whichever
+    corner is listed first, so that a thin quad needs few strips and no corner decides."""
     corners = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.125, 0.0], [0.0, 0.125, 0.0]])
-    for shift in range(4):  # whichever corner is listed first
-        listed = np.roll(corners, shift, axis=0)
-        table = np.concatenate([listed, quad_integrals.corner_normals(listed), np.eye(4)], axis=1)
-        children, parents = quad_integrals._subdivide(table[:, :, None])
-        assert children.shape == (4, 10, 2) and (parents == 0).all()
-        lengths = sorted(np.ptp(children[:, 0, c]) for c in range(2))
-        assert np.allclose(lengths, [0.5, 0.5])  # both halves of the long side, the full width
-        assert np.allclose(sorted(np.ptp(children[:, 1, c]) for c in range(2)), [0.125, 0.125])
-        # Each child's corners are its hats' mixes of the quad's, its normals half the parent's.
-        assert np.allclose(children[:, 6:, 0] @ listed, children[:, :3, 0])
-        assert np.allclose(children[:, 3:6, 0], 0.5 * children[:, 6:, 0] @ quad_integrals.corner_normals(listed))
-    square = corners * [1.0, 8.0, 1.0]
-    table = np.concatenate([square, quad_integrals.corner_normals(square), np.eye(4)], axis=1)
-    assert quad_integrals._subdivide(table[:, :, None])[0].shape == (4, 10, 4)  # a square: 4 children
+    chosen = []
+    for shift in range(4):
+        listed = np.roll(corners, shift, axis=0)[None]
+        roll = quad_integrals.canonical_rolls(listed)[0]
+        rolled = listed[0, (np.arange(4) + roll) % 4]
+        assert np.linalg.norm(rolled[1] - rolled[0]) == 0.125  # u along a short side
+        chosen.append(rolled)
+    assert all(np.array_equal(rolled, chosen[0]) for rolled in chosen)
+
+
+def test_a_thin_quad_near_a_point_agrees_with_a_dense_quadrature():
+    """A 1:40 quad 0.002 of its length from the point (strips halved toward it), listed
+    from each corner."""
+    corners = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.05], [1.0, 0.025, 0.0], [0.0, 0.025, 0.0]])
+    point = np.array([[0.37, 0.011, -0.002]])
+    g, gw = np.polynomial.legendre.leggauss(400)
+    g, gw = 0.5 * (g + 1.0), 0.5 * gw
+    u, v = (x.ravel() for x in np.meshgrid(g, g, indexing="ij"))
+    hats = quad_integrals.bilinear_hats(u, v)
+    y = hats @ corners
+    normal = np.cross((1 - v)[:, None] * (corners[1] - corners[0]) + v[:, None] * (corners[2] - corners[3]),
+                      (1 - u)[:, None] * (corners[3] - corners[0]) + u[:, None] * (corners[2] - corners[1]))
+    r = y - point
+    dense = (np.outer(gw, gw).ravel() * (r * normal).sum(axis=1) / (r * r).sum(axis=1) ** 2) @ hats
+    for shift in range(4):
+        weights, _ = quad_integrals.quad_weights(point, np.roll(corners, shift, axis=0)[None])
+        assert np.abs(np.roll(weights[0, 0], -shift) - dense).max() < 1e-6 * np.abs(dense).sum()
