@@ -314,6 +314,7 @@ def test_in_a_window_make_cage_tight_shows_progress_and_esc_leaves_nothing(gc, m
     from scene_helpers import make_active
 
     context, operators = window_and_operators(monkeypatch)
+    monkeypatch.setattr(gc.core.planning.bind_steps, "TAIL_SECONDS", 0.0)  # progress a slice, no short rest run on
     obj = scenes.add_suzanne(level=1)
     make_active(obj)
     before = _added()
