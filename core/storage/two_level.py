@@ -15,7 +15,7 @@ from typing import Optional
 import numpy as np
 
 from .pair_deviations import deviations
-from .sparse import fewest_slots, placed_pairs, playback_seconds as gather_seconds
+from .sparse import fewest_pairs, placed_pairs, playback_seconds as gather_seconds
 
 __all__ = ["used_nodes", "playback_seconds", "automatic_node_slot_counts", "filled_node_slot_counts", "two_level_layout", "TwoLevelLayout", "NODE_SLOT_COUNTS"]
 
@@ -208,13 +208,18 @@ def two_level_layout(node_coordinates, corners, corner_weights, rest, target, co
     corner_weights = np.asarray(corner_weights, dtype=np.float32)
     sample = slice(None, None, max(1, len(corners) // SAMPLE_POINTS))
     sampled, sample_corners = used_nodes(corners[sample])  # only the sample's nodes are paired
-    count, _, _ = fewest_slots(nodes[sampled], rest, target * SAMPLE_MARGIN, counts,
-                               interpolation=(sample_corners, corner_weights[sample]))
+    count, _, _, sample_indices, sample_weights = fewest_pairs(
+        nodes[sampled], rest, target * SAMPLE_MARGIN, counts, interpolation=(sample_corners, corner_weights[sample]))
     reason = None
     if count is None:
         count = counts[-1]
-    indices, weights = placed_pairs(nodes, count, rest, span=True)
-    weights = weights.astype(np.float32)
+    # Each node's pairs are its row's alone: the sample's are kept, the others placed.
+    others = np.ones(len(nodes), dtype=bool)
+    others[sampled] = False
+    indices = np.empty((len(nodes), sample_indices.shape[1]), dtype=sample_indices.dtype)
+    weights = np.empty(indices.shape, dtype=np.float32)
+    indices[sampled], weights[sampled] = sample_indices, sample_weights
+    indices[others], weights[others] = placed_pairs(nodes[others], count, rest, span=True)
     smooth, drag, vertex = deviations(nodes, indices, weights, rest, (corners, corner_weights))
     if max(smooth, drag) >= target:
         reason = (f"{count} pairs per grid node deviate {max(smooth, drag):.1e} of the cage's "
