@@ -23,7 +23,7 @@ from ..harmonic.reproduction import largest_entries, reproduce_points
 from .pair_deviations import deviations, interpolated
 from .spanning import spanning_pairs
 
-__all__ = ["largest_pairs", "placed_pairs", "dense_weights", "fewest_slots", "fewest_pairs", "stacked_columns", "unstacked", "layout_coordinates", "playback_seconds", "SLOT_COUNTS"]
+__all__ = ["largest_pairs", "placed_pairs", "dense_weights", "fewest_slots", "fewest_pairs", "fewest_slots_bound", "stacked_columns", "unstacked", "layout_coordinates", "playback_seconds", "SLOT_COUNTS"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Of the cage's diagonal: rows placed further from where their coordinates place them
@@ -189,7 +189,19 @@ def fewest_pairs(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     ``interpolation``), whose deviations (maxima over points, rows computed alone) bound
     the whole sample's from below: a count that misses there misses on all, without
     placing every row (the hand's two-level Bind: 3 of 4 counts). The last count is
-    always measured on all (its deviations are returned where none passes)."""
+    always measured on all (its deviations are returned where none passes).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.storage.sparse import fewest_pairs
+    >>> from gencoords.cages.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> rows = np.random.default_rng(0).dirichlet(np.full(6, 0.1), 400)
+    >>> count, smooth, drag, indices, weights = fewest_pairs(rows, vertices, 1e-3, counts=(2, 6))
+    >>> count, indices.shape, bool(np.allclose(weights.sum(axis=1), 1.0))
+    (6, (400, 6), True)
+    """
     smooth = drag = np.inf
     indices = weights = None
     columns = np.shape(coordinates)[1]
@@ -202,6 +214,30 @@ def fewest_pairs(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
         if passes:
             return count, smooth, drag, indices, weights
     return None, smooth, drag, indices, weights
+
+
+def fewest_slots_bound(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=None):
+    """A lower bound on the count :func:`fewest_slots` chooses (its last count where none
+    passes), at a part of its cost: the first of ``counts`` passing on the points
+    :func:`fewest_pairs` screens on (the first count where it screens none). Arguments
+    as :func:`fewest_slots`'.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.storage.sparse import fewest_slots, fewest_slots_bound
+    >>> from gencoords.cages.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> rows = np.random.default_rng(0).dirichlet(np.full(6, 0.1), 400)
+    >>> fewest_slots_bound(rows, vertices, 1e-3, (2, 4, 6)) <= fewest_slots(rows, vertices, 1e-3, (2, 4, 6))[0]
+    True
+    """
+    candidates = sorted({min(count, np.shape(coordinates)[1]) for count in counts})
+    few = _screened(coordinates, interpolation)
+    if few is None:
+        return candidates[0]
+    return next((count for count in candidates[:-1] if _deviations_under(*few, count, rest, target)[0]),
+                candidates[-1])
 
 
 def _screened(coordinates, interpolation):
