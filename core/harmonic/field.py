@@ -26,6 +26,7 @@ DEFAULT_RESOLUTION = 64
 CUT_SUPPORT = 32
 # Of the nearest exact node's coordinates added to a prior that cannot reach its point.
 _WIDENING = 1e-2
+_CUT_POINTS = 2048  # points in cut cells placed at a time (each point's pairs are its own)
 
 
 class HarmonicField:
@@ -175,9 +176,7 @@ class HarmonicField:
         nodes, weights, cut, columns, values = self.sparse_rows(points, outside)
         result = np.zeros((len(nodes), len(self.vertices)), dtype=dtype)
         result[~cut] = self._mixed(nodes[~cut], weights[~cut])
-        rows = np.zeros((len(columns), len(self.vertices)), dtype=dtype)
-        np.put_along_axis(rows, columns, values, axis=1)
-        result[cut] = rows
+        result[np.flatnonzero(cut)[:, None], columns] = values  # into the zeros: no (c, n) block beside
         return result
 
     @checked
@@ -214,7 +213,13 @@ class HarmonicField:
         nodes, weights = self._interpolation(local)
         cut = self.cut(nodes)
         placed = local[cut] * self._prepared.scale + self._prepared.origin
-        return (nodes, weights, cut) + self.cut_pairs(placed, nodes[cut], weights[cut])
+        # A batch of points at a time: their (c, n) interpolated rows were the cup's peak.
+        columns = np.empty((len(placed), min(CUT_SUPPORT, len(self.vertices))), dtype=np.int64)
+        values = np.empty(columns.shape)
+        for start in range(0, len(placed), _CUT_POINTS):
+            batch = slice(start, start + _CUT_POINTS)
+            columns[batch], values[batch] = self.cut_pairs(placed[batch], nodes[cut][batch], weights[cut][batch])
+        return nodes, weights, cut, columns, values
 
     def cut(self, nodes):
         """Whether one of each point's interpolating nodes does not place itself exactly

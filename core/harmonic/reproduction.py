@@ -18,7 +18,7 @@ harmonic field's sparse rows all call it).
 
 import numpy as np
 
-__all__ = ["reproduce_points", "placing_largest", "largest_columns", "largest_entries"]
+__all__ = ["batch_rows", "reproduce_points", "placing_largest", "largest_columns", "largest_entries"]
 
 _ITERATIONS = 40
 _CONVERGED = 1e-14  # of each point's span: the mean offset Newton stops at
@@ -117,6 +117,20 @@ def _newton(prior, geometry, iterations):
     return weights
 
 
+def batch_rows(width):
+    """Rows of ``width`` weights :func:`reproduce_points` reweights at a time (bounded
+    memory); a caller giving it a multiple of this at a time gets the same values, bit
+    for bit, as in one call.
+
+    Examples
+    --------
+    >>> from gencoords.harmonic.reproduction import batch_rows
+    >>> batch_rows(322), batch_rows(1 << 20)
+    (203, 1)
+    """
+    return max(1, _CHUNK_ENTRIES // max(1, width))
+
+
 def reproduce_points(indices, weights, vertices, points, iterations=_ITERATIONS):
     """Reweight non-negative weights so that they place their points exactly.
 
@@ -155,7 +169,7 @@ def reproduce_points(indices, weights, vertices, points, iterations=_ITERATIONS)
     vertices, points = np.asarray(vertices, dtype=np.float64), np.asarray(points, dtype=np.float64)
     indices = None if indices is None else np.asarray(indices)
     result, residual = np.empty_like(prior), np.empty(len(prior))
-    step = max(1, _CHUNK_ENTRIES // max(1, prior.shape[1]))
+    step = batch_rows(prior.shape[1])
     for start in range(0, len(prior), step):
         batch = slice(start, start + step)
         if indices is None:
