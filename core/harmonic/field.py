@@ -199,13 +199,18 @@ class HarmonicField:
         columns, values : (c, K) int and float
             Those c points' pairs (:meth:`cut_pairs`).
         """
-        # A Bind asks up to three times for the same points (Automatic's sample, which is
-        # every point of a small mesh; two levels' rows; then the pairs' or exact storage's
-        # coordinates where two levels would not do): located and placed once, the rows of
-        # the last set asked for kept (each caller gets copies to write into).
+        # A Bind asks up to three times for the same points (two levels' rows; Automatic's
+        # sample, every few of them; then the pairs' or exact storage's coordinates where
+        # two levels would not do): located and placed once, the rows of the last set
+        # asked for kept (each caller gets copies to write into), a sample of every s-th
+        # of its points taken from them.
         key = (outside, points.shape, hashlib.blake2b(np.ascontiguousarray(points).tobytes(), digest_size=16).digest())
+        if self._last_rows is not None and self._last_rows[0] != key:
+            every = _every(self._last_rows[2], points)
+            if every and self._last_rows[0][0] == outside:
+                return _every_rows(self._last_rows[1], every)
         if self._last_rows is None or self._last_rows[0] != key:
-            self._last_rows = (key, self._located_rows(points, outside))
+            self._last_rows = (key, self._located_rows(points, outside), np.array(points, dtype=np.float64))
         return tuple(part.copy() for part in self._last_rows[1])
 
     def _located_rows(self, points, outside):
@@ -320,6 +325,27 @@ class HarmonicField:
                                                      self._tolerance)
             result[near] = distance <= self._tolerance
         return result
+
+
+def _every(kept, points):
+    """The s for which ``points`` ((j, 3)) are every s-th of the points ``kept`` ((k, 3))
+    from the first, or None."""
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or not len(points) or len(points) > len(kept):
+        return None
+    every = max(1, (len(kept) - 1) // max(1, len(points) - 1)) if len(points) > 1 else len(kept)
+    if len(kept[::every]) != len(points) or not np.array_equal(kept[::every], points):
+        return None
+    return every
+
+
+def _every_rows(rows, every):
+    """:meth:`HarmonicField.sparse_rows`' rows of every ``every``-th point, from those of
+    all (copies: each point's rows are its own)."""
+    nodes, weights, cut, columns, values = rows
+    taken = np.arange(0, len(cut), every)
+    pairs = (np.cumsum(cut) - 1)[taken[cut[taken]]]  # their rows among the cut points'
+    return nodes[taken], weights[taken], cut[taken], columns[pairs], values[pairs]
 
 
 def _across_the_part(local, vertices, faces, spacing):

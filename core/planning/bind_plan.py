@@ -248,11 +248,11 @@ def _harmonic_sparse(points, cage, request, solved):
     and the quadruped's Bind peaked 7 and 14 MB higher with the field kept)."""
     field, count = solved.pop(), len(points)
     automatic = request.storage == Storage.AUTO
-    # The sample first: the field keeps the last point set it located (every point, by
-    # the rows), which the pairs' or exact storage's writing then takes without locating again.
+    # Every point located once, by the rows: the field keeps them, for the sample (every
+    # few of them) and the pairs' or exact storage's writing.
+    rows = _two_level_rows(points, request, field)
     sampled = (figures.solve_points(request, cage, points[::max(1, count // DEVIATION_SAMPLES)], None, field=field)
                if automatic else None)
-    rows = _two_level_rows(points, request, field)
     report = figures.kind_report(request, cage, field)
     pairs = counts = None
     if automatic:
