@@ -33,16 +33,22 @@ class _Gathered:
 
     def __init__(self, offsets):
         self.offsets = offsets
+        self._rows = None  # (active, its offsets): each step's rows gathered once, not per use
+
+    def _part(self, active):
+        if self._rows is None or self._rows[0] is not active:
+            self._rows = (active, self.offsets[:, active])
+        return self._rows[1]
 
     def exponent(self, active, multiplier):
-        return np.einsum("Npk,pN->pk", self.offsets[:, active], multiplier)
+        return np.einsum("Npk,pN->pk", self._part(active), multiplier)
 
     def mean(self, active, scaled):
         """The weighted mean offset (p', 3), and what :meth:`covariance` needs (nothing)."""
-        return np.einsum("Npk,pk->pN", self.offsets[:, active], scaled), None
+        return np.einsum("Npk,pk->pN", self._part(active), scaled), None
 
     def covariance(self, active, scaled, mean, _):
-        part = self.offsets[:, active]
+        part = self._part(active)
         covariance = np.empty((len(active), 3, 3))
         for a, b in _PAIRS:
             covariance[:, a, b] = covariance[:, b, a] = np.einsum("pk,pk->p", part[a] * scaled, part[b])
@@ -50,7 +56,7 @@ class _Gathered:
 
     def largest_change(self, active, step):
         """Each row's largest exponent change the step makes (exact)."""
-        return np.abs(np.einsum("Npk,pN->pk", self.offsets[:, active], step)).max(axis=1)
+        return np.abs(np.einsum("Npk,pN->pk", self._part(active), step)).max(axis=1)
 
     def residual(self, weights):
         return np.linalg.norm(np.einsum("Npk,pk->pN", self.offsets, weights), axis=1)
