@@ -188,8 +188,9 @@ def fewest_pairs(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     A count is first tried on every SCREEN_STEP-th point (their nodes, with
     ``interpolation``), whose deviations (maxima over points, rows computed alone) bound
     the whole sample's from below: a count that misses there misses on all, without
-    placing every row (the hand's two-level Bind: 3 of 4 counts). The last count is
-    always measured on all (its deviations are returned where none passes).
+    placing every row (the hand's two-level Bind: 3 of 4 counts, on a fifth of its
+    nodes). The last count is always measured on all (its deviations are returned where
+    none passes).
 
     Examples
     --------
