@@ -98,17 +98,24 @@ def bilinear_parameters(points, corners):
     """
     u = np.full(len(points), 0.5)
     v = np.full(len(points), 0.5)
-    c0, c1, c2, c3 = (corners[:, i] for i in range(4))
+    active = np.arange(len(points))
     for _ in range(_NEWTON_STEPS):
-        du = (1 - v)[:, None] * (c1 - c0) + v[:, None] * (c2 - c3)
-        dv = (1 - u)[:, None] * (c3 - c0) + u[:, None] * (c2 - c1)
-        miss = points - np.einsum("pi,pij->pj", bilinear_hats(u, v), corners)
+        # A point whose step left (u, v) as they were is at a fixed point: the steps left
+        # would repeat it, so only the others step on (the same values, a part of the work).
+        if not len(active):
+            break
+        here, ua, va = corners[active], u[active], v[active]
+        c0, c1, c2, c3 = (here[:, i] for i in range(4))
+        du = (1 - va)[:, None] * (c1 - c0) + va[:, None] * (c2 - c3)
+        dv = (1 - ua)[:, None] * (c3 - c0) + ua[:, None] * (c2 - c1)
+        miss = points[active] - np.einsum("pi,pij->pj", bilinear_hats(ua, va), here)
         uu, uv, vv = np.einsum("pN,pN->p", du, du), np.einsum("pN,pN->p", du, dv), np.einsum("pN,pN->p", dv, dv)
         along_u, along_v = np.einsum("pN,pN->p", du, miss), np.einsum("pN,pN->p", dv, miss)
         determinant = uu * vv - uv * uv  # the 2 x 2 normal equations by Cramer's rule
         inverse = np.where(determinant > 0.0, 1.0 / np.where(determinant > 0.0, determinant, 1.0), 0.0)
-        u = np.clip(u + (vv * along_u - uv * along_v) * inverse, 0.0, 1.0)
-        v = np.clip(v + (uu * along_v - uv * along_u) * inverse, 0.0, 1.0)
+        u[active] = np.clip(ua + (vv * along_u - uv * along_v) * inverse, 0.0, 1.0)
+        v[active] = np.clip(va + (uu * along_v - uv * along_u) * inverse, 0.0, 1.0)
+        active = active[(u[active] != ua) | (v[active] != va)]
     nearest = np.einsum("pi,pij->pj", bilinear_hats(u, v), corners)
     return np.stack([u, v], axis=1), np.linalg.norm(points - nearest, axis=1)
 

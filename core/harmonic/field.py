@@ -26,6 +26,7 @@ DEFAULT_RESOLUTION = 64
 CUT_SUPPORT = 32
 # Of the nearest exact node's coordinates added to a prior that cannot reach its point.
 _WIDENING = 1e-2
+_CUT_POINTS = 2048  # points in cut cells placed at a time (each point's pairs are its own)
 
 
 class HarmonicField:
@@ -174,9 +175,7 @@ class HarmonicField:
         nodes, weights, cut, columns, values = self.sparse_rows(points, outside)
         result = np.zeros((len(nodes), len(self.vertices)), dtype=dtype)
         result[~cut] = self._mixed(nodes[~cut], weights[~cut])
-        rows = np.zeros((len(columns), len(self.vertices)), dtype=dtype)
-        np.put_along_axis(rows, columns, values, axis=1)
-        result[cut] = rows
+        result[np.flatnonzero(cut)[:, None], columns] = values  # into the zeros: no (c, n) block beside
         return result
 
     @checked
@@ -199,13 +198,18 @@ class HarmonicField:
         columns, values : (c, K) int and float
             Those c points' pairs (:meth:`cut_pairs`).
         """
-        # A Bind asks up to three times for the same points (Automatic's sample, which is
-        # every point of a small mesh; two levels' rows; then the pairs' or exact storage's
-        # coordinates where two levels would not do): located and placed once, the rows of
-        # the last set asked for kept (each caller gets copies to write into).
+        # A Bind asks up to three times for the same points (two levels' rows; Automatic's
+        # sample, every few of them; then the pairs' or exact storage's coordinates where
+        # two levels would not do): located and placed once, the rows of the last set
+        # asked for kept (each caller gets copies to write into), a sample of every s-th
+        # of its points taken from them.
         key = (outside, points.shape, hashlib.blake2b(np.ascontiguousarray(points).tobytes(), digest_size=16).digest())
+        if self._last_rows is not None and self._last_rows[0] != key:
+            every = _every(self._last_rows[2], points)
+            if every and self._last_rows[0][0] == outside:
+                return _every_rows(self._last_rows[1], every)
         if self._last_rows is None or self._last_rows[0] != key:
-            self._last_rows = (key, self._located_rows(points, outside))
+            self._last_rows = (key, self._located_rows(points, outside), np.array(points, dtype=np.float64))
         return tuple(part.copy() for part in self._last_rows[1])
 
     def _located_rows(self, points, outside):
@@ -213,7 +217,13 @@ class HarmonicField:
         nodes, weights = self._interpolation(local)
         cut = self.cut(nodes)
         placed = local[cut] * self._prepared.scale + self._prepared.origin
-        return (nodes, weights, cut) + self.cut_pairs(placed, nodes[cut], weights[cut])
+        # A batch of points at a time: their (c, n) interpolated rows were the cup's peak.
+        columns = np.empty((len(placed), min(CUT_SUPPORT, len(self.vertices))), dtype=np.int64)
+        values = np.empty(columns.shape)
+        for start in range(0, len(placed), _CUT_POINTS):
+            batch = slice(start, start + _CUT_POINTS)
+            columns[batch], values[batch] = self.cut_pairs(placed[batch], nodes[cut][batch], weights[cut][batch])
+        return nodes, weights, cut, columns, values
 
     def cut(self, nodes):
         """Whether one of each point's interpolating nodes does not place itself exactly
@@ -314,6 +324,27 @@ class HarmonicField:
                                                      self._tolerance)
             result[near] = distance <= self._tolerance
         return result
+
+
+def _every(kept, points):
+    """The s for which ``points`` ((j, 3)) are every s-th of the points ``kept`` ((k, 3))
+    from the first, or None."""
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or not len(points) or len(points) > len(kept):
+        return None
+    every = max(1, (len(kept) - 1) // max(1, len(points) - 1)) if len(points) > 1 else len(kept)
+    if len(kept[::every]) != len(points) or not np.array_equal(kept[::every], points):
+        return None
+    return every
+
+
+def _every_rows(rows, every):
+    """:meth:`HarmonicField.sparse_rows`' rows of every ``every``-th point, from those of
+    all (copies: each point's rows are its own)."""
+    nodes, weights, cut, columns, values = rows
+    taken = np.arange(0, len(cut), every)
+    pairs = (np.cumsum(cut) - 1)[taken[cut[taken]]]  # their rows among the cut points'
+    return nodes[taken], weights[taken], cut[taken], columns[pairs], values[pairs]
 
 
 def _across_the_part(local, vertices, faces, spacing):

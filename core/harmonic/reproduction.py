@@ -18,7 +18,7 @@ harmonic field's sparse rows all call it).
 
 import numpy as np
 
-__all__ = ["reproduce_points", "placing_largest", "largest_columns", "largest_entries"]
+__all__ = ["batch_rows", "reproduce_points", "placing_largest", "largest_columns", "largest_entries"]
 
 _ITERATIONS = 40
 _CONVERGED = 1e-14  # of each point's span: the mean offset Newton stops at
@@ -33,16 +33,22 @@ class _Gathered:
 
     def __init__(self, offsets):
         self.offsets = offsets
+        self._rows = None  # (active, its offsets): each step's rows gathered once, not per use
+
+    def _part(self, active):
+        if self._rows is None or self._rows[0] is not active:
+            self._rows = (active, self.offsets[:, active])
+        return self._rows[1]
 
     def exponent(self, active, multiplier):
-        return np.einsum("Npk,pN->pk", self.offsets[:, active], multiplier)
+        return np.einsum("Npk,pN->pk", self._part(active), multiplier)
 
     def mean(self, active, scaled):
         """The weighted mean offset (p', 3), and what :meth:`covariance` needs (nothing)."""
-        return np.einsum("Npk,pk->pN", self.offsets[:, active], scaled), None
+        return np.einsum("Npk,pk->pN", self._part(active), scaled), None
 
     def covariance(self, active, scaled, mean, _):
-        part = self.offsets[:, active]
+        part = self._part(active)
         covariance = np.empty((len(active), 3, 3))
         for a, b in _PAIRS:
             covariance[:, a, b] = covariance[:, b, a] = np.einsum("pk,pk->p", part[a] * scaled, part[b])
@@ -50,7 +56,7 @@ class _Gathered:
 
     def largest_change(self, active, step):
         """Each row's largest exponent change the step makes (exact)."""
-        return np.abs(np.einsum("Npk,pN->pk", self.offsets[:, active], step)).max(axis=1)
+        return np.abs(np.einsum("Npk,pN->pk", self._part(active), step)).max(axis=1)
 
     def residual(self, weights):
         return np.linalg.norm(np.einsum("Npk,pk->pN", self.offsets, weights), axis=1)
@@ -117,6 +123,20 @@ def _newton(prior, geometry, iterations):
     return weights
 
 
+def batch_rows(width):
+    """Rows of ``width`` weights :func:`reproduce_points` reweights at a time (bounded
+    memory); a caller giving it a multiple of this at a time gets the same values, bit
+    for bit, as in one call.
+
+    Examples
+    --------
+    >>> from gencoords.harmonic.reproduction import batch_rows
+    >>> batch_rows(322), batch_rows(1 << 20)
+    (203, 1)
+    """
+    return max(1, _CHUNK_ENTRIES // max(1, width))
+
+
 def reproduce_points(indices, weights, vertices, points, iterations=_ITERATIONS):
     """Reweight non-negative weights so that they place their points exactly.
 
@@ -155,7 +175,7 @@ def reproduce_points(indices, weights, vertices, points, iterations=_ITERATIONS)
     vertices, points = np.asarray(vertices, dtype=np.float64), np.asarray(points, dtype=np.float64)
     indices = None if indices is None else np.asarray(indices)
     result, residual = np.empty_like(prior), np.empty(len(prior))
-    step = max(1, _CHUNK_ENTRIES // max(1, prior.shape[1]))
+    step = batch_rows(prior.shape[1])
     for start in range(0, len(prior), step):
         batch = slice(start, start + step)
         if indices is None:

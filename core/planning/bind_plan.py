@@ -235,38 +235,47 @@ def _solved_field(cage, request):
 
 
 def _harmonic_sparse(points, cage, request, solved):
-    """Harmonic coordinates in sparse storage: the two-level plan (None where there would
-    be more nodes than points), Automatic's per-vertex pairs where they play back faster
-    than that plan, or than exact storage without one (``choose_by_playback``; else None),
-    and the field where those pairs need it (else None).
+    """Harmonic coordinates in sparse storage: the two-level plan, as a function making
+    it (None where there would be more nodes than points), Automatic's per-vertex pairs
+    where they play back faster than that plan, or than exact storage without one
+    (``choose_by_playback``; else None), and the field where those pairs need it (else
+    None). Where the pairs play back faster than two levels with their fewest pairs per
+    node, the plan is made only if the pairs miss on the whole mesh (the cape: a third
+    of its Bind saved).
 
     The field comes in the list ``solved`` (taken out of it), so that it is freed before
     the layout where no pairs are chosen: the rows hold what the layout needs (the hand's
     and the quadruped's Bind peaked 7 and 14 MB higher with the field kept)."""
     field, count = solved.pop(), len(points)
     automatic = request.storage == Storage.AUTO
-    # The sample first: the field keeps the last point set it located (every point, by
-    # the rows), which the pairs' or exact storage's writing then takes without locating again.
+    # Every point located once, by the rows: the field keeps them, for the sample (every
+    # few of them) and the pairs' or exact storage's writing.
+    rows = _two_level_rows(points, request, field)
     sampled = (figures.solve_points(request, cage, points[::max(1, count // DEVIATION_SAMPLES)], None, field=field)
                if automatic else None)
-    rows = _two_level_rows(points, request, field)
     report = figures.kind_report(request, cage, field)
-    pairs = None
+    pairs = counts = None
     if automatic:
         # What two levels cost with their most pairs per node, or exact storage (about a
         # gather's time per multiply-add: the cup) without them, bounds what pairs must beat.
-        budget = (sparse.playback_seconds(count * len(cage.vertices), 0) if rows is None else two_level.playback_seconds(
-            count, len(rows[2]), two_level.automatic_node_slot_counts(count, len(rows[2]), len(cage.vertices))[-1]))
+        counts = None if rows is None else two_level.automatic_node_slot_counts(count, len(rows[2]), len(cage.vertices))
+        budget = (sparse.playback_seconds(count * len(cage.vertices), 0) if rows is None
+                  else two_level.playback_seconds(count, len(rows[2]), counts[-1]))
         pairs = choose_by_playback(sampled, cage.vertices, count, budget)
     if rows is None:  # the field gives every point's coordinates (pairs, or exact storage)
         return None, pairs, field
     if pairs is None:
         del field  # its grid's coordinates are copied into the rows: memory for the layout
-        return _plan_two_level(points, cage, request, rows, report), None, None
+        plan = _plan_two_level(points, cage, request, rows, report)
+        return (lambda: plan), None, None
+    pairs_seconds = sparse.playback_seconds(count * pairs.pairs, pairs.pairs)
+    fewest = two_level.fewest_node_slots(rows[2], rows[0], rows[1], cage.vertices, AUTO_DEVIATION, counts)
+    if pairs_seconds < two_level.playback_seconds(count, len(rows[2]), fewest):  # faster than the layout's
+        return (lambda: _plan_two_level(points, cage, request, rows, report)), pairs, field
     plan = _plan_two_level(points, cage, request, rows, report)
-    if sparse.playback_seconds(count * pairs.pairs, pairs.pairs) >= two_level.playback_seconds(count, *plan.node_indices.shape):
-        return plan, None, None
-    return plan, pairs, field
+    if pairs_seconds >= two_level.playback_seconds(count, *plan.node_indices.shape):
+        return (lambda: plan), None, None
+    return (lambda: plan), pairs, field
 
 
 def _plan(points, cage, request):
@@ -286,7 +295,7 @@ def _plan(points, cage, request):
             del field
             fallback, choice, field = _harmonic_sparse(points, cage, request, solved)
             if choice is None and fallback is not None:
-                return fallback
+                return fallback()
     choice = choice or first_choice(request, count, cage.vertices, cage.faces)
     if field is not None and request.storage == Storage.AUTO and choice.storage == Storage.EXACT:
         choice = replace(choice, reason=f"Automatic: exact ({count} vertices, fewer than the grid nodes their "
@@ -304,7 +313,7 @@ def _plan(points, cage, request):
         choice = confirm_compact(choice, max(measured["deviation_smooth"], measured["deviation_drag"]), count,
                                  coordinate_rows(request.kind, len(cage.vertices), len(cage.faces)))
         if choice.storage == Storage.EXACT and fallback is not None:  # per-vertex pairs missed: two levels
-            return fallback
+            return fallback()
         if choice.storage == Storage.EXACT:
             slots, indices, locations, measured = yield from figures.written_slots(request, cage, points, choice, workers, field)
     # On what will be written; sparse storage and harmonic coordinates place points only

@@ -23,7 +23,7 @@ from ..harmonic.reproduction import largest_entries, reproduce_points
 from .pair_deviations import deviations, interpolated
 from .spanning import spanning_pairs
 
-__all__ = ["largest_pairs", "placed_pairs", "dense_weights", "fewest_slots", "stacked_columns", "unstacked", "layout_coordinates", "playback_seconds", "SLOT_COUNTS"]
+__all__ = ["largest_pairs", "placed_pairs", "dense_weights", "fewest_slots", "fewest_pairs", "fewest_slots_bound", "stacked_columns", "unstacked", "layout_coordinates", "playback_seconds", "SLOT_COUNTS"]
 
 SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Of the cage's diagonal: rows placed further from where their coordinates place them
@@ -36,6 +36,9 @@ PLACED = 1e-9
 # storage on the cup 13 ms for 8,706 x 322 multiply-adds: on small meshes the iterations
 # cost most.
 GATHER_SECONDS, ITERATION_SECONDS = 5e-9, 90e-6
+# :func:`fewest_pairs` first tries a count on every SCREEN_STEP-th point of a sample of
+# more than SCREEN_STEP * SCREEN_POINTS.
+SCREEN_STEP, SCREEN_POINTS = 8, 32
 
 
 def largest_pairs(coordinates, count):
@@ -174,14 +177,90 @@ def fewest_slots(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     >>> count, drag < 1e-3
     (42, True)
     """
+    return fewest_pairs(coordinates, rest, target, counts, interpolation)[:3]
+
+
+def fewest_pairs(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=None):
+    """:func:`fewest_slots`, with the pairs of the count returned ((k, K) int32 and
+    float64, of every row of ``coordinates``: the nodes' with ``interpolation``; where
+    none passes, of the last count).
+
+    A count is first tried on every SCREEN_STEP-th point (their nodes, with
+    ``interpolation``), whose deviations (maxima over points, rows computed alone) bound
+    the whole sample's from below: a count that misses there misses on all, without
+    placing every row (the hand's two-level Bind: 3 of 4 counts, on a fifth of its
+    nodes). The last count is always measured on all (its deviations are returned where
+    none passes).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.storage.sparse import fewest_pairs
+    >>> from gencoords.cages.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> rows = np.random.default_rng(0).dirichlet(np.full(6, 0.1), 400)
+    >>> count, smooth, drag, indices, weights = fewest_pairs(rows, vertices, 1e-3, counts=(2, 6))
+    >>> count, indices.shape, bool(np.allclose(weights.sum(axis=1), 1.0))
+    (6, (400, 6), True)
+    """
     smooth = drag = np.inf
+    indices = weights = None
     columns = np.shape(coordinates)[1]
-    for count in sorted({min(count, columns) for count in counts}):  # K beyond n keeps n
-        indices, weights = placed_pairs(coordinates, count, rest, span=interpolation is not None)
-        smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
-        if smooth < target and drag < target:
-            return count, smooth, drag
-    return None, smooth, drag
+    candidates = sorted({min(count, columns) for count in counts})  # K beyond n keeps n
+    few = _screened(coordinates, interpolation)
+    for count in candidates:
+        if few is not None and count != candidates[-1] and not _deviations_under(*few, count, rest, target)[0]:
+            continue
+        passes, smooth, drag, indices, weights = _deviations_under(coordinates, interpolation, count, rest, target)
+        if passes:
+            return count, smooth, drag, indices, weights
+    return None, smooth, drag, indices, weights
+
+
+def fewest_slots_bound(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=None):
+    """A lower bound on the count :func:`fewest_slots` chooses (its last count where none
+    passes), at a part of its cost: the first of ``counts`` passing on the points
+    :func:`fewest_pairs` screens on (the first count where it screens none). Arguments
+    as :func:`fewest_slots`'.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.storage.sparse import fewest_slots, fewest_slots_bound
+    >>> from gencoords.cages.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> rows = np.random.default_rng(0).dirichlet(np.full(6, 0.1), 400)
+    >>> fewest_slots_bound(rows, vertices, 1e-3, (2, 4, 6)) <= fewest_slots(rows, vertices, 1e-3, (2, 4, 6))[0]
+    True
+    """
+    candidates = sorted({min(count, np.shape(coordinates)[1]) for count in counts})
+    few = _screened(coordinates, interpolation)
+    if few is None:
+        return candidates[0]
+    return next((count for count in candidates[:-1] if _deviations_under(*few, count, rest, target)[0]),
+                candidates[-1])
+
+
+def _screened(coordinates, interpolation):
+    """Every SCREEN_STEP-th point of a sample of more than SCREEN_STEP * SCREEN_POINTS:
+    (coordinates, interpolation) as :func:`fewest_pairs` takes them (with
+    ``interpolation``, the nodes those points use, renumbered), else None."""
+    points = len(coordinates) if interpolation is None else len(interpolation[0])
+    if points <= SCREEN_STEP * SCREEN_POINTS:
+        return None
+    if interpolation is None:
+        return coordinates[::SCREEN_STEP], None
+    corners, corner_weights = interpolation
+    used, local = np.unique(np.asarray(corners[::SCREEN_STEP]), return_inverse=True)
+    return np.asarray(coordinates)[used], (local.reshape(-1, corners.shape[1]), corner_weights[::SCREEN_STEP])
+
+
+def _deviations_under(coordinates, interpolation, count, rest, target):
+    """Whether ``count`` pairs per row keep both deviations under ``target``, the
+    deviations, and the pairs."""
+    indices, weights = placed_pairs(coordinates, count, rest, span=interpolation is not None)
+    smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
+    return smooth < target and drag < target, smooth, drag, indices, weights
 
 
 def stacked_columns(values, row_count):

@@ -16,9 +16,9 @@ import numpy as np
 
 from ..harmonic.interpolation import CORNER_COUNT
 from .pair_deviations import deviations
-from .sparse import fewest_slots, placed_pairs, playback_seconds as gather_seconds
+from .sparse import fewest_pairs, fewest_slots_bound, placed_pairs, playback_seconds as gather_seconds
 
-__all__ = ["used_nodes", "playback_seconds", "automatic_node_slot_counts", "filled_node_slot_counts", "two_level_layout", "TwoLevelLayout", "NODE_SLOT_COUNTS"]
+__all__ = ["used_nodes", "playback_seconds", "automatic_node_slot_counts", "filled_node_slot_counts", "two_level_layout", "fewest_node_slots", "TwoLevelLayout", "NODE_SLOT_COUNTS"]
 
 # Candidate K' of grid nodes (two levels): few nodes beside the points, so many pairs are
 # cheap (bench_sparse_routes.py: 48 pairs on 1,286 nodes play back in 0.8x Mesh Deform's time).
@@ -204,24 +204,58 @@ def two_level_layout(node_coordinates, corners, corner_weights, rest, target, co
     >>> layout.node_count, layout.node_slot_count, layout.deviation_drag < 1e-6
     (8, 6, True)
     """
-    nodes = np.asarray(node_coordinates, dtype=np.float64)
-    corners = np.asarray(corners, dtype=np.int32)
-    corner_weights = np.asarray(corner_weights, dtype=np.float32)
-    sample = slice(None, None, max(1, len(corners) // SAMPLE_POINTS))
-    sampled, sample_corners = used_nodes(corners[sample])  # only the sample's nodes are paired
-    count, _, _ = fewest_slots(nodes[sampled], rest, target * SAMPLE_MARGIN, counts,
-                               interpolation=(sample_corners, corner_weights[sample]))
+    nodes, corners, corner_weights, sampled, interpolation = _sample(node_coordinates, corners, corner_weights)
+    count, _, _, sample_indices, sample_weights = fewest_pairs(nodes[sampled], rest, target * SAMPLE_MARGIN, counts,
+                                                               interpolation=interpolation)
     reason = None
     if count is None:
         count = counts[-1]
-    indices, weights = placed_pairs(nodes, count, rest, span=True)
-    weights = weights.astype(np.float32)
+    # Each node's pairs are its row's alone: the sample's are kept, the others placed.
+    others = np.ones(len(nodes), dtype=bool)
+    others[sampled] = False
+    indices = np.empty((len(nodes), sample_indices.shape[1]), dtype=sample_indices.dtype)
+    weights = np.empty(indices.shape, dtype=np.float32)
+    indices[sampled], weights[sampled] = sample_indices, sample_weights
+    indices[others], weights[others] = placed_pairs(nodes[others], count, rest, span=True)
     smooth, drag, vertex = deviations(nodes, indices, weights, rest, (corners, corner_weights))
     if max(smooth, drag) >= target:
         reason = (f"{count} pairs per grid node deviate {max(smooth, drag):.1e} of the cage's "
                   f"diagonal (more than {target:.0e})")
     return TwoLevelLayout(corners, corner_weights, indices, weights, smooth, drag, vertex, reason)
 
+
+
+def _sample(node_coordinates, corners, corner_weights):
+    """The arrays as :func:`two_level_layout` takes them (float64, int32, float32), the
+    sample's nodes (N' rows) and the sample as their interpolation (only the sample's
+    nodes are paired while K' is chosen)."""
+    nodes = np.asarray(node_coordinates, dtype=np.float64)
+    corners = np.asarray(corners, dtype=np.int32)
+    corner_weights = np.asarray(corner_weights, dtype=np.float32)
+    sample = slice(None, None, max(1, len(corners) // SAMPLE_POINTS))
+    sampled, sample_corners = used_nodes(corners[sample])
+    return nodes, corners, corner_weights, sampled, (sample_corners, corner_weights[sample])
+
+
+def fewest_node_slots(node_coordinates, corners, corner_weights, rest, target, counts=NODE_SLOT_COUNTS):
+    """A lower bound on the K' :func:`two_level_layout` chooses with these arguments, at
+    a part of its cost (``sparse.fewest_slots_bound``): where per-vertex pairs play back
+    faster than two levels with it, the layout need not be made to be compared.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.storage.two_level import fewest_node_slots, two_level_layout
+    >>> from gencoords.cages.shapes import octahedron
+    >>> vertices, _ = octahedron()
+    >>> rng = np.random.default_rng(0)
+    >>> nodes, corners, weights = rng.dirichlet(np.ones(6), 300), rng.integers(0, 300, (600, 4)), np.full((600, 4), 0.25)
+    >>> bound = fewest_node_slots(nodes, corners, weights, vertices, 1e-3, counts=(2, 4, 6))
+    >>> bound <= two_level_layout(nodes, corners, weights, vertices, 1e-3, counts=(2, 4, 6)).node_slot_count
+    True
+    """
+    nodes, _, _, sampled, interpolation = _sample(node_coordinates, corners, corner_weights)
+    return fewest_slots_bound(nodes[sampled], rest, target * SAMPLE_MARGIN, counts, interpolation)
 
 
 def playback_seconds(point_count, node_count, node_slot_count, corner_count=CORNER_COUNT, per_vector=3):

@@ -10,8 +10,8 @@ and each shortcut leaves the coordinates as they were.
   near), the same for the positions within it.
 - Dirichlet nodes beyond the cage's convex hull (no non-negative weights reach them) are
   not tried: they keep what trying them gave.
-- The Bind locates and places its points once (two levels' rows, then exact storage's
-  coordinates where two levels save nothing: the cup).
+- The Bind locates and places its points once (two levels' rows, Automatic's sample of
+  them, then exact storage's coordinates where two levels save nothing: the cup).
 """
 
 import numpy as np
@@ -24,6 +24,7 @@ from gencoords.harmonic import field as field_module
 from gencoords.harmonic import grid_field
 from gencoords.harmonic import harmonic_quad_field
 from gencoords.harmonic.boundary_values import _closest, _padded, nearest_boundary_points
+from gencoords.harmonic.interpolation import CORNER_COUNT
 from gencoords.planning import bind_plan
 from gencoords.planning.bind_plan import plan_bind
 from gencoords.planning.request import BindRequest
@@ -162,7 +163,7 @@ def test_the_cups_bind_locates_and_places_its_points_once_and_writes_what_the_fi
     # After two levels' rows the per-vertex pairs' path asks again (Automatic's playback
     # choice: the cup's thin walls put nearly every vertex in a cut cell).
     assert plan.storage == "SPARSE" and plan.node_indices is None
-    assert calls.count(len(scene.mesh_vertices)) == 1
+    assert calls == [len(scene.mesh_vertices)]  # Automatic's sample taken from every point's rows
     field, = fields
     field._last_rows = None  # forgotten: located and placed afresh
     dense = np.zeros((len(scene.mesh_vertices), len(scene.cage_vertices)))
@@ -184,6 +185,45 @@ def test_the_rows_given_twice_are_copies(cup):
     for part, again in zip(second, third):
         np.testing.assert_array_equal(part, again)
         assert not np.shares_memory(part, again)
-    other = field.sparse_rows(points[::2])
+    other = field.sparse_rows(points[::2])  # a sample of them: taken from their rows, which stay
     np.testing.assert_array_equal(other[0], second[0][::2])
-    assert field._last_rows[0][1] == points[::2].shape  # only the last set's rows are kept
+    assert field._last_rows[0][1] == points.shape
+    field.sparse_rows(points[1::2])
+    assert field._last_rows[0][1] == points[1::2].shape  # only the last set's rows are kept
+
+
+def test_a_sample_of_every_few_points_takes_their_rows_from_every_points(cup):
+    field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=12, tolerance=FLOAT32)
+    points = cup.mesh_vertices[::3]
+    every = field.sparse_rows(points)
+    for step in (1, 4, 7, len(points)):
+        taken = field.sparse_rows(points[::step])  # from every point's rows, which stay kept
+        field._last_rows, kept = None, field._last_rows
+        alone = field.sparse_rows(points[::step])  # located and placed afresh
+        field._last_rows = kept
+        for part, again in zip(taken, alone):
+            np.testing.assert_array_equal(part, again)
+        assert not any(np.shares_memory(part, whole) for part, whole in zip(taken, every))
+    assert field.sparse_rows(points[1::4])[0].shape == (len(points[1::4]), CORNER_COUNT)  # not from the first: located
+
+def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_keep(cup):
+    """The field reweights its solved nodes a few batches at a time, in place (a copy of
+    every solved row and its result beside the field were the cup's peak: 1.6 times the
+    nodes' coordinates), and the points' coordinates are written into their result (the
+    cut points' rows were a second block as large)."""
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=48, tolerance=FLOAT32, workers=1)
+        kept, peak = tracemalloc.get_traced_memory()
+        assert peak < kept + 0.35 * field.node_coordinates.nbytes
+        field.sparse_rows(cup.mesh_vertices)  # located once, as the Bind does first
+        tracemalloc.reset_peak()
+        before, _ = tracemalloc.get_traced_memory()
+        coordinates = field.coordinates(cup.mesh_vertices)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert field.cut(field.interpolation(cup.mesh_vertices)[0]).mean() > 0.5  # most are cut: their rows count
+    assert peak - before < 1.6 * coordinates.nbytes

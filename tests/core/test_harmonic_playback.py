@@ -110,3 +110,29 @@ def test_pairs_that_miss_on_the_whole_mesh_give_way_to_two_levels(monkeypatch):
                           BindRequest(HARMONIC, workers=1, polygons=scene.cage_faces)))
     assert plan.node_indices is not None, plan.storage_choice
     assert max(plan.deviation_smooth, plan.deviation_drag) < 1e-3 and "two levels" in plan.storage_choice
+
+
+def test_the_cape_makes_no_layout_where_its_pairs_beat_the_fewest_pairs_per_node_it_could_choose(monkeypatch):
+    """Two levels' K' has a lower bound found on a few of the sample's points
+    (``two_level.fewest_node_slots``); where per-vertex pairs play back faster than two
+    levels with it, the layout is not made. The plan is the one the layout's comparison
+    gives: made anyway (the bound taken as 0), it loses to the same pairs."""
+    scene = artist_cages.fixture("cape", detail=0.6)
+    layouts, made = [], two_level.two_level_layout
+
+    def counted(*args, **kwargs):
+        layouts.append(made(*args, **kwargs))
+        return layouts[-1]
+
+    monkeypatch.setattr(two_level, "two_level_layout", counted)
+    request = BindRequest(HARMONIC, workers=1, polygons=scene.cage_faces)
+    plans = [run_to_end(plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles, request))]
+    assert plans[0].node_indices is None and not layouts, plans[0].storage_choice
+    monkeypatch.setattr(two_level, "fewest_node_slots", lambda *args: 0)
+    plans.append(run_to_end(plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles, request)))
+    layout, = layouts
+    k, pairs = plans[1].slots.shape
+    assert sparse.playback_seconds(k * pairs, pairs) < two_level.playback_seconds(k, *layout.node_indices.shape)
+    for name in ("slots", "indices", "locations"):
+        np.testing.assert_array_equal(getattr(plans[0], name), getattr(plans[1], name))
+    assert plans[0].storage_choice == plans[1].storage_choice

@@ -126,3 +126,33 @@ def test_a_folded_quad_is_refused_naming_it():
     vertices[a] = vertices[c] + 1.5 * (vertices[c] - vertices[a])  # across the opposite diagonal
     with pytest.raises(gencoords.CageError, match=rf"quad {top} folds over itself|polygons: \[.*{top}"):
         gencoords.harmonic_quad_field(vertices, quads, resolution=8, workers=1)
+
+
+def test_the_nearest_patch_parameters_stop_stepping_only_at_a_fixed_point():
+    """Points whose Gauss-Newton step leaves (u, v) as they were step no more (the
+    boundary values' largest part on the hand): the parameters are bit for bit those of
+    every point taking every step, and they place points on their patch."""
+    from gencoords.construction import quad_cage
+
+    vertices, quads = _bent_box(seed=3, bend=0.3)
+    rng = np.random.default_rng(4)
+    faces = rng.integers(0, len(quads), 3000)
+    corners = vertices[quads[faces]]
+    hats = bilinear_hats(*rng.uniform(0.0, 1.0, (2, 3000)))
+    on = np.einsum("pi,pij->pj", hats, corners)
+    points = on + rng.normal(0.0, 0.2, on.shape) * (np.arange(3000) % 2)[:, None]  # half on their patch
+    u, v = np.full(3000, 0.5), np.full(3000, 0.5)
+    c0, c1, c2, c3 = (corners[:, i] for i in range(4))
+    for _ in range(quad_cage._NEWTON_STEPS):  # every point every step, as before
+        du = (1 - v)[:, None] * (c1 - c0) + v[:, None] * (c2 - c3)
+        dv = (1 - u)[:, None] * (c3 - c0) + u[:, None] * (c2 - c1)
+        miss = points - np.einsum("pi,pij->pj", bilinear_hats(u, v), corners)
+        uu, uv, vv = np.einsum("pN,pN->p", du, du), np.einsum("pN,pN->p", du, dv), np.einsum("pN,pN->p", dv, dv)
+        along_u, along_v = np.einsum("pN,pN->p", du, miss), np.einsum("pN,pN->p", dv, miss)
+        determinant = uu * vv - uv * uv
+        inverse = np.where(determinant > 0.0, 1.0 / np.where(determinant > 0.0, determinant, 1.0), 0.0)
+        u = np.clip(u + (vv * along_u - uv * along_v) * inverse, 0.0, 1.0)
+        v = np.clip(v + (uu * along_v - uv * along_u) * inverse, 0.0, 1.0)
+    parameters, distance = quad_cage.bilinear_parameters(points, corners)
+    np.testing.assert_array_equal(parameters, np.stack([u, v], axis=1))
+    assert distance[::2].max() < 1e-12 * np.ptp(vertices)

@@ -118,6 +118,38 @@ def test_two_level_layout_meets_the_target_with_the_fewest_node_pairs(cage_and_c
 
 
 
+@pytest.mark.parametrize("target", [1e-1, 1e-2, 3e-3, 1e-3])
+def test_counts_tried_on_every_eighth_point_first_choose_as_every_point_does(cage_and_coordinates, monkeypatch,
+                                                                             target):
+    """The screen (a count missing on every SCREEN_STEP-th point misses on all) skips
+    work only: the count, its deviations and pairs are those of trying each on all."""
+    vertices, _, coordinates = cage_and_coordinates  # 300 points: screened
+    counts = (4, 8, 16, 24, 32, 40)
+    assert len(coordinates) > sparse.SCREEN_STEP * sparse.SCREEN_POINTS
+    screened = sparse.fewest_pairs(coordinates, vertices, target, counts)
+    monkeypatch.setattr(sparse, "SCREEN_POINTS", 10**9)
+    everywhere = sparse.fewest_pairs(coordinates, vertices, target, counts)
+    assert screened[:3] == everywhere[:3]
+    np.testing.assert_array_equal(screened[3], everywhere[3])
+    np.testing.assert_array_equal(screened[4], everywhere[4])
+
+
+def test_two_level_node_pairs_are_each_nodes_own_whatever_the_sample(cage_and_coordinates):
+    """The sample's nodes keep the pairs chosen on it, the others are placed after: each
+    node's pairs are those of placing every node at once (rows computed alone)."""
+    vertices, _, node_coordinates = cage_and_coordinates
+    rng = np.random.default_rng(9)
+    corners = rng.integers(0, 150, (4500, 4))
+    corners[1::2] += 150  # the sample (every 2nd point) uses the first 150 nodes only
+    used, corners = two_level.used_nodes(corners)
+    assert len(used) == 300 and len(corners[::max(1, len(corners) // two_level.SAMPLE_POINTS)]) < 4500
+    layout = two_level.two_level_layout(node_coordinates[used], corners, rng.dirichlet(np.ones(4), 4500), vertices,
+                                        1e-2, counts=(4, 8, 16))
+    indices, weights = sparse.placed_pairs(node_coordinates[used], layout.node_slot_count, vertices, span=True)
+    np.testing.assert_array_equal(layout.node_indices, indices)
+    np.testing.assert_array_equal(layout.node_weights, weights.astype(np.float32))
+
+
 def test_kept_pairs_of_both_signs_are_completed_to_1_without_growing_beyond_the_missing_sum():
     """Rows of both signs whose kept values nearly cancel (power coordinates with gamma 16,
     extrapolated, as fuzz seed 261 bound them): divided by their sum they would grow
