@@ -109,7 +109,10 @@ class OBJECT_OT_gencoords_bind(MeshOperator, bpy.types.Operator):
         self._steps, self._timer = SlicedSteps(service.steps(self._job, context)), None
         self._mesh_uid = self._job.obj.session_uid
         service.MODAL_BINDS.add(self._mesh_uid)
-        fraction = self._slice(context, first=True)
+        # A first Bind from the button runs its first slice here, before the window redraws
+        # (a short one ends here). A confirmed one (Rebind's question, Auto Rebind) is
+        # called from another call, which pushes no undo step: it ends in the event loop.
+        fraction = 0.0 if self.replace_confirmed else self._slice(context, first=True)
         if isinstance(fraction, set):  # a short Bind: done before the window redrew
             return fraction
         window_manager = context.window_manager

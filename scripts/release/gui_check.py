@@ -10,7 +10,8 @@ cage is back and drives the mesh), rebinds through the Replace Binding confirmat
 (Return), finds Bake to Bones with the F3 menu search (typed) and runs it, undoes that,
 then, with Auto Rebind on, deletes a vertex in Edit Mode (Tab, a click on the vertex, X >
 Vertices, Tab): the Bind operator's invoke path binds again; last, Type Green, Bind
-through the window (Return to replace) and a 1.6x stretch of the cage; then Type Harmonic,
+through the window (Return to replace), Ctrl+Z of that Bind and the Bind again, and a 1.6x
+stretch of the cage; then Type Harmonic,
 Bind through the window, a move of the cage, then a turn and scale of it; last, the cage keyed,
 Tab and Tab on it, Delete and Ctrl+Z (the binding has its cage back). Each check
 prints ``PASS``/``FAIL`` with what was measured, screenshots go to the output folder,
@@ -224,16 +225,6 @@ def leave_edit_mode():
     count = len(bmesh.from_edit_mesh(mesh.data).verts)
     check("X > Vertices deletes the vertex", count == VERTEX_COUNT[0] - 1,
           f"{VERTEX_COUNT[0]} -> {count} vertices")
-    # The Bind operator's invoke path runs its first slice (``SlicedSteps.first``) before
-    # the window redraws; a rebind this short ends there, so it is counted, not looked up.
-    sliced = addon("ui.modal").SlicedSteps
-    first = GUI_STATE.setdefault("first slice", sliced.first)
-    GUI_STATE["first slices"] = 0
-
-    def counted(steps):
-        GUI_STATE["first slices"] += 1
-        return first(steps)
-    sliced.first = counted
     keys("Tab")
 
 
@@ -246,9 +237,13 @@ def after_auto_rebind():
           f"mode {mesh.mode}, bound {bound} of {len(mesh.data.vertices)} vertices")
     check("auto-rebound mesh at rest equals the mesh", moved_by(mesh) < 1e-5,
           f"max move {moved_by(mesh):.2e}")
-    addon("ui.modal").SlicedSteps.first = GUI_STATE["first slice"]
-    check("Auto Rebind went through the Bind operator's invoke path (progress, Esc)",
-          GUI_STATE["first slices"] == 1, f"{GUI_STATE['first slices']} first slices run by invoke")
+    # Only a modal operator finishing in the event loop is registered here (the handler's
+    # synchronous bind is none); replace_confirmed is what only Auto Rebind's timer passes.
+    last = bpy.context.window_manager.operators[-1]
+    confirmed = last.bl_idname == "OBJECT_OT_gencoords_bind" and last.properties.replace_confirmed
+    check("Auto Rebind went through the Bind operator's invoke path (progress, Esc)", confirmed,
+          f"last operator {last.bl_idname}, replace_confirmed "
+          f"{getattr(last.properties, 'replace_confirmed', None)}")
     shots.shoot('VIEW_3D', "auto_rebound")
 
 
@@ -257,17 +252,42 @@ def green_rebind():
     mesh, _ = mesh_and_cage()
     select_only(mesh)
     mesh.gencoords.kind = addon("enums").GREEN.upper()
+    bpy.ops.ed.undo_push(message="Type")  # as the panel's Type field does when clicked
     shots.shoot('PROPERTIES', "green_type")
+    bind_in_window()
+
+
+def bind_in_window():
+    """The panel's Bind button, its Replace Binding question answered with Return."""
     with shots.in_area('PROPERTIES'):
         bpy.ops.object.gencoords_bind('INVOKE_DEFAULT')
     keys("Return", over='PROPERTIES')
+
+
+def undo_green_bind():
+    """Ctrl+Z right after the panel's Bind (a short Bind ends in the button's own call)."""
+    mesh, _ = mesh_and_cage()
+    found = addon("bind.bindings").binding(mesh)
+    GUI_STATE["green bound"] = found.data.kind if found else None
+    keys("ctrl+z")
+
+
+def after_green_undo():
+    mesh, _ = mesh_and_cage()
+    found = addon("bind.bindings").binding(mesh)
+    kind = found.data.kind if found else None
+    check("Ctrl+Z after the panel's Bind gives the earlier binding back",
+          GUI_STATE["green bound"] == addon("enums").GREEN and kind not in (None, addon("enums").GREEN)
+          and moved_by(mesh) < 1e-5, f"kind {GUI_STATE['green bound']} -> {kind}, max move {moved_by(mesh):.2e}")
+    bind_in_window()  # Type is still Green: Bind again (checked next)
 
 
 def after_green_bind():
     mesh, cage = mesh_and_cage()
     found = addon("bind.bindings").binding(mesh)
     kind = found.data.kind if found else None
-    check("Bind with Type Green binds Green coordinates", kind == addon("enums").GREEN, f"kind {kind}")
+    check("Bind with Type Green binds Green coordinates (again after Ctrl+Z)", kind == addon("enums").GREEN,
+          f"kind {kind}")
     check("Green binding at rest equals the mesh", moved_by(mesh) < 1e-5, f"max move {moved_by(mesh):.2e}")
     text = status_text(mesh)
     check("the panel names Green", "Coordinates: Green" in text, text)
@@ -294,9 +314,7 @@ def harmonic_rebind():
     mesh, _ = mesh_and_cage()
     select_only(mesh)
     mesh.gencoords.kind = addon("enums").HARMONIC.upper()
-    with shots.in_area('PROPERTIES'):
-        bpy.ops.object.gencoords_bind('INVOKE_DEFAULT')
-    keys("Return", over='PROPERTIES')
+    bind_in_window()
 
 
 HARMONIC_SHIFT = np.array([0.3, -0.2, 0.1])
@@ -409,7 +427,7 @@ GUI_STATE = {}
 STEPS = [open_bound, edit_cage, delete_cage, after_delete, after_undo, after_rebind,
          search_bake, run_bake, confirm_bake, after_bake, after_bake_undo,
          edit_vertices, click_vertex, delete_vertex, pick_vertices, leave_edit_mode,
-         after_auto_rebind, green_rebind, after_green_bind, after_green_stretch,
+         after_auto_rebind, green_rebind, undo_green_bind, after_green_undo, after_green_bind, after_green_stretch,
          harmonic_rebind, after_harmonic_bind, after_harmonic_move, after_harmonic_turn,
          key_the_cage_and_tab, tab_back, delete_edited_cage, undo_edited_cage_delete, after_edited_cage_undo]
 
