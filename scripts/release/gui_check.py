@@ -13,7 +13,8 @@ Vertices, Tab): the Bind operator's invoke path binds again; last, Type Green, B
 through the window (Return to replace), Ctrl+Z of that Bind and the Bind again, and a 1.6x
 stretch of the cage; then Type Harmonic,
 Bind through the window, a move of the cage, then a turn and scale of it; last, the cage keyed,
-Tab and Tab on it, Delete and Ctrl+Z (the binding has its cage back). Each check
+Tab and Tab on it, Delete and Ctrl+Z (the binding has its cage back). After the Rebind:
+Unbind and a first Bind as the button makes it (it ends in its own call). Each check
 prints ``PASS``/``FAIL`` with what was measured, screenshots go to the output folder,
 and Blender exits non-zero when a check failed.
 """
@@ -421,10 +422,26 @@ def after_edited_cage_undo():
     shots.shoot('PROPERTIES', "cage_undone_after_edit_mode")
 
 
+def first_bind_in_one_call():
+    """Unbind, then a first Bind as the button makes it (an undo-pushing call: a Python
+    call pushes none): short, it ends in its own call, registered as the last operator."""
+    mesh, _ = mesh_and_cage()
+    select_only(mesh)
+    with shots.in_area('PROPERTIES'):
+        bpy.ops.object.gencoords_unbind()
+        result = bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', True)
+    bound = addon("bind.bindings").binding(mesh) is not None
+    last = bpy.context.window_manager.operators[-1].bl_idname
+    check("a short first Bind from the panel ends in its own call", result == {'FINISHED'} and bound
+          and not addon("bind.service").MODAL_BINDS and last == "OBJECT_OT_gencoords_bind",
+          f"{result}, bound {bound}, last operator {last}")
+
+
 GUI_STATE = {}
 
 
 STEPS = [open_bound, edit_cage, delete_cage, after_delete, after_undo, after_rebind,
+         first_bind_in_one_call,
          search_bake, run_bake, confirm_bake, after_bake, after_bake_undo,
          edit_vertices, click_vertex, delete_vertex, pick_vertices, leave_edit_mode,
          after_auto_rebind, green_rebind, undo_green_bind, after_green_undo, after_green_bind, after_green_stretch,
