@@ -271,8 +271,8 @@ def _harmonic_sparse(points, cage, request, solved):
     pairs_seconds = sparse.playback_seconds(count * pairs.pairs, pairs.pairs)
     fewest = two_level.fewest_node_slots(rows[2], rows[0], rows[1], cage.vertices, AUTO_DEVIATION, counts)
     if pairs_seconds < two_level.playback_seconds(count, len(rows[2]), fewest):  # faster than the layout's
-        return (lambda: _plan_two_level(points, cage, request, rows, report)), pairs, field
-    plan = _plan_two_level(points, cage, request, rows, report)
+        return (lambda: _plan_two_level(points, cage, request, rows, report, fewest)), pairs, field
+    plan = _plan_two_level(points, cage, request, rows, report, fewest)
     if pairs_seconds >= two_level.playback_seconds(count, *plan.node_indices.shape):
         return (lambda: plan), None, None
     return (lambda: plan), pairs, field
@@ -363,14 +363,15 @@ def _two_level_rows(points, request, field):
     return corners, corner_weights, node_rows
 
 
-def _plan_two_level(points, cage, request, rows, report):
+def _plan_two_level(points, cage, request, rows, report, fewest=0):
     """Harmonic coordinates in sparse storage, two levels (:func:`_two_level_rows`): each
-    node its fewest pairs over the cage that keep the deviations under AUTO_DEVIATION
-    (Automatic; Sparse: ``request.sparse_size``)."""
+    node its fewest pairs over the cage, from ``fewest`` (a bound already found), that keep
+    the deviations under AUTO_DEVIATION (Automatic; Sparse: ``request.sparse_size``)."""
     corners, corner_weights, node_rows = rows
     automatic = request.storage == Storage.AUTO
     # Automatic fills the stored columns (free accuracy); Sparse keeps the count asked for.
-    counts = (two_level.automatic_node_slot_counts(len(points), len(node_rows), len(cage.vertices))
+    counts = (tuple(slots for slots in two_level.automatic_node_slot_counts(len(points), len(node_rows), len(cage.vertices))
+                    if slots >= fewest)
               if automatic else (request.sparse_size,))
     layout = two_level.two_level_layout(node_rows, corners, corner_weights, cage.vertices, AUTO_DEVIATION, counts)
     deviation = max(layout.deviation_smooth, layout.deviation_drag)

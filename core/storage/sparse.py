@@ -205,8 +205,7 @@ def fewest_pairs(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     """
     smooth = drag = np.inf
     indices = weights = None
-    columns = np.shape(coordinates)[1]
-    candidates = sorted({min(count, columns) for count in counts})  # K beyond n keeps n
+    candidates = _candidates(coordinates, counts)
     few = _screened(coordinates, interpolation)
     for count in candidates:
         if few is not None and count != candidates[-1] and not _deviations_under(*few, count, rest, target)[0]:
@@ -233,12 +232,17 @@ def fewest_slots_bound(coordinates, rest, target, counts=SLOT_COUNTS, interpolat
     >>> fewest_slots_bound(rows, vertices, 1e-3, (2, 4, 6)) <= fewest_slots(rows, vertices, 1e-3, (2, 4, 6))[0]
     True
     """
-    candidates = sorted({min(count, np.shape(coordinates)[1]) for count in counts})
+    candidates = _candidates(coordinates, counts)
     few = _screened(coordinates, interpolation)
     if few is None:
         return candidates[0]
     return next((count for count in candidates[:-1] if _deviations_under(*few, count, rest, target)[0]),
                 candidates[-1])
+
+
+def _candidates(coordinates, counts):
+    """The distinct counts to try on ``coordinates`` ((j, n)), fewest first: K beyond n keeps n."""
+    return sorted({min(count, np.shape(coordinates)[1]) for count in counts})
 
 
 def _screened(coordinates, interpolation):
