@@ -690,6 +690,34 @@ def test_undo_and_redo_of_bind_and_unbind(gc):
         np.testing.assert_array_equal(read_positions(obj.data), before[0])
 
 
+
+def test_undo_of_a_first_bind_from_the_button(gc):
+    """Unbind, Bind from the panel's button (invoke, an undo-pushing call: a short first
+    Bind ends in the button's own call), Ctrl+Z: the mesh unbound at rest; Ctrl+Z again:
+    the binding the Unbind removed."""
+    preferences = bpy.context.preferences.edit
+    preferences.use_global_undo, preferences.undo_steps = True, 32
+    with bpy.context.temp_override(window=bpy.context.window_manager.windows[0]):
+        cage = add_icosphere_cage()
+        obj = add_sphere()
+        before = mesh_state(obj)
+        assert bind(obj, cage) == {'FINISHED'}
+        bpy.ops.ed.undo_push(message="Bind")
+        make_active(obj)
+        assert bpy.ops.object.gencoords_unbind('EXEC_DEFAULT', True) == {'FINISHED'}
+        assert bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', True) == {'FINISHED'}
+        obj = bpy.data.objects["Mesh"]
+        assert gc.binding.binding(obj) is not None
+
+        assert bpy.ops.ed.undo() == {'FINISHED'}
+        obj = bpy.data.objects["Mesh"]  # undo rebuilds IDs
+        assert gc.binding.binding(obj) is None and not obj.modifiers
+        np.testing.assert_array_equal(read_positions(obj.data), before[0])
+        assert bpy.ops.ed.undo() == {'FINISHED'}
+        obj = bpy.data.objects["Mesh"]
+        assert gc.binding.binding(obj) is not None
+
+
 @pytest.mark.parametrize("kind", ["MEAN_VALUE", "GREEN"])  # Green: the face terms are masked too
 def test_strength_and_a_vertex_group_mask_scale_the_displacement(gc, kind):
     cage = add_icosphere_cage()
