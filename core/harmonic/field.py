@@ -284,9 +284,11 @@ class HarmonicField:
 
     def _mixed(self, nodes, weights):
         """The interpolation of the nodes' coordinates: (c, n) float64."""
-        rows = np.zeros((len(nodes), len(self.vertices)))
+        rows, term = np.zeros((len(nodes), len(self.vertices))), np.empty((len(nodes), len(self.vertices)))
         for corner in range(nodes.shape[1]):
-            rows += weights[:, corner, None] * self.node_coordinates[nodes[:, corner]]
+            np.take(self.node_coordinates, nodes[:, corner], axis=0, out=term)
+            term *= weights[:, corner, None]
+            rows += term
         return rows
 
     def _along_the_normal(self, local, rows):
