@@ -74,7 +74,7 @@ def largest_pairs(coordinates, count):
     return indices.astype(np.int32), weights
 
 
-def placed_pairs(coordinates, count, rest, span=False):
+def placed_pairs(coordinates, count, rest, span=False, places=None):
     """:func:`largest_pairs`, reweighted to place each row where its full coordinates do.
 
     Dropping the smaller weights moves the point a row places (``sum_j w_j R_j``); rows
@@ -93,6 +93,9 @@ def placed_pairs(coordinates, count, rest, span=False):
         Rows the K largest cannot place get pairs that can (``spanning``): the grid
         nodes of two levels, few beside the points (for every row of a mesh, a cost of 5x
         the Bind's on mean value coordinates).
+    places : (k, 3) float, optional
+        ``coordinates @ rest``, where the caller has it (its rounding depends on the rows:
+        given, each row's pairs are bit for bit its own among any others).
 
     Returns
     -------
@@ -115,7 +118,7 @@ def placed_pairs(coordinates, count, rest, span=False):
     rest = np.asarray(rest, dtype=np.float64)
     positive = np.flatnonzero((weights >= 0.0).all(axis=1))
     if count < coordinates.shape[1] and len(positive):
-        places = (coordinates @ rest)[positive]
+        places = (coordinates @ rest if places is None else np.asarray(places, dtype=np.float64))[positive]
         weights[positive], residual = reproduce_points(indices[positive], weights[positive], rest, places)
         missing = residual > PLACED * np.linalg.norm(np.ptp(rest, axis=0))
         if span and missing.any():
@@ -206,11 +209,18 @@ def fewest_pairs(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     smooth = drag = np.inf
     indices = weights = None
     candidates = _candidates(coordinates, counts)
-    few = _screened(coordinates, interpolation)
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    places, screen = coordinates @ np.asarray(rest, dtype=np.float64), _screened(coordinates, interpolation)
     for count in candidates:
-        if few is not None and count != candidates[-1] and not _deviations_under(*few, count, rest, target)[0]:
-            continue
-        passes, smooth, drag, indices, weights = _deviations_under(coordinates, interpolation, count, rest, target)
+        known = ((), None, None)
+        if screen is not None and count != candidates[-1]:
+            rows, few = screen
+            passes, _, _, *pairs = _deviations_under(coordinates[rows], few, count, rest, target, places[rows])
+            if not passes:
+                continue
+            known = (rows, *pairs)  # those rows' pairs, as they would be placed among all
+        passes, smooth, drag, indices, weights = _deviations_under(coordinates, interpolation, count, rest, target,
+                                                                   places, known)
         if passes:
             return count, smooth, drag, indices, weights
     return None, smooth, drag, indices, weights
@@ -233,11 +243,13 @@ def fewest_slots_bound(coordinates, rest, target, counts=SLOT_COUNTS, interpolat
     True
     """
     candidates = _candidates(coordinates, counts)
-    few = _screened(coordinates, interpolation)
-    if few is None:
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    places, screen = coordinates @ np.asarray(rest, dtype=np.float64), _screened(coordinates, interpolation)
+    if screen is None:
         return candidates[0]
-    return next((count for count in candidates[:-1] if _deviations_under(*few, count, rest, target)[0]),
-                candidates[-1])
+    rows, few = screen
+    return next((count for count in candidates[:-1]
+                 if _deviations_under(coordinates[rows], few, count, rest, target, places[rows])[0]), candidates[-1])
 
 
 def _candidates(coordinates, counts):
@@ -247,22 +259,27 @@ def _candidates(coordinates, counts):
 
 def _screened(coordinates, interpolation):
     """Every SCREEN_STEP-th point of a sample of more than SCREEN_STEP * SCREEN_POINTS:
-    (coordinates, interpolation) as :func:`fewest_pairs` takes them (with
-    ``interpolation``, the nodes those points use, renumbered), else None."""
+    the rows of ``coordinates`` ((j,) int) and their interpolation as :func:`fewest_pairs`
+    takes it (with ``interpolation``, the nodes those points use, renumbered), else None."""
     points = len(coordinates) if interpolation is None else len(interpolation[0])
     if points <= SCREEN_STEP * SCREEN_POINTS:
         return None
     if interpolation is None:
-        return coordinates[::SCREEN_STEP], None
+        return np.arange(0, len(coordinates), SCREEN_STEP), None
     corners, corner_weights = interpolation
     used, local = np.unique(np.asarray(corners[::SCREEN_STEP]), return_inverse=True)
-    return np.asarray(coordinates)[used], (local.reshape(-1, corners.shape[1]), corner_weights[::SCREEN_STEP])
+    return used, (local.reshape(-1, corners.shape[1]), corner_weights[::SCREEN_STEP])
 
 
-def _deviations_under(coordinates, interpolation, count, rest, target):
+def _deviations_under(coordinates, interpolation, count, rest, target, places, known=((), None, None)):
     """Whether ``count`` pairs per row keep both deviations under ``target``, the
-    deviations, and the pairs."""
-    indices, weights = placed_pairs(coordinates, count, rest, span=interpolation is not None)
+    deviations, and the pairs; ``known``: (rows, indices, weights) already placed."""
+    others = np.setdiff1d(np.arange(len(coordinates)), known[0])
+    placed = placed_pairs(coordinates[others], count, rest, interpolation is not None, places[others])
+    indices, weights = (np.empty((len(coordinates),) + part.shape[1:], dtype=part.dtype) for part in placed)
+    indices[others], weights[others] = placed
+    if len(known[0]):
+        indices[known[0]], weights[known[0]] = known[1:]
     smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
     return smooth < target and drag < target, smooth, drag, indices, weights
 
