@@ -166,6 +166,17 @@ def _locations(value, context):
     return value
 
 
+def _inside(value, context):
+    if value is None:
+        return None
+    count = context.point_count
+    if not isinstance(value, np.ndarray) or value.shape != (count,) or value.dtype != np.bool_:
+        shape = getattr(value, "shape", type(value).__name__)
+        raise ValueError(f"inside must be a numpy bool array of shape ({count},) (one per point), got "
+                         f"{shape} {getattr(value, 'dtype', '')}".rstrip())
+    return value
+
+
 def _progress(value, context):
     if value is not None and not callable(value):
         raise ValueError(f"progress must be a callable progress(fraction) or None, got {value!r}")
@@ -345,6 +356,7 @@ CHECKS = {
     "tolerance": lambda value, context: check_tolerance(value),
     "dtype": _dtype,
     "locations": _locations,
+    "inside": _inside,
     "progress": _progress,
     "convex": _convex,
     "c": lambda value, context: _ridge_values(value, context, "c"),

@@ -148,7 +148,7 @@ def inside_points(cage, points):
     return inside_by_grid(cage, cage.local(points), *cage.inside_lookup)[0]
 
 
-def outside_points(cage, points, tolerance, convex):
+def outside_points(cage, points, tolerance, convex, inside=None):
     """The points outside the cage beyond ``tolerance`` (what :data:`OUTSIDE` means to
     :func:`locate`), found without their coordinates: those not inside (a convex cage:
     behind a facet's plane; another: the grid lookup and winding numbers of
@@ -163,6 +163,10 @@ def outside_points(cage, points, tolerance, convex):
         Absolute distance in the cage's frame (as :func:`locate`'s).
     convex : bool
         Whether the cage is convex.
+    inside : (k,) bool, optional
+        Filled with whether each point is inside (behind every facet's plane, or its
+        winding number at least 1/2): the rest are the candidates, for whoever tests
+        the points again (a harmonic field, whose quads are patches: ``in_quad_boxes``).
 
     Returns
     -------
@@ -175,9 +179,12 @@ def outside_points(cage, points, tolerance, convex):
         chunk = max(1, _PAIR_CHUNK * 16 // len(normals))  # (point, facet) distances a batch
         depth = np.concatenate([(offsets - cage.local(points[start:start + chunk]) @ normals.T).min(axis=1)
                                 for start in range(0, len(points), chunk)] or [np.empty(0)])
-        candidates = np.flatnonzero(depth < 0.0)
+        found = depth >= 0.0
     else:
-        candidates = np.flatnonzero(~inside_points(cage, points))
+        found = inside_points(cage, points)
+    if inside is not None:
+        inside[...] = found
+    candidates = np.flatnonzero(~found)
     remaining = points[candidates]
     local = cage.local(remaining)
     corners = cage.facet_corners()  # (m, N, N)

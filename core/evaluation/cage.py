@@ -249,12 +249,12 @@ class Cage:
             locations[rows] = locate_rows(self._prepared, points[rows], absolute, self.convex)
         return locations
 
-    def outside_points(self, points):
+    def outside_points(self, points, inside=None):
         """The points ``outside="raise"`` refuses (outside beyond the tolerance), found
         without their coordinates or those of the others, at a small part of their cost:
-        (o,) int indices, ascending."""
+        (o,) int indices, ascending; ``inside`` ((k,) bool) filled as ``boundary.outside_points``'."""
         return outside_points(self._prepared, np.asarray(points, dtype=np.float64),
-                              self.tolerance * self._prepared.size, self.convex)
+                              self.tolerance * self._prepared.size, self.convex, inside)
 
     # -- shared machinery ----------------------------------------------------------------
 

@@ -5,7 +5,8 @@ inside nodes): ``boundary_values`` (the cage's hat values at nodes outside it, a
 grid edges cross it), ``elimination`` and ``multigrid`` (the Laplace solvers: direct by
 slabs, iterative), ``solve`` (every cage vertex's Shortley-Weller problem),
 ``interpolation`` (trilinear lookup, 8 nodes a point), ``reproduction`` (weights
-reweighted to place their points exactly), ``field`` (the public :class:`HarmonicField`),
+reweighted to place their points exactly), ``inside`` (whether points are inside the
+cage, its quads their patches), ``field`` (the public :class:`HarmonicField`),
 ``grid_field`` (solving one: :func:`harmonic_field`).
 """
 

@@ -10,9 +10,9 @@ import numpy as np
 
 from ..base.errors import OutsideCageError
 from ..base.inputs import checked
-from ..construction.boundary import inside_by_grid
-from .boundary_values import between_split_and_patch, nearest_boundary_points, segment_crossings
+from .boundary_values import nearest_boundary_points, segment_crossings
 from ..base.grid import node_positions
+from .inside import inside_or_on
 from .interpolation import trilinear
 from .reproduction import placing_largest
 
@@ -134,13 +134,14 @@ class HarmonicField:
         local = self._located(points, outside)
         return self._interpolation(local)
 
-    def _located(self, points, outside):
-        """Points in the grid's frame, those outside projected (or refused)."""
+    def _located(self, points, outside, inside=None):
+        """Points in the grid's frame, those outside projected (or refused); ``inside`` as
+        :meth:`sparse_rows`'."""
         if outside == "extrapolate":
             raise ValueError("harmonic coordinates do not extrapolate outside the cage; use "
                              "outside='raise' or outside='project'")
         local = self._prepared.local(points)
-        out = np.flatnonzero(~self._inside_or_on(local))
+        out = np.flatnonzero(~self._inside_or_on(local, inside))
         if len(out) and outside == "raise":
             raise OutsideCageError(out, len(local))
         if len(out):
@@ -179,7 +180,7 @@ class HarmonicField:
         return result
 
     @checked
-    def sparse_rows(self, points, outside="raise"):
+    def sparse_rows(self, points, outside="raise", inside=None):
         """Points' coordinates in two parts: interpolated from their 8 nodes where
         those place themselves exactly, else their own sparse pairs (:meth:`cut_pairs`).
 
@@ -188,6 +189,9 @@ class HarmonicField:
         points : (k, 3) float
         outside : str
             As :meth:`interpolation`.
+        inside : (k,) bool, optional
+            Points known inside the cage, its quads split any way (Bind's refusal): those
+            away from the quads are not tested again (:func:`.inside.inside_or_on`).
 
         Returns
         -------
@@ -209,11 +213,11 @@ class HarmonicField:
             if every and self._last_rows[0][0] == outside:
                 return _every_rows(self._last_rows[1], every)
         if self._last_rows is None or self._last_rows[0] != key:
-            self._last_rows = (key, self._located_rows(points, outside), np.array(points, dtype=np.float64))
+            self._last_rows = (key, self._located_rows(points, outside, inside), np.array(points, dtype=np.float64))
         return tuple(part.copy() for part in self._last_rows[1])
 
-    def _located_rows(self, points, outside):
-        local = self._located(points, outside)
+    def _located_rows(self, points, outside, inside):
+        local = self._located(points, outside, inside)
         nodes, weights = self._interpolation(local)
         cut = self.cut(nodes)
         placed = local[cut] * self._prepared.scale + self._prepared.origin
@@ -280,9 +284,11 @@ class HarmonicField:
 
     def _mixed(self, nodes, weights):
         """The interpolation of the nodes' coordinates: (c, n) float64."""
-        rows = np.zeros((len(nodes), len(self.vertices)))
+        rows, term = np.zeros((len(nodes), len(self.vertices))), np.empty((len(nodes), len(self.vertices)))
         for corner in range(nodes.shape[1]):
-            rows += weights[:, corner, None] * self.node_coordinates[nodes[:, corner]]
+            np.take(self.node_coordinates, nodes[:, corner], axis=0, out=term)
+            term *= weights[:, corner, None]
+            rows += term
         return rows
 
     def _along_the_normal(self, local, rows):
@@ -313,17 +319,11 @@ class HarmonicField:
                 break
         return rows
 
-    def _inside_or_on(self, local):
-        """Whether each point (frame units) is inside the cage or within the tolerance of it."""
-        result, crossed = inside_by_grid(self._prepared, local, self._grid, self._cell_inside, self._surface)
-        if self.faces.shape[1] == 4:  # counted on the quads' triangles: the patches decide between
-            result[crossed] ^= between_split_and_patch(local[crossed], self._prepared.vertices, self.faces)
-        near = crossed[~result[crossed]]
-        if len(near):
-            _, _, distance = nearest_boundary_points(local[near], self._prepared.vertices, self.faces,
-                                                     self._tolerance)
-            result[near] = distance <= self._tolerance
-        return result
+    def _inside_or_on(self, local, inside=None):
+        """Whether each point (frame units) is inside the cage or within the tolerance of it
+        (:func:`.inside.inside_or_on`; ``inside`` as :meth:`sparse_rows`')."""
+        return inside_or_on(self._prepared, local, self.faces, (self._grid, self._cell_inside, self._surface),
+                            self._tolerance, inside)
 
 
 def _every(kept, points):

@@ -284,7 +284,9 @@ def _solved_field(prepared, vertices, triangles, polygons, resolution, progress,
     coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
     del result
     fixed = np.flatnonzero(~solved[measured])
-    np.add.at(coordinates, (measured[fixed, None], columns[fixed]), values[fixed])  # a padding column adds 0
+    # Into their rows of zeros: a padding column (a triangle's fourth, its first corner) holds 0, not written.
+    real = values[fixed] != 0.0
+    coordinates[np.broadcast_to(measured[fixed, None], real.shape)[real], columns[fixed][real]] = values[fixed][real]
     parts["coordinates"], parts["inside"] = coordinates, solved
     parts["exact_within"] = _EXACT * np.linalg.norm(np.ptp(local, axis=0))
     parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, triangles, grid,

@@ -36,8 +36,8 @@ class _Gathered:
         self._rows = None  # (active, its offsets): each step's rows gathered once, not per use
 
     def _part(self, active):
-        if self._rows is None or self._rows[0] is not active:
-            self._rows = (active, self.offsets[:, active])
+        if self._rows is None or self._rows[0] is not active:  # every row (the first step): no copy
+            self._rows = (active, self.offsets if len(active) == self.offsets.shape[1] else self.offsets[:, active])
         return self._rows[1]
 
     def exponent(self, active, multiplier):
@@ -49,14 +49,16 @@ class _Gathered:
 
     def covariance(self, active, scaled, mean, _):
         part = self._part(active)
+        weighted = part * scaled  # each component's weighted offsets once, for its three pairs
         covariance = np.empty((len(active), 3, 3))
         for a, b in _PAIRS:
-            covariance[:, a, b] = covariance[:, b, a] = np.einsum("pk,pk->p", part[a] * scaled, part[b])
+            covariance[:, a, b] = covariance[:, b, a] = np.einsum("pk,pk->p", weighted[a], part[b])
         return covariance - mean[:, :, None] * mean[:, None, :]
 
     def largest_change(self, active, step):
         """Each row's largest exponent change the step makes (exact)."""
-        return np.abs(np.einsum("Npk,pN->pk", self._part(active), step)).max(axis=1)
+        change = np.einsum("Npk,pN->pk", self._part(active), step)
+        return np.abs(change, out=change).max(axis=1)
 
     def residual(self, weights):
         return np.linalg.norm(np.einsum("Npk,pk->pN", self.offsets, weights), axis=1)
@@ -108,13 +110,15 @@ def _newton(prior, geometry, iterations):
     for step_count in range(iterations + 1):
         exponent = geometry.exponent(active, multiplier[active])
         exponent -= exponent.max(axis=1, keepdims=True)
-        scaled = prior[active] * np.exp(exponent)
+        scaled = np.exp(exponent, out=exponent)
+        scaled *= prior[active]
         scaled /= scaled.sum(axis=1, keepdims=True)
-        weights[active] = scaled
         mean, kept = geometry.mean(active, scaled)
         moving = np.abs(mean).max(axis=1) > _CONVERGED
         if not moving.any() or step_count == iterations:
+            weights[active] = scaled
             break
+        weights[active[~moving]] = scaled[~moving]  # the rows stopping here: the others are written later
         active, scaled, mean = active[moving], scaled[moving], mean[moving]
         covariance = geometry.covariance(active, scaled, mean, None if kept is None else kept[moving])
         covariance += 1e-12 * np.eye(3)

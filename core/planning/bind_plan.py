@@ -234,7 +234,7 @@ def _solved_field(cage, request):
     return solve(None) if short else (yield from _beside(solve, 0.5))
 
 
-def _harmonic_sparse(points, cage, request, solved):
+def _harmonic_sparse(points, cage, request, solved, inside):
     """Harmonic coordinates in sparse storage: the two-level plan, as a function making
     it (None where there would be more nodes than points), Automatic's per-vertex pairs
     where they play back faster than that plan, or than exact storage without one
@@ -250,7 +250,7 @@ def _harmonic_sparse(points, cage, request, solved):
     automatic = request.storage == Storage.AUTO
     # Every point located once, by the rows: the field keeps them, for the sample (every
     # few of them) and the pairs' or exact storage's writing.
-    rows = _two_level_rows(points, request, field)
+    rows = _two_level_rows(points, request, field, inside)
     sampled = (figures.solve_points(request, cage, points[::max(1, count // DEVIATION_SAMPLES)], None, field=field)
                if automatic else None)
     report = figures.kind_report(request, cage, field)
@@ -279,9 +279,9 @@ def _harmonic_sparse(points, cage, request, solved):
 
 
 def _plan(points, cage, request):
-    count = len(points)
+    count, inside = len(points), None  # inside: the points the refusal found inside, not tested again
     if request.outside == "raise":  # refused before any coordinates, at a small part of their cost
-        outside = cage.outside_points(points)
+        outside = cage.outside_points(points, inside := np.empty(count, dtype=bool))
         if len(outside):
             raise (GreenOutsideError if request.green else OutsideCageError)(outside, count)
     # Workers are chosen once for the whole plan; each call gives every one a chunk.
@@ -293,7 +293,7 @@ def _plan(points, cage, request):
         if request.storage in (Storage.AUTO, Storage.SPARSE):
             solved = [field]  # handed over, to be freed before the layout
             del field
-            fallback, choice, field = _harmonic_sparse(points, cage, request, solved)
+            fallback, choice, field = _harmonic_sparse(points, cage, request, solved, inside)
             if choice is None and fallback is not None:
                 return fallback()
     choice = choice or first_choice(request, count, cage.vertices, cage.faces)
@@ -336,12 +336,12 @@ def _plan(points, cage, request):
                     indices=indices, **measured)
 
 
-def _two_level_rows(points, request, field):
+def _two_level_rows(points, request, field, inside):
     """The two levels' rows: each point's 8 interpolating grid nodes and their weights,
     and those nodes' coordinates; a point in a cell at the cage (``field.cut``) is a
     node of its own, its corners all that node (its pairs place it exactly, which the
     grid's nodes cannot). None where there would be more nodes than points (per point
-    pairs do better).
+    pairs do better). ``inside``: as ``field.sparse_rows``'.
 
     Returns
     -------
@@ -349,7 +349,7 @@ def _two_level_rows(points, request, field):
     corner_weights : (k, 8) float
     node_rows : (N, n) float
     """
-    corners, corner_weights, cut, columns, values = field.sparse_rows(points, outside=request.outside)
+    corners, corner_weights, cut, columns, values = field.sparse_rows(points, outside=request.outside, inside=inside)
     used, local = two_level.used_nodes(corners[~cut])
     if len(used) + len(columns) > len(points):
         return None

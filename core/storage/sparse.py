@@ -36,8 +36,8 @@ PLACED = 1e-9
 # storage on the cup 13 ms for 8,706 x 322 multiply-adds: on small meshes the iterations
 # cost most.
 GATHER_SECONDS, ITERATION_SECONDS = 5e-9, 90e-6
-# :func:`fewest_pairs` first tries a count on every SCREEN_STEP-th point of a sample of
-# more than SCREEN_STEP * SCREEN_POINTS.
+# :func:`fewest_pairs` first tries a count on every SCREEN_STEP ** 2-th point, then on every
+# SCREEN_STEP-th, each where that holds at least SCREEN_POINTS points.
 SCREEN_STEP, SCREEN_POINTS = 8, 32
 
 
@@ -74,7 +74,7 @@ def largest_pairs(coordinates, count):
     return indices.astype(np.int32), weights
 
 
-def placed_pairs(coordinates, count, rest, span=False):
+def placed_pairs(coordinates, count, rest, span=False, places=None):
     """:func:`largest_pairs`, reweighted to place each row where its full coordinates do.
 
     Dropping the smaller weights moves the point a row places (``sum_j w_j R_j``); rows
@@ -93,6 +93,9 @@ def placed_pairs(coordinates, count, rest, span=False):
         Rows the K largest cannot place get pairs that can (``spanning``): the grid
         nodes of two levels, few beside the points (for every row of a mesh, a cost of 5x
         the Bind's on mean value coordinates).
+    places : (k, 3) float, optional
+        ``coordinates @ rest``, where the caller has it (its rounding depends on the rows:
+        given, each row's pairs are bit for bit its own among any others).
 
     Returns
     -------
@@ -115,7 +118,7 @@ def placed_pairs(coordinates, count, rest, span=False):
     rest = np.asarray(rest, dtype=np.float64)
     positive = np.flatnonzero((weights >= 0.0).all(axis=1))
     if count < coordinates.shape[1] and len(positive):
-        places = (coordinates @ rest)[positive]
+        places = (coordinates @ rest if places is None else np.asarray(places, dtype=np.float64))[positive]
         weights[positive], residual = reproduce_points(indices[positive], weights[positive], rest, places)
         missing = residual > PLACED * np.linalg.norm(np.ptp(rest, axis=0))
         if span and missing.any():
@@ -185,12 +188,11 @@ def fewest_pairs(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     float64, of every row of ``coordinates``: the nodes' with ``interpolation``; where
     none passes, of the last count).
 
-    A count is first tried on every SCREEN_STEP-th point (their nodes, with
-    ``interpolation``), whose deviations (maxima over points, rows computed alone) bound
-    the whole sample's from below: a count that misses there misses on all, without
-    placing every row (the hand's two-level Bind: 3 of 4 counts, on a fifth of its
-    nodes). The last count is always measured on all (its deviations are returned where
-    none passes).
+    A count is tried first on every SCREEN_STEP ** 2-th point, then every SCREEN_STEP-th
+    (their nodes, with ``interpolation``), each try keeping the rows placed before (each
+    row's pairs are its own): deviations are maxima over points, so a count that misses
+    there misses on all (the quadruped's two-level Bind: 4 of 6 counts, on a thirteenth of
+    its nodes). The last count is always measured on all (its deviations returned where none passes).
 
     Examples
     --------
@@ -203,14 +205,13 @@ def fewest_pairs(coordinates, rest, target, counts=SLOT_COUNTS, interpolation=No
     >>> count, indices.shape, bool(np.allclose(weights.sum(axis=1), 1.0))
     (6, (400, 6), True)
     """
-    smooth = drag = np.inf
-    indices = weights = None
+    smooth, drag, indices, weights = np.inf, np.inf, None, None
     candidates = _candidates(coordinates, counts)
-    few = _screened(coordinates, interpolation)
+    coordinates = np.asarray(coordinates, dtype=np.float64)
+    places, screens = coordinates @ np.asarray(rest, dtype=np.float64), _screens(coordinates, interpolation)
     for count in candidates:
-        if few is not None and count != candidates[-1] and not _deviations_under(*few, count, rest, target)[0]:
-            continue
-        passes, smooth, drag, indices, weights = _deviations_under(coordinates, interpolation, count, rest, target)
+        stages = (screens if count != candidates[-1] else []) + [(np.arange(len(coordinates)), interpolation)]
+        passes, (smooth, drag, indices, weights) = _passes(coordinates, stages, count, rest, target, places)
         if passes:
             return count, smooth, drag, indices, weights
     return None, smooth, drag, indices, weights
@@ -232,11 +233,11 @@ def fewest_slots_bound(coordinates, rest, target, counts=SLOT_COUNTS, interpolat
     >>> fewest_slots_bound(rows, vertices, 1e-3, (2, 4, 6)) <= fewest_slots(rows, vertices, 1e-3, (2, 4, 6))[0]
     True
     """
-    candidates = _candidates(coordinates, counts)
-    few = _screened(coordinates, interpolation)
-    if few is None:
+    candidates, coordinates = _candidates(coordinates, counts), np.asarray(coordinates, dtype=np.float64)
+    places, screens = coordinates @ np.asarray(rest, dtype=np.float64), _screens(coordinates, interpolation)
+    if not screens:
         return candidates[0]
-    return next((count for count in candidates[:-1] if _deviations_under(*few, count, rest, target)[0]),
+    return next((count for count in candidates[:-1] if _passes(coordinates, screens, count, rest, target, places)[0]),
                 candidates[-1])
 
 
@@ -245,24 +246,40 @@ def _candidates(coordinates, counts):
     return sorted({min(count, np.shape(coordinates)[1]) for count in counts})
 
 
-def _screened(coordinates, interpolation):
-    """Every SCREEN_STEP-th point of a sample of more than SCREEN_STEP * SCREEN_POINTS:
-    (coordinates, interpolation) as :func:`fewest_pairs` takes them (with
-    ``interpolation``, the nodes those points use, renumbered), else None."""
+def _screens(coordinates, interpolation):
+    """Every SCREEN_STEP ** 2-th point, then every SCREEN_STEP-th, each where there are at least
+    SCREEN_POINTS: [(rows of ``coordinates`` (j,) int, their interpolation as :func:`fewest_pairs`
+    takes it: with ``interpolation``, the nodes those points use, renumbered)]."""
     points = len(coordinates) if interpolation is None else len(interpolation[0])
-    if points <= SCREEN_STEP * SCREEN_POINTS:
-        return None
+    steps = [step for step in (SCREEN_STEP ** 2, SCREEN_STEP) if -(-points // step) >= SCREEN_POINTS]
     if interpolation is None:
-        return coordinates[::SCREEN_STEP], None
+        return [(np.arange(0, len(coordinates), step), None) for step in steps]
     corners, corner_weights = interpolation
-    used, local = np.unique(np.asarray(corners[::SCREEN_STEP]), return_inverse=True)
-    return np.asarray(coordinates)[used], (local.reshape(-1, corners.shape[1]), corner_weights[::SCREEN_STEP])
+    found = [(np.unique(np.asarray(corners[::step]), return_inverse=True), step) for step in steps]
+    return [(used, (local.reshape(-1, corners.shape[1]), corner_weights[::step])) for (used, local), step in found]
 
 
-def _deviations_under(coordinates, interpolation, count, rest, target):
-    """Whether ``count`` pairs per row keep both deviations under ``target``, the
-    deviations, and the pairs."""
-    indices, weights = placed_pairs(coordinates, count, rest, span=interpolation is not None)
+def _passes(coordinates, stages, count, rest, target, places):
+    """Whether ``count`` pairs per row pass every stage ((rows of ``coordinates``, their interpolation),
+    each placing the rows the one before did not), and the last stage's (smooth, drag, indices, weights)."""
+    rows, pairs = np.zeros(0, dtype=np.int64), (np.zeros((0, 1), dtype=np.int32), np.zeros((0, 1)))
+    for stage, interpolation in stages:
+        passes, *found = _deviations_under(coordinates[stage], interpolation, count, rest, target, places[stage],
+                                           (np.searchsorted(stage, rows), *pairs))
+        if not passes:
+            break
+        rows, pairs = stage, found[2:]
+    return passes, found
+
+
+def _deviations_under(coordinates, interpolation, count, rest, target, places, known):
+    """Whether ``count`` pairs per row keep both deviations under ``target``, the deviations
+    and the pairs; ``known``: (rows, indices, weights) already placed."""
+    others = np.setdiff1d(np.arange(len(coordinates)), known[0])
+    placed = placed_pairs(coordinates[others], count, rest, interpolation is not None, places[others])
+    indices, weights = (np.empty((len(coordinates),) + part.shape[1:], dtype=part.dtype) for part in placed)
+    indices[others], weights[others] = placed
+    indices[known[0]], weights[known[0]] = known[1:]
     smooth, drag, _ = deviations(coordinates, indices, weights.astype(np.float32), rest, interpolation)
     return smooth < target and drag < target, smooth, drag, indices, weights
 

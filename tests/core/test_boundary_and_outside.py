@@ -288,8 +288,10 @@ def test_outside_points_are_those_point_locations_calls_outside(shape):
     """``Cage.outside_points`` (no coordinates, no plane distances of every pair for a
     non-convex cage) finds what ``outside="raise"`` refuses: points at the tolerance's
     threshold along facets' normals, beyond sharp apices, in the gaps of a non-convex
-    cage and far away."""
+    cage and far away; those it found inside (``inside``) are those of winding number
+    at least 1/2, of whatever the points' locations say is inside or on the cage."""
     from gencoords.cages.shapes import block_cage, t_pose_blocks
+    from gencoords.construction import boundary
 
     tolerance = 1e-6
     if shape == "t_pose":  # non-convex: arms, legs, gaps between them
@@ -308,10 +310,17 @@ def test_outside_points_are_those_point_locations_calls_outside(shape):
     points = np.vstack([rng.uniform(low, high, (3000, 3)), centres + offsets * normals, vertices * 1.0001])
     with gencoords.Cage(vertices, faces, tolerance=tolerance) as cage:
         assert cage.convex == (shape == "icosphere")
-        expected = np.flatnonzero(cage.point_locations(points) == gencoords.OUTSIDE)
-        found = cage.outside_points(points)
+        locations = cage.point_locations(points)
+        expected = np.flatnonzero(locations == gencoords.OUTSIDE)
+        inside = np.empty(len(points), dtype=bool)
+        found = cage.outside_points(points, inside)
+        winding = boundary.winding_numbers(cage._prepared, points)
     np.testing.assert_array_equal(found, expected)
     assert 0 < len(expected) < len(points)
+    assert not inside[found].any() and (locations[inside] != gencoords.OUTSIDE).all()
+    confident = np.abs(winding - 0.5) > 0.25  # not on the surface, where rounding may say either
+    np.testing.assert_array_equal(inside[confident], winding[confident] >= 0.5)
+    assert 0 < inside.sum() < len(points)
 
 
 def test_outside_points_beyond_a_sharp_apex_within_tolerance_of_its_planes():

@@ -143,9 +143,9 @@ def test_the_cups_bind_locates_and_places_its_points_once_and_writes_what_the_fi
     calls, fields = [], []
     located, solved = field_module.HarmonicField._located, bind_plan.harmonic_quad_field
 
-    def counted(self, points, outside):
+    def counted(self, points, outside, inside=None):
         calls.append(len(points))
-        return located(self, points, outside)
+        return located(self, points, outside, inside)
 
     def kept(*args, **kwargs):
         fields.append(solved(*args, **kwargs))

@@ -156,3 +156,53 @@ def test_the_nearest_patch_parameters_stop_stepping_only_at_a_fixed_point():
     parameters, distance = quad_cage.bilinear_parameters(points, corners)
     np.testing.assert_array_equal(parameters, np.stack([u, v], axis=1))
     assert distance[::2].max() < 1e-12 * np.ptp(vertices)
+
+
+def _sliver_point(vertices, quads):
+    """A point between the most bent quad's patch and one of its splits, outside the
+    patch: (3,) float."""
+    corners = vertices[quads]
+    twist = corners[:, 0] - corners[:, 1] + corners[:, 2] - corners[:, 3]
+    bent = int(np.argmax(np.linalg.norm(twist, axis=1)))
+    centre = corners[bent].mean(axis=0)
+    inward = vertices.mean(axis=0) - centre
+    return centre - inward * 0.08 * np.linalg.norm(twist[bent]) / np.linalg.norm(inward)
+
+
+def test_points_known_inside_are_located_the_same(box):
+    """``sparse_rows(inside=...)``: the points a winding test on the quads' triangles found
+    inside are not tested again away from the quads' boxes, and the rows are bit for bit
+    those found without; a point between a split and the patch is refused all the same."""
+    vertices, quads, (field, _) = box
+    points = _inside(vertices, count=200)
+    inside = np.ones(len(points), dtype=bool)
+    for got, expected in zip(field.sparse_rows(points, inside=inside), field.sparse_rows(points + 0.0)):
+        np.testing.assert_array_equal(got, expected)
+    with_sliver = np.vstack([points, _sliver_point(vertices, quads)])
+    with pytest.raises(gencoords.OutsideCageError) as refused:
+        field.sparse_rows(with_sliver, inside=np.ones(len(with_sliver), dtype=bool))
+    assert list(refused.value.indices) == [len(points)]
+    for wrong in (inside[:-1], inside.astype(np.int8), list(inside)):
+        with pytest.raises(ValueError, match=r"inside must be a numpy bool array of shape \(200,\)"):
+            field.sparse_rows(points, inside=wrong)
+
+
+def test_a_bind_refuses_a_point_outside_the_patches_whatever_the_cages_triangles():
+    """The Bind's refusal tests the cage's triangles; the field, told which points that
+    found inside, still tests those in a quad's box against its patch: a point inside
+    one split but outside the patch is refused with either split as the cage's triangles."""
+    from gencoords.planning.bind_plan import plan_bind
+    from gencoords.planning.request import BindRequest
+
+    vertices, quads = _bent_box()
+    points = np.vstack([_inside(vertices, count=40), _sliver_point(vertices, quads)])
+    passed_the_refusal = []
+    for shift in (0, 1):
+        triangles = fan_split(np.roll(quads, -shift, axis=1))[0]
+        passed_the_refusal.append(len(gencoords.Cage(vertices, triangles).outside_points(points)) == 0)
+        steps = plan_bind(points, vertices, triangles, BindRequest("harmonic", polygons=quads, resolution=8,
+                                                                   workers=1))
+        with pytest.raises(gencoords.OutsideCageError) as refused:
+            list(steps)
+        assert list(refused.value.indices) == [len(points) - 1]
+    assert passed_the_refusal.count(True) == 1  # one split holds the point: the field refuses it

@@ -134,6 +134,29 @@ def test_counts_tried_on_every_eighth_point_first_choose_as_every_point_does(cag
     np.testing.assert_array_equal(screened[4], everywhere[4])
 
 
+@pytest.mark.parametrize("target", [3e-2, 1e-2, 5e-3])
+def test_the_screened_nodes_pairs_kept_for_every_point_are_those_of_placing_all_nodes(cage_and_coordinates,
+                                                                                     monkeypatch, target):
+    """Two levels: a count is tried on every 64th point's nodes, then every 8th's, then
+    every node's, each try keeping the nodes placed before and placing the others; the
+    count, deviations and pairs are bit for bit those of placing every node at each count."""
+    vertices, _, node_coordinates = cage_and_coordinates  # 300 grid nodes
+    rng = np.random.default_rng(12)
+    corners = rng.integers(0, len(node_coordinates), (2100, 4))  # screened on 33 points, then on 263
+    interpolation = (corners, rng.dirichlet(np.ones(4), len(corners)))
+    counts = (4, 8, 16, 24, 32, 40)
+    placed, place = [], sparse.placed_pairs
+    monkeypatch.setattr(sparse, "placed_pairs", lambda rows, *rest: placed.append(len(rows)) or place(rows, *rest))
+    screened = sparse.fewest_pairs(node_coordinates, vertices, target, counts, interpolation)
+    assert placed[0] == len(np.unique(corners[::sparse.SCREEN_STEP ** 2])) < len(node_coordinates) / 2
+    monkeypatch.setattr(sparse, "SCREEN_POINTS", 10**9)
+    everywhere = sparse.fewest_pairs(node_coordinates, vertices, target, counts, interpolation)
+    assert screened[0] not in (None, counts[-1])  # a count before the last passed its screen
+    assert screened[:3] == everywhere[:3]
+    np.testing.assert_array_equal(screened[3], everywhere[3])
+    np.testing.assert_array_equal(screened[4], everywhere[4])
+
+
 def test_two_level_node_pairs_are_each_nodes_own_whatever_the_sample(cage_and_coordinates):
     """The sample's nodes keep the pairs chosen on it, the others are placed after: each
     node's pairs are those of placing every node at once (rows computed alone)."""
