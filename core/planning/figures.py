@@ -90,15 +90,17 @@ def written_slots(request, cage, points, choice, workers, field=None):
         weights = reproduced[:, :len(cage.vertices)]
         sums = weights.sum(axis=1)
         totals["max_affine_error"] = max(totals["max_affine_error"], float(np.abs(sums - 1.0).max(initial=0.0)))
-        magnitudes = np.abs(weights).sum(axis=1)  # what multiplies the cage's rounding
-        totals["weight_magnitude"] = max(totals["weight_magnitude"], float(magnitudes.max(initial=0.0)))
         precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
         similarity = max(similarity, similarity_deviation(weights @ cage.vertices, sums, points[part], cage.vertices))
-        residual = np.subtract(coordinates, reproduced, out=reproduced)
+        # The residual and the weights' sizes in the two (j, rows) arrays there are: a
+        # third (the cup: 22 MB) was its Bind's peak.
+        residual = np.subtract(coordinates, reproduced, out=coordinates)
+        magnitudes = np.abs(weights, out=weights).sum(axis=1)  # what multiplies the cage's rounding
+        totals["weight_magnitude"] = max(totals["weight_magnitude"], float(magnitudes.max(initial=0.0)))
         chunk_smooth, chunk_drag = residual_deviations(residual, cage.vertices, faces=faces)
         smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
         # With workers, shared memory: freed before the next chunk's.
-        del coordinates, residual
+        del coordinates, residual, reproduced, weights
         yield part.stop / count
     return slots, indices, locations, {
         "min_coordinate": float(totals["min"]), "negative_points": totals["negative_points"],
