@@ -27,6 +27,8 @@ CUT_SUPPORT = 32
 # Of the nearest exact node's coordinates added to a prior that cannot reach its point.
 _WIDENING = 1e-2
 _CUT_POINTS = 2048  # points in cut cells placed at a time (each point's pairs are its own)
+_FIRST_MATCHES = 4  # kept points where a run or sample may start (a point repeated: a few)
+_MIXED_ENTRIES = 1 << 16  # (point, cage vertex) entries interpolated at a time (0.5 MB of float64)
 
 
 class HarmonicField:
@@ -174,7 +176,13 @@ class HarmonicField:
         """
         nodes, weights, cut, columns, values = self.sparse_rows(points, outside)
         result = np.zeros((len(nodes), len(self.vertices)), dtype=dtype)
-        result[~cut] = self._mixed(nodes[~cut], weights[~cut])
+        mixed = np.flatnonzero(~cut)
+        # A block of rows at a time: the whole interpolation beside the result (and its
+        # corners' products) were a hand's Bind peak; each row is its own.
+        step = max(1, _MIXED_ENTRIES // len(self.vertices))
+        for start in range(0, len(mixed), step):
+            block = mixed[start:start + step]
+            result[block] = self._mixed(nodes[block], weights[block])
         result[np.flatnonzero(cut)[:, None], columns] = values  # into the zeros: no (c, n) block beside
         return result
 
@@ -199,15 +207,15 @@ class HarmonicField:
             Those c points' pairs (:meth:`cut_pairs`).
         """
         # A Bind asks up to three times for the same points (two levels' rows; Automatic's
-        # sample, every few of them; then the pairs' or exact storage's coordinates where
-        # two levels would not do): located and placed once, the rows of the last set
-        # asked for kept (each caller gets copies to write into), a sample of every s-th
-        # of its points taken from them.
+        # sample, every few of them; then the pairs' or exact storage's coordinates, chunk
+        # by chunk, where two levels would not do): located and placed once, the rows of
+        # the last set asked for kept (each caller gets copies to write into), a sample of
+        # every s-th of its points or a run of them taken from them.
         key = (outside, points.shape, hashlib.blake2b(np.ascontiguousarray(points).tobytes(), digest_size=16).digest())
-        if self._last_rows is not None and self._last_rows[0] != key:
-            every = _every(self._last_rows[2], points)
-            if every and self._last_rows[0][0] == outside:
-                return _every_rows(self._last_rows[1], every)
+        if self._last_rows is not None and self._last_rows[0] != key and self._last_rows[0][0] == outside:
+            taken = _taken(self._last_rows[2], points)
+            if taken is not None:
+                return _taken_rows(self._last_rows[1], taken)
         if self._last_rows is None or self._last_rows[0] != key:
             self._last_rows = (key, self._located_rows(points, outside), np.array(points, dtype=np.float64))
         return tuple(part.copy() for part in self._last_rows[1])
@@ -326,23 +334,36 @@ class HarmonicField:
         return result
 
 
-def _every(kept, points):
-    """The s for which ``points`` ((j, 3)) are every s-th of the points ``kept`` ((k, 3))
-    from the first, or None."""
+def _taken(kept, points):
+    """The slice of the points ``kept`` ((k, 3)) that ``points`` ((j, 3)) are, or None: a
+    run of them (a Bind's chunk) or every s-th of them from one on to about the last (a
+    sample).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.harmonic.field import _taken
+    >>> kept = np.arange(30.0).reshape(10, 3)
+    >>> _taken(kept, kept[3:7]), _taken(kept, kept[::4]), _taken(kept, kept[1::4]), _taken(kept, kept[::-1])
+    (slice(3, 7, 1), slice(0, 9, 4), slice(1, 10, 4), None)
+    """
     points = np.asarray(points, dtype=np.float64)
     if points.ndim != 2 or not len(points) or len(points) > len(kept):
         return None
-    every = max(1, (len(kept) - 1) // max(1, len(points) - 1)) if len(points) > 1 else len(kept)
-    if len(kept[::every]) != len(points) or not np.array_equal(kept[::every], points):
-        return None
-    return every
+    for start in np.flatnonzero((kept == points[0]).all(axis=1))[:_FIRST_MATCHES]:
+        every = max(1, (len(kept) - 1 - start) // max(1, len(points) - 1))
+        for step in dict.fromkeys((1, every)):
+            taken = slice(int(start), int(start) + step * (len(points) - 1) + 1, step)
+            if len(kept[taken]) == len(points) and np.array_equal(kept[taken], points):
+                return taken
+    return None
 
 
-def _every_rows(rows, every):
-    """:meth:`HarmonicField.sparse_rows`' rows of every ``every``-th point, from those of
-    all (copies: each point's rows are its own)."""
+def _taken_rows(rows, taken):
+    """:meth:`HarmonicField.sparse_rows`' rows of the points ``taken`` (a slice), from
+    those of all (copies: each point's rows are its own)."""
     nodes, weights, cut, columns, values = rows
-    taken = np.arange(0, len(cut), every)
+    taken = np.arange(len(cut))[taken]
     pairs = (np.cumsum(cut) - 1)[taken[cut[taken]]]  # their rows among the cut points'
     return nodes[taken], weights[taken], cut[taken], columns[pairs], values[pairs]
 

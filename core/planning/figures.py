@@ -24,6 +24,9 @@ __all__ = ["origin_distance"]
 # Coordinates computed per chunk of points: progress and cancel granularity, and the
 # bound on the dense float64 block a chunk makes (points x cage vertices).
 CHUNK_ENTRIES = 4_000_000  # per worker process
+# Harmonic coordinates are looked up in this process, whatever the workers: a chunk's
+# (points x cage vertices) float64 blocks of 8 MB (the cup's three of 22 MB were its peak).
+FIELD_CHUNK_ENTRIES = 1 << 20
 REPORT_SAMPLES = 1000  # points inside the cage coordinate_report examines
 
 
@@ -73,7 +76,7 @@ def written_slots(request, cage, points, choice, workers, field=None):
     precision = similarity = 0.0
     smooth, drag = 0.0, np.zeros(len(cage.vertices))
     faces = cage.faces if request.green else None
-    chunk = max(1, CHUNK_ENTRIES * workers // rows)
+    chunk = max(1, (CHUNK_ENTRIES * workers if field is None else FIELD_CHUNK_ENTRIES) // rows)
     for start in range(0, count, chunk):
         part = slice(start, min(start + chunk, count))
         coordinates = solve_points(request, cage, points[part], workers, locations[part], field)

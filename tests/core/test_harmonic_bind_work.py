@@ -188,23 +188,32 @@ def test_the_rows_given_twice_are_copies(cup):
     other = field.sparse_rows(points[::2])  # a sample of them: taken from their rows, which stay
     np.testing.assert_array_equal(other[0], second[0][::2])
     assert field._last_rows[0][1] == points.shape
-    field.sparse_rows(points[1::2])
+    field.sparse_rows(points[1::2][::-1])  # neither a run nor a sample of them
     assert field._last_rows[0][1] == points[1::2].shape  # only the last set's rows are kept
 
 
-def test_a_sample_of_every_few_points_takes_their_rows_from_every_points(cup):
+@pytest.mark.parametrize("taken", [slice(None, None, 1), slice(None, None, 4), slice(None, None, 7),
+                                   slice(None, None, 10_000), slice(1, None, 4), slice(100, 400), slice(-57, None)],
+                         ids=["all", "every-4th", "every-7th", "the-first", "every-4th-from-1", "a-run", "the-last-run"])
+def test_a_sample_or_a_run_of_the_points_takes_their_rows_from_every_points(cup, taken):
+    """Automatic's sample (every few points) and the written chunks (runs of them) are
+    served from the rows of every point, kept: each row is its own, so they are those
+    located and placed afresh, bit for bit."""
     field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=12, tolerance=FLOAT32)
     points = cup.mesh_vertices[::3]
     every = field.sparse_rows(points)
-    for step in (1, 4, 7, len(points)):
-        taken = field.sparse_rows(points[::step])  # from every point's rows, which stay kept
-        field._last_rows, kept = None, field._last_rows
-        alone = field.sparse_rows(points[::step])  # located and placed afresh
-        field._last_rows = kept
-        for part, again in zip(taken, alone):
-            np.testing.assert_array_equal(part, again)
-        assert not any(np.shares_memory(part, whole) for part, whole in zip(taken, every))
-    assert field.sparse_rows(points[1::4])[0].shape == (len(points[1::4]), CORNER_COUNT)  # not from the first: located
+    located = []
+    field._located = lambda *args: located.append(1) or field_module.HarmonicField._located(field, *args)
+    rows = field.sparse_rows(points[taken])  # from every point's rows, which stay kept
+    assert not located and field._last_rows[0][1] == points.shape
+    field._last_rows, kept = None, field._last_rows
+    alone = field.sparse_rows(points[taken])  # located and placed afresh
+    assert located
+    for part, again in zip(rows, alone):
+        np.testing.assert_array_equal(part, again)
+    assert not any(np.shares_memory(part, whole) for part, whole in zip(rows, every))
+    field._last_rows = kept
+    assert field.sparse_rows(points[taken][::-1])[0].shape == (len(points[taken]), CORNER_COUNT)  # located
 
 def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_keep(cup):
     """The field reweights its solved nodes a few batches at a time, in place (a copy of
