@@ -218,15 +218,17 @@ def test_a_sample_or_a_run_of_the_points_takes_their_rows_from_every_points(cup,
 def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_keep(cup):
     """The field reweights its solved nodes a few batches at a time, in place (a copy of
     every solved row and its result beside the field were the cup's peak: 1.6 times the
-    nodes' coordinates), and the points' coordinates are written into their result (the
-    cut points' rows were a second block as large)."""
+    nodes' coordinates), its solved rows grown into all the nodes' (the solver's result
+    beside them, and batches of 1M entries, were a third of them more), and the points'
+    coordinates are written into their result (the cut points' rows were a second block
+    as large)."""
     import tracemalloc
 
     tracemalloc.start()
     try:
         field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=48, tolerance=FLOAT32, workers=1)
         kept, peak = tracemalloc.get_traced_memory()
-        assert peak < kept + 0.35 * field.node_coordinates.nbytes
+        assert peak < kept + 0.2 * field.node_coordinates.nbytes
         field.sparse_rows(cup.mesh_vertices)  # located once, as the Bind does first
         tracemalloc.reset_peak()
         before, _ = tracemalloc.get_traced_memory()
@@ -236,3 +238,26 @@ def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_
         tracemalloc.stop()
     assert field.cut(field.interpolation(cup.mesh_vertices)[0]).mean() > 0.5  # most are cut: their rows count
     assert peak - before < 1.6 * coordinates.nbytes
+
+
+@pytest.mark.parametrize("count, solved, width", [(1, 0, 3), (1, 1, 3), (5000, 1234, 322), (3000, 2999, 700)])
+def test_solved_rows_grow_in_place_into_every_nodes_rows(count, solved, width):
+    """The solver's rows moved to their nodes' places, the others zero, bit for bit as a
+    scatter into zeros, with no second copy of them beside (the cup's field: 25 MB)."""
+    import tracemalloc
+
+    rng = np.random.default_rng(count + solved)
+    positions = np.sort(rng.choice(count, solved, replace=False))
+    expected = np.zeros((count, width))
+    expected[positions] = rng.random((solved, width))
+    tracemalloc.start()
+    try:
+        rows = expected[positions]  # traced: what it grows from is counted before
+        tracemalloc.reset_peak()
+        before, _ = tracemalloc.get_traced_memory()
+        spread = grid_field._spread_rows(rows, positions, count)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    np.testing.assert_array_equal(spread, expected)
+    assert peak - before < (count - solved) * width * 8 + 2 * (grid_field._MOVED_ENTRIES + width) * 8 + 16 * count
