@@ -177,8 +177,8 @@ class HarmonicField:
         nodes, weights, cut, columns, values = self.sparse_rows(points, outside)
         result = np.zeros((len(nodes), len(self.vertices)), dtype=dtype)
         mixed = np.flatnonzero(~cut)
-        # A block of rows at a time: the whole interpolation beside the result (and its
-        # corners' products) were a hand's Bind peak; each row is its own.
+        # A block of rows at a time: the whole interpolation beside the result was a
+        # hand's Bind peak; each row is its own.
         step = max(1, _MIXED_ENTRIES // len(self.vertices))
         for start in range(0, len(mixed), step):
             block = mixed[start:start + step]
@@ -287,10 +287,14 @@ class HarmonicField:
         return columns, values
 
     def _mixed(self, nodes, weights):
-        """The interpolation of the nodes' coordinates: (c, n) float64."""
+        """The interpolation of the nodes' coordinates: (c, n) float64, a block of rows
+        at a time (a corner's rows and their products: no (c, n) temporaries beside)."""
         rows = np.zeros((len(nodes), len(self.vertices)))
-        for corner in range(nodes.shape[1]):
-            rows += weights[:, corner, None] * self.node_coordinates[nodes[:, corner]]
+        step = max(1, _MIXED_ENTRIES // len(self.vertices))
+        for start in range(0, len(nodes), step):
+            block = slice(start, start + step)
+            for corner in range(nodes.shape[1]):
+                rows[block] += weights[block, corner, None] * self.node_coordinates[nodes[block, corner]]
         return rows
 
     def _along_the_normal(self, local, rows):
