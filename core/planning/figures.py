@@ -25,8 +25,8 @@ __all__ = ["origin_distance"]
 # bound on the dense float64 block a chunk makes (points x cage vertices).
 CHUNK_ENTRIES = 4_000_000  # per worker process
 # Harmonic coordinates are looked up in this process, whatever the workers: a chunk's
-# (points x cage vertices) float64 blocks of 8 MB (the cup's three of 22 MB were its peak).
-FIELD_CHUNK_ENTRIES = 1 << 20
+# (points x cage vertices) float64 blocks of 4 MB (the cup's three of 22 MB were its peak).
+FIELD_CHUNK_ENTRIES = 1 << 19
 REPORT_SAMPLES = 1000  # points inside the cage coordinate_report examines
 
 
