@@ -15,6 +15,7 @@ from .boundary_values import between_split_and_patch, nearest_boundary_points, s
 from ..base.grid import node_positions
 from .interpolation import trilinear
 from .reproduction import placing_largest
+from .taken_points import taken_rows, taken_slice
 
 __all__ = ["DEFAULT_RESOLUTION", "HarmonicField"]
 
@@ -27,7 +28,6 @@ CUT_SUPPORT = 32
 # Of the nearest exact node's coordinates added to a prior that cannot reach its point.
 _WIDENING = 1e-2
 _CUT_POINTS = 1024  # points in cut cells placed at a time (each point's pairs are its own)
-_FIRST_MATCHES = 4  # kept points where a run or sample may start (a point repeated: a few)
 _MIXED_ENTRIES = 1 << 16  # (point, cage vertex) entries interpolated at a time (0.5 MB of float64)
 
 
@@ -176,13 +176,7 @@ class HarmonicField:
         """
         nodes, weights, cut, columns, values = self.sparse_rows(points, outside)
         result = np.zeros((len(nodes), len(self.vertices)), dtype=dtype)
-        mixed = np.flatnonzero(~cut)
-        # A block of rows at a time: the whole interpolation beside the result was a
-        # hand's Bind peak; each row is its own.
-        step = max(1, _MIXED_ENTRIES // len(self.vertices))
-        for start in range(0, len(mixed), step):
-            block = mixed[start:start + step]
-            result[block] = self._mixed(nodes[block], weights[block])
+        self._mixed(nodes, weights, result, np.flatnonzero(~cut))  # no (k, n) interpolation beside: a hand's peak
         result[np.flatnonzero(cut)[:, None], columns] = values  # into the zeros: no (c, n) block beside
         return result
 
@@ -213,9 +207,9 @@ class HarmonicField:
         # every s-th of its points or a run of them taken from them.
         key = (outside, points.shape, hashlib.blake2b(np.ascontiguousarray(points).tobytes(), digest_size=16).digest())
         if self._last_rows is not None and self._last_rows[0] != key and self._last_rows[0][0] == outside:
-            taken = _taken(self._last_rows[2], points)
+            taken = taken_slice(self._last_rows[2], points)
             if taken is not None:
-                return _taken_rows(self._last_rows[1], taken)
+                return taken_rows(self._last_rows[1], taken)
         if self._last_rows is None or self._last_rows[0] != key:
             self._last_rows = (key, self._located_rows(points, outside), np.array(points, dtype=np.float64))
         return tuple(part.copy() for part in self._last_rows[1])
@@ -286,16 +280,19 @@ class HarmonicField:
             columns[short[better]], values[short[better]] = across[better], across_values[better]
         return columns, values
 
-    def _mixed(self, nodes, weights):
-        """The interpolation of the nodes' coordinates: (c, n) float64, a block of rows
-        at a time (a corner's rows and their products: no (c, n) temporaries beside)."""
-        rows = np.zeros((len(nodes), len(self.vertices)))
+    def _mixed(self, nodes, weights, out=None, rows=None):
+        """The interpolation of the nodes' coordinates: (c, n) float64, or into ``out``'s
+        ``rows``; a block of rows at a time (no (c, n) temporaries beside; each row alone)."""
+        out = np.zeros((len(nodes), len(self.vertices))) if out is None else out
+        rows = np.arange(len(nodes)) if rows is None else rows
         step = max(1, _MIXED_ENTRIES // len(self.vertices))
-        for start in range(0, len(nodes), step):
-            block = slice(start, start + step)
+        for start in range(0, len(rows), step):
+            block = rows[start:start + step]
+            mixed = np.zeros((len(block), len(self.vertices)))
             for corner in range(nodes.shape[1]):
-                rows[block] += weights[block, corner, None] * self.node_coordinates[nodes[block, corner]]
-        return rows
+                mixed += weights[block, corner, None] * self.node_coordinates[nodes[block, corner]]
+            out[block] = mixed
+        return out
 
     def _along_the_normal(self, local, rows):
         """Priors that span points near the cage ((c, 3), frame units): ``(1 - t) hat(p)
@@ -336,40 +333,6 @@ class HarmonicField:
                                                      self._tolerance)
             result[near] = distance <= self._tolerance
         return result
-
-
-def _taken(kept, points):
-    """The slice of the points ``kept`` ((k, 3)) that ``points`` ((j, 3)) are, or None: a
-    run of them (a Bind's chunk) or every s-th of them from one on to about the last (a
-    sample).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.harmonic.field import _taken
-    >>> kept = np.arange(30.0).reshape(10, 3)
-    >>> _taken(kept, kept[3:7]), _taken(kept, kept[::4]), _taken(kept, kept[1::4]), _taken(kept, kept[::-1])
-    (slice(3, 7, 1), slice(0, 9, 4), slice(1, 10, 4), None)
-    """
-    points = np.asarray(points, dtype=np.float64)
-    if points.ndim != 2 or not len(points) or len(points) > len(kept):
-        return None
-    for start in np.flatnonzero((kept == points[0]).all(axis=1))[:_FIRST_MATCHES]:
-        every = max(1, (len(kept) - 1 - start) // max(1, len(points) - 1))
-        for step in dict.fromkeys((1, every)):
-            taken = slice(int(start), int(start) + step * (len(points) - 1) + 1, step)
-            if len(kept[taken]) == len(points) and np.array_equal(kept[taken], points):
-                return taken
-    return None
-
-
-def _taken_rows(rows, taken):
-    """:meth:`HarmonicField.sparse_rows`' rows of the points ``taken`` (a slice), from
-    those of all (copies: each point's rows are its own)."""
-    nodes, weights, cut, columns, values = rows
-    taken = np.arange(len(cut))[taken]
-    pairs = (np.cumsum(cut) - 1)[taken[cut[taken]]]  # their rows among the cut points'
-    return nodes[taken], weights[taken], cut[taken], columns[pairs], values[pairs]
 
 
 def _across_the_part(local, vertices, faces, spacing):
