@@ -261,3 +261,33 @@ def test_solved_rows_grow_in_place_into_every_nodes_rows(count, solved, width):
         tracemalloc.stop()
     np.testing.assert_array_equal(spread, expected)
     assert peak - before < (count - solved) * width * 8 + 2 * (grid_field._MOVED_ENTRIES + width) * 8 + 16 * count
+
+
+def test_the_cups_written_chunks_give_the_same_plan_bit_for_bit_whatever_their_size(monkeypatch):
+    """The per-vertex pairs are written a few MB of coordinates at a time (the cup's one
+    chunk of 22 MB, three times over, was its Bind's peak); each row's pairs and figures
+    are its own, so chunks of any size give the same plan, every field bit for bit."""
+    import dataclasses
+
+    from gencoords.planning import figures
+    from gencoords.planning.bind_steps import run_to_end
+
+    scene = artist_cages.cup(0.3)
+    request = BindRequest("harmonic", tolerance=FLOAT32, polygons=_polygons(scene), resolution=32, workers=1)
+    chunks = []
+    solve_points = figures.solve_points
+    monkeypatch.setattr(figures, "solve_points", lambda *args, **kwargs: chunks.append(len(args[2])) or
+                        solve_points(*args, **kwargs))
+    plans = []
+    for entries in (1 << 30, 100 * len(scene.cage_vertices)):  # one chunk; chunks of 100 points
+        monkeypatch.setattr(figures, "FIELD_CHUNK_ENTRIES", entries)
+        chunks.clear()
+        plans.append(run_to_end(plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles, request)))
+    assert plans[0].storage == "SPARSE" and plans[0].node_indices is None  # the per-vertex pairs: written
+    assert chunks.count(100) == len(scene.mesh_vertices) // 100  # and Automatic's sample before them
+    for field in dataclasses.fields(plans[0]):
+        first, second = getattr(plans[0], field.name), getattr(plans[1], field.name)
+        if isinstance(first, np.ndarray):
+            assert first.dtype == second.dtype and first.tobytes() == second.tobytes(), field.name
+        else:
+            assert repr(first) == repr(second), field.name
