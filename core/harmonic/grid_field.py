@@ -116,9 +116,10 @@ def _beyond_the_hull(positions, vertices, triangles, margin):
 
 
 def _spread_rows(rows, positions, count):
-    """``rows`` ((u, n) float, owning its memory) grown in place to (count, n), row i
-    moved to ``positions[i]`` ((u,) increasing), the other rows zero: the solved nodes'
-    coordinates among all the nodes' with no (u, n) copy beside (the cup: 25 MB).
+    """``rows`` ((u, n) float) grown in place to (count, n), row i moved to
+    ``positions[i]`` ((u,) increasing), the other rows zero: the solved nodes' coordinates
+    among all the nodes' with no (u, n) copy beside (the cup: 25 MB). Rows not in C order
+    or not owning their memory (the workers' solve: a transpose) are copied first.
 
     Examples
     --------
@@ -127,6 +128,8 @@ def _spread_rows(rows, positions, count):
     >>> _spread_rows(np.array([[1.0, 2.0], [3.0, 4.0]]), np.array([1, 3]), 4).tolist()
     [[0.0, 0.0], [1.0, 2.0], [0.0, 0.0], [3.0, 4.0]]
     """
+    if not (rows.flags.c_contiguous and rows.flags.owndata):  # resize would keep another layout
+        rows = np.array(rows, order="C")
     moved = len(rows)
     rows.resize((count, rows.shape[1]), refcheck=False)  # realloc: the pages are remapped, not copied
     step = max(1, _MOVED_ENTRIES // max(1, rows.shape[1]))
