@@ -291,3 +291,28 @@ def test_the_cups_written_chunks_give_the_same_plan_bit_for_bit_whatever_their_s
             assert first.dtype == second.dtype and first.tobytes() == second.tobytes(), field.name
         else:
             assert repr(first) == repr(second), field.name
+
+
+def test_solved_rows_in_another_layout_are_spread_as_rows():
+    """The workers' solve hands its rows over as a transpose (Fortran order): resized in
+    place they would be read in another order."""
+    rows = np.array(np.arange(12.0).reshape(3, 4).T)  # (4, 3), Fortran order, as the workers' result
+    assert not rows.flags.c_contiguous
+    spread = grid_field._spread_rows(rows, np.array([0, 2, 3, 5]), 6)
+    np.testing.assert_array_equal(spread[[0, 2, 3, 5]], np.arange(12.0).reshape(3, 4).T)
+    assert not spread[[1, 4]].any()
+
+
+def test_the_multigrid_solve_in_workers_gives_what_one_process_gives(monkeypatch):
+    from gencoords.cages.shapes import icosphere
+    from gencoords.harmonic import solve as solve_module
+
+    monkeypatch.setattr(solve_module, "elimination_plan", lambda *args: None)  # the iterative solver
+    in_workers = []
+    monkeypatch.setattr(solve_module, "_solve_in_workers",
+                        lambda *args, solve=solve_module._solve_in_workers: in_workers.append(1) or solve(*args))
+    vertices, triangles = icosphere(2)
+    alone = grid_field.harmonic_field(vertices, triangles, resolution=24, workers=1)
+    spread = grid_field.harmonic_field(vertices, triangles, resolution=24, workers=2)
+    assert in_workers
+    np.testing.assert_allclose(spread.node_coordinates, alone.node_coordinates, rtol=0, atol=1e-13)
