@@ -15,6 +15,7 @@ from ..base.grid import node_positions
 from .inside import inside_or_on
 from .interpolation import trilinear
 from .reproduction import placing_largest
+from .taken_points import taken_rows, taken_slice
 
 __all__ = ["DEFAULT_RESOLUTION", "HarmonicField"]
 
@@ -26,7 +27,8 @@ DEFAULT_RESOLUTION = 64
 CUT_SUPPORT = 32
 # Of the nearest exact node's coordinates added to a prior that cannot reach its point.
 _WIDENING = 1e-2
-_CUT_POINTS = 2048  # points in cut cells placed at a time (each point's pairs are its own)
+_CUT_POINTS = 1024  # points in cut cells placed at a time (each point's pairs are its own)
+_MIXED_ENTRIES = 1 << 16  # (point, cage vertex) entries interpolated at a time (0.5 MB of float64)
 
 
 class HarmonicField:
@@ -175,7 +177,7 @@ class HarmonicField:
         """
         nodes, weights, cut, columns, values = self.sparse_rows(points, outside)
         result = np.zeros((len(nodes), len(self.vertices)), dtype=dtype)
-        result[~cut] = self._mixed(nodes[~cut], weights[~cut])
+        self._mixed(nodes, weights, result, np.flatnonzero(~cut))  # no (k, n) interpolation beside: a hand's peak
         result[np.flatnonzero(cut)[:, None], columns] = values  # into the zeros: no (c, n) block beside
         return result
 
@@ -203,15 +205,15 @@ class HarmonicField:
             Those c points' pairs (:meth:`cut_pairs`).
         """
         # A Bind asks up to three times for the same points (two levels' rows; Automatic's
-        # sample, every few of them; then the pairs' or exact storage's coordinates where
-        # two levels would not do): located and placed once, the rows of the last set
-        # asked for kept (each caller gets copies to write into), a sample of every s-th
-        # of its points taken from them.
+        # sample, every few of them; then the pairs' or exact storage's coordinates, chunk
+        # by chunk, where two levels would not do): located and placed once, the rows of
+        # the last set asked for kept (each caller gets copies to write into), a sample of
+        # every s-th of its points or a run of them taken from them.
         key = (outside, points.shape, hashlib.blake2b(np.ascontiguousarray(points).tobytes(), digest_size=16).digest())
-        if self._last_rows is not None and self._last_rows[0] != key:
-            every = _every(self._last_rows[2], points)
-            if every and self._last_rows[0][0] == outside:
-                return _every_rows(self._last_rows[1], every)
+        if self._last_rows is not None and self._last_rows[0] != key and self._last_rows[0][0] == outside:
+            taken = taken_slice(self._last_rows[2], points)
+            if taken is not None:
+                return taken_rows(self._last_rows[1], taken)
         if self._last_rows is None or self._last_rows[0] != key:
             self._last_rows = (key, self._located_rows(points, outside, inside), np.array(points, dtype=np.float64))
         return tuple(part.copy() for part in self._last_rows[1])
@@ -282,14 +284,23 @@ class HarmonicField:
             columns[short[better]], values[short[better]] = across[better], across_values[better]
         return columns, values
 
-    def _mixed(self, nodes, weights):
-        """The interpolation of the nodes' coordinates: (c, n) float64."""
-        rows, term = np.zeros((len(nodes), len(self.vertices))), np.empty((len(nodes), len(self.vertices)))
-        for corner in range(nodes.shape[1]):
-            np.take(self.node_coordinates, nodes[:, corner], axis=0, out=term)
-            term *= weights[:, corner, None]
-            rows += term
-        return rows
+    def _mixed(self, nodes, weights, out=None, rows=None):
+        """The interpolation of the nodes' coordinates: (c, n) float64, or into ``out``'s
+        ``rows``; a block of rows at a time (no (c, n) temporaries beside; each row alone),
+        each corner's term taken into one buffer."""
+        out = np.zeros((len(nodes), len(self.vertices))) if out is None else out
+        rows = np.arange(len(nodes)) if rows is None else rows
+        step = max(1, _MIXED_ENTRIES // len(self.vertices))
+        term = np.empty((min(step, len(rows)), len(self.vertices)))
+        for start in range(0, len(rows), step):
+            block = rows[start:start + step]
+            mixed, taken = np.zeros((len(block), len(self.vertices))), term[:len(block)]
+            for corner in range(nodes.shape[1]):
+                np.take(self.node_coordinates, nodes[block, corner], axis=0, out=taken)
+                taken *= weights[block, corner, None]
+                mixed += taken
+            out[block] = mixed
+        return out
 
     def _along_the_normal(self, local, rows):
         """Priors that span points near the cage ((c, 3), frame units): ``(1 - t) hat(p)
@@ -324,27 +335,6 @@ class HarmonicField:
         (:func:`.inside.inside_or_on`; ``inside`` as :meth:`sparse_rows`')."""
         return inside_or_on(self._prepared, local, self.faces, (self._grid, self._cell_inside, self._surface),
                             self._tolerance, inside)
-
-
-def _every(kept, points):
-    """The s for which ``points`` ((j, 3)) are every s-th of the points ``kept`` ((k, 3))
-    from the first, or None."""
-    points = np.asarray(points, dtype=np.float64)
-    if points.ndim != 2 or not len(points) or len(points) > len(kept):
-        return None
-    every = max(1, (len(kept) - 1) // max(1, len(points) - 1)) if len(points) > 1 else len(kept)
-    if len(kept[::every]) != len(points) or not np.array_equal(kept[::every], points):
-        return None
-    return every
-
-
-def _every_rows(rows, every):
-    """:meth:`HarmonicField.sparse_rows`' rows of every ``every``-th point, from those of
-    all (copies: each point's rows are its own)."""
-    nodes, weights, cut, columns, values = rows
-    taken = np.arange(0, len(cut), every)
-    pairs = (np.cumsum(cut) - 1)[taken[cut[taken]]]  # their rows among the cut points'
-    return nodes[taken], weights[taken], cut[taken], columns[pairs], values[pairs]
 
 
 def _across_the_part(local, vertices, faces, spacing):

@@ -26,7 +26,8 @@ __all__ = ["harmonic_field", "harmonic_quad_field", "harmonic_coordinates"]
 _WIDENED_ITERATIONS = 12
 _EXACT = 1e-12  # of the cage's size: a node's reweighted coordinates place it exactly
 _HULL_ROUNDING = 1e-6  # of a cell: a node beyond the hull by less is still tried
-_PRIOR_ENTRIES = 1 << 20  # (node, cage vertex) entries of the Dirichlet nodes' priors at a time
+_PRIOR_ENTRIES = 1 << 18  # (node, cage vertex) entries of the Dirichlet nodes' priors at a time
+_MOVED_ENTRIES = 1 << 18  # (node, cage vertex) entries of the solved rows moved into place at a time
 
 
 def _cell_corners_any(cells):
@@ -112,6 +113,35 @@ def _beyond_the_hull(positions, vertices, triangles, margin):
     for start in range(0, len(positions), step):
         beyond[start:start + step] = (positions[start:start + step] @ normals.T > support + margin).any(axis=1)
     return beyond
+
+
+def _spread_rows(rows, positions, count):
+    """``rows`` ((u, n) float) grown in place to (count, n), row i moved to
+    ``positions[i]`` ((u,) increasing), the other rows zero: the solved nodes' coordinates
+    among all the nodes' with no (u, n) copy beside (the cup: 25 MB). Rows not in C order
+    or not owning their memory (the workers' solve: a transpose) are copied first.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.harmonic.grid_field import _spread_rows
+    >>> _spread_rows(np.array([[1.0, 2.0], [3.0, 4.0]]), np.array([1, 3]), 4).tolist()
+    [[0.0, 0.0], [1.0, 2.0], [0.0, 0.0], [3.0, 4.0]]
+    """
+    if not (rows.flags.c_contiguous and rows.flags.owndata):  # resize would keep another layout
+        rows = np.array(rows, order="C")
+    moved = len(rows)
+    rows.resize((count, rows.shape[1]), refcheck=False)  # realloc: the pages are remapped, not copied
+    step = max(1, _MOVED_ENTRIES // max(1, rows.shape[1]))
+    # A block at a time from the last: a row's position is at least its index, so no row
+    # is written over before its block is moved (the block itself: copied first).
+    for stop in range(moved, 0, -step):
+        start = max(0, stop - step)
+        rows[positions[start:stop]] = rows[start:stop].copy()
+    others = np.ones(count, dtype=bool)
+    others[positions] = False
+    rows[others] = 0.0
+    return rows
 
 
 def _placing_exactly(coordinates, solved, positions, vertices, triangles, grid, ids, within):
@@ -280,9 +310,7 @@ def _solved_field(prepared, vertices, triangles, polygons, resolution, progress,
     rhs = boundary_rhs(unknowns, grid, local, faces, hat_ids, columns, values)
     result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, triangles), solver_tolerance,
                                                progress=progress, workers=workers)
-    coordinates = np.zeros((len(parts["indices"]), len(local)))
-    coordinates[np.flatnonzero(solved)] = result  # argwhere order in both
-    del result
+    coordinates = _spread_rows(result, np.flatnonzero(solved), len(parts["indices"]))  # argwhere order in both
     fixed = np.flatnonzero(~solved[measured])
     # Into their rows of zeros: a padding column (a triangle's fourth, its first corner) holds 0, not written.
     real = values[fixed] != 0.0

@@ -24,6 +24,9 @@ __all__ = ["origin_distance"]
 # Coordinates computed per chunk of points: progress and cancel granularity, and the
 # bound on the dense float64 block a chunk makes (points x cage vertices).
 CHUNK_ENTRIES = 4_000_000  # per worker process
+# Harmonic coordinates are looked up in this process, whatever the workers: a chunk's
+# (points x cage vertices) float64 blocks of 4 MB (the cup's three of 22 MB were its peak).
+FIELD_CHUNK_ENTRIES = 1 << 19
 REPORT_SAMPLES = 1000  # points inside the cage coordinate_report examines
 
 
@@ -73,7 +76,7 @@ def written_slots(request, cage, points, choice, workers, field=None):
     precision = similarity = 0.0
     smooth, drag = 0.0, np.zeros(len(cage.vertices))
     faces = cage.faces if request.green else None
-    chunk = max(1, CHUNK_ENTRIES * workers // rows)
+    chunk = max(1, (CHUNK_ENTRIES * workers if field is None else FIELD_CHUNK_ENTRIES) // rows)
     for start in range(0, count, chunk):
         part = slice(start, min(start + chunk, count))
         coordinates = solve_points(request, cage, points[part], workers, locations[part], field)
@@ -90,15 +93,17 @@ def written_slots(request, cage, points, choice, workers, field=None):
         weights = reproduced[:, :len(cage.vertices)]
         sums = weights.sum(axis=1)
         totals["max_affine_error"] = max(totals["max_affine_error"], float(np.abs(sums - 1.0).max(initial=0.0)))
-        magnitudes = np.abs(weights).sum(axis=1)  # what multiplies the cage's rounding
-        totals["weight_magnitude"] = max(totals["weight_magnitude"], float(magnitudes.max(initial=0.0)))
         precision = max(precision, _placed(request, reproduced, cage.vertices, points[part], locations[part]))
         similarity = max(similarity, similarity_deviation(weights @ cage.vertices, sums, points[part], cage.vertices))
-        residual = np.subtract(coordinates, reproduced, out=reproduced)
+        # The residual and the weights' sizes in the two (j, rows) arrays there are: a
+        # third (the cup: 22 MB) was its Bind's peak.
+        residual = np.subtract(coordinates, reproduced, out=coordinates)
+        magnitudes = np.abs(weights, out=weights).sum(axis=1)  # what multiplies the cage's rounding
+        totals["weight_magnitude"] = max(totals["weight_magnitude"], float(magnitudes.max(initial=0.0)))
         chunk_smooth, chunk_drag = residual_deviations(residual, cage.vertices, faces=faces)
         smooth, drag = max(smooth, chunk_smooth), np.maximum(drag, chunk_drag)
         # With workers, shared memory: freed before the next chunk's.
-        del coordinates, residual
+        del coordinates, residual, reproduced, weights
         yield part.stop / count
     return slots, indices, locations, {
         "min_coordinate": float(totals["min"]), "negative_points": totals["negative_points"],

@@ -89,7 +89,10 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
     True
     """
     coordinates = np.asarray(coordinates, dtype=np.float64)
-    indices, weights = np.asarray(indices), np.asarray(weights, dtype=np.float64)
+    # float32 weights stay float32 (subtracted from float64, each is widened exactly):
+    # a float64 copy of two levels' pairs was a quadruped's Bind peak (15 MB).
+    indices, weights = np.asarray(indices), np.asarray(weights)
+    weights = weights if weights.dtype in (np.float32, np.float64) else weights.astype(np.float64)
     if interpolation is None:
         smooth, drag = measures.residual_deviations(_residual(coordinates, indices, weights), rest)
         if len(drag) == 0:
@@ -108,8 +111,11 @@ def _residual(coordinates, indices, weights, rows=slice(None), columns=None):
     position = np.full(coordinates.shape[1], -1)
     position[columns] = np.arange(len(columns))
     residual = np.array(coordinates[rows][:, columns], dtype=np.float64)
-    row, slot = np.nonzero(position[indices[rows]] >= 0)
-    residual[row, position[indices[rows][row, slot]]] -= weights[rows][row, slot]
+    indices, weights = indices[rows], weights[rows]
+    for start in range(0, len(residual), _BOUND_ROWS):  # each row's pairs alone: no (r, K) positions
+        block = slice(start, start + _BOUND_ROWS)
+        row, slot = np.nonzero(position[indices[block]] >= 0)
+        residual[start + row, position[indices[block][row, slot]]] -= weights[block][row, slot]
     return residual
 
 

@@ -31,6 +31,7 @@ NODE_SLOT_COUNTS = (8, 16, 24, 32, 48, 64, 96, 128)
 MORE_NODE_SLOT_COUNTS, NODE_COLUMN_BUDGET = (192, 256, 384, 512), 8
 SAMPLE_POINTS = 2000  # points the fewest K' is chosen on (then measured on all)
 SAMPLE_MARGIN = 0.8  # of the target, for the points the sample skipped
+_PLACED_ENTRIES = 1 << 18  # (node, cage vertex) entries paired at a time (2 MB of float64 rows)
 
 
 def used_nodes(corners):
@@ -216,7 +217,13 @@ def two_level_layout(node_coordinates, corners, corner_weights, rest, target, co
     indices = np.empty((len(nodes), sample_indices.shape[1]), dtype=sample_indices.dtype)
     weights = np.empty(indices.shape, dtype=np.float32)
     indices[sampled], weights[sampled] = sample_indices, sample_weights
-    indices[others], weights[others] = placed_pairs(nodes[others], count, rest, span=True)
+    others = np.flatnonzero(others)
+    # A block of nodes at a time (each row's pairs are its own): their rows and the (N, K')
+    # ranks and weights of all at once were a quadruped's Bind peak.
+    step = max(1, _PLACED_ENTRIES // max(1, nodes.shape[1]))
+    for start in range(0, len(others), step):
+        rows = others[start:start + step]
+        indices[rows], weights[rows] = placed_pairs(nodes[rows], count, rest, span=True)
     smooth, drag, vertex = deviations(nodes, indices, weights, rest, (corners, corner_weights))
     if max(smooth, drag) >= target:
         reason = (f"{count} pairs per grid node deviate {max(smooth, drag):.1e} of the cage's "

@@ -188,36 +188,47 @@ def test_the_rows_given_twice_are_copies(cup):
     other = field.sparse_rows(points[::2])  # a sample of them: taken from their rows, which stay
     np.testing.assert_array_equal(other[0], second[0][::2])
     assert field._last_rows[0][1] == points.shape
-    field.sparse_rows(points[1::2])
+    field.sparse_rows(points[1::2][::-1])  # neither a run nor a sample of them
     assert field._last_rows[0][1] == points[1::2].shape  # only the last set's rows are kept
 
 
-def test_a_sample_of_every_few_points_takes_their_rows_from_every_points(cup):
+@pytest.mark.parametrize("taken", [slice(None, None, 1), slice(None, None, 4), slice(None, None, 7),
+                                   slice(None, None, 10_000), slice(1, None, 4), slice(100, 400), slice(-57, None)],
+                         ids=["all", "every-4th", "every-7th", "the-first", "every-4th-from-1", "a-run", "the-last-run"])
+def test_a_sample_or_a_run_of_the_points_takes_their_rows_from_every_points(cup, taken):
+    """Automatic's sample (every few points) and the written chunks (runs of them) are
+    served from the rows of every point, kept: each row is its own, so they are those
+    located and placed afresh, bit for bit."""
     field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=12, tolerance=FLOAT32)
     points = cup.mesh_vertices[::3]
     every = field.sparse_rows(points)
-    for step in (1, 4, 7, len(points)):
-        taken = field.sparse_rows(points[::step])  # from every point's rows, which stay kept
-        field._last_rows, kept = None, field._last_rows
-        alone = field.sparse_rows(points[::step])  # located and placed afresh
-        field._last_rows = kept
-        for part, again in zip(taken, alone):
-            np.testing.assert_array_equal(part, again)
-        assert not any(np.shares_memory(part, whole) for part, whole in zip(taken, every))
-    assert field.sparse_rows(points[1::4])[0].shape == (len(points[1::4]), CORNER_COUNT)  # not from the first: located
+    located = []
+    field._located = lambda *args: located.append(1) or field_module.HarmonicField._located(field, *args)
+    rows = field.sparse_rows(points[taken])  # from every point's rows, which stay kept
+    assert not located and field._last_rows[0][1] == points.shape
+    field._last_rows, kept = None, field._last_rows
+    alone = field.sparse_rows(points[taken])  # located and placed afresh
+    assert located
+    for part, again in zip(rows, alone):
+        np.testing.assert_array_equal(part, again)
+    assert not any(np.shares_memory(part, whole) for part, whole in zip(rows, every))
+    field._last_rows = kept
+    assert field.sparse_rows(points[taken][::-1])[0].shape == (len(points[taken]), CORNER_COUNT)  # located
 
 def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_keep(cup):
     """The field reweights its solved nodes a few batches at a time, in place (a copy of
     every solved row and its result beside the field were the cup's peak: 1.6 times the
-    nodes' coordinates), and the points' coordinates are written into their result (the
-    cut points' rows were a second block as large)."""
+    nodes' coordinates), its solved rows grown into all the nodes' (the solver's result
+    beside them, and batches of 1M entries, were a third of them more), and the points'
+    coordinates are written into their result (the cut points' rows were a second block
+    as large)."""
     import tracemalloc
 
     tracemalloc.start()
     try:
         field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=48, tolerance=FLOAT32, workers=1)
         kept, peak = tracemalloc.get_traced_memory()
-        assert peak < kept + 0.35 * field.node_coordinates.nbytes
+        assert peak < kept + 0.2 * field.node_coordinates.nbytes
         field.sparse_rows(cup.mesh_vertices)  # located once, as the Bind does first
         tracemalloc.reset_peak()
         before, _ = tracemalloc.get_traced_memory()
@@ -227,3 +238,81 @@ def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_
         tracemalloc.stop()
     assert field.cut(field.interpolation(cup.mesh_vertices)[0]).mean() > 0.5  # most are cut: their rows count
     assert peak - before < 1.6 * coordinates.nbytes
+
+
+@pytest.mark.parametrize("count, solved, width", [(1, 0, 3), (1, 1, 3), (5000, 1234, 322), (3000, 2999, 700)])
+def test_solved_rows_grow_in_place_into_every_nodes_rows(count, solved, width):
+    """The solver's rows moved to their nodes' places, the others zero, bit for bit as a
+    scatter into zeros, with no second copy of them beside (the cup's field: 25 MB)."""
+    import tracemalloc
+
+    rng = np.random.default_rng(count + solved)
+    positions = np.sort(rng.choice(count, solved, replace=False))
+    expected = np.zeros((count, width))
+    expected[positions] = rng.random((solved, width))
+    tracemalloc.start()
+    try:
+        rows = expected[positions]  # traced: what it grows from is counted before
+        tracemalloc.reset_peak()
+        before, _ = tracemalloc.get_traced_memory()
+        spread = grid_field._spread_rows(rows, positions, count)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    np.testing.assert_array_equal(spread, expected)
+    assert peak - before < (count - solved) * width * 8 + 2 * (grid_field._MOVED_ENTRIES + width) * 8 + 16 * count
+
+
+def test_the_cups_written_chunks_give_the_same_plan_bit_for_bit_whatever_their_size(monkeypatch):
+    """The per-vertex pairs are written a few MB of coordinates at a time (the cup's one
+    chunk of 22 MB, three times over, was its Bind's peak); each row's pairs and figures
+    are its own, so chunks of any size give the same plan, every field bit for bit."""
+    import dataclasses
+
+    from gencoords.planning import figures
+    from gencoords.planning.bind_steps import run_to_end
+
+    scene = artist_cages.cup(0.3)
+    request = BindRequest("harmonic", tolerance=FLOAT32, polygons=_polygons(scene), resolution=32, workers=1)
+    chunks = []
+    solve_points = figures.solve_points
+    monkeypatch.setattr(figures, "solve_points", lambda *args, **kwargs: chunks.append(len(args[2])) or
+                        solve_points(*args, **kwargs))
+    plans = []
+    for entries in (1 << 30, 100 * len(scene.cage_vertices)):  # one chunk; chunks of 100 points
+        monkeypatch.setattr(figures, "FIELD_CHUNK_ENTRIES", entries)
+        chunks.clear()
+        plans.append(run_to_end(plan_bind(scene.mesh_vertices, scene.cage_vertices, scene.cage_triangles, request)))
+    assert plans[0].storage == "SPARSE" and plans[0].node_indices is None  # the per-vertex pairs: written
+    assert chunks.count(100) == len(scene.mesh_vertices) // 100  # and Automatic's sample before them
+    for field in dataclasses.fields(plans[0]):
+        first, second = getattr(plans[0], field.name), getattr(plans[1], field.name)
+        if isinstance(first, np.ndarray):
+            assert first.dtype == second.dtype and first.tobytes() == second.tobytes(), field.name
+        else:
+            assert repr(first) == repr(second), field.name
+
+
+def test_solved_rows_in_another_layout_are_spread_as_rows():
+    """The workers' solve hands its rows over as a transpose (Fortran order): resized in
+    place they would be read in another order."""
+    rows = np.array(np.arange(12.0).reshape(3, 4).T)  # (4, 3), Fortran order, as the workers' result
+    assert not rows.flags.c_contiguous
+    spread = grid_field._spread_rows(rows, np.array([0, 2, 3, 5]), 6)
+    np.testing.assert_array_equal(spread[[0, 2, 3, 5]], np.arange(12.0).reshape(3, 4).T)
+    assert not spread[[1, 4]].any()
+
+
+def test_the_multigrid_solve_in_workers_gives_what_one_process_gives(monkeypatch):
+    from gencoords.cages.shapes import icosphere
+    from gencoords.harmonic import solve as solve_module
+
+    monkeypatch.setattr(solve_module, "elimination_plan", lambda *args: None)  # the iterative solver
+    in_workers = []
+    monkeypatch.setattr(solve_module, "_solve_in_workers",
+                        lambda *args, solve=solve_module._solve_in_workers: in_workers.append(1) or solve(*args))
+    vertices, triangles = icosphere(2)
+    alone = grid_field.harmonic_field(vertices, triangles, resolution=24, workers=1)
+    spread = grid_field.harmonic_field(vertices, triangles, resolution=24, workers=2)
+    assert in_workers
+    np.testing.assert_allclose(spread.node_coordinates, alone.node_coordinates, rtol=0, atol=1e-13)
