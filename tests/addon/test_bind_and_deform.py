@@ -1,5 +1,6 @@
 """Binding and the native deformer, driven through the operators as a script would."""
 
+import contextlib
 import sys
 
 import bpy
@@ -657,9 +658,12 @@ def test_auto_rebind_in_a_window_leaves_a_mesh_changed_before_the_timer_alone(
         assert len(gc.binding.bindings(obj)) == (meanwhile == "editing")
 
 
-def test_undo_and_redo_of_bind_and_unbind(gc):
-    """Global undo as in the UI: the headless window's context lets ``ed.undo`` run, and
-    the step the UI pushes after an undoable operator is pushed here explicitly."""
+
+@contextlib.contextmanager
+def bound_with_global_undo():
+    """Global undo as in the UI, in the headless window's context (it lets ``ed.undo``
+    run): a sphere bound to an icosphere cage, the steps the UI pushes pushed here.
+    Yields (mesh object, cage object, the mesh's state before the Bind)."""
     preferences = bpy.context.preferences.edit
     preferences.use_global_undo, preferences.undo_steps = True, 32
     with bpy.context.temp_override(window=bpy.context.window_manager.windows[0]):
@@ -669,7 +673,12 @@ def test_undo_and_redo_of_bind_and_unbind(gc):
         bpy.ops.ed.undo_push(message="scene ready")
         assert bind(obj, cage) == {'FINISHED'}
         bpy.ops.ed.undo_push(message="Bind")
+        yield obj, cage, before
 
+
+def test_undo_and_redo_of_bind_and_unbind(gc):
+    """Ctrl+Z and Shift+Ctrl+Z of Bind, then of Unbind (:func:`bound_with_global_undo`)."""
+    with bound_with_global_undo() as (obj, cage, before):
         assert bpy.ops.ed.undo() == {'FINISHED'}
         obj, cage = bpy.data.objects["Mesh"], bpy.data.objects["Cage"]  # undo rebuilds IDs
         assert not obj.modifiers and mesh_state(obj)[1] == before[1]
@@ -695,14 +704,7 @@ def test_undo_of_a_first_bind_from_the_button(gc):
     """Unbind, Bind from the panel's button (invoke, an undo-pushing call: a short first
     Bind ends in the button's own call), Ctrl+Z: the mesh unbound at rest; Ctrl+Z again:
     the binding the Unbind removed."""
-    preferences = bpy.context.preferences.edit
-    preferences.use_global_undo, preferences.undo_steps = True, 32
-    with bpy.context.temp_override(window=bpy.context.window_manager.windows[0]):
-        cage = add_icosphere_cage()
-        obj = add_sphere()
-        before = mesh_state(obj)
-        assert bind(obj, cage) == {'FINISHED'}
-        bpy.ops.ed.undo_push(message="Bind")
+    with bound_with_global_undo() as (obj, cage, before):
         make_active(obj)
         assert bpy.ops.object.gencoords_unbind('EXEC_DEFAULT', True) == {'FINISHED'}
         assert bpy.ops.object.gencoords_bind('INVOKE_DEFAULT', True) == {'FINISHED'}
