@@ -215,6 +215,8 @@ def test_a_sample_or_a_run_of_the_points_takes_their_rows_from_every_points(cup,
     field._last_rows = kept
     assert field.sparse_rows(points[taken][::-1])[0].shape == (len(points[taken]), CORNER_COUNT)  # located
 
+
+
 def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_keep(cup):
     """The field reweights its solved nodes a few batches at a time, in place (a copy of
     every solved row and its result beside the field were the cup's peak: 1.6 times the
@@ -228,7 +230,10 @@ def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_
     try:
         field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=48, tolerance=FLOAT32, workers=1)
         kept, peak = tracemalloc.get_traced_memory()
-        assert peak < kept + 0.2 * field.node_coordinates.nbytes
+        # Growing the solved rows is a realloc: where it moves the block (mremap: its pages
+        # remapped, not copied) tracemalloc counts the old and the new block at once.
+        realloc = np.count_nonzero(field.node_inside) * len(field.vertices) * 8
+        assert peak < kept + 0.2 * field.node_coordinates.nbytes + realloc
         field.sparse_rows(cup.mesh_vertices)  # located once, as the Bind does first
         tracemalloc.reset_peak()
         before, _ = tracemalloc.get_traced_memory()
@@ -260,7 +265,12 @@ def test_solved_rows_grow_in_place_into_every_nodes_rows(count, solved, width):
     finally:
         tracemalloc.stop()
     np.testing.assert_array_equal(spread, expected)
-    assert peak - before < (count - solved) * width * 8 + 2 * (grid_field._MOVED_ENTRIES + width) * 8 + 16 * count
+    assert spread is rows  # grown in place: the same array, no second one
+    # The realloc growing it (its pages remapped, not copied, where they move) is traced as
+    # the old and the new block at once by numpy 2.x on Python 3.13, even where the block
+    # stays: the traced peak bounds the rest.
+    realloc = count * width * 8
+    assert peak - before < (count - solved) * width * 8 + 2 * (grid_field._MOVED_ENTRIES + width) * 8 + 16 * count + realloc
 
 
 def test_the_cups_written_chunks_give_the_same_plan_bit_for_bit_whatever_their_size(monkeypatch):
