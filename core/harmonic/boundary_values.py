@@ -17,7 +17,7 @@ from ..construction.quad_cage import bilinear_parameters
 from ..construction.quad_integrals import bilinear_hats, corner_normals
 
 
-__all__ = ["closest_on_triangles", "nearest_boundary_points", "hat_values", "segment_crossings",
+__all__ = ["closest_on_triangles", "boxed_pairs", "nearest_boundary_points", "hat_values", "segment_crossings",
            "patch_crossings", "between_split_and_patch"]
 
 _PAIR_CHUNK = 1 << 16  # (node, facet) pairs measured at a time: bounded memory
@@ -67,7 +67,7 @@ def closest_on_triangles(points, corners):
     return barycentric, np.sqrt(np.where(inside, plane, best))
 
 
-def _candidate_pairs(positions, corners, reach):
+def boxed_pairs(positions, corners, reach):
     """(node, facet) pairs whose facet's box, grown by ``reach``, holds the node: (p,) int
     each, by facet (a node's pairs thus in facet order).
 
@@ -213,7 +213,7 @@ def nearest_boundary_points(positions, vertices, faces, reach, widen=True):
     corners = vertices[_padded(faces)]
     # A facet within ``reach`` is among the candidates: wider for the others. The pairs
     # farther than ``reach`` are left out (the nearest of those left is the same).
-    pairs = _near_the_slab(positions, corners, *_candidate_pairs(positions, corners, reach), reach)
+    pairs = _near_the_slab(positions, corners, *boxed_pairs(positions, corners, reach), reach)
     facet, barycentric, distance = _nearest(positions, corners, quad, *pairs)
     far = np.flatnonzero(distance > reach)
     if not widen:
@@ -221,7 +221,7 @@ def nearest_boundary_points(positions, vertices, faces, reach, widen=True):
         return np.where(facet[:, None] >= 0, _padded(faces)[facet], 0), barycentric, distance
     while len(far):
         reach *= 4.0
-        pairs = _near_the_slab(positions[far], corners, *_candidate_pairs(positions[far], corners, reach), reach)
+        pairs = _near_the_slab(positions[far], corners, *boxed_pairs(positions[far], corners, reach), reach)
         found = _nearest(positions[far], corners, quad, *pairs)
         facet[far], barycentric[far], distance[far] = found
         far = far[found[2] > reach]
@@ -238,7 +238,7 @@ def hat_values(positions, vertices, faces, reach):
 def _crossing_pairs(starts, steps, corners):
     """(segment, facet) pairs whose boxes overlap: every facet a segment meets is among them."""
     middles, reach = starts + 0.5 * steps, 0.5 * np.abs(steps).max(axis=1).max(initial=0.0)
-    return _candidate_pairs(middles, corners, reach)
+    return boxed_pairs(middles, corners, reach)
 
 
 def _triangle_crossings(starts, steps, corners):
@@ -385,7 +385,7 @@ def between_split_and_patch(positions, vertices, polygons):
     flips = np.zeros(len(positions), dtype=bool)
     if not len(corners):
         return flips
-    node, face = _candidate_pairs(positions, corners, 0.0)
+    node, face = boxed_pairs(positions, corners, 0.0)
     for start in range(0, len(node), _PAIR_CHUNK):
         rows, chosen = node[start:start + _PAIR_CHUNK], face[start:start + _PAIR_CHUNK]
         here, ahead, patch = positions[rows], normal[chosen], corners[chosen]

@@ -6,7 +6,7 @@ quads (:func:`in_quad_boxes`)."""
 import numpy as np
 
 from ..construction.boundary import inside_by_grid
-from .boundary_values import _candidate_pairs, between_split_and_patch, nearest_boundary_points
+from .boundary_values import boxed_pairs, between_split_and_patch, nearest_boundary_points
 
 __all__ = ["inside_or_on", "in_quad_boxes"]
 
@@ -62,5 +62,5 @@ def in_quad_boxes(positions, vertices, polygons, reach):
     quads = polygons[polygons[:, 3] >= 0] if polygons.shape[1] == 4 else polygons[:0]
     found = np.zeros(len(positions), dtype=bool)
     if len(quads):
-        found[_candidate_pairs(positions, vertices[quads], reach)[0]] = True
+        found[boxed_pairs(positions, vertices[quads], reach)[0]] = True
     return found
