@@ -10,6 +10,7 @@ import numpy as np
 from ..base.errors import CageError
 from ..base.grid import fit_grid, inside_nodes, node_positions, surface_cells
 from ..base.inputs import checked
+from ..base.mixed_rows import MixedRows
 from ..construction.quad_cage import fan_split, validate_polygons
 from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 from . import field
@@ -17,7 +18,7 @@ from .boundary_values import between_split_and_patch, nearest_boundary_points
 from .field import CUT_SUPPORT, DEFAULT_RESOLUTION, HarmonicField, _WIDENING, _nearest_exact_nodes
 from .interpolation import CORNERS
 from .reproduction import batch_rows, placing_largest, reproduce_points
-from .solve import NEAREST_CROSSING, SOLVER_TOLERANCE, boundary_rhs, solve_nodes
+from .solve import NEAREST_CROSSING, SOLVER_TOLERANCE, boundary_rhs, solved_rows
 
 __all__ = ["harmonic_field", "harmonic_quad_field", "harmonic_coordinates"]
 
@@ -27,7 +28,6 @@ _WIDENED_ITERATIONS = 12
 _EXACT = 1e-12  # of the cage's size: a node's reweighted coordinates place it exactly
 _HULL_ROUNDING = 1e-6  # of a cell: a node beyond the hull by less is still tried
 _PRIOR_ENTRIES = 1 << 18  # (node, cage vertex) entries of the Dirichlet nodes' priors at a time
-_MOVED_ENTRIES = 1 << 18  # (node, cage vertex) entries of the solved rows moved into place at a time
 
 
 def _cell_corners_any(cells):
@@ -115,38 +115,10 @@ def _beyond_the_hull(positions, vertices, triangles, margin):
     return beyond
 
 
-def _spread_rows(rows, positions, count):
-    """``rows`` ((u, n) float) grown in place to (count, n), row i moved to
-    ``positions[i]`` ((u,) increasing), the other rows zero: the solved nodes' coordinates
-    among all the nodes' with no (u, n) copy beside (the cup: 25 MB). Rows not in C order
-    or not owning their memory (the workers' solve: a transpose) are copied first.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gencoords.harmonic.grid_field import _spread_rows
-    >>> _spread_rows(np.array([[1.0, 2.0], [3.0, 4.0]]), np.array([1, 3]), 4).tolist()
-    [[0.0, 0.0], [1.0, 2.0], [0.0, 0.0], [3.0, 4.0]]
-    """
-    if not (rows.flags.c_contiguous and rows.flags.owndata):  # resize would keep another layout
-        rows = np.array(rows, order="C")
-    moved = len(rows)
-    rows.resize((count, rows.shape[1]), refcheck=False)  # realloc: the pages are remapped, not copied
-    step = max(1, _MOVED_ENTRIES // max(1, rows.shape[1]))
-    # A block at a time from the last: a row's position is at least its index, so no row
-    # is written over before its block is moved (the block itself: copied first).
-    for stop in range(moved, 0, -step):
-        start = max(0, stop - step)
-        rows[positions[start:stop]] = rows[start:stop].copy()
-    others = np.ones(count, dtype=bool)
-    others[positions] = False
-    rows[others] = 0.0
-    return rows
-
-
 def _placing_exactly(coordinates, solved, positions, vertices, triangles, grid, ids, within):
-    """The nodes' coordinates ((g, n)) reweighted to place their ``positions`` ((g, 3))
-    exactly (:mod:`.reproduction`), and which now do: (g,) bool.
+    """The nodes' coordinates (:class:`~gencoords.base.mixed_rows.MixedRows`, (g, n): the
+    solved ones dense) reweighted in place to place their ``positions`` ((g, 3)) exactly
+    (:mod:`.reproduction`), and which now do: (g,) bool.
 
     The grid places a node only to within a fraction of a cell (the Dirichlet nodes hold
     their nearest boundary point's values). A solved node lies inside the cage, in the
@@ -161,9 +133,11 @@ def _placing_exactly(coordinates, solved, positions, vertices, triangles, grid, 
     # result beside the field were the cup's peak (2 x 36 MB).
     inside = np.flatnonzero(solved)
     step = max(1, _PRIOR_ENTRIES // len(vertices) // batch_rows(len(vertices))) * batch_rows(len(vertices))
+    dense = coordinates.dense
     for start in range(0, len(inside), step):
         rows = inside[start:start + step]
-        coordinates[rows], residual = reproduce_points(None, coordinates[rows], vertices, positions[rows])
+        held = coordinates.row_of[rows]
+        dense[held], residual = reproduce_points(None, dense[held], vertices, positions[rows])
         exact[rows] = residual <= within
     others = np.flatnonzero(~solved)
     # Beyond the hull by more than ``within`` and rounding: never reached, whatever the prior.
@@ -175,15 +149,13 @@ def _placing_exactly(coordinates, solved, positions, vertices, triangles, grid, 
     step = max(1, _PRIOR_ENTRIES // len(vertices))
     for start in range(0, len(others), step):
         batch, widening = others[start:start + step], nearest[start:start + step]
-        prior = coordinates[widening]
+        prior = coordinates.rows(widening)
         prior *= _WIDENING
-        prior += coordinates[batch]
+        prior += coordinates.rows(batch)
         columns, values, residual = placing_largest(prior, CUT_SUPPORT, vertices, positions[batch], _WIDENED_ITERATIONS)
         del prior
         reached = residual <= within
-        rows = np.zeros((int(reached.sum()), len(vertices)))
-        np.put_along_axis(rows, columns[reached], values[reached], axis=1)
-        coordinates[batch[reached]] = rows
+        coordinates.set_pairs(batch[reached], columns[reached], values[reached])
         exact[batch[reached]] = True
     return exact
 
@@ -308,13 +280,14 @@ def _solved_field(prepared, vertices, triangles, polygons, resolution, progress,
     unknowns = np.zeros(grid.shape, dtype=bool)
     unknowns[tuple(parts["indices"][solved].T)] = True
     rhs = boundary_rhs(unknowns, grid, local, faces, hat_ids, columns, values)
-    result, parts["convergence"] = solve_nodes(unknowns, rhs, (prepared.vertices, triangles), solver_tolerance,
-                                               progress=progress, workers=workers)
-    coordinates = _spread_rows(result, np.flatnonzero(solved), len(parts["indices"]))  # argwhere order in both
-    fixed = np.flatnonzero(~solved[measured])
-    # Into their rows of zeros: a padding column (a triangle's fourth, its first corner) holds 0, not written.
-    real = values[fixed] != 0.0
-    coordinates[np.broadcast_to(measured[fixed, None], real.shape)[real], columns[fixed][real]] = values[fixed][real]
+    rows, order, parts["convergence"] = solved_rows(unknowns, rhs, (prepared.vertices, triangles), solver_tolerance,
+                                                    progress=progress, workers=workers)
+    # The solved nodes' rows dense, as the solver leaves them (argwhere order, the nodes'
+    # too, then its own); the others sparse: their hat values, or their placing pairs.
+    coordinates = MixedRows(rows, np.flatnonzero(solved)[order], len(parts["indices"]),
+                            max(faces.shape[1], min(CUT_SUPPORT, len(vertices))))
+    fixed = np.flatnonzero(~solved[measured])  # every node not solved (a padding column holds 0)
+    coordinates.set_pairs(measured[fixed], columns[fixed], values[fixed])
     parts["coordinates"], parts["inside"] = coordinates, solved
     parts["exact_within"] = _EXACT * np.linalg.norm(np.ptp(local, axis=0))
     parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, triangles, grid,

@@ -23,7 +23,7 @@ from .boundary_values import segment_crossings
 from .elimination import elimination_plan, factorise, slab_axis
 from .multigrid import STEPS, apply_matrix, build_levels, level_of, solve
 
-__all__ = ["SOLVER_TOLERANCE", "NEAREST_CROSSING", "boundary_rhs", "solve_nodes", "solve_columns_task", "worker_count"]
+__all__ = ["SOLVER_TOLERANCE", "NEAREST_CROSSING", "boundary_rhs", "solve_nodes", "solved_rows", "solve_columns_task", "worker_count"]
 
 # Relative residual each column is solved to: errors far below the 1e-5 that sparse
 # storage drops, so locality is the discretisation's, not the solver's.
@@ -200,6 +200,25 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
         The largest relative residual after each conjugate-gradient iteration, of the
         block that needed most (elimination: 1 and the residual it leaves).
     """
+    rows, order, history = solved_rows(inside, rhs, cage, tolerance, progress, workers, method)
+    coordinates = np.empty_like(rows)
+    coordinates[order] = rows
+    return coordinates, history
+
+
+def solved_rows(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, workers=None, method=None):
+    """:func:`solve_nodes`'s solution, its rows in the order the solver leaves them (slab
+    elimination: slab by slab), with no copy in the unknowns' order beside (the cup: 25 MB).
+
+    Returns
+    -------
+    rows : (u, n) float
+        Non-negative, rows summing to 1.
+    order : (u,) int
+        ``rows[j]`` is the coordinates of unknown ``order[j]`` (``np.argwhere(inside)`` order).
+    history : list of float
+        As :func:`solve_nodes`'.
+    """
     rhs, diagonal = rhs
     column_count = len(cage[0])
     if method not in (None, "elimination", "multigrid"):
@@ -217,7 +236,8 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
         try:
             result, history = _solve_in_workers(*cage, inside, (rhs, diagonal), column_count, count, block,
                                                 tolerance, chosen, progress)
-            return _normalised(np.array(result.T)), history  # out of the shared memory
+            # Out of the shared memory, normalised as a transpose, then in rows (C order).
+            return np.ascontiguousarray(_normalised(np.array(result.T))), np.arange(count), history
         except WorkerError as error:
             if workers is not None:
                 raise
@@ -230,13 +250,13 @@ def solve_nodes(inside, rhs, cage, tolerance=SOLVER_TOLERANCE, progress=None, wo
         solution, reductions = _solve_block(levels, rhs, start, stop, tolerance, report)
         result[:, start:stop] = solution.T
         history = max(history, reductions, key=len)
-    return _normalised(result), history
+    return _normalised(result), np.arange(count), history
 
 
 def _eliminated(inside, rhs, diagonal, column_count, axis, progress):
-    """:func:`solve_nodes` by slab elimination: ((u, n) coordinates, [1, relative residual]).
-    The right-hand side is assembled in slab order and solved in place (memory: two
-    (u, n) arrays in all)."""
+    """:func:`solved_rows` by slab elimination: (u, n) coordinates in slab order, that
+    order, and [1, relative residual]. The right-hand side is assembled in slab order and
+    solved in place (memory: one (u, n) array)."""
     rows, columns, values = rhs
     count = int(np.count_nonzero(inside))
     half = None if progress is None else (lambda fraction: progress(0.5 * fraction))
@@ -250,15 +270,12 @@ def _eliminated(inside, rhs, diagonal, column_count, axis, progress):
     right = np.zeros((count + 1, len(checked)))
     right[factors.order] = solution[:, checked]
     factors.solve_in_slab_order(solution, None if progress is None else (lambda f: progress(0.5 + 0.5 * f)))
-    result = np.empty_like(solution)
-    result[factors.order] = solution
-    del solution
     found = np.zeros_like(right)
-    found[:-1] = result[:, checked]
+    found[factors.order] = solution[:, checked]
     residual = apply_matrix(level_of(inside, diagonal=diagonal), found) - right
     norms = np.linalg.norm(right, axis=0)
     relative = np.linalg.norm(residual, axis=0) / np.where(norms > 0, norms, 1.0)
-    return _normalised(result), [1.0, float(relative.max(initial=0.0))]
+    return _normalised(solution), factors.order, [1.0, float(relative.max(initial=0.0))]
 
 
 def _normalised(result):

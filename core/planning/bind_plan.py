@@ -354,7 +354,7 @@ def _two_level_rows(points, request, field, inside):
     if len(used) + len(columns) > len(points):
         return None
     node_rows = np.empty((len(used) + len(columns), len(field.vertices)))
-    np.take(field.node_coordinates, used, axis=0, out=node_rows[:len(used)], mode="clip")  # "raise" copies first
+    field.node_rows(used, node_rows[:len(used)])
     node_rows[len(used):] = 0.0
     np.put_along_axis(node_rows[len(used):], columns, values, axis=1)
     corners = np.empty(corners.shape, dtype=np.int32)

@@ -153,7 +153,7 @@ def kind_report(request, cage, field=None):
         patches = ", each quad its bilinear patch" if (field.faces.shape[1] == 4 and (field.faces[:, 3] >= 0).any()) else ""
         resolved = "" if request.grid is None else f"; {request.grid.words()}"
         return (f"Harmonic: local, never negative; any closed cage{patches} (resolution {field.resolution}: "
-                f"{len(field.node_coordinates)} grid nodes solved{resolved})")
+                f"{len(field.node_indices)} grid nodes solved{resolved})")
     return coordinate_report(cage.vertices, cage.faces, request.kind, gamma=request.gamma,
                              samples=REPORT_SAMPLES, tolerance=request.tolerance).headline
 

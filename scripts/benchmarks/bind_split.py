@@ -35,7 +35,7 @@ PARTS = (
     ("grid + inside nodes", grid_field, "_grid_nodes"),
     ("boundary values", grid_field, "_boundary_nodes"),
     ("boundary values", grid_field, "boundary_rhs"),
-    ("solve", grid_field, "solve_nodes"),
+    ("solve", grid_field, "solved_rows"),
     ("nodes placed exactly", grid_field, "_placing_exactly"),
     ("points located", field.HarmonicField, "_located"),
     ("points placed (cut cells)", field.HarmonicField, "cut_pairs"),

@@ -50,7 +50,7 @@ def every_entry_coordinates(field, points):
     CUT_SUPPORT): (k, n)."""
     nodes, weights = field.interpolation(points)
     cut = field.cut(nodes)
-    result = np.einsum("kc,kcn->kn", weights, field.node_coordinates[nodes])
+    result = np.einsum("kc,kcn->kn", weights, field.node_rows(nodes.ravel()).reshape(*nodes.shape, -1))
     columns, values = field.cut_pairs(points[cut], nodes[cut], weights[cut], count=len(field.vertices))
     result[cut] = 0.0
     result[np.flatnonzero(cut)[:, None], columns] = values
@@ -92,7 +92,7 @@ def forms(points, vertices, quads, resolution, wanted, triangulated=False):
             every = every_entry_coordinates(field, points)
             result["every-entry"] = lambda cage, c=every: c @ cage
         if "interpolated" in wanted:
-            mixed = np.einsum("kc,kcn->kn", weights, field.node_coordinates[nodes])
+            mixed = np.einsum("kc,kcn->kn", weights, field.node_rows(nodes.ravel()).reshape(*nodes.shape, -1))
             result["interpolated"] = lambda cage, c=mixed: c @ cage
     if "mean-value" in wanted:
         mean_value = gencoords.coordinates(points, vertices, triangles, kind=MEAN_VALUE)

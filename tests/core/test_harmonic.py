@@ -7,7 +7,7 @@ import gencoords
 from gencoords.harmonic.boundary_values import nearest_boundary_points
 from gencoords.harmonic import elimination
 from gencoords.harmonic.multigrid import build_levels, solve
-from gencoords.harmonic.solve import NEAREST_CROSSING, solve_nodes
+from gencoords.harmonic.solve import NEAREST_CROSSING, solve_nodes, solved_rows
 from gencoords.cages.shapes import block_cage, t_pose_blocks
 from gencoords.skinning.skinning import reproduce_points, top_k, truncate
 
@@ -165,10 +165,10 @@ def t_pose_system(resolution):
 
     def spy(inside, rhs, cage, *args, **kwargs):
         captured.update(inside=inside, rhs=rhs, cage=cage)
-        return solve_nodes(inside, rhs, cage, *args, **kwargs)
+        return solved_rows(inside, rhs, cage, *args, **kwargs)
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(gencoords.harmonic.grid_field, "solve_nodes", spy)
+        patch.setattr(gencoords.harmonic.grid_field, "solved_rows", spy)
         gencoords.harmonic_field(vertices, triangles, resolution=resolution)
     return captured["inside"], captured["rhs"], captured["cage"]
 
@@ -184,6 +184,12 @@ def test_slab_elimination_and_multigrid_agree_along_every_axis():
         direct = elimination.factorise(inside, rhs[1], axis).solve(right)
         assert direct.min() > -1e-15  # the discrete maximum principle, to rounding
         np.testing.assert_allclose(direct, iterative, rtol=0, atol=1e-10)
+        # The field keeps elimination's rows in slab order, named by ``order``: no copy permuted.
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(gencoords.harmonic.solve, "slab_axis", lambda *args, axis=axis: (axis, 0.0, 0.0))
+            rows, order, _ = solved_rows(inside, rhs, cage, method="elimination")
+        assert sorted(order) == list(range(len(rows))) and (axis == 0) == (np.diff(order) > 0).all()
+        np.testing.assert_allclose(rows[np.argsort(order)], iterative, rtol=0, atol=1e-10)
 
 
 def test_elimination_is_chosen_for_limbs_and_multigrid_for_a_fine_solid_block():

@@ -218,59 +218,44 @@ def test_a_sample_or_a_run_of_the_points_takes_their_rows_from_every_points(cup,
 
 
 def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_keep(cup):
-    """The field reweights its solved nodes a few batches at a time, in place (a copy of
-    every solved row and its result beside the field were the cup's peak: 1.6 times the
-    nodes' coordinates), its solved rows grown into all the nodes' (the solver's result
-    beside them, and batches of 1M entries, were a third of them more), and the points'
-    coordinates are written into their result (the cut points' rows were a second block
-    as large)."""
+    """The field keeps its solved nodes' rows dense, as the solver leaves them, and the
+    other nodes' few pairs (a dense row for every node was 90 MB on the cup at the Bind's
+    grid, its solve's peak 1.3 times that); it reweights its solved nodes a few batches at
+    a time, in place; the points' coordinates are written into their result (the cut
+    points' rows were a second block as large)."""
     import tracemalloc
 
     tracemalloc.start()
     try:
         field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=48, tolerance=FLOAT32, workers=1)
-        kept, peak = tracemalloc.get_traced_memory()
-        # Growing the solved rows is a realloc: where it moves the block (mremap: its pages
-        # remapped, not copied) tracemalloc counts the old and the new block at once.
-        realloc = np.count_nonzero(field.node_inside) * len(field.vertices) * 8
-        assert peak < kept + 0.2 * field.node_coordinates.nbytes + realloc
+        _, peak = tracemalloc.get_traced_memory()
         field.sparse_rows(cup.mesh_vertices)  # located once, as the Bind does first
         tracemalloc.reset_peak()
         before, _ = tracemalloc.get_traced_memory()
         coordinates = field.coordinates(cup.mesh_vertices)
-        _, peak = tracemalloc.get_traced_memory()
+        _, points_peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
+    rows, every_row = field._node_rows, field.node_indices.shape[0] * len(field.vertices) * 8
+    solved = np.count_nonzero(field.node_inside)
+    assert rows.dense.shape == (solved, len(field.vertices)) and rows.nbytes < 0.45 * every_row
+    assert peak < 0.8 * every_row  # the whole solve: less than the nodes' dense rows alone
     assert field.cut(field.interpolation(cup.mesh_vertices)[0]).mean() > 0.5  # most are cut: their rows count
-    assert peak - before < 1.6 * coordinates.nbytes
+    assert points_peak - before < 1.6 * coordinates.nbytes
 
 
-@pytest.mark.parametrize("count, solved, width", [(1, 0, 3), (1, 1, 3), (5000, 1234, 322), (3000, 2999, 700)])
-def test_solved_rows_grow_in_place_into_every_nodes_rows(count, solved, width):
-    """The solver's rows moved to their nodes' places, the others zero, bit for bit as a
-    scatter into zeros, with no second copy of them beside (the cup's field: 25 MB)."""
-    import tracemalloc
-
-    rng = np.random.default_rng(count + solved)
-    positions = np.sort(rng.choice(count, solved, replace=False))
-    expected = np.zeros((count, width))
-    expected[positions] = rng.random((solved, width))
-    tracemalloc.start()
-    try:
-        rows = expected[positions]  # traced: what it grows from is counted before
-        tracemalloc.reset_peak()
-        before, _ = tracemalloc.get_traced_memory()
-        spread = grid_field._spread_rows(rows, positions, count)
-        _, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    np.testing.assert_array_equal(spread, expected)
-    assert spread is rows  # grown in place: the same array, no second one
-    # The realloc growing it (its pages remapped, not copied, where they move) is traced as
-    # the old and the new block at once by numpy 2.x on Python 3.13, even where the block
-    # stays: the traced peak bounds the rest.
-    realloc = count * width * 8
-    assert peak - before < (count - solved) * width * 8 + 2 * (grid_field._MOVED_ENTRIES + width) * 8 + 16 * count + realloc
+def test_node_rows_read_the_nodes_coordinates_the_field_keeps(cup):
+    """Whole rows, dense or sparse, in any order, bit for bit the dense matrix's; a sparse
+    row holds at most CUT_SUPPORT pairs, and its coordinates place its node where the
+    field says they do."""
+    field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=16, tolerance=FLOAT32)
+    every = field.node_coordinates
+    ids = np.random.default_rng(3).permutation(len(every))[:500]
+    assert every[ids].tobytes() == field.node_rows(ids).tobytes()
+    assert np.count_nonzero(every[~field.node_inside], axis=1).max() <= field_module.CUT_SUPPORT
+    assert every.min() >= 0.0 and np.abs(every.sum(axis=1) - 1.0).max() < 1e-12
+    placed = np.linalg.norm(every[field.node_exact] @ field.vertices - field.node_positions[field.node_exact], axis=1)
+    assert placed.max() < 1e-9 * np.linalg.norm(np.ptp(field.vertices, axis=0))
 
 
 def test_the_cups_written_chunks_give_the_same_plan_bit_for_bit_whatever_their_size(monkeypatch):
@@ -301,16 +286,6 @@ def test_the_cups_written_chunks_give_the_same_plan_bit_for_bit_whatever_their_s
             assert first.dtype == second.dtype and first.tobytes() == second.tobytes(), field.name
         else:
             assert repr(first) == repr(second), field.name
-
-
-def test_solved_rows_in_another_layout_are_spread_as_rows():
-    """The workers' solve hands its rows over as a transpose (Fortran order): resized in
-    place they would be read in another order."""
-    rows = np.array(np.arange(12.0).reshape(3, 4).T)  # (4, 3), Fortran order, as the workers' result
-    assert not rows.flags.c_contiguous
-    spread = grid_field._spread_rows(rows, np.array([0, 2, 3, 5]), 6)
-    np.testing.assert_array_equal(spread[[0, 2, 3, 5]], np.arange(12.0).reshape(3, 4).T)
-    assert not spread[[1, 4]].any()
 
 
 def test_the_multigrid_solve_in_workers_gives_what_one_process_gives(monkeypatch):
