@@ -1,7 +1,8 @@
 """Arrays as the public functions accept them: real, finite, of a known shape
 (:func:`real_array`), tolerances (:func:`check_tolerance`), the frame a cage's size
 is measured in (:func:`bounding_frame`), and what the checks of one call learn
-(:class:`_Context`: the cage's dimension, the points). Used by :mod:`.parameters`.
+(:class:`_Context`: the cage's dimension, the points). Used by :mod:`.parameters`. And a
+row-wise computation made a block of rows at a time (:func:`in_row_blocks`).
 """
 
 import math
@@ -12,7 +13,7 @@ import numpy as np
 from . import tolerances
 from .errors import CageError
 
-__all__ = ["check_tolerance", "real_array", "bounding_frame"]
+__all__ = ["check_tolerance", "real_array", "bounding_frame", "in_row_blocks"]
 
 
 def _as_array(value, name):
@@ -117,3 +118,21 @@ class _Context:
         self.function = function
         self.dimension = self.vertex_count = self.point_count = None
         self.vertices = self.faces = self.points = self.kind = None
+
+
+def in_row_blocks(compute, rows, *arrays):
+    """``compute(*arrays)`` (a tuple of arrays whose row i depends on the arrays' row i
+    alone) made ``rows`` rows at a time and concatenated: what it holds beside its
+    result is a block's (the pairs of a block of nodes, not all of them).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gencoords.base.arrays import in_row_blocks
+    >>> in_row_blocks(lambda a, b: (a + b, a * b), 2, np.arange(5), np.ones(5))
+    (array([1., 2., 3., 4., 5.]), array([0., 1., 2., 3., 4.]))
+    """
+    if len(arrays[0]) <= rows:
+        return compute(*arrays)
+    parts = [compute(*(array[start:start + rows] for array in arrays)) for start in range(0, len(arrays[0]), rows)]
+    return tuple(np.concatenate(part) for part in zip(*parts))

@@ -13,17 +13,21 @@ returned for polygons are 4 wide, a triangle's fourth its first corner with valu
 
 import numpy as np
 
+from ..base.arrays import in_row_blocks
 from ..construction.quad_cage import bilinear_parameters
 from ..construction.quad_integrals import bilinear_hats, corner_normals
 
 
-__all__ = ["closest_on_triangles", "boxed_pairs", "nearest_boundary_points", "hat_values", "segment_crossings",
+__all__ = ["closest_on_triangles", "boxed_pairs", "nearest_boundary_points", "segment_crossings",
            "patch_crossings", "between_split_and_patch"]
 
 _PAIR_CHUNK = 1 << 16  # (node, facet) pairs measured at a time: bounded memory
 _RANGE_CHUNK = 1 << 20  # (node, facet) pairs in x tested at a time: bounded memory
 _SLAB_ROUNDING = 1e-6  # of the reach: a facet's slab grown by this against rounding
 _SLACK = 1e-12  # an edge or vertex crossed belongs to both sides: no miss between them
+# Positions or segments measured at a time (``in_row_blocks``): their (node, facet) pairs,
+# about 25 each, are made before they are measured (the cup's: 40 MB at once).
+_ROWS_AT_A_TIME = 1 << 11
 
 
 def closest_on_triangles(points, corners):
@@ -206,6 +210,9 @@ def nearest_boundary_points(positions, vertices, faces, reach, widen=True):
         non-negative, each row summing to 1.
     distance : (b,) float
     """
+    if len(positions) > _ROWS_AT_A_TIME:
+        return in_row_blocks(lambda block: nearest_boundary_points(block, vertices, faces, reach, widen),
+                             _ROWS_AT_A_TIME, positions)
     quad = faces[:, -1] >= 0 if faces.shape[1] == 4 else np.zeros(len(faces), dtype=bool)
     if faces.shape[1] == 4 and not quad.any():  # polygons all triangles (the cup): no patch to bound
         columns, barycentric, distance = nearest_boundary_points(positions, vertices, faces[:, :3], reach, widen)
@@ -226,13 +233,6 @@ def nearest_boundary_points(positions, vertices, faces, reach, widen=True):
         facet[far], barycentric[far], distance[far] = found
         far = far[found[2] > reach]
     return _padded(faces)[facet], barycentric, distance
-
-
-def hat_values(positions, vertices, faces, reach):
-    """The cage's hat values at each position's nearest boundary point: (columns (b, w)
-    int, values (b, w) float), as :func:`nearest_boundary_points`."""
-    columns, values, _ = nearest_boundary_points(positions, vertices, faces, reach)
-    return columns, values
 
 
 def _crossing_pairs(starts, steps, corners):
@@ -345,6 +345,8 @@ def segment_crossings(starts, steps, vertices, faces):
     barycentric : (s, w) float
         The cage's hat values at the crossing: non-negative, summing to 1.
     """
+    if len(starts) > _ROWS_AT_A_TIME:
+        return in_row_blocks(lambda *block: segment_crossings(*block, vertices, faces), _ROWS_AT_A_TIME, starts, steps)
     corners = vertices[_padded(faces)]
     quad = faces[:, -1] >= 0 if faces.shape[1] == 4 else np.zeros(len(faces), dtype=bool)
     segment, facet = _crossing_pairs(starts, steps, corners)

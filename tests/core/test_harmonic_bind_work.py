@@ -301,3 +301,64 @@ def test_the_multigrid_solve_in_workers_gives_what_one_process_gives(monkeypatch
     spread = grid_field.harmonic_field(vertices, triangles, resolution=24, workers=2)
     assert in_workers
     np.testing.assert_allclose(spread.node_coordinates, alone.node_coordinates, rtol=0, atol=1e-13)
+
+
+def test_the_refusals_inside_lookup_counts_crossings_in_place(cup):
+    """The 131^3 nodes of the cup's inside lookup (Bind's refusal, before any coordinates)
+    are counted in int32, summed in place, a few (facet, column) pairs at a time (float64
+    counts, their summed copy and every pair at once took 26 MB beside what is kept), and
+    say what winding numbers say."""
+    import tracemalloc
+
+    from gencoords.construction.boundary import winding_numbers
+    from gencoords.evaluation.cage import Cage
+
+    prepared = Cage(cup.cage_vertices, cup.cage_triangles, tolerance=FLOAT32)._prepared
+    grid = fit_grid(prepared.vertices, 128)
+    tracemalloc.start()
+    try:
+        inside = grid_module.inside_nodes(grid, prepared.facet_corners())
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 5 * inside.size + (8 << 20)
+    sample = np.argwhere(np.ones(grid.shape, dtype=bool))[::997]
+    expected = winding_numbers(prepared, grid_module.node_positions(grid, sample) * prepared.scale + prepared.origin)
+    # Where the lookup is read: cells the surface does not cross, as their lowest node.
+    surface = surface_cells(grid, prepared.facet_corners(), 1e-6 * grid.spacing)
+    read = ~surface[tuple(np.minimum(sample, np.array(surface.shape) - 1).T)]
+    assert read.mean() > 0.9
+    assert inside[tuple(sample[read].T)].tolist() == (expected[read] >= 0.5).tolist()
+
+
+@pytest.mark.parametrize("measure", ["nearest", "crossings"])
+def test_boundary_values_of_many_nodes_are_measured_a_block_at_a_time_bit_for_bit(cup, measure, monkeypatch):
+    """The nodes' nearest boundary points and the grid edges' crossings are measured a
+    block of rows at a time (their (node, facet) pairs all at once were 40 MB of the cup's
+    Bind): the same values bit for bit, a block's pairs in memory."""
+    import tracemalloc
+
+    from gencoords.harmonic import boundary_values
+
+    grid = fit_grid(cup.cage_vertices, 48)
+    polygons = _polygons(cup)
+    near = surface_cells(grid, cup.cage_vertices[cup.cage_triangles], grid.spacing)  # nodes as the Bind's
+    positions = grid_module.node_positions(grid, np.argwhere(near))
+    if measure == "nearest":
+        run = lambda: boundary_values.nearest_boundary_points(positions, cup.cage_vertices, polygons,  # noqa: E731
+                                                             1.75 * grid.spacing)
+    else:
+        steps = np.tile([[0.0, 0.0, 1.0]], (len(positions), 1)) * grid.spacing
+        run = lambda: boundary_values.segment_crossings(positions, steps, cup.cage_vertices, polygons)  # noqa: E731
+    assert len(positions) > 4 * boundary_values._ROWS_AT_A_TIME
+    tracemalloc.start()
+    try:
+        blocks = run()
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    monkeypatch.setattr(boundary_values, "_ROWS_AT_A_TIME", len(positions))
+    whole = run()
+    for part, again in zip(blocks, whole):
+        assert part.tobytes() == again.tobytes()
+    assert peak < sum(part.nbytes for part in blocks) + (12 << 20)
