@@ -35,7 +35,6 @@ from ..harmonic.cage_features import AUTOMATIC_CEILING, automatic_resolution
 from ..harmonic.memory import available_memory, field_bytes, fitting_resolution
 from ..storage import Storage, sparse, two_level
 from ..storage.codecs import plan_codec
-from ..storage.pair_deviations import interpolated
 from . import figures
 from .similarity import similarity_deviation
 from .request import (BIND_SOLVER_TOLERANCE, BindPlan, GridMemoryError, ImpreciseCoordinatesError,
@@ -383,9 +382,7 @@ def _plan_two_level(points, cage, request, rows, report, fewest=0):
     point_sums = (layout.corner_weights.astype(np.float64) * node_sums[layout.corners]).sum(axis=1)
     every_column = layout.node_slot_count >= len(cage.vertices)
     locations = figures.point_locations(request, cage, points)
-    # Where the stored weights place each point: the nodes' places, interpolated.
-    node_places = np.einsum("nk,nkc->nc", layout.node_weights.astype(np.float64), cage.vertices[layout.node_indices])
-    places = interpolated(node_places, layout.corners, layout.corner_weights)
+    places = layout.placed_points(cage.vertices)
     miss = np.linalg.norm(places - points, axis=1)
     placed = miss if request.outside != "project" else miss[locations != OUTSIDE]
     return BindPlan(
