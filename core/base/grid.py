@@ -17,7 +17,7 @@ __all__ = ["Grid", "fit_grid", "inside_nodes", "column_pairs", "surface_cells", 
 # The rays leave the nodes' exact x and y by this fraction of a cell, in directions no
 # cage edge of a box-modelled cage shares, so a ray never grazes an edge or a vertex.
 _RAY_OFFSET = (2.0 ** -20 * np.sqrt(2.0), 2.0 ** -20 * np.sqrt(3.0) / 2.0)
-_BATCH_PAIRS = 1 << 16  # (facet, column) pairs tested at a time: about 100 bytes each in temporaries
+_BATCH_PAIRS = 1 << 15  # (facet, column) pairs tested at a time: about 100 bytes each in temporaries
 _SLAB_ROUNDING = 1e-6  # of a cell: a facet's slab grown by this against rounding
 
 
@@ -108,9 +108,9 @@ def inside_nodes(grid, corners):
     corners : (m, 3, 3) float
         The cage's triangles' corners, outward oriented.
     """
-    # Counts of signed crossings: int32, summed in place (float64 and a summed copy were
-    # 37 MB at once for the 129^3 nodes of a Bind's inside lookup).
-    winding = np.zeros(grid.shape, dtype=np.int32)
+    # Counts of signed crossings (at most one a facet): 16 bits, summed in place (float64
+    # and a summed copy were 37 MB at once for the 131^3 nodes of a Bind's inside lookup).
+    winding = np.zeros(grid.shape, dtype=np.int16 if len(corners) < 1 << 15 else np.int32)  # no overflow
     _, _, counts = _column_boxes(grid, corners)
     ends = np.cumsum(counts[:, 0] * counts[:, 1])  # pairs up to each facet
     start = 0
@@ -123,7 +123,7 @@ def inside_nodes(grid, corners):
         level = np.floor((height - grid.origin[2]) / grid.spacing).astype(np.int64)
         keep = level >= 0
         np.add.at(winding, (x[keep], y[keep], np.minimum(level[keep], grid.shape[2] - 1)),
-                  sign[keep].astype(np.int32))
+                  sign[keep].astype(winding.dtype))
         start = stop
     from_the_top = winding[:, :, ::-1]
     np.cumsum(from_the_top, axis=2, out=from_the_top)

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..base.errors import CageError
 from ..base.grid import fit_grid, inside_nodes, node_positions, surface_cells
+from ..base.arrays import in_row_blocks
 from ..base.inputs import checked
 from ..base.mixed_rows import MixedRows
 from ..construction.quad_cage import fan_split, validate_polygons
@@ -27,6 +28,7 @@ __all__ = ["harmonic_field", "harmonic_quad_field", "harmonic_coordinates"]
 _WIDENED_ITERATIONS = 12
 _EXACT = 1e-12  # of the cage's size: a node's reweighted coordinates place it exactly
 _HULL_ROUNDING = 1e-6  # of a cell: a node beyond the hull by less is still tried
+_BETWEEN_NODES = 1 << 16  # grid nodes tested between a quad's split and its patch at a time
 _PRIOR_ENTRIES = 1 << 18  # (node, cage vertex) entries of the Dirichlet nodes' priors at a time
 
 
@@ -53,8 +55,11 @@ def _grid_nodes(grid, corners, tolerance, vertices, polygons=None):
     triangles and its patch is inside or outside as the patch has it."""
     inside = inside_nodes(grid, corners)
     if polygons is not None:
-        every = np.argwhere(np.ones(grid.shape, dtype=bool))
-        inside ^= between_split_and_patch(node_positions(grid, every), vertices, polygons).reshape(grid.shape)
+        if (polygons[:, -1] >= 0).any():  # a block of nodes at a time: every node's position was 2 x 24 bytes
+            between, = in_row_blocks(lambda nodes: (between_split_and_patch(
+                node_positions(grid, np.column_stack(np.unravel_index(nodes, grid.shape))), vertices, polygons),),
+                _BETWEEN_NODES, np.arange(inside.size))
+            inside ^= between.reshape(grid.shape)
         corners = vertices[np.where(polygons >= 0, polygons, polygons[:, :1])]  # a quad's box, not its halves'
     surface = surface_cells(grid, corners, tolerance)
     kept = _cell_corners_any(surface | _cells_with_a_corner(inside))

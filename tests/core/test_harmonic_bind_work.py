@@ -305,7 +305,7 @@ def test_the_multigrid_solve_in_workers_gives_what_one_process_gives(monkeypatch
 
 def test_the_refusals_inside_lookup_counts_crossings_in_place(cup):
     """The 131^3 nodes of the cup's inside lookup (Bind's refusal, before any coordinates)
-    are counted in int32, summed in place, a few (facet, column) pairs at a time (float64
+    are counted in 16 bits, summed in place, a few (facet, column) pairs at a time (float64
     counts, their summed copy and every pair at once took 26 MB beside what is kept), and
     say what winding numbers say."""
     import tracemalloc
@@ -321,7 +321,7 @@ def test_the_refusals_inside_lookup_counts_crossings_in_place(cup):
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
-    assert peak < 5 * inside.size + (8 << 20)
+    assert peak < 3 * inside.size + (4 << 20)
     sample = np.argwhere(np.ones(grid.shape, dtype=bool))[::997]
     expected = winding_numbers(prepared, grid_module.node_positions(grid, sample) * prepared.scale + prepared.origin)
     # Where the lookup is read: cells the surface does not cross, as their lowest node.
