@@ -7,6 +7,9 @@ import bpy
 from ..blender_io.compat import compare_operands, new_index_switch_items
 
 COLUMN_WIDTH, ROW_HEIGHT = 220.0, 160.0
+# Constants an Index Switch node holds: an item added costs more the more it holds (a
+# 1,000-vertex cage's rest positions in one node: 2.0 s of Bind, 2,000: 13.7 s).
+SWITCH_ITEMS = 64
 
 
 class Builder:
@@ -76,12 +79,29 @@ class Builder:
         return node.outputs[0]
 
     def index_switch(self, column, index, vectors, **settings):
-        """A field that is ``vectors[index]``: per-cage constants kept in the group."""
+        """A field that is ``vectors[index]``: per-cage constants kept in the group, at
+        most SWITCH_ITEMS to an Index Switch node; of more, the node returned (``settings``
+        its) chooses by ``index // SWITCH_ITEMS`` among those holding them."""
+        if len(vectors) <= SWITCH_ITEMS:
+            return self._switch(column, index, vectors, **settings)
+        # Exact in floats: indices below 2^24, over a power of two.
+        within = self.math(column, 'MODULO', index, float(SWITCH_ITEMS), vector=False)
+        chunk = self.math(column, 'FLOOR', self.math(column, 'DIVIDE', index, float(SWITCH_ITEMS), vector=False),
+                          vector=False)
+        parts = [self._switch(column, within, vectors[start:start + SWITCH_ITEMS])
+                 for start in range(0, len(vectors), SWITCH_ITEMS)]
+        return self.index_switch(column, chunk, parts, **settings)
+
+    def _switch(self, column, index, values, **settings):
+        """One Index Switch node over ``values`` (constants or sockets)."""
         node = self.add('GeometryNodeIndexSwitch', column, data_type='VECTOR', **settings)
-        new_index_switch_items(node, len(vectors))
+        new_index_switch_items(node, len(values))
         self.link(index, node.inputs["Index"])
-        for socket, vector in zip(node.inputs[1:], vectors):
-            socket.default_value = vector
+        for socket, value in zip(node.inputs[1:], values):
+            if isinstance(value, bpy.types.NodeSocket):
+                self.link(value, socket)
+            else:
+                socket.default_value = value
         return node.outputs[0]
 
     def statistic_sum(self, column, geometry, value):

@@ -310,7 +310,21 @@ def read_rest_cage(group, count):
                 if node.bl_idname == 'GeometryNodeIndexSwitch' and node.data_type == 'VECTOR']
     named = [node for node in switches if node.name == REST_SWITCH]
     switches = named or switches
-    if len(switches) != 1 or len(switches[0].inputs) < count + 1:
+    if len(switches) != 1:
         return None
-    return np.array([socket.default_value[:] for socket in switches[0].inputs[1:count + 1]],
-                    dtype=np.float32).reshape(count, 3)
+    values = _switch_values(switches[0])
+    if len(values) < count:
+        return None
+    return np.array(values[:count], dtype=np.float32).reshape(count, 3)
+
+
+def _switch_values(switch):
+    """The constants an Index Switch gives by index, through the switches it chooses
+    among (``Builder.index_switch``): a list of 3-tuples."""
+    values = []
+    for socket in switch.inputs[1:]:
+        if socket.is_linked and socket.links[0].from_node.bl_idname == 'GeometryNodeIndexSwitch':
+            values += _switch_values(socket.links[0].from_node)
+        elif hasattr(socket, "default_value"):  # not the virtual socket that adds an item
+            values.append(socket.default_value[:])
+    return values

@@ -166,7 +166,19 @@ def test_the_group_does_not_grow_with_the_slots_and_big_bindings_deform_exactly(
         # attributes one node each (compat.set_wildcard_removal), which the count leaves out.
         removals = [n for n in found.group.nodes if n.bl_idname == 'GeometryNodeRemoveAttribute']
         assert len(removals) == 1 or "Pattern Mode" not in removals[0].inputs
-        size[slots] = len(found.group.nodes) - len(removals), len(found.group.links) - len(removals)
+        # The cage's constants (its rest positions, its triangles) grow with it, 64 to an
+        # Index Switch (Builder.index_switch): left out, as the nodes choosing among them.
+        switches = [n for n in found.group.nodes if n.bl_idname == 'GeometryNodeIndexSwitch']
+        assert max(len(n.index_switch_items) for n in switches) <= 64
+        # The rest cage, 162 vertices over three switches and one choosing, reads back whole.
+        np.testing.assert_array_equal(found.rest_cage, read_positions(cage.data))
+        constants = set(switches) | {link.from_node for n in switches for link in n.inputs[0].links
+                                     if link.from_node.bl_idname == 'ShaderNodeMath'}
+        constants |= {link.from_node for n in list(constants) if n.bl_idname == 'ShaderNodeMath'
+                      for link in n.inputs[0].links if link.from_node.bl_idname == 'ShaderNodeMath'}
+        size[slots] = (len(found.group.nodes) - len(removals) - len(constants),
+                       len(found.group.links) - len(removals) - sum(link.to_node in constants
+                                                                    for link in found.group.links))
         assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)
     (small_nodes, small_links), (big_nodes, big_links) = size[122], size[482]
     assert big_nodes - small_nodes <= 6 and big_links - small_links <= 12  # 4 times the slots
@@ -185,4 +197,21 @@ def test_a_low_poly_prop_in_a_detailed_cage_binds_green_and_follows_similarities
     info = gc.binding.binding(obj).data
     assert (info.storage, info.slot_count, info.cage_face_count) == ('EXACT', 162 + 320, 320)
     assert not [a.name for a in obj.data.attributes if a.name == info.triangle_name]
+    assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)
+
+
+def test_constants_over_many_index_switches_choose_through_every_level(gc, monkeypatch):
+    """With 4 constants to an Index Switch (64 in the add-on), a 42-vertex cage's rest
+    positions and 80 triangles take three levels of switches choosing among switches:
+    the binding is bitwise at rest, follows a similarity, and its rest cage reads back."""
+    builder = importlib.import_module(gc.core.__name__.rpartition(".")[0] + ".gencoords_addon.graph.builder")
+    monkeypatch.setattr(builder, "SWITCH_ITEMS", 4)
+    cage = add_icosphere_cage(subdivisions=2)
+    obj = add_subdivided_sphere(levels=2)
+    rest = read_positions(obj.data).astype(np.float64)
+    assert bind_green(obj, cage) == {'FINISHED'}
+    found = gc.binding.binding(obj)
+    switches = [n for n in found.group.nodes if n.bl_idname == 'GeometryNodeIndexSwitch']
+    assert max(len(n.index_switch_items) for n in switches) <= 4 and len(switches) > 11 + 3 + 1
+    np.testing.assert_array_equal(found.rest_cage, read_positions(cage.data))
     assert_bitwise_at_rest_and_follows_a_similarity(obj, cage, rest)
