@@ -2,7 +2,8 @@
 (:func:`real_array`), tolerances (:func:`check_tolerance`), the frame a cage's size
 is measured in (:func:`bounding_frame`), and what the checks of one call learn
 (:class:`_Context`: the cage's dimension, the points). Used by :mod:`.parameters`. And a
-row-wise computation made a block of rows at a time (:func:`in_row_blocks`).
+row-wise computation made a block of rows at a time (:func:`in_row_blocks`), and rows
+taken without a copy where they are all (:func:`selected_rows`).
 """
 
 import math
@@ -13,7 +14,7 @@ import numpy as np
 from . import tolerances
 from .errors import CageError
 
-__all__ = ["check_tolerance", "real_array", "bounding_frame", "in_row_blocks"]
+__all__ = ["check_tolerance", "real_array", "bounding_frame", "in_row_blocks", "selected_rows"]
 
 
 def _as_array(value, name):
@@ -136,3 +137,9 @@ def in_row_blocks(compute, rows, *arrays):
         return compute(*arrays)
     parts = [compute(*(array[start:start + rows] for array in arrays)) for start in range(0, len(arrays[0]), rows)]
     return tuple(np.concatenate(part) for part in zip(*parts))
+
+
+def selected_rows(array, rows):
+    """``array[rows]`` for increasing, distinct ``rows`` ((j,) int), or ``array`` itself,
+    not a copy, where they are all of its rows."""
+    return array if len(rows) == len(array) else array[rows]
