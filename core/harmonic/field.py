@@ -112,7 +112,7 @@ class HarmonicField:
         return self._node_rows.toarray()
 
     def node_rows(self, nodes, out=None):
-        """Nodes' coordinates: (k, n) float64 for (k,) int ``nodes``, into ``out`` where given."""
+        """Nodes' coordinates: (k, n) float64 for (k,) int ``nodes``, into ``out`` (C order) where given."""
         return self._node_rows.rows(nodes, out)
 
     def __repr__(self):

@@ -7,9 +7,9 @@ system solved, nodes beside the cage reweighted to place themselves) and
 
 import numpy as np
 
+from ..base.arrays import in_row_blocks
 from ..base.errors import CageError
 from ..base.grid import fit_grid, inside_nodes, node_positions, surface_cells
-from ..base.arrays import in_row_blocks
 from ..base.inputs import checked
 from ..base.mixed_rows import MixedRows
 from ..construction.quad_cage import fan_split, validate_polygons
