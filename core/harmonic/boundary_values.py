@@ -235,12 +235,6 @@ def nearest_boundary_points(positions, vertices, faces, reach, widen=True):
     return _padded(faces)[facet], barycentric, distance
 
 
-def _crossing_pairs(starts, steps, corners):
-    """(segment, facet) pairs whose boxes overlap: every facet a segment meets is among them."""
-    middles, reach = starts + 0.5 * steps, 0.5 * np.abs(steps).max(axis=1).max(initial=0.0)
-    return boxed_pairs(middles, corners, reach)
-
-
 def _triangle_crossings(starts, steps, corners):
     """Where each line ``start + t step`` meets the plane of its triangle: (t, u, v, usable),
     (u, v) the crossing's barycentric coordinates towards the second and third corners."""
@@ -345,14 +339,20 @@ def segment_crossings(starts, steps, vertices, faces):
     barycentric : (s, w) float
         The cage's hat values at the crossing: non-negative, summing to 1.
     """
-    if len(starts) > _ROWS_AT_A_TIME:
-        return in_row_blocks(lambda *block: segment_crossings(*block, vertices, faces), _ROWS_AT_A_TIME, starts, steps)
-    corners = vertices[_padded(faces)]
+    padded, reach = _padded(faces), 0.5 * np.abs(steps).max(axis=1).max(initial=0.0)
     quad = faces[:, -1] >= 0 if faces.shape[1] == 4 else np.zeros(len(faces), dtype=bool)
-    segment, facet = _crossing_pairs(starts, steps, corners)
+    # Blocks of segments, each boxed with every segment's reach: a segment's candidates
+    # (the facets whose boxes meet its own) do not depend on its block.
+    return in_row_blocks(lambda *block: _first_crossings(*block, vertices[padded], quad, padded, reach),
+                         _ROWS_AT_A_TIME, starts, steps)
+
+
+def _first_crossings(starts, steps, corners, quad, padded, reach):
+    """:func:`segment_crossings` among the facets whose boxes, grown by ``reach``, hold the middles."""
+    segment, facet = boxed_pairs(starts + 0.5 * steps, corners, reach)
     fraction = np.full(len(starts), np.inf)
-    columns = np.zeros((len(starts), faces.shape[1]), dtype=np.int64)
-    barycentric = np.zeros((len(starts), faces.shape[1]))
+    columns = np.zeros((len(starts), padded.shape[1]), dtype=np.int64)
+    barycentric = np.zeros((len(starts), padded.shape[1]))
     for start in range(0, len(segment), _PAIR_CHUNK):
         rows, chosen = segment[start:start + _PAIR_CHUNK], facet[start:start + _PAIR_CHUNK]
         hit, t, values = _crossings(starts[rows], steps[rows], corners[chosen], quad[chosen])
@@ -364,7 +364,7 @@ def segment_crossings(starts, steps, vertices, faces):
         closer = t < fraction[rows]
         rows, chosen, t, values = rows[closer], chosen[closer], t[closer], values[closer]
         fraction[rows] = t
-        columns[rows] = _padded(faces)[chosen]
+        columns[rows] = padded[chosen]
         barycentric[rows] = values
     return fraction, columns, barycentric
 

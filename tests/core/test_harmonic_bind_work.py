@@ -245,9 +245,9 @@ def test_the_cups_field_and_its_points_coordinates_take_little_beside_what_they_
 
 
 def test_node_rows_read_the_nodes_coordinates_the_field_keeps(cup):
-    """Whole rows, dense or sparse, in any order, bit for bit the dense matrix's; a sparse
-    row holds at most CUT_SUPPORT pairs, and its coordinates place its node where the
-    field says they do."""
+    """Whole rows, dense or sparse, in any order, bit for bit the dense copy's rows; a
+    sparse row holds at most CUT_SUPPORT pairs; and every row, read back, is non-negative,
+    sums to 1 and places its node where the field says it does."""
     field = harmonic_quad_field(cup.cage_vertices, _polygons(cup), resolution=16, tolerance=FLOAT32)
     every = field.node_coordinates
     ids = np.random.default_rng(3).permutation(len(every))[:500]
@@ -331,25 +331,36 @@ def test_the_refusals_inside_lookup_counts_crossings_in_place(cup):
     assert inside[tuple(sample[read].T)].tolist() == (expected[read] >= 0.5).tolist()
 
 
+@pytest.mark.parametrize("name", ["cup", "hand"])  # triangles; quads, their patches
 @pytest.mark.parametrize("measure", ["nearest", "crossings"])
-def test_boundary_values_of_many_nodes_are_measured_a_block_at_a_time_bit_for_bit(cup, measure, monkeypatch):
-    """The nodes' nearest boundary points and the grid edges' crossings are measured a
-    block of rows at a time (their (node, facet) pairs all at once were 40 MB of the cup's
-    Bind): the same values bit for bit, a block's pairs in memory."""
+def test_boundary_values_of_many_nodes_are_measured_a_block_at_a_time_bit_for_bit(name, measure, monkeypatch):
+    """The nodes' nearest boundary points and segments' crossings are measured a block of
+    rows at a time (their (node, facet) pairs all at once were 40 MB of the cup's Bind):
+    the same values bit for bit, segments of any length (each block boxed with every
+    segment's reach), a block's pairs in memory."""
     import tracemalloc
 
     from gencoords.harmonic import boundary_values
 
-    grid = fit_grid(cup.cage_vertices, 48)
-    polygons = _polygons(cup)
-    near = surface_cells(grid, cup.cage_vertices[cup.cage_triangles], grid.spacing)  # nodes as the Bind's
+    scene = artist_cages.fixture(name, 0.1)
+    grid = fit_grid(scene.cage_vertices, 48)
+    polygons = _polygons(scene)
+    near = surface_cells(grid, scene.cage_vertices[scene.cage_triangles], grid.spacing)  # nodes as the Bind's
     positions = grid_module.node_positions(grid, np.argwhere(near))
     if measure == "nearest":
-        run = lambda: boundary_values.nearest_boundary_points(positions, cup.cage_vertices, polygons,  # noqa: E731
-                                                             1.75 * grid.spacing)
-    else:
+        run = lambda: boundary_values.nearest_boundary_points(  # noqa: E731
+            positions, scene.cage_vertices, polygons, 1.75 * grid.spacing)
+    else:  # the grid's edges; then rays of every length (a thin part's across)
         steps = np.tile([[0.0, 0.0, 1.0]], (len(positions), 1)) * grid.spacing
-        run = lambda: boundary_values.segment_crossings(positions, steps, cup.cage_vertices, polygons)  # noqa: E731
+        run = lambda: boundary_values.segment_crossings(positions, steps, scene.cage_vertices, polygons)  # noqa: E731
+        rays = np.random.default_rng(1).normal(size=positions[::3].shape) * grid.spacing
+        rays[::97] *= 4.0
+        blocks = boundary_values.segment_crossings(positions[::3], rays, scene.cage_vertices, polygons)
+        with monkeypatch.context() as whole:
+            whole.setattr(boundary_values, "_ROWS_AT_A_TIME", len(positions))
+            for part, again in zip(blocks, boundary_values.segment_crossings(positions[::3], rays, scene.cage_vertices,
+                                                                             polygons)):
+                assert part.tobytes() == again.tobytes()
     assert len(positions) > 4 * boundary_values._ROWS_AT_A_TIME
     tracemalloc.start()
     try:
