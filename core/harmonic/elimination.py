@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SlabElimination", "slab_axis", "elimination_plan", "factorise"]
+__all__ = ["SlabLayout", "slab_axis", "elimination_plan", "slab_layout", "solve_in_slab_order", "solve_by_slabs"]
 
 # What the iterative solve costs per (unknown, column) pair, in the floating-point
 # operations elimination's matrix products do in the same time (they run at about 40
@@ -28,7 +28,7 @@ __all__ = ["SlabElimination", "slab_axis", "elimination_plan", "factorise"]
 # many a pair: its large slabs also cost gathers beyond their operations (a 162-vertex
 # sphere cage at 48 cells: its whole field took 10 s by elimination against 6.4 s).
 MULTIGRID_FLOPS_PER_PAIR = 20_000
-# The Schur complements' inverses are kept for the solve: no more than this many bytes.
+# The Schur complements' inverses (as many bytes as they would take kept whole): no more.
 MAX_INVERSE_BYTES = 1 << 30
 # The 4 in-slab neighbours (axes 1 and 2 of the slab-major grid).
 _IN_SLAB = np.array([(0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)])
@@ -70,76 +70,32 @@ def elimination_plan(inside, column_count):
 
 
 @dataclass
-class SlabElimination:
-    """The factorised matrix (:func:`factorise`).
+class SlabLayout:
+    """The unknowns in slabs along one axis (:func:`slab_layout`).
 
     Attributes
     ----------
     order : (u,) int
-        The unknowns (rows of the matrix) in slab order.
+        The unknowns (rows of the matrix, ``np.argwhere(inside)`` order) in slab order.
     bounds : (s + 1,) int
         Slab i holds ``order[bounds[i]:bounds[i + 1]]``.
-    inverses : list of (b_i, b_i) float
-        Each slab's Schur complement inverted.
     links : list of ((l,) int, (l,) int)
         Per slab, its unknowns beside one in the slab before (indices within the slab)
         and those (indices within the slab before): ``B_i``'s -1 entries.
+    beside : list of 4 (u,) int
+        Each unknown's in-slab neighbour (slab-order position, -1: none), per direction.
     """
 
     order: np.ndarray
     bounds: np.ndarray
-    inverses: list
     links: list
-
-    def solve(self, rhs, progress=None):
-        """``A^-1 rhs`` for (u, c) ``rhs``: (u, c) float64, rows in the unknowns' order.
-        ``progress(fraction)`` after each slab, both ways."""
-        solution = self.solve_in_slab_order(np.asarray(rhs, dtype=np.float64)[self.order], progress)
-        result = np.empty_like(solution)
-        result[self.order] = solution
-        return result
-
-    def solve_in_slab_order(self, values, progress=None):
-        """:meth:`solve` for a (u, c) float64 right-hand side whose rows are in slab
-        order (``rhs[order]``), overwritten with the solution (slab order): no copy."""
-        bounds, inverses, links = self.bounds, self.inverses, self.links
-        slabs = len(inverses)
-        for i in range(slabs):  # forward: values become S_i^-1 of the eliminated right-hand side
-            start, stop = bounds[i], bounds[i + 1]
-            here, before = links[i]
-            if len(here):  # -B_i w_(i-1): B_i selects with -1
-                values[start + here] += values[bounds[i - 1] + before]
-            values[start:stop] = inverses[i] @ values[start:stop]
-            if progress is not None:
-                progress(0.5 * (i + 1) / slabs)
-        for i in range(slabs - 2, -1, -1):
-            here, before = links[i + 1]
-            if len(here):  # x_i = w_i - S_i^-1 B_(i+1)^T x_(i+1)
-                values[bounds[i]:bounds[i + 1]] += inverses[i][:, before] @ values[bounds[i + 1] + here]
-            if progress is not None:
-                progress(0.5 + 0.5 * (slabs - i) / slabs)
-        return values
+    beside: list
 
 
-def factorise(inside, diagonal, axis, progress=None):
-    """Eliminate the slabs along ``axis`` in turn.
-
-    Parameters
-    ----------
-    inside : (x, y, z) bool
-        The unknowns (rows: ``np.argwhere(inside)`` order).
-    diagonal : (u,) float or None
-        The matrix's diagonal (None: 6).
-    axis : int
-    progress : callable, optional
-        ``progress(fraction)`` after each slab.
-
-    Returns
-    -------
-    SlabElimination
-    """
+def slab_layout(inside, axis):
+    """The unknowns ``inside`` ((x, y, z) bool) ordered in slabs along ``axis``: a
+    :class:`SlabLayout`."""
     count = int(np.count_nonzero(inside))
-    diagonal = np.full(count, 6.0) if diagonal is None else np.asarray(diagonal, dtype=np.float64)
     ids = np.full(inside.shape, -1, dtype=np.int64)
     ids[inside] = np.arange(count)
     slab_major = np.moveaxis(inside, axis, 0)
@@ -150,33 +106,82 @@ def factorise(inside, diagonal, axis, progress=None):
     padded = np.pad(position, 1, constant_values=-1)
     bounds = np.searchsorted(nodes[:, 0], np.arange(slab_major.shape[0] + 1))
     below = padded[tuple((nodes + 1 - np.array([1, 0, 0])).T)]
-    beside = [padded[tuple((nodes + 1 + step).T)] for step in _IN_SLAB]
-    own = diagonal[order]
-    work = np.cumsum(np.diff(bounds).astype(np.float64) ** 3)
-    inverses, links = [], []
-    # The inverses kept in one block, each slab's matrix built in one scratch block: a
-    # new matrix and inverse a slab (the cup: 51, up to 3 MB each) left the allocator's
-    # freed blocks between those kept (its Bind: 15 MB more resident).
-    sizes = np.diff(bounds).astype(np.int64)
-    offsets = np.concatenate([[0], np.cumsum(sizes ** 2)])
-    held, scratch = np.empty(int(offsets[-1])), np.empty(int(sizes.max(initial=0)) ** 2)
+    links = []
     for i in range(len(bounds) - 1):
-        start, stop = bounds[i], bounds[i + 1]
-        size = stop - start
+        here = np.flatnonzero(below[bounds[i]:bounds[i + 1]] >= 0)
+        links.append((here, below[bounds[i]:bounds[i + 1]][here] - (bounds[i - 1] if i else 0)))
+    return SlabLayout(order, bounds, links, [padded[tuple((nodes + 1 + step).T)] for step in _IN_SLAB])
+
+
+def solve_in_slab_order(layout, diagonal, values, progress=None):
+    """Solve ``A x = values`` in place by eliminating the slabs in turn.
+
+    Each slab's Schur complement is inverted and applied to the right-hand side as it is
+    formed (forward), and only the columns of its inverse that the next slab couples to
+    are kept for the way back: the inverses whole (the cup at 96 cells: 596 MB) are
+    never held at once.
+
+    Parameters
+    ----------
+    layout : SlabLayout
+    diagonal : (u,) float or None
+        The matrix's diagonal, in the unknowns' order (None: 6).
+    values : (u, c) float64
+        The right-hand side, rows in slab order (``rhs[layout.order]``); overwritten
+        with the solution (slab order).
+    progress : callable, optional
+        ``progress(fraction)`` after each slab, both ways.
+
+    Returns
+    -------
+    values : (u, c) float64
+    """
+    bounds, links = layout.bounds, layout.links
+    slabs, count = len(bounds) - 1, len(layout.order)
+    own = np.full(count, 6.0) if diagonal is None else np.asarray(diagonal, dtype=np.float64)[layout.order]
+    sizes = np.diff(bounds).astype(np.int64)
+    widths = np.array([len(links[i + 1][0]) for i in range(slabs - 1)] + [0], dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(sizes * widths)])
+    work = np.cumsum(sizes.astype(np.float64) ** 3)
+    # The kept columns in one block, each slab's matrix in one scratch block: a new
+    # array a slab kept (the cup: 51, up to 3 MB each) left freed blocks between them.
+    kept, scratch = np.empty(int(offsets[-1])), np.empty(int(sizes.max(initial=0)) ** 2)
+    backward = []
+    for i in range(slabs):  # values become S_i^-1 of the eliminated right-hand side
+        start, stop, size = bounds[i], bounds[i + 1], sizes[i]
+        here, before = links[i]
         block = scratch[:size * size].reshape(size, size)
         block[:] = 0.0
         block[np.arange(size), np.arange(size)] = own[start:stop]
-        for neighbour in beside:
+        for neighbour in layout.beside:
             rows = np.flatnonzero(neighbour[start:stop] >= 0)
             block[rows, neighbour[start:stop][rows] - start] = -1.0
-        here = np.flatnonzero(below[start:stop] >= 0)
-        before = below[start:stop][here] - (bounds[i - 1] if i else 0)
-        if len(here):
-            block[np.ix_(here, here)] -= inverses[-1][np.ix_(before, before)]
-        inverse = held[offsets[i]:offsets[i + 1]].reshape(size, size)
-        inverse[:] = np.linalg.inv(block) if size else 0.0
-        inverses.append(inverse)
-        links.append((here, before))
+        if len(here):  # S_i = A_ii - B_i S_(i-1)^-1 B_i^T (rows of the columns kept), and -B_i w_(i-1)
+            block[np.ix_(here, here)] -= backward[i - 1][before]
+            values[start + here] += values[bounds[i - 1] + before]
+        inverse = np.linalg.inv(block) if size else np.zeros((0, 0))
+        values[start:stop] = inverse @ values[start:stop]
+        if i + 1 < slabs:  # S_i^-1 B_(i+1)^T: what the next slab and the way back read
+            backward.append(kept[offsets[i]:offsets[i + 1]].reshape(size, widths[i]))
+            backward[i][:] = inverse[:, links[i + 1][1]]
+        del inverse
         if progress is not None and work[-1] > 0:
-            progress(work[i] / work[-1])
-    return SlabElimination(order, bounds, inverses, links)
+            progress(0.9 * work[i] / work[-1])
+    for i in range(slabs - 2, -1, -1):
+        here = links[i + 1][0]
+        if len(here):  # x_i = w_i - S_i^-1 B_(i+1)^T x_(i+1)
+            values[bounds[i]:bounds[i + 1]] += backward[i] @ values[bounds[i + 1] + here]
+        if progress is not None:
+            progress(0.9 + 0.1 * (slabs - i) / slabs)
+    return values
+
+
+def solve_by_slabs(inside, diagonal, axis, rhs):
+    """``A^-1 rhs`` by slab elimination along ``axis``, for (u, c) ``rhs`` whose rows
+    are the unknowns ``inside`` ((x, y, z) bool) in ``np.argwhere`` order: (u, c) float64,
+    in that order. ``diagonal`` as :func:`solve_in_slab_order`'s."""
+    layout = slab_layout(inside, axis)
+    solution = solve_in_slab_order(layout, diagonal, np.asarray(rhs, dtype=np.float64)[layout.order])
+    result = np.empty_like(solution)
+    result[layout.order] = solution
+    return result

@@ -12,13 +12,16 @@ cells 663 MB against 62), the whole grid ``GRID_BYTES`` a node. Measured peaks
 that errs high.
 """
 
+import ctypes
+import ctypes.util
 import os
 
 import numpy as np
 
 from ..base.grid import fit_grid
 
-__all__ = ["field_bytes", "fitting_resolution", "available_memory", "NODE_BYTES", "PAIR_BYTES", "GRID_BYTES"]
+__all__ = ["field_bytes", "fitting_resolution", "available_memory", "release_freed_memory", "NODE_BYTES", "PAIR_BYTES",
+           "GRID_BYTES"]
 
 NODE_BYTES, PAIR_BYTES, GRID_BYTES = 500, 24, 8
 # Where the system does not say what memory is free: what a solve may take.
@@ -110,3 +113,30 @@ def available_memory():
         return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
     except (AttributeError, ValueError, OSError):
         return UNKNOWN_AVAILABLE
+
+
+def _malloc_trim():
+    """glibc's ``malloc_trim``, or None (another C library: nothing to hand back this way)."""
+    try:
+        return ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
+    except (OSError, AttributeError, TypeError):
+        return None
+
+
+_MALLOC_TRIM = _malloc_trim()
+
+
+def release_freed_memory():
+    """Hand the pages of memory already freed back to the system (glibc), in every
+    allocator arena; elsewhere nothing. A thread allocates in an arena of its own, so
+    what one step freed in one arena is not reused by the next step in the other: the
+    cup's Bind (its field solved in a thread) held 77 MB resident at its peak, 68 with
+    this called around the thread, for 64 MB live.
+
+    Examples
+    --------
+    >>> from gencoords.harmonic.memory import release_freed_memory
+    >>> release_freed_memory()
+    """
+    if _MALLOC_TRIM is not None:
+        _MALLOC_TRIM(0)

@@ -20,7 +20,7 @@ from ..evaluation.interpreters import available_cores, python_executable
 from ..evaluation.parallel import WorkerPool, computed_here_instead, dispatch_units
 from ..evaluation.shared_memory import SharedArrays
 from .boundary_values import segment_crossings
-from .elimination import elimination_plan, factorise, slab_axis
+from .elimination import elimination_plan, slab_axis, slab_layout, solve_in_slab_order
 from .multigrid import STEPS, apply_matrix, build_levels, level_of, solve
 
 __all__ = ["SOLVER_TOLERANCE", "NEAREST_CROSSING", "boundary_rhs", "solve_nodes", "solved_rows", "solve_columns_task", "worker_count"]
@@ -259,23 +259,22 @@ def _eliminated(inside, rhs, diagonal, column_count, axis, progress):
     solved in place (memory: one (u, n) array)."""
     rows, columns, values = rhs
     count = int(np.count_nonzero(inside))
-    half = None if progress is None else (lambda fraction: progress(0.5 * fraction))
-    factors = factorise(inside, diagonal, axis, half)
+    layout = slab_layout(inside, axis)
     position = np.empty(count, dtype=np.int64)
-    position[factors.order] = np.arange(count)
+    position[layout.order] = np.arange(count)
     solution = np.zeros((count, column_count))
     np.add.at(solution, (position[rows], columns), values)
     # The residual it leaves, checked on a few columns (rounding: about 1e-15).
     checked = np.arange(0, column_count, max(1, column_count // _CHECKED_COLUMNS))
     right = np.zeros((count + 1, len(checked)))
-    right[factors.order] = solution[:, checked]
-    factors.solve_in_slab_order(solution, None if progress is None else (lambda f: progress(0.5 + 0.5 * f)))
+    right[layout.order] = solution[:, checked]
+    solve_in_slab_order(layout, diagonal, solution, progress)
     found = np.zeros_like(right)
-    found[factors.order] = solution[:, checked]
+    found[layout.order] = solution[:, checked]
     residual = apply_matrix(level_of(inside, diagonal=diagonal), found) - right
     norms = np.linalg.norm(right, axis=0)
     relative = np.linalg.norm(residual, axis=0) / np.where(norms > 0, norms, 1.0)
-    return _normalised(solution), factors.order, [1.0, float(relative.max(initial=0.0))]
+    return _normalised(solution), layout.order, [1.0, float(relative.max(initial=0.0))]
 
 
 def _normalised(result):

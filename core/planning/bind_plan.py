@@ -32,7 +32,7 @@ from ..construction.quad_cage import validate_polygons
 from ..evaluation.cage import Cage
 from ..harmonic import harmonic_field, harmonic_quad_field
 from ..harmonic.cage_features import AUTOMATIC_CEILING, automatic_resolution
-from ..harmonic.memory import available_memory, field_bytes, fitting_resolution
+from ..harmonic.memory import available_memory, field_bytes, fitting_resolution, release_freed_memory
 from ..storage import Storage, sparse, two_level
 from ..storage.codecs import plan_codec
 from . import figures
@@ -86,6 +86,7 @@ def _beside(compute, share):
         except BaseException as error:  # re-raised in the caller
             state["error"] = error
 
+    release_freed_memory()  # the caller's freed blocks, before the thread's own arena grows
     thread = threading.Thread(target=run, name="gencoords-bind", daemon=True)
     thread.start()
     try:
@@ -97,6 +98,7 @@ def _beside(compute, share):
         if thread.is_alive():  # closed early: a cancel
             state["cancelled"] = True
             thread.join()
+        release_freed_memory()  # the thread's, before the caller's arena grows again
     if "error" in state:
         raise state["error"]
     return state["result"]
