@@ -27,7 +27,7 @@ DEFAULT_RESOLUTION = 64
 CUT_SUPPORT = 32
 # Of the nearest exact node's coordinates added to a prior that cannot reach its point.
 _WIDENING = 1e-2
-_CUT_POINTS = 1024  # points in cut cells placed at a time (each point's pairs are its own)
+_CUT_POINTS = 512  # points in cut cells placed at a time (each point's pairs are its own)
 _MIXED_ENTRIES = 1 << 16  # (point, cage vertex) entries interpolated at a time (0.5 MB of float64)
 
 

@@ -18,7 +18,7 @@ nodes carry the pairs (:mod:`.two_level`), stored stacked (:func:`stacked_column
 
 import numpy as np
 
-from ..base.arrays import selected_rows
+from ..base.arrays import in_row_blocks, selected_rows
 from ..harmonic.reproduction import largest_entries, reproduce_points
 from .pair_deviations import deviations, interpolated
 from .spanning import spanning_pairs
@@ -29,16 +29,15 @@ SLOT_COUNTS = (4, 8, 12, 16, 24, 32)  # candidate K, fewest first
 # Of the cage's diagonal: rows placed further from where their coordinates place them
 # get other pairs (:func:`placed_pairs` with ``span``).
 PLACED = 1e-9
-# The deformer's time per evaluation (Geometry Nodes, Blender 5.0 on two cores): about
-# this per gathered (vertex, slot), and per Repeat Zone iteration whatever the mesh. Sparse
-# storage on the cape (4,320 vertices) took 0.61, 0.96 and 1.97 ms at 1, 4 and 12 pairs,
-# on the character (43,236) 8 to 32 pairs added 7.7 ms (docs/bench_sparse_routes.md), exact
-# storage on the cup 13 ms for 8,706 x 322 multiply-adds: on small meshes the iterations
-# cost most.
+# The deformer's time per evaluation (Geometry Nodes, Blender 5.0 on two cores): about this per
+# gathered (vertex, slot), and per Repeat Zone iteration whatever the mesh. Sparse storage on the
+# cape (4,320 vertices) took 0.61, 0.96 and 1.97 ms at 1, 4 and 12 pairs, on the character (43,236)
+# 8 to 32 pairs added 7.7 ms (docs/bench_sparse_routes.md), exact storage on the cup 13 ms for
+# 8,706 x 322 multiply-adds: on small meshes the iterations cost most.
 GATHER_SECONDS, ITERATION_SECONDS = 5e-9, 90e-6
-# :func:`fewest_pairs` first tries a count on every SCREEN_STEP ** 2-th point, then on every
-# SCREEN_STEP-th, each where that holds at least SCREEN_POINTS points.
-SCREEN_STEP, SCREEN_POINTS = 8, 32
+# :func:`fewest_pairs` first tries a count on every SCREEN_STEP ** 2-th point, then on every SCREEN_STEP-th,
+# each where that holds at least SCREEN_POINTS points; it places PLACED_ROWS rows at a time (the cup: 5.6 MB).
+SCREEN_STEP, SCREEN_POINTS, PLACED_ROWS = 8, 32, 256
 
 
 def largest_pairs(coordinates, count):
@@ -276,7 +275,8 @@ def _deviations_under(coordinates, interpolation, count, rest, target, places, k
     """Whether ``count`` pairs per row keep both deviations under ``target``, the deviations
     and the pairs; ``known``: (rows, indices, weights) already placed."""
     others = np.setdiff1d(np.arange(len(coordinates)), known[0])
-    placed = placed_pairs(selected_rows(coordinates, others), count, rest, interpolation is not None, selected_rows(places, others))
+    placed = in_row_blocks(lambda rows: placed_pairs(coordinates[rows], count, rest, interpolation is not None,
+                                                     places[rows]), PLACED_ROWS, others)
     indices, weights = (np.empty((len(coordinates),) + part.shape[1:], dtype=part.dtype) for part in placed)
     indices[others], weights[others] = placed
     indices[known[0]], weights[known[0]] = known[1:]
