@@ -6,7 +6,7 @@ kept node costs about ``NODE_BYTES`` (its grid bookkeeping and the solver's leve
 each (node, cage vertex) pair about ``PAIR_BYTES`` (the right-hand side, the solution and
 the node coordinates, float64: every kept node's, though the field keeps dense rows only
 for the nodes it solves, so a thin-walled cage's estimate errs higher still: the cup at 48
-cells 663 MB against 62), the whole grid ``GRID_BYTES`` a node. Measured peaks
+cells 663 MB against 52), the whole grid ``GRID_BYTES`` a node. Measured peaks
 (tracemalloc, the solve in one process): a cube at 48 and 96 cells 97 and 379 MB against
 105 and 770 estimated, a 162-vertex icosphere at 48 cells 270 against 360: an estimate
 that errs high.
