@@ -163,7 +163,7 @@ def solve_in_slab_order(layout, diagonal, values, progress=None):
         values[start:stop] = inverse @ values[start:stop]
         if i + 1 < slabs:  # S_i^-1 B_(i+1)^T: what the next slab and the way back read
             backward.append(kept[offsets[i]:offsets[i + 1]].reshape(size, widths[i]))
-            backward[i][:] = inverse[:, links[i + 1][1]]
+            np.take(inverse, links[i + 1][1], axis=1, out=backward[i])
         del inverse
         if progress is not None and work[-1] > 0:
             progress(0.9 * work[i] / work[-1])

@@ -13,8 +13,9 @@ that errs high.
 """
 
 import ctypes
-import ctypes.util
+import functools
 import os
+import sys
 
 import numpy as np
 
@@ -115,15 +116,19 @@ def available_memory():
         return UNKNOWN_AVAILABLE
 
 
+@functools.cache
 def _malloc_trim():
-    """glibc's ``malloc_trim``, or None (another C library: nothing to hand back this way)."""
-    try:
-        return ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
-    except (OSError, AttributeError, TypeError):
+    """glibc's ``malloc_trim``, or None (another system or C library: nothing to hand
+    back this way). Looked up in the process's own symbols on first use."""
+    if not sys.platform.startswith("linux"):
         return None
-
-
-_MALLOC_TRIM = _malloc_trim()
+    try:
+        trim = getattr(ctypes.CDLL(None), "malloc_trim", None)
+    except OSError:
+        return None
+    if trim is not None:
+        trim.argtypes, trim.restype = [ctypes.c_size_t], ctypes.c_int
+    return trim
 
 
 def release_freed_memory():
@@ -131,12 +136,13 @@ def release_freed_memory():
     allocator arena; elsewhere nothing. A thread allocates in an arena of its own, so
     what one step freed in one arena is not reused by the next step in the other: the
     cup's Bind (its field solved in a thread) held 77 MB resident at its peak, 68 with
-    this called around the thread, for 64 MB live.
+    this called around the thread (63 with one arena for every thread).
 
     Examples
     --------
     >>> from gencoords.harmonic.memory import release_freed_memory
     >>> release_freed_memory()
     """
-    if _MALLOC_TRIM is not None:
-        _MALLOC_TRIM(0)
+    trim = _malloc_trim()
+    if trim is not None:
+        trim(0)

@@ -95,9 +95,10 @@ def _beside(compute, share):
             if thread.is_alive():
                 yield share * state["fraction"]
     finally:
-        if thread.is_alive():  # closed early: a cancel
+        if thread.is_alive():  # closed early: a cancel, whose traceback would hold the solve's arrays
             state["cancelled"] = True
             thread.join()
+            state.pop("error", None)
         release_freed_memory()  # the thread's, before the caller's arena grows again
     if "error" in state:
         raise state["error"]

@@ -93,13 +93,8 @@ def deviations(coordinates, indices, weights, rest, interpolation=None):
     # a float64 copy of two levels' pairs was a quadruped's Bind peak (15 MB).
     indices, weights = np.asarray(indices), np.asarray(weights)
     weights = weights if weights.dtype in (np.float32, np.float64) else weights.astype(np.float64)
-    if interpolation is None:  # a block of rows at a time: maxima over rows (the cup's sample: 5.6 MB at once)
-        smooth, drag = 0.0, np.zeros(len(rest))
-        for start in range(0, len(coordinates), _BOUND_ROWS):
-            rows = slice(start, start + _BOUND_ROWS)  # each block's residual freed before the next
-            part, part_drag = measures.residual_deviations(_residual(coordinates, indices, weights, rows), rest)
-            smooth = max(smooth, part)
-            np.maximum(drag, part_drag, out=drag)
+    if interpolation is None:
+        smooth, drag = measures.residual_deviations(_residual(coordinates, indices, weights), rest)
         if len(drag) == 0:
             return float(smooth), 0.0, 0
         return float(smooth), float(drag.max()), int(np.argmax(drag))

@@ -326,14 +326,20 @@ def test_the_harmonic_solve_reports_progress_and_closing_the_plan_stops_it(monke
         patch.setattr(bind_plan.threading, "Thread", no_thread)
         assert run(plan_bind(points, vertices, faces, request))[1].linear_precision < 1e-6
     monkeypatch.setattr(bind_plan, "INLINE_FIELD_PAIRS", 0)  # from here it counts as long
+    # Freed memory is handed back before the thread starts and after it ends (its arena's).
+    released = []
+    monkeypatch.setattr(bind_plan, "release_freed_memory", lambda: released.append(
+        any(thread.name == "gencoords-bind" for thread in threading.enumerate())))
     fractions, plan = run(plan_bind(points, vertices, faces, request))
     during = [f for f in fractions if 0.0 < f < 0.5]
     assert len(during) >= 2 and during == sorted(during) and plan.linear_precision < 1e-6
+    assert released == [False, False]
     steps = plan_bind(points, vertices, faces, request)
     while next(steps) == 0.0:  # until the solve has begun reporting
         pass
     steps.close()
     assert not any(thread.name == "gencoords-bind" for thread in threading.enumerate())
+    assert released == [False, False] * 2  # a cancel too
     # A failure in the solve reaches the caller.
     def failing(*args, **kwargs):
         raise gencoords.CageError("bad_faces", "a failure in the solve")
