@@ -3,7 +3,6 @@ peak and kept resident memory over a block (the process and its worker processes
 sampled from /proc by a separate process) and the size of an uncompressed .blend.
 Import after ``session.prepare()``."""
 
-import ctypes
 import os
 import subprocess
 import sys
@@ -11,6 +10,7 @@ import tempfile
 from pathlib import Path
 
 import bpy
+from gencoords.harmonic.memory import release_freed_memory
 
 from . import session
 
@@ -42,12 +42,6 @@ print(max(peak, rss()), flush=True)
 """
 
 
-try:  # glibc keeps freed memory for reuse; trimming makes RSS deltas mean something
-    _malloc_trim = ctypes.CDLL("libc.so.6").malloc_trim
-except (OSError, AttributeError):  # not glibc: deltas may under-report after big runs
-    _malloc_trim = None
-
-
 def resident_bytes():
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
@@ -57,8 +51,7 @@ class PeakMemory:
     """Context manager: ``peak`` and ``kept`` resident-memory growth (bytes) over a block."""
 
     def __enter__(self):
-        if _malloc_trim is not None:
-            _malloc_trim(0)
+        release_freed_memory()  # glibc keeps freed memory for reuse: trimmed, RSS deltas mean something
         self._watcher = subprocess.Popen(
             [sys.executable, "-c", _WATCHER, str(os.getpid())],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
@@ -67,8 +60,7 @@ class PeakMemory:
         return self
 
     def __exit__(self, *exc):
-        if _malloc_trim is not None:
-            _malloc_trim(0)  # "kept" is live data, not free memory malloc holds for reuse
+        release_freed_memory()  # "kept" is live data, not free memory malloc holds for reuse
         after = resident_bytes()
         out, _ = self._watcher.communicate("stop\n", timeout=30)
         self.peak = max(int(out), after) - self.before
