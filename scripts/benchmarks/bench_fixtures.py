@@ -21,6 +21,7 @@ Metrics (ratios to Mesh Deform p5 of the same run):
              every bind in one process: a later bind can find memory an earlier one freed.
 
 Usage: bench_fixtures.py [--fixtures hand quadruped cup cape character] [--detail 0.6]
+                         [--kinds harmonic harmonic:32]  (harmonic:<resolution>: another grid)
 """
 
 import argparse
@@ -41,7 +42,7 @@ from scripts.common.scenes import arrays  # noqa: E402
 from gencoords.planning.similarity import probe_similarity  # noqa: E402
 from gencoords.surfaces.named import HARMONIC  # noqa: E402
 
-METHODS = (("md", 5), ("md", 6), ("gencoords", HARMONIC))
+MESH_DEFORM = (("md", 5), ("md", 6))
 FIXTURES = ("hand", "quadruped", "cup", "cape", "character")
 DOES_NOT_DEFORM = 0.5  # a similarity error this large: the mesh did not follow at all
 
@@ -116,8 +117,11 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--fixtures", nargs="+", default=list(FIXTURES))
     parser.add_argument("--detail", type=float, default=0.6, help="mesh density (1: 12k to 45k vertices)")
+    parser.add_argument("--kinds", nargs="+", default=[HARMONIC],
+                        help="GenCoords kinds; harmonic:<resolution> for another grid (e.g. Mesh Deform p5's, 32)")
     parser.add_argument("--output", type=Path, default=session.OUT / "bench_fixtures.md")
     args = parser.parse_args()
+    methods = MESH_DEFORM + tuple(("gencoords", kind) for kind in args.kinds)
     header = session.report_header("Harmonic on the scenes an artist builds, against Mesh Deform")
     print("\n".join(header), flush=True)
     session.install_extension()
@@ -126,7 +130,7 @@ def main():
         scene = artist_cages.fixture(name, args.detail)
         print(f"{name}: {len(scene.mesh_vertices)} vertices, cage {len(scene.cage_vertices)} vertices", flush=True)
         results[name] = {}
-        for method in METHODS:
+        for method in methods:
             started = time.perf_counter()
             results[name][method] = row = measure(scene, method)
             print(f"  {bench_local.label(method)}: {row} ({time.perf_counter() - started:.0f} s)", flush=True)
