@@ -10,7 +10,8 @@ import numpy as np
 
 from ..base.errors import OutsideCageError
 from ..base.inputs import checked
-from .boundary_values import nearest_boundary_points, segment_crossings
+from .boundary_values import nearest_boundary_points
+from .cage_features import _across_the_part, _without, hidden_corners, hidden_from
 from ..base.grid import node_positions
 from .inside import inside_or_on
 from .interpolation import trilinear
@@ -103,6 +104,7 @@ class HarmonicField:
         self._node_rows = parts["coordinates"]  # MixedRows
         self.node_inside = parts["inside"]
         self.node_exact = parts["exact"]
+        self._sources = parts["sources"]  # (g, 3) frame units: where each node's values come from
         self._exact = parts["exact_within"]  # frame units
         self.convergence = parts["convergence"]
         self._last_rows = None  # (key, rows): sparse_rows' last answer, until asked again
@@ -232,20 +234,33 @@ class HarmonicField:
     def _located_rows(self, points, outside, inside):
         local = self._located(points, outside, inside)
         nodes, weights = self._interpolation(local)
-        cut = self.cut(nodes)
+        hidden = self._hidden(local, nodes)
+        cut = self.cut(nodes) | hidden.any(axis=1)
         placed = local[cut] * self._prepared.scale + self._prepared.origin
+        seen = _without(weights[cut], hidden[cut])
         # A batch of points at a time: their (c, n) interpolated rows were the cup's peak.
         columns = np.empty((len(placed), min(CUT_SUPPORT, len(self.vertices))), dtype=np.int64)
         values = np.empty(columns.shape)
         for start in range(0, len(placed), _CUT_POINTS):
             batch = slice(start, start + _CUT_POINTS)
-            columns[batch], values[batch] = self.cut_pairs(placed[batch], nodes[cut][batch], weights[cut][batch])
+            columns[batch], values[batch] = self.cut_pairs(placed[batch], nodes[cut][batch], seen[batch])
         return nodes, weights, cut, columns, values
 
-    def cut(self, nodes):
+    def cut(self, nodes, local=None):
         """Whether one of each point's interpolating nodes does not place itself exactly
-        (a cell at the cage): (k,) bool, from :meth:`interpolation`'s ``nodes`` (k, 8)."""
-        return ~self.node_exact[nodes].all(axis=1)
+        (a cell at the cage), or (given the points, ``local`` (k, 3) frame units) is hidden
+        from it across a gap (:meth:`_hidden`): (k,) bool, from :meth:`interpolation`'s
+        ``nodes`` (k, 8)."""
+        cut = ~self.node_exact[nodes].all(axis=1)
+        return cut if local is None else cut | self._hidden(local, nodes).any(axis=1)
+
+    def _hidden(self, local, nodes):
+        """Which of each point's corners hold values from where the cage hides from it (the
+        other part, across a gap: :func:`.cage_features.hidden_corners`): (k, 8) bool."""
+        hidden = np.zeros(nodes.shape, dtype=bool)
+        rows = np.flatnonzero(~self.node_inside[nodes].all(axis=1))
+        hidden[rows] = hidden_corners(local[rows], self._sources[nodes[rows]], self._prepared.vertices, self.faces)
+        return hidden
 
     def cut_pairs(self, points, nodes, weights, count=CUT_SUPPORT):
         """The coordinates of points in cut cells (:meth:`cut`), placing them exactly:
@@ -261,7 +276,8 @@ class HarmonicField:
         points : (c, 3) float
             Inside or on the cage (world units).
         nodes, weights : (c, 8) int and float
-            Their :meth:`interpolation`.
+            Their :meth:`interpolation`, hidden corners (:meth:`_hidden`) weighing 0 (all
+            of them, a part thinner than a cell between gaps: its prior its own walls').
         count : int
 
         Returns
@@ -273,6 +289,8 @@ class HarmonicField:
         """
         local = self._prepared.local(points)
         rows = self._mixed(nodes, weights)
+        alone = np.flatnonzero(np.sum(weights, axis=1) == 0.0)
+        rows[alone] = _across_the_part(local[alone], self._prepared.vertices, self.faces, self._grid.spacing)
         columns, values, residual = placing_largest(rows, count, self._prepared.vertices, local)
         short = np.flatnonzero(residual > self._exact)
         if len(short):
@@ -282,7 +300,9 @@ class HarmonicField:
         if shorter.any():  # near an edge or corner of the cage: the nearest exact node widens the prior
             short, rows = short[shorter], rows[shorter]
             nearest, _ = _nearest_exact_nodes(self._grid, self._ids, self.node_exact, local[short])
-            rows += _WIDENING * self.node_rows(nearest)
+            seen = ~hidden_from(local[short], node_positions(self._grid, self.node_indices[nearest]),
+                                self._prepared.vertices, self.faces)  # not the other part's, across a gap
+            rows[seen] += _WIDENING * self.node_rows(nearest[seen])
             columns[short], values[short], residual[short] = placing_largest(rows, count, self._prepared.vertices,
                                                                              local[short])
         shortest = residual[short] > self._exact
@@ -330,12 +350,13 @@ class HarmonicField:
         for cells in (1.0, 1.5, 2.0, 3.0, 4.0, 6.0):
             depth = distance[pending] + cells * spacing
             deeper = nearest[pending] + depth[:, None] * direction[pending]
-            inside = np.flatnonzero(self._inside_or_on(deeper))
+            inside = np.flatnonzero(self._inside_or_on(deeper))  # and its own part's (no gap crossed)
+            inside = inside[~hidden_from(local[pending[inside]], deeper[inside], vertices, self.faces)]
             nodes, weights = self._interpolation(deeper[inside])
-            found = inside[~self.cut(nodes)]
+            whole = ~self.cut(nodes, deeper[inside])
+            found = inside[whole]
             t = (distance[pending[found]] / depth[found])[:, None]
-            rows[pending[found]] = (1.0 - t) * hat[pending[found]] + t * self._mixed(*(part[~self.cut(nodes)]
-                                                                                       for part in (nodes, weights)))
+            rows[pending[found]] = (1.0 - t) * hat[pending[found]] + t * self._mixed(nodes[whole], weights[whole])
             pending = np.delete(pending, found)
             if not len(pending):
                 break
@@ -346,25 +367,6 @@ class HarmonicField:
         (:func:`.inside.inside_or_on`; ``inside`` as :meth:`sparse_rows`')."""
         return inside_or_on(self._prepared, local, self.faces, (self._grid, self._cell_inside, self._surface),
                             self._tolerance, inside)
-
-
-def _across_the_part(local, vertices, faces, spacing):
-    """Priors that place points near the cage ((c, 3), frame units) exactly: the mix of
-    the hat values at the nearest boundary point p and at the first crossing q of the ray
-    from p through the point, ``(|q - x| hat(p) + |x - p| hat(q)) / |q - p|``, non-negative
-    and held by the part's own walls (a thin wall, a thin part's tip: their cells hold no
-    node placing itself). Returns (c, n) float (rows where no crossing is found: 0)."""
-    columns, barycentric, distance = nearest_boundary_points(local, vertices, faces, 2.0 * spacing)
-    nearest = np.einsum("bc,bcN->bN", barycentric, vertices[columns])
-    direction = (local - nearest) / np.where(distance > 0.0, distance, 1.0)[:, None]
-    reach = 2.0 * float(np.linalg.norm(np.ptp(vertices, axis=0)))
-    fraction, far_columns, far_barycentric = segment_crossings(local, reach * direction, vertices, faces)
-    found = np.isfinite(fraction) & (distance > 0.0)
-    t = np.where(found, distance / np.where(found, distance + fraction * reach, 1.0), 0.0)[:, None]
-    rows = np.zeros((len(local), len(vertices)))
-    np.add.at(rows, (np.arange(len(local))[:, None], columns), np.where(found[:, None], (1.0 - t) * barycentric, 0.0))
-    np.add.at(rows, (np.arange(len(local))[:, None], far_columns), np.where(found[:, None], t * far_barycentric, 0.0))
-    return rows
 
 
 def _nearest_exact_nodes(grid, ids, exact, local):

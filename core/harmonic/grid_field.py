@@ -5,6 +5,8 @@ system solved, nodes beside the cage reweighted to place themselves) and
 :class:`~gencoords.harmonic.field.HarmonicField`.
 """
 
+import itertools
+
 import numpy as np
 
 from ..base.arrays import in_row_blocks
@@ -15,6 +17,7 @@ from ..base.mixed_rows import MixedRows
 from ..construction.quad_cage import fan_split, validate_polygons
 from ..construction.validation import DEFAULT_TOLERANCE, validate_cage
 from . import field
+from .cage_features import hidden_from, nodes_across_gaps
 from .boundary_values import between_split_and_patch, nearest_boundary_points
 from .field import CUT_SUPPORT, DEFAULT_RESOLUTION, HarmonicField, _WIDENING, _nearest_exact_nodes
 from .interpolation import CORNERS
@@ -100,6 +103,14 @@ def _boundary_nodes(grid, parts, vertices, faces):
         positions[inside], vertices, faces, near, widen=False)
     solved = parts["inside"].copy()
     solved[measured[distance < near]] = False
+    # Parts closer than a cell: a node whose edge crosses the gap holds its nearest
+    # boundary point's values, which lie on its own part (the cage is between it and
+    # every other part), instead of being the other part's neighbour in the Laplacian.
+    across = nodes_across_gaps(grid, parts["indices"], parts["ids"], parts["inside"], solved, parts["near_surface"],
+                               vertices, faces)
+    at = np.searchsorted(measured, across)
+    columns[at], values[at], _ = nearest_boundary_points(positions[at], vertices, faces, 1.75 * grid.spacing)
+    solved[across] = False
     return measured, columns, values, solved
 
 
@@ -120,7 +131,28 @@ def _beyond_the_hull(positions, vertices, triangles, margin):
     return beyond
 
 
-def _placing_exactly(coordinates, solved, positions, vertices, triangles, grid, ids, within):
+def _nearest_seen(grid, ids, exact, positions, targets, sources, vertices, faces):
+    """For each node of ``targets``, the nearest exact node within 3 cells that sees the
+    node's boundary point (``sources`` (t, 3): no gap between them): (rows (t,) int,
+    found (t,) bool)."""
+    offsets = np.array(list(itertools.product(range(-3, 4), repeat=3)))
+    offsets = offsets[np.argsort((offsets ** 2).sum(axis=1), kind="stable")]
+    centre = np.rint((positions[targets] - grid.origin) / grid.spacing).astype(np.int64)
+    rows, found = np.zeros(len(targets), dtype=np.int64), np.zeros(len(targets), dtype=bool)
+    for offset in offsets:  # nearest offsets first: the first seen exact node is kept
+        pending = np.flatnonzero(~found)
+        if not len(pending):
+            break
+        nodes = (centre[pending] + offset).clip(0, np.array(grid.shape) - 1)
+        there = ids[tuple(nodes.T)]
+        usable = np.flatnonzero(there >= 0)
+        usable = usable[exact[there[usable]]]
+        seen = ~hidden_from(positions[there[usable]], sources[pending[usable]], vertices, faces)
+        rows[pending[usable[seen]]], found[pending[usable[seen]]] = there[usable[seen]], True
+    return rows, found
+
+
+def _placing_exactly(coordinates, solved, positions, vertices, triangles, grid, ids, within, sources, faces):
     """The nodes' coordinates (:class:`~gencoords.base.mixed_rows.MixedRows`, (g, n): the
     solved ones dense) reweighted in place to place their ``positions`` ((g, 3)) exactly
     (:mod:`.reproduction`), and which now do: (g,) bool.
@@ -149,6 +181,13 @@ def _placing_exactly(coordinates, solved, positions, vertices, triangles, grid, 
     others = others[~_beyond_the_hull(positions[others], vertices, triangles, within + _HULL_ROUNDING * grid.spacing)]
     nearest, found = _nearest_exact_nodes(grid, ids, exact, positions[others])
     others, nearest = others[found], nearest[found]
+    # A widening node across a gap would bring the other part: the nearest one seen instead.
+    hidden = np.flatnonzero(hidden_from(positions[nearest], sources[others], vertices, faces))
+    nearest[hidden], found = _nearest_seen(grid, ids, exact, positions, others[hidden], sources[others[hidden]],
+                                           vertices, faces)
+    kept = np.ones(len(others), dtype=bool)
+    kept[hidden[~found]] = False
+    others, nearest = others[kept], nearest[kept]
     # A batch of dense priors at a time (the cup: 25,000 nodes x 322 vertices were 64 MB,
     # twice); a prior reads solved nodes and its own, which no other batch writes.
     step = max(1, _PRIOR_ENTRIES // len(vertices))
@@ -294,9 +333,14 @@ def _solved_field(prepared, vertices, triangles, polygons, resolution, progress,
     fixed = np.flatnonzero(~solved[measured])  # every node not solved (a padding column holds 0)
     coordinates.set_pairs(measured[fixed], columns[fixed], values[fixed])
     parts["coordinates"], parts["inside"] = coordinates, solved
+    # Where each node's values come from: its own place, or (not solved) its nearest
+    # boundary point (what :func:`.cage_features.hidden_corners` looks for behind the cage).
+    positions = node_positions(grid, parts["indices"])
+    parts["sources"] = positions.copy()
+    parts["sources"][measured[fixed]] = np.einsum("bw,bwN->bN", values[fixed], local[columns[fixed]])
     parts["exact_within"] = _EXACT * np.linalg.norm(np.ptp(local, axis=0))
-    parts["exact"] = _placing_exactly(coordinates, solved, node_positions(grid, parts["indices"]), local, triangles, grid,
-                                      parts["ids"], parts["exact_within"])
+    parts["exact"] = _placing_exactly(coordinates, solved, positions, local, triangles, grid, parts["ids"],
+                                      parts["exact_within"], parts["sources"], faces)
     return HarmonicField(prepared, np.array(vertices), np.array(faces), resolution, grid, parts)
 
 

@@ -31,7 +31,7 @@ from ..construction.green import GreenOutsideError
 from ..construction.quad_cage import validate_polygons
 from ..evaluation.cage import Cage
 from ..harmonic import harmonic_field, harmonic_quad_field
-from ..harmonic.cage_features import AUTOMATIC_CEILING, automatic_resolution
+from ..harmonic.cage_features import AUTOMATIC_FLOOR, automatic_resolution
 from ..harmonic.memory import available_memory, field_bytes, fitting_resolution, release_freed_memory
 from ..storage import Storage, sparse, two_level
 from ..storage.codecs import plan_codec
@@ -171,8 +171,8 @@ def plan_bind(points, cage_vertices, triangles, request):
 
 def with_grid(cage_vertices, triangles, request):
     """``request`` with its harmonic grid chosen: an automatic one (``resolution`` None)
-    as fine as the cage's narrowest gap asks and the memory allows, and for either what
-    the grid resolves (``grid``, a ``GridChoice``).
+    of the floor's cells where the memory allows them, and for either what the grid meets
+    (``grid``, a ``GridChoice``: the narrowest gap and thinnest part in cells).
 
     Examples
     --------
@@ -187,7 +187,7 @@ def with_grid(cage_vertices, triangles, request):
     if request.resolution is None:
         budget = available_memory() if request.memory_budget is None else request.memory_budget
         # A budget no grid fits leaves the floor, which check_grid_memory then refuses.
-        ceiling = fitting_resolution(cage_vertices, triangles, AUTOMATIC_CEILING, budget) or AUTOMATIC_CEILING
+        ceiling = fitting_resolution(cage_vertices, triangles, AUTOMATIC_FLOOR, budget) or AUTOMATIC_FLOOR
         grid = automatic_resolution(cage_vertices, triangles, ceiling=ceiling)
     else:
         grid = automatic_resolution(cage_vertices, triangles, ceiling=request.resolution, floor=request.resolution)

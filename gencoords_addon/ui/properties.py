@@ -4,7 +4,7 @@ import bpy
 
 from ...core.base.parameters import GAMMA_LIMIT
 from ...core.storage import Storage
-from ...core.harmonic.cage_features import AUTOMATIC_CEILING, AUTOMATIC_FLOOR, CELLS_ACROSS_GAP
+from ...core.harmonic.cage_features import AUTOMATIC_FLOOR
 from ...core.planning.request import BIND_RESOLUTION, SPARSE_SIZE
 from ..enums import DEFAULT_KIND, KIND_ITEMS, OUTSIDE_ITEMS, STORAGE_ITEMS
 from . import visualise
@@ -43,11 +43,10 @@ class GenCoordsSettings(bpy.types.PropertyGroup):
     )
     automatic_resolution: bpy.props.BoolProperty(
         name="Automatic", default=True, options=set(),
-        description="Harmonic coordinates: the grid as fine as the cage's narrowest gap between "
-                    f"parts asks ({CELLS_ACROSS_GAP:g} cells across it, so that close fingers or legs do "
-                    f"not pull each other), at least {AUTOMATIC_FLOOR} and at most {AUTOMATIC_CEILING} "
-                    "cells along the longest side, and what the memory allows. Setting Resolution "
-                    "turns this off",
+        description=f"Harmonic coordinates: a grid of {AUTOMATIC_FLOOR} cells along the cage's longest "
+                    "side (fewer only where the free memory asks). Parts closer than a cell (pressed "
+                    "fingers, closed lips) are kept apart by the grid itself, and the panel reports the "
+                    "narrowest gap and thinnest part it met. Setting Resolution turns this off",
     )
     resolution: bpy.props.IntProperty(
         name="Resolution", default=BIND_RESOLUTION, min=4, soft_min=8, soft_max=128, max=512,
