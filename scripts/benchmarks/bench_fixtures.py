@@ -3,16 +3,17 @@ same run (part of ``make bench``; issue 35).
 
 The fixtures are ``tests/fixtures/artist_cages.py``'s: a hand with close fingers, a
 quadruped with close legs and a thin tail, a thin-walled cup, an open cape in a thin box
-cage, and the character. Each method binds each fixture in a fresh scene, at default
-settings (Mesh Deform at precision 5 and 6; GenCoords Harmonic, Automatic storage).
+cage, the character, and two prongs pressed together (a closed slot). Each method binds
+each fixture in a fresh scene, at default settings (Mesh Deform at precision 5 and 6;
+GenCoords Harmonic, Automatic storage).
 
 Metrics (ratios to Mesh Deform p5 of the same run):
   bind       wall time of the bind operator.
   playback   median wall time of a live update (``playback.time_updates``: one cage
              vertex moved, ``view_layer.update()``, the evaluated mesh read).
   leak       per edit of the fixture (bend a finger, a leg, swing the tail, the cape's
-             lower half, the forearm): the largest move of the other parts' vertices
-             (``Edit.still``), of the cage's diagonal.
+             lower half, the forearm, either prong of the slot): the largest move of the
+             other parts' vertices (``Edit.still``), of the cage's diagonal.
   similarity the cage turned 40 degrees, scaled 1.5 and moved: the mesh's largest distance
              from the same similarity of its rest shape, of the moved cage's size. Where
              Mesh Deform does not deform a mesh at all (the open cape), this is the whole
@@ -43,7 +44,7 @@ from gencoords.planning.similarity import probe_similarity  # noqa: E402
 from gencoords.surfaces.named import HARMONIC  # noqa: E402
 
 MESH_DEFORM = (("md", 5), ("md", 6))
-FIXTURES = ("hand", "quadruped", "cup", "cape", "character")
+FIXTURES = ("hand", "quadruped", "cup", "cape", "character", "slot")
 DOES_NOT_DEFORM = 0.5  # a similarity error this large: the mesh did not follow at all
 
 
