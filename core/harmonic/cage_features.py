@@ -35,9 +35,11 @@ REPORTED_GAP_CELLS = 1.25
 # than the cube: the hand's cage, core alone, 1.5 s at 59, 8 to 10 s at 96 and 112, 22 s at
 # 128, 147 s at 160; a gap needs none, the grid parts it, and the joints crease no less).
 AUTOMATIC_FLOOR = 48
-# A segment's crossing this near its end (of its length) is its end on the cage, not the
-# cage between: a boundary point is seen from inside its own part.
-_AT_THE_END = 1e-6
+# A segment's crossing this near one of its ends (of its length) is that end on the cage,
+# not the cage between: a boundary point is seen from inside its own part, and a point
+# within the tolerance of a face is on it.
+_ON_THE_CAGE = 1e-4
+_MOST_CROSSINGS = 4  # of a segment looked at (a gap between two parts: two)
 
 _START = 1e-9  # of the cage's size: the rays start this far off their triangle
 _HOPS = 4  # neighbours a gap's ray passes before it gives up
@@ -170,9 +172,15 @@ def automatic_resolution(vertices, triangles, ceiling=AUTOMATIC_FLOOR, floor=AUT
     return GridChoice(resolution, gap / cell, thickness / cell, capped=ceiling < floor)
 
 
-def hidden_from(starts, ends, vertices, faces, end_share=_AT_THE_END):
-    """Whether the cage lies between each start and end: (s,) bool (a crossing within
-    ``end_share`` of the segment from its end, an end on the cage, does not count).
+def hidden_from(starts, ends, vertices, faces, end_share=_ON_THE_CAGE, inside=None):
+    """Whether the cage lies between each start and end: (s,) bool.
+
+    Without ``inside``: whether the segment meets the cage short of its end (a crossing
+    within ``end_share`` of the segment from the end, an end on the cage, does not
+    count; nor one within ``_ON_THE_CAGE`` of a start on the cage). With ``inside``
+    ((m, 3) -> (m,) bool, inside or on the cage): whether a stretch of the segment
+    between its crossings lies outside the cage, so that ends on the cage, and a segment
+    along a face through a crease, are judged by where the segment runs.
 
     Parameters
     ----------
@@ -180,6 +188,8 @@ def hidden_from(starts, ends, vertices, faces, end_share=_AT_THE_END):
     vertices : (n, 3) float
     faces : (m, w) int
         Triangles, or polygons (a triangle's fourth -1; a quad its bilinear patch).
+    end_share : float
+    inside : callable, optional
 
     Examples
     --------
@@ -190,9 +200,29 @@ def hidden_from(starts, ends, vertices, faces, end_share=_AT_THE_END):
     >>> hidden_from(np.zeros((2, 3)), np.array([[0.5, 0, 0], [3.0, 0, 0]]), vertices, triangles).tolist()
     [False, True]
     """
-    starts = np.asarray(starts, dtype=np.float64)
-    fraction, _, _ = segment_crossings(starts, np.asarray(ends, dtype=np.float64) - starts, vertices, faces)
-    return fraction < 1.0 - end_share
+    starts, ends = np.asarray(starts, dtype=np.float64), np.asarray(ends, dtype=np.float64)
+    steps = ends - starts
+    forward, _, _ = segment_crossings(starts, steps, vertices, faces)
+    if inside is None:
+        return (forward > _ON_THE_CAGE) & (forward < 1.0 - end_share)
+    # Each segment's crossings in turn (a few at most), then the middle of each stretch
+    # between them: outside the cage, the segment leaves it there.
+    hidden = np.zeros(len(starts), dtype=bool)
+    met = np.flatnonzero(forward < 1.0 - end_share)
+    last, crossing = np.zeros(len(met)), forward[met]
+    for _ in range(_MOST_CROSSINGS):
+        if not len(met):
+            break
+        middle = 0.5 * (last + np.minimum(crossing, 1.0))
+        long = np.minimum(crossing, 1.0) - last > 2.0 * _ON_THE_CAGE
+        out = long & ~inside(starts[met] + middle[:, None] * steps[met])
+        hidden[met[out]] = True
+        going = ~out & (crossing < 1.0 - end_share)
+        met, last = met[going], crossing[going] + _ON_THE_CAGE
+        found, _, _ = segment_crossings(starts[met] + last[:, None] * steps[met], (1.0 - last)[:, None] * steps[met],
+                                        vertices, faces)
+        crossing = last + found * (1.0 - last)
+    return hidden
 
 
 def nodes_across_gaps(grid, indices, ids, inside, solved, near_surface, vertices, faces):
@@ -235,7 +265,7 @@ def nodes_across_gaps(grid, indices, ids, inside, solved, near_surface, vertices
     return found[solved[found]]
 
 
-def hidden_corners(points, corner_sources, vertices, faces):
+def hidden_corners(points, corner_sources, vertices, faces, inside=None):
     """Which corners of each point's cell hold values from where the cage hides from the
     point (the other part, across a gap): (k, c) bool. Each corner's values come from a
     place: a solved node's own, another node's nearest boundary point (seen from inside
@@ -250,6 +280,8 @@ def hidden_corners(points, corner_sources, vertices, faces):
         Where each corner's values come from.
     vertices : (n, 3) float
     faces : (m, w) int
+    inside : callable, optional
+        As :func:`hidden_from`'s (a point on the cage).
 
     Examples
     --------
@@ -263,7 +295,8 @@ def hidden_corners(points, corner_sources, vertices, faces):
     """
     points, corner_sources = np.asarray(points, dtype=np.float64), np.asarray(corner_sources, dtype=np.float64)
     count = corner_sources.shape[1]
-    hidden = hidden_from(np.repeat(points, count, axis=0), corner_sources.reshape(-1, 3), vertices, faces)
+    hidden = hidden_from(np.repeat(points, count, axis=0), corner_sources.reshape(-1, 3), vertices, faces,
+                         inside=inside)
     return hidden.reshape(len(points), count)
 
 

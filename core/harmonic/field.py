@@ -10,6 +10,7 @@ import numpy as np
 
 from ..base.errors import OutsideCageError
 from ..base.inputs import checked
+from ..construction.boundary import winding_numbers
 from .boundary_values import nearest_boundary_points
 from .cage_features import _across_the_part, _without, hidden_corners, hidden_from
 from ..base.grid import node_positions
@@ -247,19 +248,18 @@ class HarmonicField:
         return nodes, weights, cut, columns, values
 
     def cut(self, nodes, local=None):
-        """Whether one of each point's interpolating nodes does not place itself exactly
-        (a cell at the cage), or (given the points, ``local`` (k, 3) frame units) is hidden
-        from it across a gap (:meth:`_hidden`): (k,) bool, from :meth:`interpolation`'s
-        ``nodes`` (k, 8)."""
+        """Whether one of each point's nodes ((k, 8): :meth:`interpolation`) does not place
+        itself exactly (a cell at the cage), or (given the points, ``local`` (k, 3) frame
+        units) is hidden from it across a gap (:meth:`_hidden`): (k,) bool."""
         cut = ~self.node_exact[nodes].all(axis=1)
         return cut if local is None else cut | self._hidden(local, nodes).any(axis=1)
 
     def _hidden(self, local, nodes):
-        """Which of each point's corners hold values from where the cage hides from it (the
-        other part, across a gap: :func:`.cage_features.hidden_corners`): (k, 8) bool."""
+        """Which of each point's corners the cage hides from it (:func:`.cage_features.hidden_corners`)."""
         hidden = np.zeros(nodes.shape, dtype=bool)
-        rows = np.flatnonzero(~self.node_inside[nodes].all(axis=1))
-        hidden[rows] = hidden_corners(local[rows], self._sources[nodes[rows]], self._prepared.vertices, self.faces)
+        rows, frame = np.flatnonzero(~self.node_inside[nodes].all(axis=1)), self._prepared
+        hidden[rows] = hidden_corners(local[rows], self._sources[nodes[rows]], frame.vertices, self.faces,
+                                      lambda at: winding_numbers(frame, at * frame.scale + frame.origin) >= 0.5)
         return hidden
 
     def cut_pairs(self, points, nodes, weights, count=CUT_SUPPORT):

@@ -58,6 +58,24 @@ def test_parts_closer_than_a_cell_do_not_pull_each_other(arguments):
     assert coordinates.min() >= 0.0 and np.allclose(coordinates.sum(axis=1), 1.0)
 
 
+def test_points_on_the_faces_of_a_gap_and_at_a_crease_are_their_own_parts():
+    """A review's finding: a segment starting on the cage met its own face at once, so a
+    point on a face had every corner hidden. Points on the closed slot's faces take
+    nothing from the other prong, and a point on the floor of a notch, at its crease, has
+    the coordinates of the points just inside it (before the fix: 0.4 apart in L1)."""
+    scene = artist_cages.prongs(gap=0.005)
+    field = harmonic_quad_field(scene.cage_vertices, scene.cage_faces, resolution=48)
+    rng = np.random.default_rng(0)
+    on_face = np.column_stack([np.full(200, 1.005), rng.random(200), 2.2 + 1.7 * rng.random(200)])
+    moved = field.coordinates(on_face) @ scene.edits["bend first"].cage_vertices - on_face
+    assert np.linalg.norm(moved, axis=1).max() < 1e-5 * scene.diagonal  # before the fix: 4.9e-2
+    notch = artist_cages.prongs(gap=0.3)
+    field = harmonic_quad_field(notch.cage_vertices, notch.cage_faces, resolution=48)
+    points = np.array([[1.004, 0.1746, 1.0 - depth] for depth in (0.0, 1e-12, 1e-9)])
+    coordinates = field.coordinates(points)
+    assert np.abs(coordinates - coordinates[0]).sum(axis=1).max() < 1e-6
+
+
 def test_the_nodes_across_a_gap_hold_their_own_parts_values():
     """The nodes whose grid edge crosses a closed slot are not solved: each holds the
     values of its own side of the gap (what reaches the other prong round through the
